@@ -1,0 +1,172 @@
+"""Find the libLLVM that Dr.Jit will load, and refuse one that is too old.
+
+Dr.Jit 1.5 emits ``llvm.minimum``/``llvm.maximum``; LLVM 15 cannot select them and aborts the whole
+process (``LLVM ERROR: Cannot select ... fminimum``), LLVM 14 and older are refused outright. So before
+Mitsuba loads an ``llvm_*`` variant we find the library the way Dr.Jit does (``DRJIT_LIBLLVM_PATH`` if set,
+otherwise the newest ``libLLVM*`` on the library path) and check that it is LLVM >= 16.
+
+This module uses the standard library only, so ``make setup`` can run it as a script before any virtual
+environment exists::
+
+    python3 a5mi/llvm.py --ensure     # check; on Debian/Ubuntu as root install libllvm19 if needed
+"""
+
+from __future__ import annotations
+
+import ctypes
+import glob
+import os
+import re
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass
+
+MIN_MAJOR = 16
+DEBIAN_PACKAGE = "libllvm19"
+INSTALL_HINT = f"apt-get update && apt-get install -y {DEBIAN_PACKAGE}"
+
+_LIB_DIRS = (
+    "/usr/lib/x86_64-linux-gnu",
+    "/lib/x86_64-linux-gnu",
+    "/usr/lib/aarch64-linux-gnu",
+    "/lib/aarch64-linux-gnu",
+    "/usr/lib64",
+    "/usr/lib",
+    "/usr/local/lib",
+    "/opt/homebrew/opt/llvm/lib",
+    "/usr/local/opt/llvm/lib",
+)
+
+
+class LLVMError(RuntimeError):
+    """No usable libLLVM: the message is one line that names the fix."""
+
+
+@dataclass(frozen=True)
+class LLVMLibrary:
+    path: str
+    major: int | None  # None: could not be determined
+
+    def usable(self) -> bool:
+        return self.major is not None and self.major >= MIN_MAJOR
+
+
+def _major_from_name(path: str) -> int | None:
+    """``libLLVM-15.so`` -> 15, ``libLLVM.so.19.1`` -> 19, ``libLLVM-14.0.6.so.1`` -> 14."""
+    name = os.path.basename(path)
+    m = re.match(r"libLLVM-(\d+)", name) or re.match(r"libLLVM\.so\.(\d+)", name)
+    if m:
+        return int(m.group(1))
+    m = re.match(r"libLLVM\.(\d+)\.dylib", name)
+    return int(m.group(1)) if m else None
+
+
+def _major_from_library(path: str) -> int | None:
+    """Ask the library itself. ``LLVMGetVersion`` exists from LLVM 16 on, so its absence means < 16."""
+    try:
+        lib = ctypes.CDLL(path)
+    except OSError:
+        return None
+    if not hasattr(lib, "LLVMGetVersion"):
+        return 15  # older than 16: the exact number does not matter, it is refused either way
+    major, minor, patch = ctypes.c_uint(), ctypes.c_uint(), ctypes.c_uint()
+    lib.LLVMGetVersion(ctypes.byref(major), ctypes.byref(minor), ctypes.byref(patch))
+    return int(major.value)
+
+
+def probe(path: str) -> LLVMLibrary:
+    major = _major_from_name(path)
+    if major is None:
+        major = _major_from_library(path)
+    return LLVMLibrary(path, major)
+
+
+def candidates() -> list[str]:
+    """Every ``libLLVM*`` shared library on the usual library path (no symlink duplicates)."""
+    dirs = [d for d in os.environ.get("LD_LIBRARY_PATH", "").split(":") if d] + list(_LIB_DIRS)
+    seen: set[str] = set()
+    found: list[str] = []
+    for d in dirs:
+        for p in sorted(glob.glob(os.path.join(d, "libLLVM*.so*")) + glob.glob(os.path.join(d, "libLLVM*.dylib"))):
+            real = os.path.realpath(p)
+            if real in seen or not os.path.isfile(real):
+                continue
+            seen.add(real)
+            found.append(p)
+    return found
+
+
+def find() -> LLVMLibrary | None:
+    """The library Dr.Jit will load: ``DRJIT_LIBLLVM_PATH``, else the newest ``libLLVM*`` found."""
+    forced = os.environ.get("DRJIT_LIBLLVM_PATH")
+    if forced:
+        if not os.path.isfile(forced):
+            return LLVMLibrary(forced, None)
+        return probe(forced)
+    libs = [probe(p) for p in candidates()]
+    libs = [lib for lib in libs if lib.major is not None]
+    if not libs:
+        return None
+    return max(libs, key=lambda lib: lib.major or 0)
+
+
+def check() -> LLVMLibrary:
+    """Return the usable library or raise :class:`LLVMError` with a one-line message naming the fix."""
+    lib = find()
+    forced = os.environ.get("DRJIT_LIBLLVM_PATH")
+    if lib is None:
+        raise LLVMError(
+            f"no libLLVM found; the llvm variant needs LLVM >= {MIN_MAJOR}: run '{INSTALL_HINT}' "
+            "(or use -variant cuda on a machine with an NVIDIA GPU)"
+        )
+    if forced and lib.major is None:
+        raise LLVMError(f"DRJIT_LIBLLVM_PATH={forced} is not a readable libLLVM; unset it or point it at LLVM >= {MIN_MAJOR}")
+    if not lib.usable():
+        where = f"DRJIT_LIBLLVM_PATH={forced}" if forced else lib.path
+        raise LLVMError(
+            f"Dr.Jit would load LLVM {lib.major} ({where}), but the llvm variant needs LLVM >= {MIN_MAJOR}: "
+            f"run '{INSTALL_HINT}'" + (" and unset DRJIT_LIBLLVM_PATH" if forced else "")
+        )
+    return lib
+
+
+def ensure() -> int:
+    """``make setup``: check, and on Debian/Ubuntu as root install :data:`DEBIAN_PACKAGE` if needed."""
+    try:
+        lib = check()
+        print(f"a5mi: libLLVM {lib.major} found ({lib.path})")
+        return 0
+    except LLVMError as exc:
+        if os.environ.get("DRJIT_LIBLLVM_PATH"):
+            print(f"a5mi: error: {exc}", file=sys.stderr)
+            return 1
+        can_apt = shutil.which("apt-get") is not None and hasattr(os, "geteuid") and os.geteuid() == 0
+        if not can_apt:
+            print(f"a5mi: error: {exc}", file=sys.stderr)
+            print(f"a5mi: as root on Debian/Ubuntu: {INSTALL_HINT}", file=sys.stderr)
+            return 1
+    print(f"a5mi: installing {DEBIAN_PACKAGE} (Dr.Jit needs libLLVM >= {MIN_MAJOR})")
+    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+    for cmd in (["apt-get", "update", "-qq"], ["apt-get", "install", "-y", "-qq", DEBIAN_PACKAGE]):
+        if subprocess.call(cmd, env=env) != 0:
+            print(f"a5mi: error: '{' '.join(cmd)}' failed; install LLVM >= {MIN_MAJOR} by hand", file=sys.stderr)
+            return 1
+    try:
+        lib = check()
+    except LLVMError as exc:
+        print(f"a5mi: error: {exc}", file=sys.stderr)
+        return 1
+    print(f"a5mi: libLLVM {lib.major} installed ({lib.path})")
+    return 0
+
+
+if __name__ == "__main__":
+    if sys.argv[1:] == ["--ensure"]:
+        sys.exit(ensure())
+    try:
+        found = check()
+        print(f"libLLVM {found.major}: {found.path}")
+    except LLVMError as err:
+        print(f"error: {err}", file=sys.stderr)
+        sys.exit(1)

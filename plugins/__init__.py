@@ -1,0 +1,35 @@
+"""The a5mi Mitsuba plugins (SPEC A.3-A.5, B.2-B.4).
+
+Each module holds one plugin and registers it at its bottom through a ``register()`` function. Import
+this package only after ``mi.set_variant`` has selected a JIT variant (``llvm_ad_rgb`` or ``cuda_ad_rgb``),
+then call :func:`register_all`; after that ``mi.load_dict({'type': 'a5_whitted', ...})`` and the XML form
+work like any stock plugin.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+# Explicit list, in dependency order (textures before the BSDF that nests them).
+PLUGIN_MODULES: tuple[str, ...] = ()
+
+_registered_for: str | None = None
+
+
+def register_all() -> None:
+    """Register every a5mi plugin with Mitsuba for the active variant (idempotent per variant)."""
+    global _registered_for
+    import mitsuba as mi
+
+    variant = mi.variant()
+    if variant is None or variant.startswith("scalar"):
+        raise RuntimeError(
+            f"a5mi plugins need a JIT variant (llvm_ad_rgb or cuda_ad_rgb), not {variant!r}: "
+            "Python plugins in scalar variants run once per sample"
+        )
+    if _registered_for == variant:
+        return
+    for name in PLUGIN_MODULES:
+        module = importlib.import_module(f"{__name__}.{name}")
+        module.register()
+    _registered_for = variant

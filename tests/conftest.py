@@ -1,0 +1,31 @@
+"""Shared fixtures: the active Mitsuba variant and the course data folder (``$A5_DATA`` or ../shared/a5)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from a5mi import data_dir
+
+
+@pytest.fixture(scope="session")
+def a5_data() -> Path:
+    """The course data; the suite needs it (CI has ../shared/a5 beside the clone)."""
+    root = data_dir()
+    if not (root / "SPEC.md").is_file():
+        pytest.fail(f"course data not found at {root}: set A5_DATA to the folder holding SPEC.md and scenes/")
+    return root
+
+
+@pytest.fixture(scope="session")
+def scenes_dir(a5_data: Path) -> Path:
+    return a5_data / "scenes"
+
+
+@pytest.fixture(scope="session")
+def variant() -> str:
+    """Activate the JIT variant once per session (llvm_ad_rgb unless A5MI_VARIANT says otherwise)."""
+    from a5mi.variant import activate
+
+    return activate()
