@@ -11,7 +11,16 @@ from __future__ import annotations
 import importlib
 
 # Explicit list, in dependency order (textures before the BSDF that nests them).
-PLUGIN_MODULES: tuple[str, ...] = ()
+# Each plugin's author uncomments its line once the module exists.
+PLUGIN_MODULES: tuple[str, ...] = (
+    # "marble",         # a5_marble texture (noise functions in perlin.py)
+    # "bitmap",         # a5_bitmap texture
+    # "point_light",    # a5_point emitter
+    # "cubemap",        # a5_cubemap emitter
+    # "camera",         # a5_camera sensor
+    # "a5_material",    # a5_material BSDF
+    # "whitted",        # a5_whitted integrator
+)
 
 _registered_for: str | None = None
 
