@@ -13,7 +13,7 @@ import importlib
 # Explicit list, in dependency order (textures before the BSDF that nests them).
 # Each plugin's author uncomments its line once the module exists.
 PLUGIN_MODULES: tuple[str, ...] = (
-    # "marble",         # a5_marble texture (noise functions in perlin.py)
+    "marble",           # a5_marble texture (noise functions in perlin.py)
     # "bitmap",         # a5_bitmap texture
     # "point_light",    # a5_point emitter
     # "cubemap",        # a5_cubemap emitter
