@@ -1,0 +1,75 @@
+"""a5mi.compare: the metrics every fidelity figure is stated in, checked against hand computations."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from a5mi.compare import CompareError, compare_arrays, compare_files, read_levels, write_diff
+
+
+def _img(h: int = 4, w: int = 5, value: float = 100.0) -> np.ndarray:
+    return np.full((h, w, 3), value)
+
+
+def test_identical_images_have_infinite_psnr_and_no_bbox() -> None:
+    m = compare_arrays(_img(), _img())
+    assert math.isinf(m.psnr)
+    assert m.mean_error == 0 and m.max_error == 0 and m.share_over == 0 and m.bbox is None
+
+
+def test_single_pixel_error_by_hand() -> None:
+    a, b = _img(), _img()
+    b[1, 3, 0] += 10.0  # one channel of one pixel off by 10 levels
+    m = compare_arrays(a, b)
+    n = 4 * 5 * 3
+    assert m.psnr == pytest.approx(10 * math.log10(255**2 / (100.0 / n)))
+    assert m.mean_error == pytest.approx(10.0 / n)
+    assert m.share_over == pytest.approx(1 / 20)
+    assert m.max_error == 10.0
+    assert m.bbox == (3, 1, 3, 1)
+
+
+def test_threshold_is_strict_greater_than() -> None:
+    a, b = _img(), _img()
+    b[0, 0, :] += 2.0  # exactly 2/255: not counted
+    b[2, 4, 1] += 3.0  # over
+    m = compare_arrays(a, b)
+    assert m.share_over == pytest.approx(1 / 20)
+    assert m.bbox == (4, 2, 4, 2)
+
+
+def test_size_mismatch_is_a_user_error() -> None:
+    with pytest.raises(CompareError, match="sizes differ: 5x4 vs 4x4"):
+        compare_arrays(_img(), _img(w=4))
+
+
+def test_files_round_trip_and_diff_montage(tmp_path) -> None:
+    import OpenImageIO as oiio
+
+    rng = np.random.default_rng(1)
+    a = rng.integers(0, 256, size=(6, 7, 3)).astype(np.uint8)
+    b = a.copy()
+    b[5, 0] = np.minimum(b[5, 0].astype(int) + 40, 255).astype(np.uint8)
+    for name, img in (("a.png", a), ("b.png", b)):
+        out = oiio.ImageOutput.create(str(tmp_path / name))
+        out.open(str(tmp_path / name), oiio.ImageSpec(7, 6, 3, oiio.UINT8))
+        out.write_image(img)
+        out.close()
+    assert np.array_equal(read_levels(tmp_path / "a.png"), a.astype(np.float64))
+    m = compare_files(tmp_path / "a.png", tmp_path / "b.png")
+    assert m.bbox == (0, 5, 0, 5)
+    write_diff(read_levels(tmp_path / "a.png"), read_levels(tmp_path / "b.png"), m, tmp_path / "d.png", ("a", "b"))
+    d = read_levels(tmp_path / "d.png")
+    assert d.shape[1] == 3 * 7 + 8
+    assert np.array_equal(d[:6, :7], a)  # left panel is A, unchanged
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".a5mi-")] == []
+
+
+def test_unreadable_image_is_a_user_error(tmp_path) -> None:
+    bad = tmp_path / "bad.png"
+    bad.write_bytes(b"not a png")
+    with pytest.raises(CompareError, match="cannot read image"):
+        read_levels(bad)
