@@ -121,7 +121,9 @@ def check() -> LLVMLibrary:
             "(or use -variant cuda on a machine with an NVIDIA GPU)"
         )
     if forced and lib.major is None:
-        raise LLVMError(f"DRJIT_LIBLLVM_PATH={forced} is not a readable libLLVM; unset it or point it at LLVM >= {MIN_MAJOR}")
+        raise LLVMError(
+            f"DRJIT_LIBLLVM_PATH={forced} is not a readable libLLVM; unset it or point it at LLVM >= {MIN_MAJOR}"
+        )
     if not lib.usable():
         where = f"DRJIT_LIBLLVM_PATH={forced}" if forced else lib.path
         raise LLVMError(

@@ -35,21 +35,22 @@ def icosphere(levels: int = 2) -> tuple[list[tuple[float, float, float]], list[t
              (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]
     for _ in range(levels):
         cache: dict[tuple[int, int], int] = {}
-
-        def mid(a: int, b: int) -> int:
-            key = (min(a, b), max(a, b))
-            if key not in cache:
-                pa, pb = verts[a], verts[b]
-                verts.append(_unit(tuple((x + y) / 2 for x, y in zip(pa, pb))))
-                cache[key] = len(verts) - 1
-            return cache[key]
-
         new = []
         for a, b, c in faces:
-            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+            ab, bc, ca = (_midpoint(verts, cache, i, j) for i, j in ((a, b), (b, c), (c, a)))
             new += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
         faces = new
     return verts, faces
+
+
+def _midpoint(verts: list, cache: dict[tuple[int, int], int], a: int, b: int) -> int:
+    """Index of the unit-sphere midpoint of edge (a, b), created once per edge."""
+    key = (min(a, b), max(a, b))
+    if key not in cache:
+        pa, pb = verts[a], verts[b]
+        verts.append(_unit(tuple((x + y) / 2 for x, y in zip(pa, pb, strict=True))))
+        cache[key] = len(verts) - 1
+    return cache[key]
 
 
 def _unit(p: tuple[float, ...]) -> tuple[float, float, float]:
