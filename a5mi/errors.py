@@ -1,0 +1,24 @@
+"""Errors a user can cause at the command-line level (bad flags, unwritable outputs), reported by the CLI.
+
+Scene-file errors are :class:`a5mi.converters.errors.SceneError` (with a ``FILE:LINE:COL`` position);
+these are the others. :mod:`a5mi.cli` prints any :class:`UserError` as one line ``a5: error: <msg>`` and
+exits with status 2 (SPEC B.1 flags; issue 8's error rules).
+"""
+
+from __future__ import annotations
+
+
+class UserError(Exception):
+    """Something the user can fix: the message is one line and says what was expected and what was found."""
+
+
+class UsageError(UserError):
+    """Command-line misuse: unknown flag, missing or malformed value, missing ``-input``/``-output``."""
+
+
+class ImageWriteError(UserError):
+    """An output image cannot be written: unknown extension, missing or read-only folder, failed write."""
+
+
+class ImageReadError(UserError):
+    """An input image (for ``compare``) is missing, unreadable or corrupt."""

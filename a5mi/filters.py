@@ -1,0 +1,92 @@
+"""Separable blur and 3x3 box downsample (SPEC B.5), in float32 numpy, in the binary's operation order.
+
+Images are ``img[j, i, c]`` float32 arrays with ``j = 0`` the **bottom** row, as the sample solution stores
+them (the downsample's 3x3 blocks start at the bottom-left pixel).
+
+* Blur: ``K = (0.1201, 0.2339, 0.2921, 0.2339, 0.1201)`` as stored in the binary (sum 1.0001, not
+  normalised); the handout prints the centre tap as 0.2931 (sum 1.0011), available as ``kernel="handout"``.
+  First along y into a new buffer, ``t[j,i] = Σ_k K[k] · img[clamp(j+k-2, 0, H-1), i]``, then along x,
+  ``out[j,i] = Σ_k K[k] · t[j, clamp(i+k-2, 0, W-1)]``; taps accumulate in k order in float32. Each axis
+  clamps to its own size (the binary clamps both to W-1, which aborts on non-square images).
+  A constant image c becomes ``(ΣK)² · c``.
+* Downsample: ``out[y,x] = (Σ_{dx=0..2} Σ_{dy=0..2} img[3y+dy, 3x+dx]) / 9.0f`` (x outer, y inner), giving
+  ``W//3 x H//3``.
+* Flag combinations (:func:`postprocess`): ``-jitter -filter`` -> W x H from the 3W x 3H render;
+  ``-jitter`` alone keeps 3W x 3H; ``-filter`` alone blurs and downsamples the W x H render to W/3 x H/3.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+#: The blur kernel the sample solution uses (SPEC B.5), and the handout's printed one (centre-tap typo).
+KERNELS: dict[str, tuple[float, ...]] = {
+    "binary": (0.1201, 0.2339, 0.2921, 0.2339, 0.1201),
+    "handout": (0.1201, 0.2339, 0.2931, 0.2339, 0.1201),
+}
+
+FloatImage = npt.NDArray[np.float32]
+
+
+def kernel_taps(kernel: str = "binary") -> npt.NDArray[np.float32]:
+    """The five float32 taps of ``kernel`` (``"binary"``: centre 0.2921, ``"handout"``: centre 0.2931)."""
+    try:
+        return np.array(KERNELS[kernel], dtype=np.float32)
+    except KeyError:
+        raise ValueError(f"unknown blur kernel '{kernel}' (expected binary or handout)") from None
+
+
+def _blur_axis(img: FloatImage, taps: npt.NDArray[np.float32], axis: int) -> FloatImage:
+    """``out[..n..] = Σ_k taps[k] · img[clamp(n+k-2, 0, size-1)]`` along ``axis``, accumulated in float32."""
+    size = img.shape[axis]
+    index = np.arange(size)
+    out = np.zeros_like(img)
+    for k, w in enumerate(taps):
+        src = np.clip(index + (k - 2), 0, size - 1)
+        out += w * np.take(img, src, axis=axis)
+    return out
+
+
+def blur(img: npt.ArrayLike, kernel: str = "binary") -> FloatImage:
+    """The separable blur of SPEC B.5: along y (axis 0) into a new buffer, then along x (axis 1)."""
+    a = np.asarray(img, dtype=np.float32)
+    if a.ndim < 2:
+        raise ValueError(f"blur needs an image of at least 2 dimensions, got shape {a.shape}")
+    taps = kernel_taps(kernel)
+    return _blur_axis(_blur_axis(a, taps, 0), taps, 1)
+
+
+def downsample3(img: npt.ArrayLike) -> FloatImage:
+    """3x3 box downsample (SPEC B.5): sum 9 pixels x-outer, y-inner in float32, then divide by 9.0f."""
+    a = np.asarray(img, dtype=np.float32)
+    h, w = a.shape[0] // 3, a.shape[1] // 3
+    if h == 0 or w == 0:
+        raise ValueError(f"cannot downsample a {a.shape[1]}x{a.shape[0]} image by 3")
+    s = np.zeros((h, w) + a.shape[2:], dtype=np.float32)
+    for dx in range(3):
+        for dy in range(3):
+            s += a[dy : 3 * h : 3, dx : 3 * w : 3]
+    return s / np.float32(9.0)
+
+
+def output_size(width: int, height: int, *, jitter: bool, filter: bool) -> tuple[int, int]:
+    """Size of the saved image for ``-size width height`` and the flags (SPEC B.5 table)."""
+    if jitter and filter:
+        return width, height
+    if jitter:
+        return 3 * width, 3 * height
+    if filter:
+        return width // 3, height // 3
+    return width, height
+
+
+def postprocess(img: npt.ArrayLike, *, filter: bool, kernel: str = "binary") -> FloatImage:
+    """The image the binary saves from its render buffer: blur + downsample with ``-filter``, else as is.
+
+    The render buffer is 3W x 3H with ``-jitter`` and W x H without; SPEC B.5's table follows from that.
+    """
+    a = np.asarray(img, dtype=np.float32)
+    if not filter:
+        return a
+    return downsample3(blur(a, kernel))

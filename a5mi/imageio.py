@@ -1,0 +1,151 @@
+"""Image output and input through OpenImageIO: quantisation, orientation, atomic writes (SPEC B.1, A.4).
+
+* Quantisation as the sample solution: ``byte = clamp(int(c * 255), 0, 255)`` with ``c * 255`` in float32
+  and ``int`` truncating toward zero (0.5 -> 127, 1.2 -> 255, -0.1 -> 0; NaN -> 0). No gamma.
+* Orientation: the a5 image origin is the bottom-left pixel (SPEC B.1). :func:`write_image` takes the
+  image with row 0 = the **top** row of the file, i.e. the renderer's row ``j = H-1``; the driver flips.
+* Formats by extension: ``.png .bmp .tga .ppm .tif .tiff`` (8-bit, quantised) and ``.exr`` (float32,
+  unquantised, linear).
+* Writes are atomic: the image goes to a temporary file in the destination folder, then ``os.replace``
+  moves it over the target, so a failure never leaves a partial file and never clobbers an existing one.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from a5mi.errors import ImageReadError, ImageWriteError
+
+#: Extensions written as 8-bit (quantised) images.
+BYTE_FORMATS: frozenset[str] = frozenset({".png", ".bmp", ".tga", ".ppm", ".tif", ".tiff"})
+#: Extensions written as float images.
+FLOAT_FORMATS: frozenset[str] = frozenset({".exr"})
+EXTENSIONS: tuple[str, ...] = tuple(sorted(BYTE_FORMATS | FLOAT_FORMATS))
+
+
+def quantize(img: npt.ArrayLike) -> npt.NDArray[np.uint8]:
+    """``byte = clamp(int(c * 255), 0, 255)``: float32 product, truncation toward zero (SPEC B.1)."""
+    scaled = np.asarray(img, dtype=np.float32) * np.float32(255.0)
+    scaled = np.nan_to_num(scaled, nan=0.0, posinf=255.0, neginf=0.0)
+    return np.clip(np.trunc(scaled), 0.0, 255.0).astype(np.uint8)
+
+
+def _extension(path: str | os.PathLike[str]) -> str:
+    return Path(path).suffix.lower()
+
+
+def check_output_path(path: str | os.PathLike[str]) -> Path:
+    """Raise :class:`ImageWriteError` unless ``path`` can be written: known extension, existing writable
+    folder, not a directory. Called by the CLI **before** rendering. Returns the path."""
+    p = Path(path)
+    ext = _extension(p)
+    if ext not in BYTE_FORMATS and ext not in FLOAT_FORMATS:
+        found = f"'{ext}'" if ext else "no extension"
+        raise ImageWriteError(f"{p}: unknown image extension {found} (expected one of {' '.join(EXTENSIONS)})")
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise ImageWriteError(f"{p}: output folder '{folder}' does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ImageWriteError(f"{p}: output folder '{folder}' is not writable")
+    if p.is_dir():
+        raise ImageWriteError(f"{p}: is a directory")
+    return p
+
+
+def _as_hwc(img: npt.ArrayLike) -> np.ndarray:
+    a = np.asarray(img)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or a.shape[2] not in (1, 3, 4) or a.shape[0] == 0 or a.shape[1] == 0:
+        raise ValueError(f"expected an HxW, HxWx1, HxWx3 or HxWx4 image, got shape {a.shape}")
+    return a
+
+
+def _target_mode(p: Path) -> int:
+    """The permission bits the file would get from a plain ``open``: the old file's, else 0o666 & ~umask."""
+    try:
+        return p.stat().st_mode & 0o7777
+    except FileNotFoundError:
+        umask = os.umask(0o022)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
+def write_image(path: str | os.PathLike[str], img: npt.ArrayLike) -> None:
+    """Write ``img`` (HxWxC float, row 0 = top of the file) to ``path`` atomically, format by extension.
+
+    8-bit formats are quantised with :func:`quantize`; ``.exr`` stores float32 as is. Raises
+    :class:`ImageWriteError` (and leaves any existing file untouched) on failure.
+    """
+    import OpenImageIO as oiio  # deferred: only the commands that write images pay for it
+
+    p = check_output_path(path)
+    a = _as_hwc(img)
+    if _extension(p) in FLOAT_FORMATS:
+        pixels, fmt = np.ascontiguousarray(a, dtype=np.float32), oiio.FLOAT
+    else:
+        pixels, fmt = np.ascontiguousarray(quantize(a)), oiio.UINT8
+    h, w, c = pixels.shape
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.stem}.", suffix=p.suffix, dir=p.parent if str(p.parent) else ".")
+    os.close(fd)
+    try:
+        out = oiio.ImageOutput.create(tmp)
+        if out is None:
+            raise ImageWriteError(f"{p}: cannot create a writer: {oiio.geterror()}")
+        spec = oiio.ImageSpec(w, h, c, fmt)
+        ok = out.open(tmp, spec) and out.write_image(pixels)
+        err = out.geterror() if not ok else ""
+        ok = out.close() and ok
+        if not ok:
+            raise ImageWriteError(f"{p}: write failed: {err or out.geterror() or 'unknown OpenImageIO error'}")
+        os.chmod(tmp, _target_mode(p))
+        os.replace(tmp, p)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def write_images(outputs: Sequence[tuple[str | os.PathLike[str], npt.ArrayLike]]) -> None:
+    """Write several images; all paths are checked first, so a bad one fails before any file is touched."""
+    for path, _ in outputs:
+        check_output_path(path)
+    for path, img in outputs:
+        write_image(path, img)
+
+
+def read_image(path: str | os.PathLike[str]) -> npt.NDArray[np.float32]:
+    """Read an image as float32 HxWxC (row 0 = top of the file); 8-bit data is divided by 255, no gamma.
+
+    Raises :class:`ImageReadError` for a missing, unreadable or corrupt file.
+    """
+    import OpenImageIO as oiio
+
+    p = Path(path)
+    if not p.is_file():
+        raise ImageReadError(f"{p}: no such image file")
+    inp = oiio.ImageInput.open(str(p))
+    if inp is None:
+        raise ImageReadError(f"{p}: cannot read image: {oiio.geterror().strip() or 'unknown format'}")
+    try:
+        spec = inp.spec()
+        native = spec.format.basetype == oiio.UINT8
+        data = inp.read_image(0, 0, 0, spec.nchannels, oiio.UINT8 if native else oiio.FLOAT)
+        if data is None:
+            raise ImageReadError(f"{p}: corrupt image: {inp.geterror().strip()}")
+    finally:
+        inp.close()
+    a = np.asarray(data)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if native:
+        return a.astype(np.float32) / np.float32(255.0)
+    return a.astype(np.float32)
