@@ -1,0 +1,73 @@
+"""a5mi.llvm: an LLVM older than 16 is refused with one line naming the fix, before Dr.Jit can abort."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from a5mi import llvm
+
+
+@pytest.mark.parametrize(
+    ("name", "major"),
+    [("libLLVM-15.so", 15), ("libLLVM-14.0.6.so.1", 14), ("libLLVM.so.19.1", 19), ("libLLVM-19.so", 19),
+     ("libLLVM.18.dylib", 18), ("libLLVM.so", None)],
+)
+def test_major_from_file_name(name: str, major: int | None) -> None:
+    assert llvm._major_from_name(name) == major
+
+
+def test_forced_old_llvm_is_refused_with_the_fix(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    fake = tmp_path / "libLLVM-15.so"
+    fake.write_bytes(b"\x7fELF")  # never loaded: the version comes from the name
+    monkeypatch.setenv("DRJIT_LIBLLVM_PATH", str(fake))
+    with pytest.raises(llvm.LLVMError) as err:
+        llvm.check()
+    msg = str(err.value)
+    assert "LLVM 15" in msg and "apt-get install -y libllvm19" in msg and "unset DRJIT_LIBLLVM_PATH" in msg
+    assert "\n" not in msg
+
+
+def test_forced_unreadable_library_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    fake = tmp_path / "libLLVM.so"
+    fake.write_text("not a library")
+    monkeypatch.setenv("DRJIT_LIBLLVM_PATH", str(fake))
+    with pytest.raises(llvm.LLVMError, match="not a readable libLLVM"):
+        llvm.check()
+
+
+def test_this_machine_has_a_usable_llvm(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`make setup` installs libllvm19, so the unforced search must find LLVM >= 16 here."""
+    monkeypatch.delenv("DRJIT_LIBLLVM_PATH", raising=False)
+    lib = llvm.check()
+    assert lib.major is not None and lib.major >= 16
+
+
+def test_real_llvm15_library_is_detected_without_name_version(tmp_path: Path) -> None:
+    """A real libLLVM 15 under a version-less name is recognised by the missing LLVMGetVersion symbol."""
+    real = Path("/usr/lib/x86_64-linux-gnu/libLLVM-15.so.1")
+    if not real.exists():
+        pytest.skip("no libLLVM 15 on this machine")
+    link = tmp_path / "libLLVM.so"
+    link.symlink_to(real)
+    assert llvm.probe(str(link)).major == 15
+
+
+def test_variant_activation_refuses_old_llvm_in_a_subprocess(tmp_path: Path) -> None:
+    """The whole import path: no Dr.Jit abort, one line, non-zero exit (issue 2)."""
+    fake = tmp_path / "libLLVM-15.so"
+    fake.write_bytes(b"\x7fELF")
+    code = (
+        "import sys\n"
+        "from a5mi.variant import activate, VariantError\n"
+        "try:\n    activate('llvm')\n"
+        "except VariantError as e:\n    print('a5: error:', e, file=sys.stderr); sys.exit(2)\n"
+    )
+    env = {"DRJIT_LIBLLVM_PATH": str(fake), "PATH": "/usr/bin:/bin"}
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("a5: error: Dr.Jit would load LLVM 15")
