@@ -1,0 +1,79 @@
+"""glibc rand() from seed 1, exactly (SPEC B.5)."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from a5mi.glibc_rand import GlibcRand, glibc_jitter, jitter_offsets
+
+# rand() with glibc's default seed (no srand): the well-known first ten values.
+FIRST_TEN = [1804289383, 846930886, 1681692777, 1714636915, 1957747793,
+             424238335, 719885386, 1649760492, 596516649, 1189641421]
+
+
+def test_b5_first_values() -> None:
+    assert GlibcRand().next(10).tolist() == FIRST_TEN
+
+
+def test_b5_stream_continues_across_calls_and_blocks() -> None:
+    """Chunked draws (odd sizes, crossing block boundaries) equal one long draw."""
+    whole = GlibcRand(block=64).next(1000)
+    g = GlibcRand(block=64)
+    parts = np.concatenate([g.next(n) for n in (1, 63, 64, 0, 200, 672)])
+    np.testing.assert_array_equal(parts, whole)
+    np.testing.assert_array_equal(GlibcRand().next(1000), whole)  # block size does not matter
+
+
+def test_b5_python_reference_recurrence() -> None:
+    """The vectorised generator against a direct loop of r[i] = r[i-3] + r[i-31] (module docstring)."""
+    r = [1]
+    for i in range(1, 31):
+        r.append((16807 * r[i - 1]) % 2147483647)
+    r += [r[i - 31] for i in range(31, 34)]
+    for i in range(34, 344 + 5000):
+        r.append((r[i - 3] + r[i - 31]) & 0xFFFFFFFF)
+    expected = [v >> 1 for v in r[344:]]
+    assert GlibcRand().next(5000).tolist() == expected
+
+
+def test_b5_values_in_range() -> None:
+    v = GlibcRand().next(100_000)
+    assert v.dtype == np.uint32 and v.max() < 2**31
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
+def test_b5_matches_compiled_glibc(tmp_path) -> None:
+    """100,000 values from a real glibc rand() (compiled C program) equal ours."""
+    src = tmp_path / "r.c"
+    src.write_text('#include <stdio.h>\n#include <stdlib.h>\n'
+                   'int main(void){for(int i=0;i<100000;i++)printf("%d\\n",rand());return 0;}\n')
+    exe = tmp_path / "r"
+    subprocess.run(["gcc", "-O1", str(src), "-o", str(exe)], check=True)
+    out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout
+    ref = np.array(out.split(), dtype=np.int64)
+    np.testing.assert_array_equal(GlibcRand().next(100_000).astype(np.int64), ref)
+
+
+def test_b5_jitter_offsets_float32() -> None:
+    """jitter = (float)r * 2^-31 - 0.5: int->float32 rounding first (2^31-1 -> 2^31 -> +0.5)."""
+    v = np.array([0, 2**30, 2**31 - 1, 1804289383], dtype=np.uint32)
+    j = jitter_offsets(v)
+    assert j.dtype == np.float32
+    assert j.tolist()[:3] == [-0.5, 0.0, 0.5]
+    assert j[3] == np.float32(np.float32(1804289383) * np.float32(2.0**-31) - np.float32(0.5))
+
+
+def test_b5_first_call_is_y() -> None:
+    """Per sample r1 = rand() gives jy, r2 = rand() gives jx."""
+    jx, jy = glibc_jitter(5)
+    v = GlibcRand().next(10)
+    np.testing.assert_array_equal(jy, jitter_offsets(v[0::2]))
+    np.testing.assert_array_equal(jx, jitter_offsets(v[1::2]))
+    g = GlibcRand()
+    a = glibc_jitter(2, g)
+    b = glibc_jitter(3, g)
+    np.testing.assert_array_equal(np.concatenate([a[0], b[0]]), jx)
