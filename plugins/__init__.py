@@ -14,7 +14,7 @@ import importlib
 # Each plugin's author uncomments its line once the module exists.
 PLUGIN_MODULES: tuple[str, ...] = (
     "marble",           # a5_marble texture (noise functions in perlin.py)
-    # "bitmap",         # a5_bitmap texture
+    "bitmap",           # a5_bitmap texture
     # "point_light",    # a5_point emitter
     # "cubemap",        # a5_cubemap emitter
     # "camera",         # a5_camera sensor
