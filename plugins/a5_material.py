@@ -1,0 +1,268 @@
+"""The ``a5_material`` BSDF: the course's Material block as a Mitsuba BSDF (SPEC A.5, B.3).
+
+The a5 ``Material`` is not a physical BSDF: the sample solution's ``traceRay`` (SPEC B.3) reads its raw
+values. This plugin therefore has two faces:
+
+1. **The a5 channel**, read by ``a5_whitted`` through the standard vcall-able BSDF interface
+   (ARCHITECTURE.md, "How the integrator reads materials"):
+
+   * ``eval_attribute_3("diffuse_color", si)``: the raw ``diffuseColor`` (ambient term of SPEC B.3);
+   * ``eval_diffuse_reflectance(si)``: ``kd``, the Lambert colour (marble, bitmap texture, or diffuseColor);
+   * ``eval_attribute_3("specular_color", si)``: mirror / Fresnel weight;
+   * ``eval_attribute_1("refraction_index", si)``: 0 = not transparent;
+   * ``eval_attribute_1("shininess", si)``: only used by the integrator's ``phong`` option.
+
+2. **A sensible physical BSDF** for stock integrators (``path``, ``direct``...), a mixture of
+
+   * Lambert ``kd/π`` (front side only), and
+   * when ``|specular_color| > 0.001`` or ``refraction_index > 0``, a delta lobe weighted by
+     ``specular_color``: an ideal mirror if ``refraction_index == 0``, else a smooth dielectric with
+     interior index ``refraction_index`` and exterior 1 (exact Fresnel ``mi.fresnel``, radiance scaled by
+     ``1/η²`` on transmission, both sides).
+
+   The lobe is chosen with probability ``p_s = mean(specular_color) / (mean(kd) + mean(specular_color))``;
+   sampled weights are ``kd / (1 - p_s)`` (diffuse) and ``specular_color / p_s`` (delta), and ``pdf`` is
+   ``(1 - p_s) cosθ/π`` for the diffuse lobe. This is *not* what the sample solution renders (its
+   "specular" is the recursive Whitted weight); it only makes the material usable elsewhere.
+
+Parameters (ARCHITECTURE.md):
+
+================== ============= ========= ==================================================
+name               type          default   meaning
+================== ============= ========= ==================================================
+diffuse_color      rgb           (1,1,1)   raw ``diffuseColor`` (ambient term)
+kd                 texture/rgb   = diffuse Lambert colour: ``a5_marble``, ``a5_bitmap``, rgb
+specular_color     rgb           (0,0,0)   mirror / refraction weight (``specularColor``)
+shininess          float         0         Phong exponent (handout option only)
+refraction_index   float         0         ``refractionIndex``; 0 = opaque
+================== ============= ========= ==================================================
+
+Dict form::
+
+    {'type': 'a5_material',
+     'diffuse_color': {'type': 'rgb', 'value': [1, 0, 0]},
+     'specular_color': {'type': 'rgb', 'value': [0.5, 0.5, 0.5]},
+     'refraction_index': 1.5}
+
+All values are stored as opaque Dr.Jit variables, so materials with different values share compiled kernels.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import drjit as dr
+import mitsuba as mi
+
+#: Attributes served through ``eval_attribute_3`` / ``eval_attribute_1`` (and ``has_attribute``).
+COLOR_ATTRIBUTES: tuple[str, ...] = ("diffuse_color", "specular_color")
+FLOAT_ATTRIBUTES: tuple[str, ...] = ("shininess", "refraction_index")
+
+#: SPEC B.3: a mirror ray is traced when the Euclidean length of specularColor exceeds this.
+MIRROR_THRESHOLD = 0.001
+
+
+def _rgb(props: mi.Properties, name: str, default: Sequence[float]) -> list[float]:
+    """Read an rgb property (``ScalarColor3d``/``ScalarColor3f``/float) as three Python floats."""
+    if name not in props:
+        return [float(c) for c in default]
+    value = props.get(name)
+    if isinstance(value, (int, float)):
+        return [float(value)] * 3
+    try:
+        return [float(value[i]) for i in range(3)]
+    except (TypeError, IndexError):
+        raise ValueError(f"a5_material: '{name}' must be an rgb colour, got {value!r}") from None
+
+
+class A5Material(mi.BSDF):
+    """The a5 ``Material`` (SPEC A.5; values consumed by ``a5_whitted`` per SPEC B.3). See the module doc."""
+
+    def __init__(self, props: mi.Properties) -> None:
+        super().__init__(props)
+        diffuse = _rgb(props, "diffuse_color", (1.0, 1.0, 1.0))
+        specular = _rgb(props, "specular_color", (0.0, 0.0, 0.0))
+        shininess = float(props.get("shininess", 0.0))
+        ior = float(props.get("refraction_index", 0.0))
+        if ior < 0.0:
+            raise ValueError(f"a5_material: 'refraction_index' must be >= 0 (0 = opaque), got {ior}")
+        if "kd" in props:
+            self.kd: mi.Texture = props.get_texture("kd")
+        else:
+            tmp = mi.Properties("srgb")
+            tmp["kd"] = mi.ScalarColor3d(*diffuse)
+            self.kd = tmp.get_texture("kd")
+        self.diffuse_color = mi.Color3f(*diffuse)
+        self.specular_color = mi.Color3f(*specular)
+        self.shininess = mi.Float(shininess)
+        self.refraction_index = mi.Float(ior)
+        self._make_opaque()
+
+        spec_len = sum(c * c for c in specular) ** 0.5
+        self._has_delta = spec_len > MIRROR_THRESHOLD or ior > 0.0
+        self._dielectric = ior > 0.0
+        diffuse_flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
+        components = [int(diffuse_flags)]
+        if self._has_delta:
+            if self._dielectric:
+                sides = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
+                components.append(int(mi.BSDFFlags.DeltaReflection | sides))
+                components.append(int(mi.BSDFFlags.DeltaTransmission | sides))
+            else:
+                components.append(int(mi.BSDFFlags.DeltaReflection | mi.BSDFFlags.FrontSide
+                                      | mi.BSDFFlags.BackSide))
+        flags = 0
+        for c in components:
+            flags |= c
+        self.m_components = components
+        self.m_flags = flags
+
+    def _make_opaque(self) -> None:
+        dr.make_opaque(self.diffuse_color, self.specular_color, self.shininess, self.refraction_index)
+
+    # ------------------------------------------------------------------ a5 channel (SPEC B.3)
+
+    def has_attribute(self, name: str, active: mi.Bool = True) -> mi.Bool:
+        """True for ``diffuse_color``, ``specular_color``, ``shininess``, ``refraction_index``."""
+        return mi.Bool(name in COLOR_ATTRIBUTES or name in FLOAT_ATTRIBUTES)
+
+    def eval_attribute_3(self, name: str, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
+        """``diffuse_color`` or ``specular_color`` (raw, untextured); zero for any other name."""
+        if name == "diffuse_color":
+            return mi.Color3f(self.diffuse_color)
+        if name == "specular_color":
+            return mi.Color3f(self.specular_color)
+        return mi.Color3f(0.0)
+
+    def eval_attribute_1(self, name: str, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Float:
+        """``refraction_index`` or ``shininess``; zero for any other name."""
+        if name == "refraction_index":
+            return mi.Float(self.refraction_index)
+        if name == "shininess":
+            return mi.Float(self.shininess)
+        return mi.Float(0.0)
+
+    def eval_diffuse_reflectance(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
+        """``kd`` at the hit (SPEC B.3: marble colour, else texture at uv, else diffuseColor)."""
+        return mi.Color3f(self.kd.eval(si, active))
+
+    # ------------------------------------------------------------------ physical BSDF (stock integrators)
+
+    def _spec_probability(self, ctx: mi.BSDFContext, kd: mi.Color3f) -> mi.Float:
+        """``p_s`` of the module doc, honouring the context's component selection."""
+        if not self._has_delta:
+            return mi.Float(0.0)
+        use_diffuse = ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0)
+        use_delta = ctx.is_enabled(mi.BSDFFlags.DeltaReflection, 1) or (
+            self._dielectric and ctx.is_enabled(mi.BSDFFlags.DeltaTransmission, 2)
+        )
+        if not use_delta:
+            return mi.Float(0.0)
+        if not use_diffuse:
+            return mi.Float(1.0)
+        w_s = dr.mean(self.specular_color)
+        w_d = dr.mean(kd)
+        total = w_s + w_d
+        return dr.select(total > 0.0, w_s / total, 0.0)
+
+    def sample(
+        self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, sample1: mi.Float, sample2: mi.Point2f,
+        active: mi.Bool = True,
+    ) -> tuple[mi.BSDFSample3f, mi.Color3f]:
+        """Sample the Lambert + delta mixture (see the module doc for the weights)."""
+        cos_i = mi.Frame3f.cos_theta(si.wi)
+        kd = self.eval_diffuse_reflectance(si, active)
+        p_s = self._spec_probability(ctx, kd)
+        bs = dr.zeros(mi.BSDFSample3f)
+        bs.eta = mi.Float(1.0)
+        choose_delta = sample1 < p_s
+        # Diffuse lobe (front side only).
+        wo_d = mi.warp.square_to_cosine_hemisphere(sample2)
+        ok_d = active & ~choose_delta & (cos_i > 0.0)
+        weight_d = kd / dr.maximum(1.0 - p_s, 1e-8)
+        pdf_d = (1.0 - p_s) * mi.warp.square_to_cosine_hemisphere_pdf(wo_d)
+        # Delta lobe: mirror, or dielectric with exact Fresnel.
+        wo_r = mi.reflect(si.wi)
+        weight_s = self.specular_color / dr.maximum(p_s, 1e-8)
+        ok_s = active & choose_delta
+        if self._dielectric:
+            r_i, cos_t, eta_it, eta_ti = mi.fresnel(cos_i, self.refraction_index)
+            u = sample1 / dr.maximum(p_s, 1e-8)
+            pick_r = u <= r_i
+            wo_s = dr.select(pick_r, wo_r, mi.refract(si.wi, cos_t, eta_ti))
+            pdf_s = p_s * dr.select(pick_r, r_i, 1.0 - r_i)
+            eta_s = dr.select(pick_r, 1.0, eta_it)
+            type_s = dr.select(pick_r, mi.UInt32(int(mi.BSDFFlags.DeltaReflection)),
+                               mi.UInt32(int(mi.BSDFFlags.DeltaTransmission)))
+            comp_s = dr.select(pick_r, mi.UInt32(1), mi.UInt32(2))
+            if ctx.mode == mi.TransportMode.Radiance:
+                weight_s = weight_s * dr.select(pick_r, 1.0, eta_ti * eta_ti)
+        else:
+            wo_s = wo_r
+            pdf_s = p_s
+            eta_s = mi.Float(1.0)
+            type_s = mi.UInt32(int(mi.BSDFFlags.DeltaReflection))
+            comp_s = mi.UInt32(1)
+        bs.wo = dr.select(choose_delta, wo_s, wo_d)
+        bs.pdf = dr.select(choose_delta, pdf_s, pdf_d)
+        bs.eta = dr.select(choose_delta, eta_s, 1.0)
+        bs.sampled_type = dr.select(choose_delta, type_s, mi.UInt32(int(mi.BSDFFlags.DiffuseReflection)))
+        bs.sampled_component = dr.select(choose_delta, comp_s, mi.UInt32(0))
+        weight = dr.select(choose_delta, weight_s, weight_d)
+        ok = ok_d | ok_s
+        bs.pdf = dr.select(ok, bs.pdf, 0.0)
+        return bs, dr.select(ok & (bs.pdf > 0.0), weight, 0.0)
+
+    def eval(
+        self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, wo: mi.Vector3f, active: mi.Bool = True
+    ) -> mi.Color3f:
+        """Lambert ``kd/π cosθ_o`` on the front side; the delta lobe evaluates to 0."""
+        if not ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0):
+            return mi.Color3f(0.0)
+        cos_i = mi.Frame3f.cos_theta(si.wi)
+        cos_o = mi.Frame3f.cos_theta(wo)
+        kd = self.eval_diffuse_reflectance(si, active)
+        value = kd * (dr.inv_pi * cos_o)
+        return dr.select(active & (cos_i > 0.0) & (cos_o > 0.0), value, 0.0)
+
+    def pdf(
+        self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, wo: mi.Vector3f, active: mi.Bool = True
+    ) -> mi.Float:
+        """``(1 - p_s) cosθ_o/π`` for the diffuse lobe (delta lobes have no density)."""
+        if not ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0):
+            return mi.Float(0.0)
+        cos_i = mi.Frame3f.cos_theta(si.wi)
+        cos_o = mi.Frame3f.cos_theta(wo)
+        kd = self.eval_diffuse_reflectance(si, active)
+        p_s = self._spec_probability(ctx, kd)
+        value = (1.0 - p_s) * mi.warp.square_to_cosine_hemisphere_pdf(wo)
+        return dr.select(active & (cos_i > 0.0) & (cos_o > 0.0), value, 0.0)
+
+    # ------------------------------------------------------------------ plumbing
+
+    def traverse(self, callback: mi.TraversalCallback) -> None:
+        flags = int(mi.ParamFlags.NonDifferentiable)
+        callback.put("diffuse_color", self.diffuse_color, flags)
+        callback.put("specular_color", self.specular_color, flags)
+        callback.put("shininess", self.shininess, flags)
+        callback.put("refraction_index", self.refraction_index, flags)
+        callback.put("kd", self.kd, flags)
+
+    def parameters_changed(self, keys: list[str] | None = None) -> None:
+        self._make_opaque()
+
+    def to_string(self) -> str:
+        return (
+            "A5Material[\n"
+            f"  diffuse_color = {self.diffuse_color},\n"
+            f"  kd = {self.kd},\n"
+            f"  specular_color = {self.specular_color},\n"
+            f"  shininess = {self.shininess},\n"
+            f"  refraction_index = {self.refraction_index}\n"
+            "]"
+        )
+
+
+def register() -> None:
+    """Register ``a5_material`` with Mitsuba for the active variant."""
+    mi.register_bsdf("a5_material", lambda props: A5Material(props))

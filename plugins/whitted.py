@@ -1,0 +1,325 @@
+"""The ``a5_whitted`` integrator: the sample solution's ``traceRay`` (SPEC B.3) as one Dr.Jit kernel.
+
+The recursion of SPEC B.3 is linear in the ray tree: a node at path weight ``w`` adds ``w ⊙ local`` to the
+pixel, and its children carry ``w ⊙ specularColor ⊙ R`` (reflection) and ``w ⊙ specularColor ⊙ (1 - R)``
+(refraction). :func:`_trace` walks that tree depth-first with a per-lane ``dr.alloc_local`` stack of pending
+rays inside one ``@dr.syntax`` while-loop, so the whole render is a single kernel whose size does not grow
+with the bounce budget (a Python recursion unrolled into the trace grows as 2^bounces).
+"""
+
+from __future__ import annotations
+
+import drjit as dr
+import mitsuba as mi
+
+from .common import FRESNEL_MODES, fresnel_weight, reflect, snell
+
+#: AOVs always returned by ``sample`` (ARCHITECTURE.md, SPEC B.6): first-hit shading normal and distance.
+AOV_NAMES: tuple[str, ...] = ("nx", "ny", "nz", "t")
+#: Extra AOVs with ``count_rays``: rays traced per camera ray, by kind.
+COUNT_AOV_NAMES: tuple[str, ...] = ("n_reflection", "n_refraction", "n_shadow")
+#: SPEC B.3: mirror rays are traced when ``|specularColor| > 0.001`` (Euclidean length).
+MIRROR_THRESHOLD = 0.001
+
+
+def stack_size(max_depth: int) -> int:
+    """Pending-ray stack entries for a bounce budget: depth-first, pop one / push two, so ``max_depth + 1``.
+
+    Rounded up to at least 8, so every budget from 0 to 7 shares one compiled kernel.
+    """
+    return max(8, max_depth + 1)
+
+
+@dr.syntax
+def _trace(
+    scene: mi.Scene,
+    ray_o: mi.Point3f,
+    ray_d: mi.Vector3f,
+    active: mi.Bool,
+    max_depth: mi.UInt32,
+    ambient: mi.Color3f,
+    tmin: mi.Float,
+    lights: mi.EmitterPtr,
+    n_lights: mi.UInt32,
+    size: int,
+    shadows: bool,
+    phong: bool,
+    fresnel: str,
+    reflection: bool,
+    refraction: bool,
+) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float]:
+    """SPEC B.3 for a batch of camera rays (unit ``ray_d``, tmin 0, index 1.0, budget ``max_depth``).
+
+    Returns ``(colour, first-hit normal, first-hit t, n_reflection, n_refraction, n_shadow)``. Only ``size``
+    and the Python flags are baked into the kernel; scene values arrive as opaque variables or arrays.
+    """
+    width = dr.width(ray_d)
+    env = scene.environment()
+
+    stack_o = dr.alloc_local(mi.Point3f, size)
+    stack_d = dr.alloc_local(mi.Vector3f, size)
+    stack_w = dr.alloc_local(mi.Color3f, size)
+    stack_b = dr.alloc_local(mi.UInt32, size)   # remaining bounces
+    stack_n = dr.alloc_local(mi.Float, size)    # index of the medium the ray travels in
+    stack_t = dr.alloc_local(mi.Float, size)    # the ray's tmin
+
+    zero_u = dr.zeros(mi.UInt32, width)
+    stack_o[zero_u] = mi.Point3f(ray_o)
+    stack_d[zero_u] = mi.Vector3f(ray_d)
+    stack_w[zero_u] = dr.full(mi.Color3f, 1.0, width)
+    stack_b[zero_u] = zero_u + max_depth
+    stack_n[zero_u] = dr.full(mi.Float, 1.0, width)
+    stack_t[zero_u] = dr.zeros(mi.Float, width)
+
+    top = dr.select(active, zero_u + 1, zero_u)
+    first = dr.full(mi.Bool, True, width)
+    color = dr.zeros(mi.Color3f, width)
+    aov_n = dr.zeros(mi.Vector3f, width)
+    aov_t = dr.full(mi.Float, dr.inf, width)
+    n_refl = dr.zeros(mi.Float, width)
+    n_refr = dr.zeros(mi.Float, width)
+    n_shadow = dr.zeros(mi.Float, width)
+
+    while top > 0:
+        top -= 1
+        o = stack_o[top]
+        d = stack_d[top]
+        weight = stack_w[top]
+        bounces = stack_b[top]
+        n_medium = stack_n[top]
+        t_min = stack_t[top]
+
+        # Mitsuba rays have no tmin: start at o + tmin d and add tmin back to t.
+        si = scene.ray_intersect(mi.Ray3f(o + t_min * d, d))
+        hit = si.is_valid()
+        t_hit = si.t + t_min
+        p = o + t_hit * d                                   # SPEC: p = o + t d
+        n = mi.Vector3f(si.sh_frame.n)                      # SPEC N: not flipped toward the viewer
+        si.p = dr.select(hit, p, si.p)
+
+        # ---- miss: the background for this ray's direction (camera and secondary rays alike)
+        background = dr.zeros(mi.Color3f, width)
+        if env is not None:
+            si_env = dr.zeros(mi.SurfaceInteraction3f, width)
+            si_env.wi = -d
+            background = mi.Color3f(env.eval(si_env, ~hit))
+
+        # ---- the material, through the vcall-able BSDF attribute interface
+        bsdf = si.bsdf()
+        a5 = bsdf.has_attribute("diffuse_color", hit) & hit
+        kd = mi.Color3f(bsdf.eval_diffuse_reflectance(si, hit))
+        diffuse_color = dr.select(a5, bsdf.eval_attribute_3("diffuse_color", si, a5), kd)
+        specular = bsdf.eval_attribute_3("specular_color", si, a5)
+        ior = bsdf.eval_attribute_1("refraction_index", si, a5)
+        shininess = mi.Float(0.0)
+        if phong:
+            shininess = bsdf.eval_attribute_1("shininess", si, a5)
+        r_view = reflect(d, n)
+
+        # ---- local shading: ambient ⊙ diffuseColor + Σ S clamp(L·N) lightColor ⊙ kd
+        local = ambient * diffuse_color
+        k = dr.zeros(mi.UInt32, width)
+        while hit & (k < n_lights):
+            emitter = dr.gather(mi.EmitterPtr, lights, k, hit)
+            ds, light_color = emitter.sample_direction(si, mi.Point2f(0.5, 0.5), hit)
+            d_light = ds.d                                   # SPEC L
+            visible = mi.Bool(hit)                           # SPEC S
+            if shadows:
+                shadow_ray = mi.Ray3f(p + tmin * d_light, d_light, ds.dist - tmin)
+                visible &= ~scene.ray_test(shadow_ray, hit)
+                n_shadow += dr.select(hit, 1.0, 0.0)
+            term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * kd
+            if phong:
+                l_dot_r = dr.maximum(dr.dot(d_light, r_view), 0.0)
+                highlight = dr.select(shininess == 0.0, 1.0, dr.power(l_dot_r, shininess))
+                term += highlight * light_color * specular
+            local += dr.select(visible, term, 0.0)
+            k += 1
+
+        color += weight * dr.select(hit, local, background)
+        aov_n = dr.select(first & hit, n, aov_n)
+        aov_t = dr.select(first & hit, t_hit, aov_t)
+        first = dr.full(mi.Bool, False, width)
+
+        # ---- children: mirror and refraction (SPEC B.3, "if bounces > 0")
+        go = hit & (bounces > 0)
+        r_fresnel = dr.full(mi.Float, 1.0, width)           # SPEC R
+        push_refr = mi.Bool(False)
+        t_dir = dr.zeros(mi.Vector3f, width)
+        nt = mi.Float(n_medium)
+        if refraction:
+            refractive = go & (ior > 0.0)
+            leaving = dr.dot(d, n) > 0.0
+            n_facing = dr.select(leaving, -n, n)
+            nt = dr.select(leaving, 1.0, ior)
+            t_dir, exists = snell(d, n_facing, n_medium, nt)
+            push_refr = refractive & exists
+            r_fresnel = dr.select(push_refr, fresnel_weight(fresnel, d, n_facing, t_dir, n_medium, nt), 1.0)
+        if refraction:
+            stack_o.write(p, top, push_refr)
+            stack_d.write(t_dir, top, push_refr)
+            stack_w.write(weight * specular * (1.0 - r_fresnel), top, push_refr)
+            stack_b.write(bounces - 1, top, push_refr)
+            stack_n.write(nt, top, push_refr)
+            stack_t.write(tmin, top, push_refr)
+            top += dr.select(push_refr, 1, 0)
+            n_refr += dr.select(push_refr, 1.0, 0.0)
+        if reflection:
+            push_refl = go & (dr.norm(specular) > MIRROR_THRESHOLD)
+            stack_o.write(p, top, push_refl)
+            stack_d.write(r_view, top, push_refl)
+            stack_w.write(weight * specular * r_fresnel, top, push_refl)
+            stack_b.write(bounces - 1, top, push_refl)
+            stack_n.write(n_medium, top, push_refl)
+            stack_t.write(tmin, top, push_refl)
+            top += dr.select(push_refl, 1, 0)
+            n_refl += dr.select(push_refl, 1.0, 0.0)
+
+    return color, aov_n, aov_t, n_refl, n_refr, n_shadow
+
+
+def _width(ray: mi.Ray3f, active: mi.Bool | bool) -> int:
+    """Number of lanes of a ray batch: the widest of origin, direction and mask."""
+    return max(dr.width(ray.o), dr.width(ray.d), dr.width(active) if isinstance(active, mi.Bool) else 1)
+
+
+class A5WhittedIntegrator(mi.SamplingIntegrator):
+    """Whitted ray tracing exactly as the sample solution ``a5soln`` does it (SPEC B.3).
+
+    ================ ======= ======= ==========================================================
+    parameter        type    default meaning
+    ================ ======= ======= ==========================================================
+    max_depth        int     4       bounce budget (``-bounces``); 0 = no secondary rays
+    shadows          bool    false   shadow rays (``-shadows``), blocked by 0.001 < t < dist
+    ambient          rgb     0       ambient light (``Background { ambientLight }``)
+    phong            bool    false   add the handout's ``clamp(L·R)^shininess lightColor ⊙ ks``
+    fresnel          string  a5      ``a5`` (binary's R0), ``schlick`` (textbook R0), ``exact``
+    reflection       bool    true    trace mirror rays (``-reflection_off`` = false)
+    refraction       bool    true    trace refracted rays (``-refraction_off`` = false)
+    tmin             float   0.001   tmin of secondary and shadow rays
+    count_rays       bool    false   extra AOVs n_reflection, n_refraction, n_shadow
+    ================ ======= ======= ==========================================================
+
+    Per hit (``p = o + t d``, ``N`` the shading normal, never flipped toward the viewer)::
+
+        colour = ambient ⊙ diffuseColor + Σ_lights S · max(L·N, 0) · lightColor ⊙ kd
+               + specularColor ⊙ (R · trace(reflect(d, N)) + (1 - R) · trace(T))
+
+    The mirror ray exists when ``|specularColor| > 0.001``; the refracted one when ``refractionIndex > 0``
+    and Snell has a solution (inside/outside by the sign of d·N, then ``nt = 1`` or ``refractionIndex``);
+    without it (or under total internal reflection) ``R = 1``. ``R = R0 + (1 - R0)(1 - c)^5`` with
+    ``c = |d·N|`` if ``nt > n`` else ``|T·N|`` and ``R0 = ((nt-1)/(nt+1))²`` (``a5``, the binary) or
+    ``((nt-n)/(nt+n))²`` (``schlick``); ``exact`` uses ``mi.fresnel``. With ``refraction = false`` the whole
+    refraction branch is skipped (``R = 1``). Misses return ``scene.environment()`` for the ray's direction,
+    black without one. Lights are all emitters with a delta flag (``sample_direction`` gives ``L``,
+    the arriving colour and the distance, infinite for ``directional``).
+
+    ``sample()`` treats its ray as a camera ray (unit direction, tmin 0, index 1) and returns the colour,
+    the ``active`` mask, and the AOVs ``nx, ny, nz, t`` of the first hit (0 and +inf on a miss).
+
+    Dict form: ``{'type': 'a5_whitted', 'max_depth': 4, 'shadows': True, 'ambient': {'type': 'rgb',
+    'value': [0.1, 0.1, 0.1]}}``.
+    """
+
+    def __init__(self, props: mi.Properties) -> None:
+        super().__init__(props)
+        max_depth = props.get("max_depth", 4)
+        if isinstance(max_depth, bool) or not isinstance(max_depth, int) or max_depth < 0:
+            raise ValueError(f"a5_whitted: 'max_depth' must be an integer >= 0, got {max_depth!r}")
+        fresnel = props.get("fresnel", "a5")
+        if fresnel not in FRESNEL_MODES:
+            raise ValueError(f"a5_whitted: 'fresnel' must be one of {', '.join(FRESNEL_MODES)}, got {fresnel!r}")
+        tmin = float(props.get("tmin", 0.001))
+        if not tmin >= 0.0:
+            raise ValueError(f"a5_whitted: 'tmin' must be >= 0, got {tmin!r}")
+        ambient = props.get("ambient", mi.ScalarColor3d(0.0))
+        try:
+            ambient_rgb = [float(ambient)] * 3 if isinstance(ambient, (int, float)) else [
+                float(ambient[i]) for i in range(3)]
+        except (TypeError, IndexError):
+            raise ValueError(f"a5_whitted: 'ambient' must be an rgb colour, got {ambient!r}") from None
+        flags = {}
+        for name, default in (("shadows", False), ("phong", False), ("reflection", True),
+                              ("refraction", True), ("count_rays", False)):
+            value = props.get(name, default)
+            if not isinstance(value, bool):
+                raise ValueError(f"a5_whitted: '{name}' must be a boolean, got {value!r}")
+            flags[name] = value
+        self.max_depth = max_depth
+        self.fresnel = fresnel
+        self.tmin = tmin
+        self.ambient = ambient_rgb
+        self.shadows = flags["shadows"]
+        self.phong = flags["phong"]
+        self.reflection = flags["reflection"]
+        self.refraction = flags["refraction"]
+        self.count_rays = flags["count_rays"]
+
+    # ------------------------------------------------------------------ Mitsuba interface
+
+    def aov_names(self) -> list[str]:
+        return list(AOV_NAMES + COUNT_AOV_NAMES) if self.count_rays else list(AOV_NAMES)
+
+    def _lights(self, scene: mi.Scene) -> tuple[mi.EmitterPtr, mi.UInt32]:
+        """The scene's delta emitters as a gatherable pointer array, and their count (opaque)."""
+        emitters = scene.emitters()
+        idx = [i for i, e in enumerate(emitters) if mi.has_flag(e.flags(), mi.EmitterFlags.Delta)]
+        if not idx:
+            return dr.zeros(mi.EmitterPtr, 1), dr.opaque(mi.UInt32, 0)
+        ptrs = dr.gather(mi.EmitterPtr, scene.emitters_dr(), mi.UInt32(idx))
+        dr.eval(ptrs)
+        return ptrs, dr.opaque(mi.UInt32, len(idx))
+
+    def trace(
+        self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True
+    ) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float]:
+        """SPEC B.3 for camera rays: ``(colour, normal, t, n_reflection, n_refraction, n_shadow)``."""
+        lights, n_lights = self._lights(scene)
+        width = _width(ray, active)
+        # Every loop variable must be full width (a width-1 stack pointer makes lanes loop forever).
+        o = mi.Point3f(ray.o) + dr.zeros(mi.Point3f, width)
+        d = mi.Vector3f(ray.d) + dr.zeros(mi.Vector3f, width)
+        return _trace(
+            scene, o, d, dr.full(mi.Bool, True, width) & active,
+            dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, self.ambient),
+            dr.opaque(mi.Float, self.tmin), lights, n_lights,
+            stack_size(self.max_depth), self.shadows, self.phong, self.fresnel,
+            self.reflection, self.refraction,
+        )
+
+    def sample(
+        self, scene: mi.Scene, sampler: mi.Sampler | None, ray: mi.Ray3f, medium: mi.Medium | None = None,
+        active: mi.Bool | bool = True,
+    ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
+        """Colour of one camera ray per lane, the ``active`` mask, and the AOVs of :meth:`aov_names`."""
+        color, n, t, n_refl, n_refr, n_shadow = self.trace(scene, ray, active)
+        aovs = [n.x, n.y, n.z, t]
+        if self.count_rays:
+            aovs += [n_refl, n_refr, n_shadow]
+        width = _width(ray, active)
+        return color, dr.full(mi.Bool, True, width) & active, aovs
+
+    def traverse(self, callback: mi.TraversalCallback) -> None:
+        flags = int(mi.ParamFlags.NonDifferentiable)
+        callback.put("max_depth", self.max_depth, flags)
+        callback.put("shadows", self.shadows, flags)
+        callback.put("ambient", mi.ScalarColor3f(self.ambient), flags)
+        callback.put("phong", self.phong, flags)
+        callback.put("fresnel", self.fresnel, flags)
+        callback.put("reflection", self.reflection, flags)
+        callback.put("refraction", self.refraction, flags)
+        callback.put("tmin", self.tmin, flags)
+        callback.put("count_rays", self.count_rays, flags)
+
+    def to_string(self) -> str:
+        return (
+            f"A5WhittedIntegrator[max_depth={self.max_depth}, shadows={self.shadows}, "
+            f"ambient={self.ambient}, phong={self.phong}, fresnel='{self.fresnel}', "
+            f"reflection={self.reflection}, refraction={self.refraction}, tmin={self.tmin}, "
+            f"count_rays={self.count_rays}]"
+        )
+
+
+def register() -> None:
+    """Register ``a5_whitted`` with Mitsuba for the active variant."""
+    mi.register_integrator("a5_whitted", lambda props: A5WhittedIntegrator(props))
