@@ -54,7 +54,13 @@ def blur(img: npt.ArrayLike, kernel: str = "binary") -> FloatImage:
     if a.ndim < 2:
         raise ValueError(f"blur needs an image of at least 2 dimensions, got shape {a.shape}")
     taps = kernel_taps(kernel)
-    return _blur_axis(_blur_axis(a, taps, 0), taps, 1)
+    if a.ndim == 2:
+        return _blur_axis(_blur_axis(a, taps, 0), taps, 1)
+    out = np.empty_like(a)  # one channel at a time: the temporaries stay at one channel's size
+    for c in np.ndindex(*a.shape[2:]):
+        plane = np.ascontiguousarray(a[(slice(None), slice(None)) + c])
+        out[(slice(None), slice(None)) + c] = _blur_axis(_blur_axis(plane, taps, 0), taps, 1)
+    return out
 
 
 def downsample3(img: npt.ArrayLike) -> FloatImage:

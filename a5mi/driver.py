@@ -1,0 +1,308 @@
+"""The render driver: camera rays, jitter, tiles, AOV images, post-filter (SPEC B.2, B.5, B.6).
+
+:func:`render` turns a parsed scene (``a5mi.converters.model``) into a float image the way ``a5soln`` does:
+
+* render buffer ``RW x RH`` = ``3W x 3H`` with ``-jitter``, else ``W x H`` (SPEC B.5);
+* sample ``(i, j)``, ``j = 0`` the bottom row, visited rows bottom-up; its camera ray goes through
+  ``x_pix = i + jx``, ``y_pix = j + jy`` (float32) of :func:`a5mi.plugins.camera.camera_rays` (SPEC B.2);
+* jitter: per sample ``r1 = rand(); r2 = rand()``, ``jy = (float)r1·2^-31 - 0.5`` first, then ``jx``, from
+  glibc's seed-1 stream (:mod:`a5mi.glibc_rand`); ``seed`` selects numpy's PCG64 instead;
+* ``integrator.sample(scene, sampler, ray, None, active)`` of ``a5_whitted`` gives the colour and the AOVs
+  ``[nx, ny, nz, t]``, in tiles of at most ``tile_rays`` rays (one kernel, compiled once and reused);
+* ``-filter``: blur + 3x3 downsample (:mod:`a5mi.filters`) of the render buffer;
+* ``-normals``: ``|N|`` per component; ``-depth dmin dmax``: gray ``1`` if ``t <= dmin``, ``0`` if
+  ``t >= dmax`` or ``dmin >= dmax``, else ``1 - (t - dmin)/(dmax - dmin)`` (SPEC B.6), both at the render
+  buffer's resolution, unfiltered, traced with the main image's rays.
+
+Images in :class:`RenderResult` have row 0 = the **top** row (ready for :func:`a5mi.imageio.write_image`).
+This module never prints: progress goes through a callback.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from a5mi.filters import KERNELS, postprocess
+from a5mi.glibc_rand import GlibcRand, jitter_offsets
+
+#: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
+TILE_RAYS = 1 << 20
+
+FRESNEL_MODES = ("a5", "schlick", "exact")
+
+Progress = Callable[[int, int], None]  # (samples done, samples total)
+CameraRays = Callable[..., Any]  # a5mi.plugins.camera.camera_rays
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    """What to render: the ``a5`` flags (SPEC B.1) plus the extras (seed, kernel, tiles, threads)."""
+
+    width: int = 100
+    height: int = 100
+    bounces: int = 4
+    shadows: bool = False
+    jitter: bool = False
+    filter: bool = False
+    seed: int | None = None  # None: glibc rand() from seed 1, as the binary
+    phong: bool = False
+    fresnel: str = "a5"
+    reflection: bool = True
+    refraction: bool = True
+    kernel: str = "binary"
+    normals: bool = False  # compute the |N| image
+    depth: tuple[float, float] | None = None  # (dmin, dmax): compute the depth image
+    tile_rays: int = TILE_RAYS
+    threads: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.width <= 0 or self.height <= 0:
+            raise ValueError(f"size must be positive, got {self.width}x{self.height}")
+        if self.bounces < 0:
+            raise ValueError(f"bounces must be >= 0, got {self.bounces}")
+        if self.fresnel not in FRESNEL_MODES:
+            raise ValueError(f"fresnel must be one of {', '.join(FRESNEL_MODES)}, got '{self.fresnel}'")
+        if self.kernel not in KERNELS:
+            raise ValueError(f"kernel must be one of {', '.join(KERNELS)}, got '{self.kernel}'")
+        if self.tile_rays <= 0:
+            raise ValueError(f"tile_rays must be positive, got {self.tile_rays}")
+
+    @property
+    def render_size(self) -> tuple[int, int]:
+        """``(RW, RH)``: the render buffer, 3W x 3H with ``-jitter`` (SPEC B.5)."""
+        k = 3 if self.jitter else 1
+        return k * self.width, k * self.height
+
+
+@dataclass
+class RenderResult:
+    """The saved image and the AOV images (float32 HxWx3, row 0 = top) plus statistics.
+
+    ``timings`` (seconds): ``build`` (dict + ``mi.load_dict``), ``compile`` (Dr.Jit codegen + LLVM),
+    ``execute`` (kernels), ``render`` (wall time of the tile loop), ``jitter`` (offset generation, mostly
+    overlapped with rendering), ``filter``.
+    """
+
+    image: npt.NDArray[np.float32]
+    normals: npt.NDArray[np.float32] | None
+    depth: npt.NDArray[np.float32] | None
+    render_size: tuple[int, int]
+    camera_rays: int
+    tiles: int
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def depth_gray(t: npt.ArrayLike, dmin: float, dmax: float) -> npt.NDArray[np.float32]:
+    """SPEC B.6: 1 if ``t <= dmin``; 0 if ``t >= dmax`` or ``dmin >= dmax``; else ``1 - (t-dmin)/(dmax-dmin)``."""
+    t = np.asarray(t, dtype=np.float32)
+    dmin32, dmax32 = np.float32(dmin), np.float32(dmax)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ramp = np.float32(1.0) - (t - dmin32) / (dmax32 - dmin32)
+    return np.select(
+        [t <= dmin32, (t >= dmax32) | (dmin32 >= dmax32) | np.isnan(t)], [np.float32(1), np.float32(0)], ramp
+    ).astype(np.float32)
+
+
+# --------------------------------------------------------------------------------------------------------
+# Jitter offsets, tile by tile
+# --------------------------------------------------------------------------------------------------------
+
+
+def jitter_stream(seed: int | None) -> Callable[[int], tuple[np.ndarray, np.ndarray]]:
+    """A function ``next(n) -> (jx, jy)`` giving the offsets of the next ``n`` samples (SPEC B.5 order).
+
+    ``seed=None``: glibc ``rand()`` from seed 1 (r1 -> jy first, r2 -> jx); else numpy's PCG64 with that
+    seed, also drawn in (jy, jx) pairs so a sample's offsets do not depend on the tile size.
+    """
+    if seed is None:
+        rng = GlibcRand()
+
+        def glibc_next(n: int) -> tuple[np.ndarray, np.ndarray]:
+            pairs = rng.next(2 * n).reshape(n, 2)
+            return jitter_offsets(pairs[:, 1]), jitter_offsets(pairs[:, 0])
+
+        return glibc_next
+    gen = np.random.default_rng(seed)
+
+    def numpy_next(n: int) -> tuple[np.ndarray, np.ndarray]:
+        pairs = gen.random((n, 2), dtype=np.float32) - np.float32(0.5)
+        return np.ascontiguousarray(pairs[:, 1]), np.ascontiguousarray(pairs[:, 0])
+
+    return numpy_next
+
+
+def tile_rows(rw: int, rh: int, tile_rays: int) -> list[tuple[int, int]]:
+    """Row ranges ``[j0, j1)`` (bottom-up) of at most ``tile_rays`` samples each (at least one row)."""
+    rows = max(1, tile_rays // rw)
+    return [(j0, min(rh, j0 + rows)) for j0 in range(0, rh, rows)]
+
+
+def _pixel_coords(
+    rw: int, j0: int, j1: int, jitter: tuple[np.ndarray, np.ndarray] | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """float32 ``x_pix = i + jx``, ``y_pix = j + jy`` for rows ``j0..j1-1``, row-major (i fastest)."""
+    i = np.tile(np.arange(rw, dtype=np.float32), j1 - j0)
+    j = np.repeat(np.arange(j0, j1, dtype=np.float32), rw)
+    if jitter is None:
+        return i, j
+    jx, jy = jitter
+    return i + jx, j + jy
+
+
+def _tiles_with_jitter(
+    rw: int, tiles: list[tuple[int, int]], seed: int | None, enabled: bool, timings: dict[str, float]
+) -> Iterator[tuple[int, int, tuple[np.ndarray, np.ndarray] | None]]:
+    """Yield tiles with their offsets; the next tile's offsets are computed in a worker thread while the
+    current tile renders (numpy's BLAS and Dr.Jit's kernels both release the GIL)."""
+    if not enabled:
+        for j0, j1 in tiles:
+            yield j0, j1, None
+        return
+    draw = jitter_stream(seed)
+
+    def timed(n: int) -> tuple[np.ndarray, np.ndarray]:
+        t0 = time.perf_counter()
+        out = draw(n)
+        timings["jitter"] = timings.get("jitter", 0.0) + time.perf_counter() - t0
+        return out
+
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        pending: Future[tuple[np.ndarray, np.ndarray]] = pool.submit(timed, (tiles[0][1] - tiles[0][0]) * rw)
+        for k, (j0, j1) in enumerate(tiles):
+            current = pending.result()
+            if k + 1 < len(tiles):
+                nj0, nj1 = tiles[k + 1]
+                pending = pool.submit(timed, (nj1 - nj0) * rw)
+            yield j0, j1, current
+
+
+# --------------------------------------------------------------------------------------------------------
+# Rendering
+# --------------------------------------------------------------------------------------------------------
+
+
+def _default_camera_rays() -> CameraRays:
+    from a5mi.plugins.camera import camera_rays
+
+    return camera_rays
+
+
+def render_scene(
+    mi_scene: Any,
+    camera: Any,
+    options: RenderOptions,
+    *,
+    integrator: Any = None,
+    camera_rays: CameraRays | None = None,
+    progress: Progress | None = None,
+) -> RenderResult:
+    """Render a loaded Mitsuba scene with the a5 camera ``camera`` (``center``, ``direction``, ``up``,
+    ``angle`` in degrees). ``integrator`` defaults to ``mi_scene.integrator()``; ``camera_rays`` to
+    :func:`a5mi.plugins.camera.camera_rays`."""
+    import drjit as dr
+    import mitsuba as mi
+
+    if options.threads is not None:
+        dr.set_thread_count(options.threads)
+    integrator = integrator if integrator is not None else mi_scene.integrator()
+    camera_rays = camera_rays if camera_rays is not None else _default_camera_rays()
+    rw, rh = options.render_size
+    total = rw * rh
+    tiles = tile_rows(rw, rh, options.tile_rays)
+    want_aov = options.normals or options.depth is not None
+
+    color = np.empty((rh, rw, 3), np.float32)
+    normal = np.empty((rh, rw, 3), np.float32) if options.normals else None
+    dist = np.empty((rh, rw), np.float32) if options.depth is not None else None
+    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
+    timings: dict[str, float] = {"compile": 0.0, "execute": 0.0, "jitter": 0.0}
+
+    t_start = time.perf_counter()
+    done = 0
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        dr.kernel_history_clear()
+        for j0, j1, jit in _tiles_with_jitter(rw, tiles, options.seed, options.jitter, timings):
+            n = (j1 - j0) * rw
+            x_pix, y_pix = _pixel_coords(rw, j0, j1, jit)
+            ray = camera_rays(
+                camera.center, camera.direction, camera.up, camera.angle,
+                mi.Float(x_pix), mi.Float(y_pix), rw, rh,
+            )  # fmt: skip
+            sampler.seed(0, n)
+            rgb, _valid, aovs = integrator.sample(mi_scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
+            outputs = [rgb] + (list(aovs)[:4] if want_aov else [])
+            dr.eval(*outputs)
+            dr.sync_thread()
+            color[j0:j1] = np.asarray(rgb).T.reshape(j1 - j0, rw, 3)
+            if want_aov:
+                if len(aovs) < 4:
+                    raise RuntimeError(f"integrator returned {len(aovs)} AOVs, expected [nx, ny, nz, t]")
+                if normal is not None:
+                    nrm = np.stack([np.asarray(aovs[k]) for k in range(3)], axis=-1)
+                    normal[j0:j1] = np.abs(nrm).reshape(j1 - j0, rw, 3)
+                if dist is not None:
+                    dist[j0:j1] = np.asarray(aovs[3]).reshape(j1 - j0, rw)
+            for entry in dr.kernel_history():
+                timings["execute"] += entry.get("execution_time", 0.0) / 1000.0
+                timings["compile"] += (entry.get("codegen_time", 0.0) + entry.get("backend_time", 0.0)) / 1000.0
+            done += n
+            if progress is not None:
+                progress(done, total)
+    timings["render"] = time.perf_counter() - t_start
+
+    t0 = time.perf_counter()
+    image = postprocess(color, filter=options.filter, kernel=options.kernel)
+    timings["filter"] = time.perf_counter() - t0
+    depth_img = None
+    if dist is not None and options.depth is not None:
+        gray = depth_gray(dist, *options.depth)
+        depth_img = np.ascontiguousarray(np.repeat(gray[:, :, None], 3, axis=2)[::-1])
+    return RenderResult(
+        image=np.ascontiguousarray(image[::-1]),
+        normals=None if normal is None else np.ascontiguousarray(normal[::-1]),
+        depth=depth_img,
+        render_size=(rw, rh),
+        camera_rays=total,
+        tiles=len(tiles),
+        timings=timings,
+    )
+
+
+def build_scene(scene_model: Any, options: RenderOptions) -> Any:
+    """``mi.load_dict(to_dict(scene_model, RenderSettings(...)))``: the Mitsuba scene with ``a5_whitted``."""
+    import mitsuba as mi
+
+    from a5mi.converters.to_mitsuba import RenderSettings, to_dict
+
+    rw, rh = options.render_size
+    settings = RenderSettings(
+        width=rw,
+        height=rh,
+        bounces=options.bounces,
+        shadows=options.shadows,
+        phong=options.phong,
+        fresnel=options.fresnel,
+        reflection=options.reflection,
+        refraction=options.refraction,
+    )
+    return mi.load_dict(to_dict(scene_model, settings))
+
+
+def render(scene_model: Any, options: RenderOptions, *, progress: Progress | None = None) -> RenderResult:
+    """Render a parsed scene (``a5mi.converters.a5_parser.parse_file``) as ``a5soln`` would (SPEC B.2, B.5).
+
+    Needs an active JIT variant with the a5mi plugins registered (:func:`a5mi.variant.activate`).
+    """
+    t0 = time.perf_counter()
+    mi_scene = build_scene(scene_model, options)
+    t_build = time.perf_counter() - t0
+    result = render_scene(mi_scene, scene_model.camera, options, progress=progress)
+    result.timings["build"] = t_build
+    return result

@@ -1,0 +1,131 @@
+"""The driver's sample order, jitter, tiling, orientation and AOVs (SPEC B.2, B.5, B.6).
+
+Stand-ins: ``_probe_rays`` encodes each sample's ``(x_pix, y_pix)`` into the ray origin, and ``_Probe``
+(an integrator with the ``a5_whitted.sample`` signature) returns it as the colour, so the tests see exactly
+which sample landed in which pixel. The last test renders through the real converter and plugins.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from a5mi import driver
+from a5mi.driver import RenderOptions, depth_gray, render_scene, tile_rows
+from a5mi.glibc_rand import GlibcRand, jitter_offsets
+
+CAMERA = SimpleNamespace(center=(0.0, 0.0, 0.0), direction=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0), angle=30.0)
+
+
+def _probe_rays(center, direction, up, angle, x_pix, y_pix, width, height):
+    import mitsuba as mi
+
+    _probe_rays.size = (width, height)
+    return mi.Ray3f(mi.Point3f(x_pix, y_pix, 0.0), mi.Vector3f(0.0, 0.0, 1.0))
+
+
+class _Probe:
+    """colour = (x_pix, y_pix, 0.25); AOVs n = (-x_pix, 0.5, 0), t = y_pix."""
+
+    def sample(self, scene, sampler, ray, medium, active):
+        import mitsuba as mi
+
+        o = ray.o
+        return mi.Color3f(o.x, o.y, 0.25), active, [-o.x, mi.Float(0.5) + 0 * o.x, 0 * o.x, o.y]
+
+
+def _render(**kw):
+    return render_scene(None, CAMERA, RenderOptions(**kw), integrator=_Probe(), camera_rays=_probe_rays)
+
+
+def test_b2_pixel_centres_and_orientation(variant) -> None:
+    """Without jitter, pixel (i, j) is sampled at (i, j); row 0 of the result is j = H-1 (top)."""
+    res = _render(width=5, height=3)
+    assert res.image.shape == (3, 5, 3) and res.camera_rays == 15
+    assert _probe_rays.size == (5, 3)
+    for row in range(3):
+        j = 2 - row
+        np.testing.assert_array_equal(res.image[row, :, 0], np.arange(5, dtype=np.float32))
+        np.testing.assert_array_equal(res.image[row, :, 1], np.full(5, j, np.float32))
+
+
+def test_b5_jitter_glibc_order(variant) -> None:
+    """-jitter: 3W x 3H samples, rows bottom-up, per sample r1 -> jy then r2 -> jx (float32)."""
+    res = _render(width=4, height=2, jitter=True)
+    assert res.image.shape == (6, 12, 3) and _probe_rays.size == (12, 6)
+    r = GlibcRand().next(2 * 72).reshape(72, 2)
+    jy, jx = jitter_offsets(r[:, 0]).reshape(6, 12), jitter_offsets(r[:, 1]).reshape(6, 12)
+    i = np.arange(12, dtype=np.float32)[None, :]
+    j = np.arange(6, dtype=np.float32)[:, None]
+    bottom_up = res.image[::-1]
+    np.testing.assert_array_equal(bottom_up[..., 0], i + jx)
+    np.testing.assert_array_equal(bottom_up[..., 1], j + jy)
+    # the very first rand() value (1804289383) is the y offset of the bottom-left sample
+    assert bottom_up[0, 0, 1] == np.float32(1804289383) * np.float32(2**-31) - np.float32(0.5)
+
+
+@pytest.mark.parametrize("seed", [None, 7])
+def test_b5_tiles_do_not_change_the_image(variant, seed) -> None:
+    whole = _render(width=5, height=4, jitter=True, seed=seed)
+    tiled = _render(width=5, height=4, jitter=True, seed=seed, tile_rays=16)  # 16 // 15 = 1 row per tile
+    assert tiled.tiles == 12 and whole.tiles == 1
+    np.testing.assert_array_equal(tiled.image, whole.image)
+
+
+def test_b5_seed_selects_numpy_generator(variant) -> None:
+    a = _render(width=3, height=3, jitter=True, seed=1).image
+    b = _render(width=3, height=3, jitter=True, seed=1).image
+    c = _render(width=3, height=3, jitter=True).image
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, c)
+    off = a[::-1, :, 0] - np.arange(9, dtype=np.float32)[None, :]
+    assert off.min() >= -0.5 and off.max() < 0.5
+
+
+@pytest.mark.parametrize(
+    "jitter,filt,shape", [(True, True, (4, 7)), (True, False, (12, 21)), (False, True, (1, 2)), (False, False, (4, 7))]
+)
+def test_b5_flag_combination_sizes(variant, jitter, filt, shape) -> None:
+    """Non-square -size 7 4: every flag combination of SPEC B.5's table."""
+    res = _render(width=7, height=4, jitter=jitter, filter=filt)
+    assert res.image.shape[:2] == shape
+    assert res.render_size == ((21, 12) if jitter else (7, 4))
+
+
+def test_b5_filter_applies_blur_then_downsample(variant) -> None:
+    """The blue channel is the constant 0.25: blur gain 1.0001^2, box keeps it."""
+    res = _render(width=4, height=4, jitter=True, filter=True)
+    np.testing.assert_allclose(res.image[..., 2], 0.25 * 1.0001**2, rtol=2e-6)
+    handout = _render(width=4, height=4, jitter=True, filter=True, kernel="handout")
+    np.testing.assert_allclose(handout.image[..., 2], 0.25 * 1.0011**2, rtol=2e-6)
+
+
+def test_b6_normals_and_depth_images(variant) -> None:
+    res = _render(width=4, height=5, normals=True, depth=(1.0, 3.0))
+    assert res.normals is not None and res.depth is not None
+    assert res.normals.shape == res.depth.shape == (5, 4, 3)
+    bottom_up_n = res.normals[::-1]
+    np.testing.assert_array_equal(bottom_up_n[..., 0], np.tile(np.arange(4, dtype=np.float32), (5, 1)))  # |-x|
+    np.testing.assert_array_equal(bottom_up_n[..., 1], 0.5)
+    gray = res.depth[::-1, 0, 0]  # t = j
+    np.testing.assert_allclose(gray, [1.0, 1.0, 0.5, 0.0, 0.0])
+
+
+def test_b6_depth_formula_edges() -> None:
+    t = np.array([0.0, 1.0, 1.5, 2.0, 5.0, np.inf, np.nan], np.float32)
+    np.testing.assert_allclose(depth_gray(t, 1.0, 2.0), [1, 1, 0.5, 0, 0, 0, 0])
+    np.testing.assert_allclose(depth_gray(t, 2.0, 2.0)[[0, 3, 4]], [1, 1, 0])  # dmin >= dmax: 0 past dmin
+
+
+def test_tile_rows_bounded() -> None:
+    assert tile_rows(10, 7, 25) == [(0, 2), (2, 4), (4, 6), (6, 7)]
+    assert tile_rows(100, 2, 5) == [(0, 1), (1, 2)]  # at least one row per tile
+    assert all((b - a) * 1920 * 3 <= driver.TILE_RAYS for a, b in tile_rows(1920 * 3, 1080 * 3, driver.TILE_RAYS))
+
+
+@pytest.mark.parametrize("bad", [dict(width=0), dict(bounces=-1), dict(fresnel="x"), dict(kernel="gauss")])
+def test_options_validated(bad) -> None:
+    with pytest.raises(ValueError):
+        RenderOptions(**bad)
