@@ -15,11 +15,11 @@ import importlib
 PLUGIN_MODULES: tuple[str, ...] = (
     "marble",           # a5_marble texture (noise functions in perlin.py)
     "bitmap",           # a5_bitmap texture
-    # "point_light",    # a5_point emitter
+    "point_light",      # a5_point emitter
     # "cubemap",        # a5_cubemap emitter
     # "camera",         # a5_camera sensor
-    # "a5_material",    # a5_material BSDF
-    # "whitted",        # a5_whitted integrator
+    "a5_material",      # a5_material BSDF
+    "whitted",          # a5_whitted integrator
 )
 
 _registered_for: str | None = None
