@@ -16,7 +16,7 @@ PLUGIN_MODULES: tuple[str, ...] = (
     "marble",           # a5_marble texture (noise functions in perlin.py)
     "bitmap",           # a5_bitmap texture
     "point_light",      # a5_point emitter
-    # "cubemap",        # a5_cubemap emitter
+    "cubemap",          # a5_cubemap emitter
     # "camera",         # a5_camera sensor
     "a5_material",      # a5_material BSDF
     "whitted",          # a5_whitted integrator

@@ -1,0 +1,180 @@
+"""The ``a5_cubemap`` environment emitter: the course's CubeMap background (SPEC A.4)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import drjit as dr
+import mitsuba as mi
+from a5mi.plugins.imagedata import ImageAtlas, load_rgb8
+
+#: Face order of the atlas (image index used by :meth:`A5CubeMap.lookup`).
+FACES: tuple[str, ...] = ("left", "right", "up", "down", "front", "back")
+LEFT, RIGHT, UP, DOWN, FRONT, BACK = range(6)
+#: Extensions tried for each face, in this order (the first that exists wins).
+EXTENSIONS: tuple[str, ...] = (".bmp", ".png", ".jpg", ".jpeg", ".tga", ".ppm", ".tif", ".tiff", ".exr", ".hdr")
+
+#: Distance used for ``ds.dist`` by ``sample_direction`` (the emitter does not know the scene's size).
+FAR = 1.0e6
+
+
+def find_face(folder: Path, face: str) -> Path:
+    """The file holding ``face`` in ``folder`` (``face`` + the first extension of EXTENSIONS that exists).
+
+    Raises ``ValueError`` naming the face and the names tried.
+    """
+    for ext in EXTENSIONS:
+        path = folder / f"{face}{ext}"
+        if path.is_file():
+            return path
+    for path in sorted(folder.glob(f"{face}.*")):  # any other extension OpenImageIO may read
+        if path.is_file():
+            return path
+    raise ValueError(
+        f"a5_cubemap: parameter 'filename' ({str(folder)!r}): face '{face}' not found "
+        f"(looked for {face}{{{','.join(EXTENSIONS)}}})"
+    )
+
+
+def face_uv(d: mi.Vector3f) -> tuple[mi.UInt32, mi.Float, mi.Float, mi.Bool]:
+    """Face index and (u, v) of the unit direction ``d`` per the SPEC A.4 table; ties go to x, then y.
+
+    ========  =====  ===============  ===============
+    major     face   u                v
+    ========  =====  ===============  ===============
+    x > 0     right  (z/x+1)/2        (y/x+1)/2
+    x < 0     left   (z/x+1)/2        1 − (y/x+1)/2
+    y > 0     up     (x/y+1)/2        (z/y+1)/2
+    y < 0     down   1 − (x/y+1)/2    1 − (z/y+1)/2
+    z > 0     front  1 − (x/z+1)/2    (y/z+1)/2
+    z < 0     back   (x/z+1)/2        1 − (y/z+1)/2
+    ========  =====  ===============  ===============
+
+    Output ``valid`` is false only for d = 0 (the binary returns black there).
+    """
+    ax, ay, az = dr.abs(d.x), dr.abs(d.y), dr.abs(d.z)
+    x_major = (ax >= ay) & (ax >= az)
+    y_major = ~x_major & (ay >= az)
+    z_major = ~x_major & ~y_major
+    major = dr.select(x_major, d.x, dr.select(y_major, d.y, d.z))
+    # the two minor coordinates, in the table's order (s for u, t for v), divided by the major one
+    s = dr.select(x_major, d.z, d.x)
+    t = dr.select(x_major, d.y, dr.select(y_major, d.z, d.y))
+    su = (s / major + 1.0) * 0.5
+    tv = (t / major + 1.0) * 0.5
+    pos = major > 0
+    face = dr.select(
+        x_major,
+        dr.select(pos, RIGHT, LEFT),
+        dr.select(y_major, dr.select(pos, UP, DOWN), dr.select(pos, FRONT, BACK)),
+    )
+    face = mi.UInt32(face)
+    flip_u = (y_major & ~pos) | (z_major & pos)  # down, front
+    flip_v = ~pos  # left, down, back: every negative face
+    u = dr.select(flip_u, 1.0 - su, su)
+    v = dr.select(flip_v, 1.0 - tv, tv)
+    return face, u, v, major != 0
+
+
+class A5CubeMap(mi.Emitter):
+    """Cube-map background of the 6.837 scene format (SPEC A.4, ``Background { cubeMap NAME }``).
+
+    .. list-table::
+       :header-rows: 1
+
+       * - Parameter
+         - Type
+         - Description
+       * - ``filename``
+         - string
+         - Folder holding the six faces ``left right up down front back``, each any 8-bit image
+           (``.bmp`` in 2012, ``.png`` in 2015; the first of .bmp, .png, .jpg, ... that exists). Required.
+
+    A ray that misses sees the colour ``lookup(d)`` for its direction d (``eval(si)`` uses d = −si.wi):
+    d is normalised (float32, d / sqrt((x²+y²)+z²)), its major axis picks a face (ties go to x, then y),
+    the A.4 table gives (u, v) and the face is sampled with the A.4 texture lookup (bilinear, clamped,
+    no half-texel offset, bytes / 255, no gamma). The faces are not rotated or flipped in any other way.
+
+    The emitter is an environment (``Infinite`` flag, ``is_environment()`` true). For stock integrators
+    it also samples directions uniformly over the sphere (pdf 1/4π, ``ds.dist`` = 1e6); that is not
+    importance sampling, only enough to make it usable by ``path`` or ``direct``.
+
+    .. code-block:: python
+
+        'background': {'type': 'a5_cubemap', 'filename': 'tex/church'}
+    """
+
+    def __init__(self, props: mi.Properties) -> None:
+        super().__init__(props)
+        if "filename" not in props:
+            raise ValueError("a5_cubemap: parameter 'filename' is required (a folder with the six faces)")
+        self.filename = str(props["filename"])
+        folder = Path(self.filename)
+        if not folder.is_dir():
+            raise ValueError(f"a5_cubemap: parameter 'filename' ({self.filename!r}) is not a folder")
+        images = []
+        self.face_files: dict[str, Path] = {}
+        for face in FACES:
+            path = find_face(folder, face)
+            try:
+                images.append(load_rgb8(path))
+            except ValueError as exc:
+                raise ValueError(f"a5_cubemap: parameter 'filename', face '{face}': {exc}") from None
+            self.face_files[face] = path
+        self.atlas = ImageAtlas(images)
+        self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
+
+    def lookup(self, d: mi.Vector3f, active: mi.Bool | bool = True) -> mi.Color3f:
+        """Output the background colour for the direction ``d`` (any length), per SPEC A.4."""
+        d = mi.Vector3f(d)
+        norm = dr.sqrt((d.x * d.x + d.y * d.y) + d.z * d.z)
+        d = d / norm
+        face, u, v, valid = face_uv(d)
+        valid &= mi.Bool(active)
+        return dr.select(valid, self.atlas.sample(u, v, face, valid), 0.0)
+
+    def eval(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
+        """Output lookup(−si.wi): the colour seen by a ray of direction −si.wi that missed the scene."""
+        return self.lookup(-si.wi, active)
+
+    def sample_direction(
+        self, it: mi.Interaction3f, sample: mi.Point2f, active: mi.Bool = True
+    ) -> tuple[mi.DirectionSample3f, mi.Color3f]:
+        """Uniform direction over the sphere; value = lookup(d) / pdf with pdf = 1/(4π)."""
+        d = mi.warp.square_to_uniform_sphere(sample)
+        ds = dr.zeros(mi.DirectionSample3f, dr.width(d))
+        ds.p = it.p + d * FAR
+        ds.n = -d
+        ds.time = it.time
+        ds.pdf = mi.warp.square_to_uniform_sphere_pdf(d)
+        ds.delta = mi.Bool(False)
+        ds.d = d
+        ds.dist = mi.Float(FAR)
+        ds.emitter = mi.EmitterPtr(self)
+        return ds, dr.select(active, self.lookup(d, active) / ds.pdf, 0.0)
+
+    def pdf_direction(self, it: mi.Interaction3f, ds: mi.DirectionSample3f, active: mi.Bool = True) -> mi.Float:
+        """1/(4π) (uniform sphere sampling)."""
+        return dr.select(active, mi.warp.square_to_uniform_sphere_pdf(ds.d), 0.0)
+
+    def eval_direction(self, it: mi.Interaction3f, ds: mi.DirectionSample3f, active: mi.Bool = True) -> mi.Color3f:
+        """lookup(ds.d)."""
+        return self.lookup(ds.d, active)
+
+    def bbox(self) -> mi.ScalarBoundingBox3f:
+        return mi.ScalarBoundingBox3f()  # occupies no region of space
+
+    def traverse(self, cb: mi.TraversalCallback) -> None:
+        cb.put("data", self.atlas.data, mi.ParamFlags.NonDifferentiable)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        dr.make_opaque(self.atlas.data)
+
+    def to_string(self) -> str:
+        sizes = ", ".join(f"{f}={w}x{h}" for f, (w, h) in zip(FACES, self.atlas.sizes, strict=True))
+        return f"A5CubeMap[filename={self.filename!r}, {sizes}]"
+
+
+def register() -> None:
+    """Register ``a5_cubemap`` with Mitsuba (call after selecting a JIT variant)."""
+    mi.register_emitter("a5_cubemap", lambda props: A5CubeMap(props))
