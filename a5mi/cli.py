@@ -1,0 +1,473 @@
+"""The ``a5`` and ``a5mi`` commands (SPEC B.1): flags -> scene -> render -> images. The only module that prints.
+
+``a5`` takes the assignment's arguments, in any order (SPEC B.1)::
+
+    a5 -input F.txt -size W H -output IMG [-shadows] [-bounces N] [-jitter|-jittered] [-filter]
+       [-normals IMG] [-depth DMIN DMAX IMG] [-reflection_off] [-refraction_off]
+
+plus the extras ``-seed N``, ``-variant llvm|cuda|auto``, ``-threads N``, ``-phong``,
+``-fresnel a5|schlick|exact``, ``-kernel binary|handout``, ``-v``, ``--debug``, ``-h``. A flag given twice
+keeps its last value, as the binary's loop does. ``a5mi`` is the toolbox: ``a5mi render <a5 flags>``,
+``a5mi convert SCENE.txt -o OUT.xml [--stock]``; further sub-commands are one line in :data:`SUBCOMMANDS`.
+
+Errors (issue 8): a user error prints one line on stderr, ``FILE:LINE:COL: error: ...`` for the scene or
+``a5: error: ...`` otherwise, and returns 2; anything else is a bug and returns 1 with a hint to re-run with
+``--debug``, which prints tracebacks. Outputs are checked (extension, folder) before rendering and written,
+each atomically, only after everything has rendered, so a failure never leaves or clobbers a file.
+Mitsuba is imported only after the flags and the scene have been parsed.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import sys
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import TextIO
+
+from a5mi.errors import UsageError, UserError
+
+PROG = "a5"
+MAX_SIZE = 16384  # per side; 3x that with -jitter is already 2.4 G samples
+
+A5_USAGE = """\
+usage: a5 -input SCENE.txt -output IMG [-size W H] [-shadows] [-bounces N] [-jitter] [-filter]
+          [-normals IMG] [-depth DMIN DMAX IMG] [-reflection_off] [-refraction_off]
+          [-seed N] [-variant llvm|cuda|auto] [-threads N] [-phong] [-fresnel a5|schlick|exact]
+          [-kernel binary|handout] [-v] [--debug] [-h]
+
+Render a 6.837 assignment-5 scene as the course's sample solution a5soln does.
+
+assignment flags (SPEC B.1; any order):
+  -input SCENE.txt       scene file (relative mesh/texture paths resolve against the working directory)
+  -output IMG            image to write: .png .bmp .tga .ppm .tif .tiff (8-bit) or .exr (float)
+  -size W H              image size (default 100 100); non-square sizes work
+  -shadows               cast shadow rays
+  -bounces N             reflection/refraction depth (default 4; 0: ambient + diffuse only)
+  -jitter, -jittered     3W x 3H samples with glibc rand() offsets (alone: saves the 3W x 3H image)
+  -filter                blur + 3x3 downsample (with -jitter: W x H; alone: W/3 x H/3, as a5soln)
+  -normals IMG           also write |N| of the first hit (render resolution, unfiltered)
+  -depth DMIN DMAX IMG   also write the depth image (1 at DMIN, 0 at DMAX)
+  -reflection_off        no mirror rays
+  -refraction_off        no refracted rays
+
+extras:
+  -seed N                jitter from numpy's PCG64 with seed N instead of glibc rand() (seed 1)
+  -variant V             llvm (default), cuda or auto
+  -threads N             Dr.Jit worker threads
+  -phong                 add the handout's Phong highlight (a5soln has none)
+  -fresnel MODE          a5 (the binary's R0, default), schlick or exact
+  -kernel K              blur kernel: binary (centre tap 0.2921, default) or handout (0.2931, a typo)
+  -v                     print stage timings, ray counts and peak memory on stderr
+  --debug                show tracebacks
+  -h, -help, --help      show this help
+"""
+
+A5MI_USAGE = """\
+usage: a5mi COMMAND [ARGS]
+
+commands:
+{commands}
+run 'a5mi COMMAND -h' for a command's flags.
+"""
+
+
+# --------------------------------------------------------------------------------------------------------
+# Output
+# --------------------------------------------------------------------------------------------------------
+
+
+def print_error(msg: str, stream: TextIO | None = None) -> None:
+    """Print one user-facing error line; ``msg`` is either ``FILE:LINE:COL: error: ...`` or a bare message
+    that gets the ``a5: error:`` prefix."""
+    assert not msg.startswith("error:"), "callers pass the message without the 'error:' prefix"
+    line = msg if ": error: " in msg else f"{PROG}: error: {msg}"
+    print(line.splitlines()[0] if line else line, file=stream or sys.stderr)
+
+
+def _note(msg: str) -> None:
+    print(msg, file=sys.stderr)
+
+
+class _ProgressBar:
+    """A one-line bar on stderr, shown once a render has taken more than ``delay`` seconds."""
+
+    def __init__(self, enabled: bool, delay: float = 2.0, width: int = 30) -> None:
+        self.enabled, self.delay, self.width = enabled, delay, width
+        self.start = time.perf_counter()
+        self.shown = False
+
+    def __call__(self, done: int, total: int) -> None:
+        elapsed = time.perf_counter() - self.start
+        if not self.enabled or (elapsed < self.delay and done < total) or (not self.shown and done >= total):
+            return
+        frac = done / total if total else 1.0
+        fill = int(frac * self.width)
+        eta = elapsed / frac - elapsed if frac > 0 else 0.0
+        sys.stderr.write(f"\r[{'#' * fill}{'.' * (self.width - fill)}] {frac:4.0%}  {elapsed:6.1f} s  eta {eta:5.1f} s")
+        sys.stderr.flush()
+        self.shown = True
+        if done >= total:
+            sys.stderr.write("\n")
+
+
+# --------------------------------------------------------------------------------------------------------
+# Argument parsing (single-dash long flags in any order: hand-written)
+# --------------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class A5Args:
+    """The parsed ``a5`` command line."""
+
+    input: str | None = None
+    output: str | None = None
+    width: int = 100
+    height: int = 100
+    bounces: int = 4
+    shadows: bool = False
+    jitter: bool = False
+    filter: bool = False
+    normals: str | None = None
+    depth: tuple[float, float, str] | None = None
+    reflection: bool = True
+    refraction: bool = True
+    seed: int | None = None
+    variant: str | None = None
+    threads: int | None = None
+    phong: bool = False
+    fresnel: str = "a5"
+    kernel: str = "binary"
+    verbose: bool = False
+    debug: bool = False
+    help: bool = False
+    seen: list[str] = field(default_factory=list)
+
+
+def _int(flag: str, text: str, lo: int, hi: int) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise UsageError(f"{flag} expects an integer, found '{text}'") from None
+    if not lo <= value <= hi:
+        raise UsageError(f"{flag} expects an integer in [{lo}, {hi}], found {value}")
+    return value
+
+
+def _float(flag: str, text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise UsageError(f"{flag} expects a number, found '{text}'") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise UsageError(f"{flag} expects a finite number, found '{text}'")
+    return value
+
+
+def _choice(flag: str, text: str, choices: Sequence[str]) -> str:
+    if text not in choices:
+        raise UsageError(f"{flag} expects one of {', '.join(choices)}, found '{text}'")
+    return text
+
+
+def _set(field_name: str, value: object) -> Callable[[A5Args, list[str]], None]:
+    def apply(a: A5Args, _vals: list[str]) -> None:
+        setattr(a, field_name, value)
+
+    return apply
+
+
+def _size(a: A5Args, v: list[str]) -> None:
+    a.width, a.height = _int("-size", v[0], 1, MAX_SIZE), _int("-size", v[1], 1, MAX_SIZE)
+
+
+def _depth(a: A5Args, v: list[str]) -> None:
+    a.depth = (_float("-depth", v[0]), _float("-depth", v[1]), v[2])
+
+
+# flag -> (number of values, action)
+_A5_FLAGS: dict[str, tuple[int, Callable[[A5Args, list[str]], None]]] = {
+    "-input": (1, lambda a, v: setattr(a, "input", v[0])),
+    "-output": (1, lambda a, v: setattr(a, "output", v[0])),
+    "-size": (2, _size),
+    "-shadows": (0, _set("shadows", True)),
+    "-bounces": (1, lambda a, v: setattr(a, "bounces", _int("-bounces", v[0], 0, 64))),
+    "-jitter": (0, _set("jitter", True)),
+    "-jittered": (0, _set("jitter", True)),
+    "-filter": (0, _set("filter", True)),
+    "-normals": (1, lambda a, v: setattr(a, "normals", v[0])),
+    "-depth": (3, _depth),
+    "-reflection_off": (0, _set("reflection", False)),
+    "-refraction_off": (0, _set("refraction", False)),
+    "-seed": (1, lambda a, v: setattr(a, "seed", _int("-seed", v[0], 0, 2**63 - 1))),
+    "-variant": (1, lambda a, v: setattr(a, "variant", _choice("-variant", v[0], ("llvm", "cuda", "auto")))),
+    "-threads": (1, lambda a, v: setattr(a, "threads", _int("-threads", v[0], 1, 1024))),
+    "-phong": (0, _set("phong", True)),
+    "-fresnel": (1, lambda a, v: setattr(a, "fresnel", _choice("-fresnel", v[0], ("a5", "schlick", "exact")))),
+    "-kernel": (1, lambda a, v: setattr(a, "kernel", _choice("-kernel", v[0], ("binary", "handout")))),
+    "-v": (0, _set("verbose", True)),
+    "--debug": (0, _set("debug", True)),
+    "-debug": (0, _set("debug", True)),
+    "-h": (0, _set("help", True)),
+    "-help": (0, _set("help", True)),
+    "--help": (0, _set("help", True)),
+}
+
+
+def parse_a5_args(argv: Sequence[str]) -> A5Args:
+    """Parse ``a5`` flags in any order; raise :class:`UsageError` with a one-line message."""
+    args = A5Args()
+    k = 0
+    while k < len(argv):
+        flag = argv[k]
+        if flag not in _A5_FLAGS:
+            if flag.startswith("-"):
+                raise UsageError(f"unknown flag '{flag}' (see a5 -h)")
+            raise UsageError(f"unexpected argument '{flag}' (flags take the form -input F.txt; see a5 -h)")
+        nvals, action = _A5_FLAGS[flag]
+        values = list(argv[k + 1 : k + 1 + nvals])
+        if len(values) < nvals:
+            raise UsageError(f"{flag} expects {nvals} value{'s' if nvals > 1 else ''}, found end of arguments")
+        action(args, values)
+        args.seen.append(flag)
+        k += 1 + nvals
+    if args.help:
+        return args
+    if args.input is None:
+        raise UsageError("missing -input SCENE.txt")
+    if args.output is None:
+        raise UsageError("missing -output IMG")
+    if args.filter and not args.jitter and (args.width < 3 or args.height < 3):
+        raise UsageError(
+            f"-filter without -jitter saves a W/3 x H/3 image; -size {args.width} {args.height} is too small"
+        )
+    return args
+
+
+# --------------------------------------------------------------------------------------------------------
+# a5 / a5mi render
+# --------------------------------------------------------------------------------------------------------
+
+
+def _render_command(args: A5Args) -> int:
+    """Check outputs, parse the scene, activate the variant, render, then write every image atomically."""
+    from a5mi import imageio
+
+    timings: dict[str, float] = {}
+    outputs = [args.output] + ([args.normals] if args.normals else []) + ([args.depth[2]] if args.depth else [])
+    for path in outputs:
+        assert path is not None
+        imageio.check_output_path(path)
+    if len(set(map(os.path.abspath, outputs))) != len(outputs):  # type: ignore[arg-type]
+        raise UsageError("-output, -normals and -depth must name different files")
+
+    t0 = time.perf_counter()
+    from a5mi.converters.a5_parser import parse_file
+
+    assert args.input is not None
+    try:
+        scene = parse_file(args.input)
+    except OSError as exc:
+        raise UserError(f"cannot read '{args.input}': {exc.strerror or exc}") from None
+    timings["parse"] = time.perf_counter() - t0
+    for loc, msg in getattr(scene, "warnings", ()):
+        _note(f"{loc}: warning: {msg}")
+
+    from a5mi import driver
+    from a5mi.variant import VariantError, activate
+
+    t0 = time.perf_counter()
+    try:
+        variant = activate(args.variant)
+    except VariantError as exc:
+        raise UserError(str(exc)) from None
+    timings["variant"] = time.perf_counter() - t0
+
+    options = driver.RenderOptions(
+        width=args.width,
+        height=args.height,
+        bounces=args.bounces,
+        shadows=args.shadows,
+        jitter=args.jitter,
+        filter=args.filter,
+        seed=args.seed,
+        phong=args.phong,
+        fresnel=args.fresnel,
+        reflection=args.reflection,
+        refraction=args.refraction,
+        kernel=args.kernel,
+        normals=args.normals is not None,
+        depth=args.depth[:2] if args.depth else None,
+        threads=args.threads,
+    )
+    bar = _ProgressBar(enabled=args.verbose or sys.stderr.isatty())
+    result = driver.render(scene, options, progress=bar)
+    timings.update(result.timings)
+
+    t0 = time.perf_counter()
+    writes: list[tuple[str, object]] = [(args.output, result.image)]  # type: ignore[list-item]
+    if args.normals:
+        writes.append((args.normals, result.normals))
+    if args.depth:
+        writes.append((args.depth[2], result.depth))
+    imageio.write_images(writes)  # type: ignore[arg-type]
+    timings["write"] = time.perf_counter() - t0
+
+    if args.verbose:
+        import resource
+
+        peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+        rw, rh = result.render_size
+        h, w = result.image.shape[:2]
+        _note(f"a5: {variant}, render {rw}x{rh} ({result.camera_rays} camera rays, {result.tiles} tiles), "
+              f"saved {w}x{h}")
+        order = ("parse", "variant", "build", "compile", "execute", "render", "jitter", "filter", "write")
+        _note("a5: times " + ", ".join(f"{k} {timings[k]:.3f} s" for k in order if k in timings))
+        _note(f"a5: peak memory {peak_mb:.0f} MB")
+    return 0
+
+
+def _guarded(debug: bool, body: Callable[[], int]) -> int:
+    """Run ``body`` with the error policy: user errors -> one line, 2; bugs -> short message, 1."""
+    from a5mi.converters.errors import SceneError
+
+    try:
+        return body()
+    except SceneError as exc:
+        if debug:
+            traceback.print_exc()
+        print_error(str(exc) if exc.loc is not None else exc.msg)
+        return 2
+    except UserError as exc:
+        if debug:
+            traceback.print_exc()
+        print_error(str(exc))
+        return 2
+    except KeyboardInterrupt:
+        print_error("interrupted")
+        return 130
+    except Exception as exc:  # noqa: BLE001 - the last line of defence: report a bug, not a traceback
+        if debug:
+            traceback.print_exc()
+        else:
+            detail = str(exc).splitlines()[0] if str(exc) else ""
+            _note(f"{PROG}: internal error: {type(exc).__name__}{': ' + detail if detail else ''} "
+                  "(re-run with --debug for the traceback)")
+        return 1
+
+
+def run(argv: Sequence[str]) -> int:
+    """``a5 ARGS``: render a scene (SPEC B.1). Returns the exit status (0, 1 internal error, 2 user error)."""
+    debug = "--debug" in argv or "-debug" in argv
+
+    def body() -> int:
+        args = parse_a5_args(argv)
+        if args.help:
+            print(A5_USAGE, end="")
+            return 0
+        return _render_command(args)
+
+    return _guarded(debug, body)
+
+
+# --------------------------------------------------------------------------------------------------------
+# a5mi sub-commands
+# --------------------------------------------------------------------------------------------------------
+
+
+def run_convert(argv: Sequence[str]) -> int:
+    """``a5mi convert SCENE.txt -o OUT.xml [--stock]``: write the scene as Mitsuba XML (+ PLY meshes)."""
+    usage = "usage: a5mi convert SCENE.txt -o OUT.xml [--stock] [--debug]\n"
+    debug = "--debug" in argv
+
+    def body() -> int:
+        scene_path: str | None = None
+        out: str | None = None
+        stock = False
+        k = 0
+        while k < len(argv):
+            a = argv[k]
+            if a in ("-h", "--help", "-help"):
+                print(usage, end="")
+                return 0
+            if a in ("-o", "--output", "-output"):
+                if k + 1 >= len(argv):
+                    raise UsageError(f"{a} expects a file name, found end of arguments")
+                out, k = argv[k + 1], k + 2
+                continue
+            if a == "--stock":
+                stock = True
+            elif a == "--debug":
+                pass
+            elif a.startswith("-"):
+                raise UsageError(f"unknown flag '{a}' (see a5mi convert -h)")
+            elif scene_path is None:
+                scene_path = a
+            else:
+                raise UsageError(f"unexpected argument '{a}' (one scene file per call)")
+            k += 1
+        if scene_path is None:
+            raise UsageError("convert: missing SCENE.txt")
+        if out is None:
+            raise UsageError("convert: missing -o OUT.xml")
+        if not out.endswith(".xml"):
+            raise UsageError(f"convert: the output must end in .xml, found '{out}'")
+        folder = os.path.dirname(out) or "."
+        if not os.path.isdir(folder):
+            raise UsageError(f"{out}: output folder '{folder}' does not exist")
+        from a5mi.converters.a5_parser import parse_file
+
+        try:
+            scene = parse_file(scene_path)
+        except OSError as exc:
+            raise UserError(f"cannot read '{scene_path}': {exc.strerror or exc}") from None
+        for loc, msg in getattr(scene, "warnings", ()):
+            _note(f"{loc}: warning: {msg}")
+        from a5mi.converters.to_xml import write_xml
+
+        write_xml(scene, out, stock=stock)
+        return 0
+
+    return _guarded(debug, body)
+
+
+def run_render(argv: Sequence[str]) -> int:
+    """``a5mi render <a5 flags>``: the same as ``a5``."""
+    return run(argv)
+
+
+#: Sub-command -> "module:function" taking ``argv`` and returning an exit status (imported on use).
+SUBCOMMANDS: dict[str, tuple[str, str]] = {
+    "render": ("a5mi.cli:run_render", "render a scene (the a5 flags)"),
+    "convert": ("a5mi.cli:run_convert", "convert a scene to Mitsuba XML"),
+}
+
+
+def run_a5mi(argv: Sequence[str]) -> int:
+    """``a5mi COMMAND ARGS``: dispatch through :data:`SUBCOMMANDS`."""
+    commands = "\n".join(f"  {name:<12}{help_}" for name, (_, help_) in SUBCOMMANDS.items())
+    if not argv or argv[0] in ("-h", "--help", "-help", "help"):
+        print(A5MI_USAGE.format(commands=commands), end="")
+        return 0 if argv else 2
+    name, rest = argv[0], argv[1:]
+    if name not in SUBCOMMANDS:
+        print_error(f"unknown command '{name}' (expected one of {', '.join(SUBCOMMANDS)})")
+        return 2
+    module, func = SUBCOMMANDS[name][0].split(":")
+    return int(getattr(importlib.import_module(module), func)(list(rest)))
+
+
+def main_a5() -> None:
+    """Console script ``a5``."""
+    sys.exit(run(sys.argv[1:]))
+
+
+def main_a5mi() -> None:
+    """Console script ``a5mi``."""
+    sys.exit(run_a5mi(sys.argv[1:]))
+
+
+__all__ = ["run", "run_a5mi", "run_convert", "run_render", "parse_a5_args", "main_a5", "main_a5mi"]
