@@ -302,6 +302,7 @@ def _render_command(args: A5Args) -> int:
         normals=args.normals is not None,
         depth=args.depth[:2] if args.depth else None,
         threads=args.threads,
+        count_rays=args.verbose,
     )
     bar = _ProgressBar(enabled=args.verbose or sys.stderr.isatty())
     result = driver.render(scene, options, progress=bar)
@@ -324,6 +325,8 @@ def _render_command(args: A5Args) -> int:
         h, w = result.image.shape[:2]
         _note(f"a5: {variant}, render {rw}x{rh} ({result.camera_rays} camera rays, {result.tiles} tiles), "
               f"saved {w}x{h}")
+        if result.ray_counts:
+            _note("a5: secondary rays " + ", ".join(f"{k} {v}" for k, v in result.ray_counts.items()))
         order = ("parse", "variant", "build", "compile", "execute", "render", "jitter", "filter", "write")
         _note("a5: times " + ", ".join(f"{k} {timings[k]:.3f} s" for k in order if k in timings))
         _note(f"a5: peak memory {peak_mb:.0f} MB")

@@ -61,6 +61,7 @@ class RenderOptions:
     depth: tuple[float, float] | None = None  # (dmin, dmax): compute the depth image
     tile_rays: int = TILE_RAYS
     threads: int | None = None
+    count_rays: bool = False  # ask a5_whitted for per-lane secondary/shadow ray counts (for -v)
 
     def __post_init__(self) -> None:
         if self.width <= 0 or self.height <= 0:
@@ -97,6 +98,8 @@ class RenderResult:
     camera_rays: int
     tiles: int
     timings: dict[str, float] = field(default_factory=dict)
+    #: ``reflection``, ``refraction``, ``shadow`` ray totals, when the integrator reports them
+    ray_counts: dict[str, int] = field(default_factory=dict)
 
 
 def depth_gray(t: npt.ArrayLike, dmin: float, dmax: float) -> npt.NDArray[np.float32]:
@@ -217,6 +220,9 @@ def render_scene(
     total = rw * rh
     tiles = tile_rows(rw, rh, options.tile_rays)
     want_aov = options.normals or options.depth is not None
+    count_names = ("reflection", "refraction", "shadow")
+    counts = dict.fromkeys(count_names, 0)
+    counted = False
 
     color = np.empty((rh, rw, 3), np.float32)
     normal = np.empty((rh, rw, 3), np.float32) if options.normals else None
@@ -237,7 +243,10 @@ def render_scene(
             )  # fmt: skip
             sampler.seed(0, n)
             rgb, _valid, aovs = integrator.sample(mi_scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
+            counted = len(aovs) >= 7
             outputs = [rgb] + (list(aovs)[:4] if want_aov else [])
+            if counted:
+                outputs += [dr.sum(mi.UInt32(a)) for a in aovs[4:7]]
             dr.eval(*outputs)
             dr.sync_thread()
             color[j0:j1] = np.asarray(rgb).T.reshape(j1 - j0, rw, 3)
@@ -249,6 +258,9 @@ def render_scene(
                     normal[j0:j1] = np.abs(nrm).reshape(j1 - j0, rw, 3)
                 if dist is not None:
                     dist[j0:j1] = np.asarray(aovs[3]).reshape(j1 - j0, rw)
+            if counted:
+                for name, a in zip(count_names, outputs[-3:], strict=True):
+                    counts[name] += int(a[0])
             for entry in dr.kernel_history():
                 timings["execute"] += entry.get("execution_time", 0.0) / 1000.0
                 timings["compile"] += (entry.get("codegen_time", 0.0) + entry.get("backend_time", 0.0)) / 1000.0
@@ -272,6 +284,7 @@ def render_scene(
         camera_rays=total,
         tiles=len(tiles),
         timings=timings,
+        ray_counts=counts if counted else {},
     )
 
 
@@ -292,7 +305,10 @@ def build_scene(scene_model: Any, options: RenderOptions) -> Any:
         reflection=options.reflection,
         refraction=options.refraction,
     )
-    return mi.load_dict(to_dict(scene_model, settings))
+    scene_dict = to_dict(scene_model, settings)
+    if options.count_rays and isinstance(scene_dict.get("integrator"), dict):
+        scene_dict["integrator"]["count_rays"] = True  # a5_whitted parameter (ARCHITECTURE.md AOVs)
+    return mi.load_dict(scene_dict)
 
 
 def render(scene_model: Any, options: RenderOptions, *, progress: Progress | None = None) -> RenderResult:

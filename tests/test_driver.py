@@ -36,6 +36,32 @@ class _Probe:
         return mi.Color3f(o.x, o.y, 0.25), active, [-o.x, mi.Float(0.5) + 0 * o.x, 0 * o.x, o.y]
 
 
+class _CountingProbe(_Probe):
+    """Also the a5_whitted ``count_rays`` AOVs: 1 reflection, 2 refraction, 3 shadow rays per lane."""
+
+    def sample(self, scene, sampler, ray, medium, active):
+        import mitsuba as mi
+
+        rgb, valid, aovs = super().sample(scene, sampler, ray, medium, active)
+        one = mi.Float(1.0) + 0 * ray.o.x
+        return rgb, valid, aovs + [one, 2 * one, 3 * one]
+
+
+def test_ray_counts_summed_over_tiles(variant) -> None:
+    res = render_scene(None, CAMERA, RenderOptions(width=5, height=4, tile_rays=7), integrator=_CountingProbe(),
+                       camera_rays=_probe_rays)
+    assert res.tiles == 4
+    assert res.ray_counts == {"reflection": 20, "refraction": 40, "shadow": 60}
+    assert _render(width=2, height=2).ray_counts == {}
+
+
+def test_progress_callback(variant) -> None:
+    seen = []
+    render_scene(None, CAMERA, RenderOptions(width=4, height=3, tile_rays=4), integrator=_Probe(),
+                 camera_rays=_probe_rays, progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(4, 12), (8, 12), (12, 12)]
+
+
 def _render(**kw):
     return render_scene(None, CAMERA, RenderOptions(**kw), integrator=_Probe(), camera_rays=_probe_rays)
 
