@@ -1,0 +1,251 @@
+"""The typed scene model of the 6.837 scene language (SPEC A.1-A.6).
+
+Frozen dataclasses, one per block of the grammar, with the keyword names in snake_case
+(``diffuseColor`` -> ``diffuse_color``) and the SPEC defaults. Every entity keeps the :class:`FileLoc` of
+the keyword that opened it (``loc``), so later stages (the Mitsuba converter) report errors at the entity,
+as pbrt's ``SceneEntity`` does. File names (``obj_file``, ``texture``, ``cubeMap``) are stored as written,
+with their own ``*_loc``; :func:`resolve_path` turns them into files (scene folder first, then the working
+directory: the sample solution used only the working directory, SPEC A.0).
+
+Pure Python plus numpy: no Mitsuba import.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import FileLoc, SceneSemanticError
+
+Vec3 = tuple[float, float, float]
+#: A 4x4 matrix as hashable row-major tuples (``m[row][col]``); :func:`.transforms.as_array` gives numpy.
+Matrix4 = tuple[tuple[float, float, float, float], ...]
+
+
+# ---------------------------------------------------------------------------------------------- camera, lights
+@dataclass(frozen=True)
+class Camera:
+    """``PerspectiveCamera { center V3 direction V3 up V3 angle F }`` (SPEC A.2); ``angle`` in degrees, full fov."""
+
+    center: Vec3
+    direction: Vec3
+    up: Vec3
+    angle: float
+    loc: FileLoc
+
+
+@dataclass(frozen=True)
+class DirectionalLight:
+    """``DirectionalLight { direction V3 color V3 }`` (SPEC A.3); ``direction`` is where the light travels."""
+
+    direction: Vec3
+    color: Vec3
+    loc: FileLoc
+
+
+@dataclass(frozen=True)
+class PointLight:
+    """``PointLight { position V3 color V3 [falloff F] }`` (SPEC A.3): arriving colour ``color / (1 + f d²)``."""
+
+    position: Vec3
+    color: Vec3
+    falloff: float
+    loc: FileLoc
+
+
+Light = DirectionalLight | PointLight
+
+
+@dataclass(frozen=True)
+class Background:
+    """``Background { color V3 | ambientLight V3 | cubeMap NAME }`` (SPEC A.4), with the SPEC defaults."""
+
+    color: Vec3 = (0.5, 0.5, 0.5)
+    ambient_light: Vec3 = (0.0, 0.0, 0.0)
+    cube_map: str | None = None
+    cube_map_loc: FileLoc | None = None
+    loc: FileLoc | None = None
+
+
+# ---------------------------------------------------------------------------------------------------- materials
+@dataclass(frozen=True)
+class Noise:
+    """``Noise { color V3 (twice) octaves I frequency F amplitude F }`` (SPEC A.5, B.4)."""
+
+    color1: Vec3 = (0.0, 0.0, 0.0)
+    color2: Vec3 = (0.0, 0.0, 0.0)
+    octaves: int = 0
+    frequency: float = 1.0
+    amplitude: float = 1.0
+    loc: FileLoc | None = None
+
+
+@dataclass(frozen=True)
+class Material:
+    """``Material`` / ``PhongMaterial`` (SPEC A.5). ``shininess`` is parsed but unused by a5soln (SPEC B.3)."""
+
+    diffuse_color: Vec3 = (1.0, 1.0, 1.0)
+    specular_color: Vec3 = (0.0, 0.0, 0.0)
+    shininess: float = 0.0
+    refraction_index: float = 0.0
+    texture: str | None = None
+    texture_loc: FileLoc | None = None
+    bump: str | None = None
+    noise: Noise | None = None
+    loc: FileLoc | None = None
+
+
+# ------------------------------------------------------------------------------------------------------ objects
+@dataclass(frozen=True)
+class Sphere:
+    """``Sphere { center V3 radius F }``; ``material`` is the current ``MaterialIndex`` at parse time (A.6)."""
+
+    center: Vec3
+    radius: float
+    material: int
+    loc: FileLoc
+
+
+@dataclass(frozen=True)
+class Plane:
+    """``Plane { normal V3 offset F }``: the points with ``P·normal = offset``, normal NOT normalised (A.6)."""
+
+    normal: Vec3
+    offset: float
+    material: int
+    loc: FileLoc
+
+
+@dataclass(frozen=True)
+class Triangle:
+    """``Triangle { vertex0 V3 vertex1 V3 vertex2 V3 }`` (SPEC A.6), shaded with its face normal."""
+
+    vertex0: Vec3
+    vertex1: Vec3
+    vertex2: Vec3
+    material: int
+    loc: FileLoc
+
+
+@dataclass(frozen=True)
+class TriangleMesh:
+    """``TriangleMesh { obj_file NAME }`` (SPEC A.6); ``obj_file`` as written, resolved by :func:`resolve_path`."""
+
+    obj_file: str
+    material: int
+    loc: FileLoc
+    obj_file_loc: FileLoc
+
+
+Primitive = Sphere | Plane | Triangle | TriangleMesh
+
+
+@dataclass(frozen=True)
+class TransformOp:
+    """One entry of a ``Transform`` block: ``kind`` is the keyword (``Translate``, ``Scale``, ``UniformScale``,
+    ``XRotate``, ``YRotate``, ``ZRotate``, ``Rotate``, ``Matrix4f``) and ``values`` its numbers as written
+    (``Rotate``: axis x y z then degrees; ``Matrix4f``: 16 numbers, column by column)."""
+
+    kind: str
+    values: tuple[float, ...]
+    loc: FileLoc
+
+
+@dataclass(frozen=True)
+class Transform:
+    """``Transform { <transform>* <object> }`` (SPEC A.6). ``matrix`` is the composed object-to-parent map
+    ``M`` (post-multiplied keywords, ``Matrix4f`` pre-multiplied; see :mod:`.transforms`), kept with the
+    ``ops`` it came from."""
+
+    ops: tuple[TransformOp, ...]
+    matrix: Matrix4
+    child: Node
+    loc: FileLoc
+
+    @property
+    def matrix_array(self) -> np.ndarray:
+        """``matrix`` as a float64 (4, 4) array."""
+        return np.array(self.matrix, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Group:
+    """``Group { numObjects I (MaterialIndex I | <object>)* }`` (SPEC A.6); ``children`` in file order."""
+
+    num_objects: int
+    children: tuple[Node, ...]
+    loc: FileLoc
+
+
+Node = Group | Transform | Sphere | Plane | Triangle | TriangleMesh
+
+
+@dataclass(frozen=True, eq=False)
+class Placed:
+    """A primitive with its object-to-world matrix (the product of the enclosing ``Transform`` matrices)."""
+
+    primitive: Primitive
+    to_world: np.ndarray
+
+
+def iter_placed(obj: Node, to_world: np.ndarray | None = None) -> Iterator[Placed]:
+    """Depth-first, file-order walk: ``to_world = M_outer @ ... @ M_inner`` (SPEC A.6)."""
+    m = np.eye(4) if to_world is None else to_world
+    if isinstance(obj, Group):
+        for child in obj.children:
+            yield from iter_placed(child, m)
+    elif isinstance(obj, Transform):
+        yield from iter_placed(obj.child, m @ obj.matrix_array)
+    else:
+        yield Placed(obj, m)
+
+
+# -------------------------------------------------------------------------------------------------------- scene
+@dataclass(frozen=True)
+class Scene:
+    """A parsed scene file (SPEC A.1). ``warnings`` lists ``(loc, message)`` for input the sample solution
+    accepted silently but that probably does not mean what it says (repeated blocks, no lights, ...)."""
+
+    path: str
+    camera: Camera
+    lights: tuple[Light, ...] = ()
+    background: Background = field(default_factory=Background)
+    materials: tuple[Material, ...] = ()
+    root: Group = field(default_factory=lambda: Group(0, (), FileLoc("<none>", 1, 1)))
+    warnings: tuple[tuple[FileLoc, str], ...] = ()
+
+    @property
+    def base_dir(self) -> Path:
+        """The scene file's folder (relative names resolve here first), or the cwd for ``<string>``."""
+        return Path.cwd() if self.path.startswith("<") else Path(self.path).parent
+
+    @property
+    def ambient(self) -> Vec3:
+        """The ambient light the renderer uses: (1, 1, 1) when there are no lights (SPEC A.1), else the Background's."""
+        return (1.0, 1.0, 1.0) if not self.lights else self.background.ambient_light
+
+    @property
+    def objects(self) -> tuple[Placed, ...]:
+        """Every primitive with its object-to-world matrix, in file order (groups flattened)."""
+        return tuple(iter_placed(self.root))
+
+    def resolve(self, name: str, loc: FileLoc, what: str, *, directory: bool = False) -> Path:
+        """:func:`resolve_path` against this scene's folder."""
+        return resolve_path(name, self.base_dir, loc, what, directory=directory)
+
+
+def resolve_path(name: str, base_dir: Path, loc: FileLoc, what: str, *, directory: bool = False) -> Path:
+    """Resolve a file name of the scene: ``base_dir / name`` if it exists, else ``cwd / name`` (SPEC A.0 used
+    only the working directory; the scene folder first lets scenes run from anywhere). A missing path is a
+    :class:`SceneSemanticError` at ``loc``, naming both places tried."""
+    p = Path(name)
+    candidates = [p] if p.is_absolute() else [base_dir / p, Path.cwd() / p]
+    for c in candidates:
+        if (c.is_dir() if directory else c.is_file()):
+            return c
+    kind = "folder" if directory else "file"
+    tried = " or ".join(f"'{c}'" for c in dict.fromkeys(candidates))
+    raise SceneSemanticError(f"{what} {kind} '{name}' not found (looked for {tried})", loc)

@@ -1,0 +1,159 @@
+"""4x4 transforms of SPEC A.6, in float64 numpy, and their composition rules.
+
+Matrices act on column vectors (``p' = M p``). Composition inside a ``Transform`` block starts from the
+identity and **post-multiplies** each keyword, ``M = M * T``, so the last keyword listed is applied to the
+object first: ``Translate 1 0 0`` then ``Scale 2 2 2`` takes (1,0,0) to (3,0,0). ``Matrix4f { 16 numbers }``
+is the exception: the numbers are read **column by column** and the matrix is **pre-multiplied**,
+``M = G * M``. Rotations are vecmath's right-handed ones, angles in degrees:
+
+* ``XRotate a``: ``[[1,0,0],[0,c,-s],[0,s,c]]``; ``YRotate a``: ``[[c,0,s],[0,1,0],[-s,0,c]]``;
+  ``ZRotate a``: ``[[c,-s,0],[s,c,0],[0,0,1]]`` with ``c = cos a``, ``s = sin a``;
+* ``Rotate { axis a }``: Rodrigues, ``R = c I + s [k]x + (1-c) k kᵀ`` with ``k = axis/|axis|``.
+
+Normals map by ``(M⁻¹)ᵀ`` (upper 3x3), SPEC B.3.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from .model import Matrix4
+
+
+def as_array(m: Matrix4 | np.ndarray) -> np.ndarray:
+    """A model matrix (row-major tuples) as a float64 (4, 4) array."""
+    return np.array(m, dtype=np.float64).reshape(4, 4)
+
+
+def as_tuple(m: np.ndarray) -> Matrix4:
+    """A (4, 4) array as the model's hashable row-major tuple form."""
+    return tuple(tuple(float(x) for x in row) for row in np.asarray(m, dtype=np.float64))
+
+
+def matmul(a: Matrix4, b: Matrix4) -> Matrix4:
+    """``a * b`` on the model's tuple form."""
+    return as_tuple(as_array(a) @ as_array(b))
+
+
+def translate(x: float, y: float, z: float) -> np.ndarray:
+    """``Translate x y z``."""
+    m = np.eye(4)
+    m[:3, 3] = (x, y, z)
+    return m
+
+
+def scale(x: float, y: float, z: float) -> np.ndarray:
+    """``Scale x y z``: ``diag(x, y, z, 1)``."""
+    return np.diag([x, y, z, 1.0])
+
+
+def uniform_scale(s: float) -> np.ndarray:
+    """``UniformScale s``: ``diag(s, s, s, 1)``."""
+    return scale(s, s, s)
+
+
+def _rot3(r: np.ndarray) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, :3] = r
+    return m
+
+
+def x_rotate(degrees: float) -> np.ndarray:
+    """``XRotate a`` (degrees, right-handed about +x)."""
+    a = math.radians(degrees)
+    c, s = math.cos(a), math.sin(a)
+    return _rot3(np.array([[1, 0, 0], [0, c, -s], [0, s, c]]))
+
+
+def y_rotate(degrees: float) -> np.ndarray:
+    """``YRotate a`` (degrees, right-handed about +y)."""
+    a = math.radians(degrees)
+    c, s = math.cos(a), math.sin(a)
+    return _rot3(np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]))
+
+
+def z_rotate(degrees: float) -> np.ndarray:
+    """``ZRotate a`` (degrees, right-handed about +z)."""
+    a = math.radians(degrees)
+    c, s = math.cos(a), math.sin(a)
+    return _rot3(np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]))
+
+
+def rotate(axis: Sequence[float], degrees: float) -> np.ndarray:
+    """``Rotate { axis angle }``: ``R = c I + s [k]x + (1-c) k kᵀ``, ``k = axis/|axis|`` (vecmath)."""
+    k = np.asarray(axis, dtype=np.float64)
+    norm = float(np.linalg.norm(k))
+    if norm == 0.0:
+        raise ValueError("rotation axis has zero length")
+    k = k / norm
+    a = math.radians(degrees)
+    c, s = math.cos(a), math.sin(a)
+    cross = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return _rot3(c * np.eye(3) + s * cross + (1 - c) * np.outer(k, k))
+
+
+def matrix4f_columns(values: Sequence[float]) -> np.ndarray:
+    """``Matrix4f { 16 numbers }``: the numbers fill the matrix column by column (first 4 = column 0)."""
+    if len(values) != 16:
+        raise ValueError(f"Matrix4f needs 16 numbers, got {len(values)}")
+    return np.asarray(values, dtype=np.float64).reshape(4, 4).T.copy()
+
+
+def apply_keyword(m: np.ndarray, kind: str, args: Sequence[float]) -> np.ndarray:
+    """One step of A.6 composition: ``M * T(kind, args)``, except ``Matrix4f``: ``G * M``."""
+    if kind == "Matrix4f":
+        return matrix4f_columns(args) @ m
+    if kind == "Translate":
+        t = translate(*args)
+    elif kind == "Scale":
+        t = scale(*args)
+    elif kind == "UniformScale":
+        t = uniform_scale(args[0])
+    elif kind == "XRotate":
+        t = x_rotate(args[0])
+    elif kind == "YRotate":
+        t = y_rotate(args[0])
+    elif kind == "ZRotate":
+        t = z_rotate(args[0])
+    elif kind == "Rotate":
+        t = rotate(args[:3], args[3])
+    else:
+        raise ValueError(f"unknown transform keyword {kind!r}")
+    return m @ t
+
+
+def compose(ops: Sequence[tuple[str, Sequence[float]]]) -> np.ndarray:
+    """The matrix of a ``Transform`` block's keywords, in file order (A.6)."""
+    m = np.eye(4)
+    for kind, args in ops:
+        m = apply_keyword(m, kind, args)
+    return m
+
+
+def transform_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """``M p`` for points (w = 1); ``p`` has shape (..., 3)."""
+    p = np.asarray(p, dtype=np.float64)
+    return p @ m[:3, :3].T + m[:3, 3]
+
+
+def transform_vectors(m: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``A v`` for directions (w = 0), ``A`` the upper 3x3."""
+    return np.asarray(v, dtype=np.float64) @ m[:3, :3].T
+
+
+def normal_matrix(m: np.ndarray) -> np.ndarray:
+    """``(A⁻¹)ᵀ``, the 3x3 that maps normals (SPEC B.3); not renormalising is the caller's choice."""
+    return np.linalg.inv(m[:3, :3]).T
+
+
+def similarity_scale(m: np.ndarray, rtol: float = 1e-9) -> float | None:
+    """``s`` when the upper 3x3 is ``s`` times an orthogonal matrix (a similarity), else None."""
+    a = m[:3, :3]
+    gram = a.T @ a
+    s2 = float(np.trace(gram)) / 3.0
+    if s2 <= 0.0 or not np.allclose(gram, s2 * np.eye(3), rtol=0.0, atol=rtol * s2):
+        return None
+    return math.sqrt(s2)
