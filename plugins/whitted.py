@@ -229,14 +229,16 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         fresnel = props.get("fresnel", "a5")
         if fresnel not in FRESNEL_MODES:
             raise ValueError(f"a5_whitted: 'fresnel' must be one of {', '.join(FRESNEL_MODES)}, got {fresnel!r}")
-        tmin = float(props.get("tmin", 0.001))
-        if not tmin >= 0.0:
-            raise ValueError(f"a5_whitted: 'tmin' must be >= 0, got {tmin!r}")
+        tmin = props.get("tmin", 0.001)
+        if isinstance(tmin, bool) or not isinstance(tmin, (int, float)) or not 0.0 <= tmin < float("inf"):
+            raise ValueError(f"a5_whitted: 'tmin' must be a finite number >= 0, got {tmin!r}")
         ambient = props.get("ambient", mi.ScalarColor3d(0.0))
         try:
+            if isinstance(ambient, str):
+                raise TypeError
             ambient_rgb = [float(ambient)] * 3 if isinstance(ambient, (int, float)) else [
                 float(ambient[i]) for i in range(3)]
-        except (TypeError, IndexError):
+        except (TypeError, IndexError, ValueError):
             raise ValueError(f"a5_whitted: 'ambient' must be an rgb colour, got {ambient!r}") from None
         flags = {}
         for name, default in (("shadows", False), ("phong", False), ("reflection", True),
@@ -247,7 +249,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             flags[name] = value
         self.max_depth = max_depth
         self.fresnel = fresnel
-        self.tmin = tmin
+        self.tmin = float(tmin)
         self.ambient = ambient_rgb
         self.shadows = flags["shadows"]
         self.phong = flags["phong"]
