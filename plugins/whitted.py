@@ -212,7 +212,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     ``((nt-n)/(nt+n))²`` (``schlick``); ``exact`` uses ``mi.fresnel``. With ``refraction = false`` the whole
     refraction branch is skipped (``R = 1``). Misses return ``scene.environment()`` for the ray's direction,
     black without one. Lights are all emitters with a delta flag (``sample_direction`` gives ``L``,
-    the arriving colour and the distance, infinite for ``directional``).
+    the arriving colour and the distance; stock ``directional`` reports ``2 max(R, |p - c|)`` for the
+    scene's bounding sphere, always past every object, so its shadow test equals the binary's FLT_MAX).
 
     ``sample()`` treats its ray as a camera ray (unit direction, tmin 0, index 1) and returns the colour,
     the ``active`` mask, and the AOVs ``nx, ny, nz, t`` of the first hit (0 and +inf on a miss).
