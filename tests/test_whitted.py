@@ -304,3 +304,20 @@ def test_b3_second_scene_reuses_the_kernel(mi):
     finally:
         dr.set_flag(dr.JitFlag.KernelHistory, False)
     assert first == second
+
+
+def test_b3_works_under_mi_render_with_a_stock_sensor(mi):
+    """mi.render drives sample() through the trampoline; the film gets RGB + the four AOVs."""
+    scene = mi.load_dict({
+        "type": "scene",
+        "integrator": {"type": "a5_whitted", "ambient": _rgb(0.5, 0.5, 0.5)},
+        "sensor": {"type": "perspective", "fov": 5.0,
+                   "to_world": mi.ScalarTransform4f().look_at([0, 0, -5], [0, 0, 0], [0, 1, 0]),
+                   "film": {"type": "hdrfilm", "width": 3, "height": 3, "rfilter": {"type": "box"}}},
+        "s": _sphere(diffuse_color=(1.0, 0.5, 0.25)),
+    })
+    img = np.array(mi.render(scene, spp=1), dtype=np.float64)
+    assert img.shape == (3, 3, 7)
+    assert np.allclose(img[..., :3], [0.5, 0.25, 0.125], atol=1e-6)   # no lights: ambient ⊙ diffuseColor
+    assert np.all(img[..., 5] < -0.95)                                 # nz of the front of the sphere
+    assert np.all(np.abs(img[..., 6] - 4.0) < 0.05)                    # t
