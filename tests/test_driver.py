@@ -160,22 +160,9 @@ def test_options_validated(bad) -> None:
 # ---------------------------------------------------------------- with the real a5_whitted integrator
 
 
-def _b2_camera_rays(center, direction, up, angle, x_pix, y_pix, width, height):
-    """Stand-in for plugins.camera.camera_rays: SPEC B.2 in float32 (no binary-order refinements)."""
-    import drjit as dr
-    import mitsuba as mi
-
-    w = dr.normalize(mi.Vector3f(direction))
-    u = dr.normalize(dr.cross(w, mi.Vector3f(up)))
-    v = dr.normalize(dr.cross(u, w))
-    f = mi.Float(1.0 / np.tan(np.radians(angle) * 0.5))
-    x = 2.0 * x_pix / (width - 1) - 1.0
-    y = 2.0 * y_pix / (height - 1) - 1.0
-    return mi.Ray3f(mi.Point3f(center), dr.normalize(f * w + x * u + y * v))
-
-
 def test_b2_real_integrator_centre_pixel(variant) -> None:
-    """Unit sphere seen from z = 5, light along -z: the centre pixel (odd W) is irradiance ⊙ kd, t = 4,
+    """Real camera_rays and a5_whitted. Unit sphere seen from z = 5, light along -z: the centre pixel
+    (odd W) is irradiance ⊙ kd, t = 4,
     N = (0, 0, 1); a corner pixel misses (background black, depth 0)."""
     import mitsuba as mi
 
@@ -187,8 +174,7 @@ def test_b2_real_integrator_centre_pixel(variant) -> None:
         "sun": {"type": "directional", "direction": [0, 0, -1], "irradiance": {"type": "rgb", "value": [1, 1, 0.5]}},
     })
     cam = SimpleNamespace(center=(0.0, 0.0, 5.0), direction=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0), angle=30.0)
-    res = render_scene(scene, cam, RenderOptions(width=5, height=5, normals=True, depth=(0.0, 8.0)),
-                       camera_rays=_b2_camera_rays)
+    res = render_scene(scene, cam, RenderOptions(width=5, height=5, normals=True, depth=(0.0, 8.0)))
     np.testing.assert_allclose(res.image[2, 2], [0.5, 0.25, 0.5], rtol=1e-6)
     np.testing.assert_allclose(res.normals[2, 2], [0, 0, 1], atol=1e-6)
     np.testing.assert_allclose(res.depth[2, 2], 0.5, rtol=1e-6)  # 1 - 4/8
