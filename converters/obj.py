@@ -1,0 +1,205 @@
+"""The OBJ subset of the starter's Mesh reader and its normal rule (SPEC A.6).
+
+Reading, line by line, as the starter does:
+
+* lines shorter than 3 characters and lines starting with ``#`` are skipped;
+* ``v x y z`` adds a vertex, ``vt u v`` a texture coordinate; ``vn`` and every other record are ignored;
+* ``f a b c``: a triangle (1-based indices; only the first three are read, so a quad keeps its first
+  triangle, with a warning);
+* ``f a/ta b/tb c/tc``: slashes become spaces and (v, vt) pairs are read. The ``v/vt/vn`` and ``v//vn``
+  forms are therefore *misread* by the sample solution; we read them the same way and warn;
+* texture coordinates are attached only if the file has at least one ``vt`` line.
+
+Errors are :class:`SceneSemanticError` at the OBJ file's own ``path:line:col`` (a face index outside the
+vertex or texture-coordinate list, a NaN/inf or malformed number), or at the scene's ``obj_file`` keyword
+when the file is missing or unreadable.
+
+Normals (:func:`vertex_normals`) are computed, never read. a5soln: more than 120 vertices -> smooth,
+area-weighted vertex normals ``n_v = normalize(Σ_{faces f ∋ v} (p1 - p0) × (p2 - p0))`` (unnormalised
+cross products, so each face weighs by twice its area), interpolated barycentrically; otherwise flat face
+normals. The 2015 starter used 500; pass ``smooth_threshold=500`` for it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from .errors import FileLoc, SceneSemanticError
+
+SMOOTH_THRESHOLD = 120
+NormalMode = Literal["auto", "smooth", "flat"]
+
+
+@dataclass(eq=False)
+class ObjMesh:
+    """One OBJ file: ``vertices`` (N, 3) float64, ``faces`` (F, 3) int64 0-based, and, only when the file had
+    a ``vt`` line, ``texcoords`` (T, 2) and ``face_texcoords`` (F, 3) 0-based; ``warnings`` as (loc, msg)."""
+
+    path: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    texcoords: np.ndarray | None = None
+    face_texcoords: np.ndarray | None = None
+    warnings: list[tuple[FileLoc, str]] = field(default_factory=list)
+
+
+def _columns(line: str) -> list[tuple[str, int]]:
+    """Whitespace-separated words of ``line`` with their 1-based columns."""
+    out: list[tuple[str, int]] = []
+    i, n = 0, len(line)
+    while i < n:
+        if line[i].isspace():
+            i += 1
+            continue
+        start = i
+        while i < n and not line[i].isspace():
+            i += 1
+        out.append((line[start:i], start + 1))
+    return out
+
+
+def load_obj(path: str | Path, loc: FileLoc | None = None) -> ObjMesh:
+    """Read an OBJ file per SPEC A.6 (see the module docstring). ``loc`` is the scene's ``obj_file`` position,
+    used when the file itself cannot be read."""
+    path = Path(path)
+    spath = str(path)
+    try:
+        text = path.read_bytes().decode("utf-8", errors="replace")
+    except OSError as exc:
+        raise SceneSemanticError(f"cannot read mesh file '{path}': {exc.strerror or exc}", loc) from None
+
+    verts: list[tuple[float, float, float]] = []
+    tcs: list[tuple[float, float]] = []
+    faces: list[tuple[int, int, int]] = []
+    ftcs: list[tuple[int, int, int] | None] = []
+    face_locs: list[tuple[FileLoc, FileLoc, FileLoc]] = []
+    tc_locs: list[tuple[FileLoc, FileLoc, FileLoc] | None] = []
+    warnings: list[tuple[FileLoc, str]] = []
+    misread_warned = quad_warned = False
+
+    def number(word: str, col: int, line_no: int, what: str, conv: type = float) -> float:
+        try:
+            value = conv(word)
+        except ValueError:
+            raise SceneSemanticError(f"expected {what}, found '{word}'", FileLoc(spath, line_no, col)) from None
+        if conv is float and not math.isfinite(value):
+            raise SceneSemanticError(f"expected a finite number in {what}, found '{word}'",
+                                     FileLoc(spath, line_no, col))
+        return value
+
+    for line_no, raw in enumerate(text.split("\n"), start=1):
+        line = raw.rstrip("\r")
+        if len(line) < 3 or line.startswith("#"):
+            continue
+        words = _columns(line)
+        if not words:
+            continue
+        kind = words[0][0]
+        if kind == "v":
+            if len(words) < 4:
+                raise SceneSemanticError(f"expected 3 numbers after 'v', found {len(words) - 1}",
+                                         FileLoc(spath, line_no, words[0][1]))
+            verts.append(tuple(number(w, c, line_no, "a vertex coordinate") for w, c in words[1:4]))  # type: ignore[arg-type]
+        elif kind == "vt":
+            if len(words) < 3:
+                raise SceneSemanticError(f"expected 2 numbers after 'vt', found {len(words) - 1}",
+                                         FileLoc(spath, line_no, words[0][1]))
+            tcs.append(tuple(number(w, c, line_no, "a texture coordinate") for w, c in words[1:3]))  # type: ignore[arg-type]
+        elif kind == "f":
+            if "/" in line:
+                if not misread_warned and any(w.count("/") == 2 for w, _ in words[1:]):
+                    warnings.append((FileLoc(spath, line_no, words[1][1]),
+                                     "'v/vt/vn' face read as the sample solution reads it: slashes become "
+                                     "spaces and (v, vt) pairs are taken in order (SPEC A.6)"))
+                    misread_warned = True
+                # Slashes -> spaces; each number keeps the column of the word it came from.
+                nums: list[tuple[str, int]] = []
+                for w, c in words[1:]:
+                    offset = 0
+                    for part in w.split("/"):
+                        if part:
+                            nums.append((part, c + offset))
+                        offset += len(part) + 1
+                if len(nums) < 6:
+                    raise SceneSemanticError(f"expected 3 'v/vt' pairs after 'f', found {len(nums)} numbers",
+                                             FileLoc(spath, line_no, words[0][1]))
+                vi = [nums[0], nums[2], nums[4]]
+                ti = [nums[1], nums[3], nums[5]]
+                ftcs.append(tuple(int(number(w, c, line_no, "a face index", int)) - 1 for w, c in ti))  # type: ignore[arg-type]
+                tc_locs.append(tuple(FileLoc(spath, line_no, c) for _, c in ti))  # type: ignore[arg-type]
+                extra = len(nums) > 6
+            else:
+                if len(words) < 4:
+                    raise SceneSemanticError(f"expected 3 vertex indices after 'f', found {len(words) - 1}",
+                                             FileLoc(spath, line_no, words[0][1]))
+                vi = words[1:4]
+                ftcs.append(None)
+                tc_locs.append(None)
+                extra = len(words) > 4
+            if extra and not quad_warned:
+                warnings.append((FileLoc(spath, line_no, words[0][1]),
+                                 "face with more than 3 vertices: only the first triangle is kept (SPEC A.6)"))
+                quad_warned = True
+            faces.append(tuple(int(number(w, c, line_no, "a face index", int)) - 1 for w, c in vi))  # type: ignore[arg-type]
+            face_locs.append(tuple(FileLoc(spath, line_no, c) for _, c in vi))  # type: ignore[arg-type]
+
+    if not faces:
+        raise SceneSemanticError(f"expected at least one 'f' face in mesh file '{path}', found none", loc)
+    v = np.asarray(verts, dtype=np.float64).reshape(-1, 3)
+    f = np.asarray(faces, dtype=np.int64)
+    bad = np.argwhere((f < 0) | (f >= len(v)))
+    if len(bad):
+        i, k = bad[0]
+        raise SceneSemanticError(f"face index {f[i, k] + 1} out of range: expected 1 to {len(v)} "
+                                 f"({len(v)} vertices)", face_locs[i][k])
+    mesh = ObjMesh(spath, v, f, warnings=warnings)
+    if tcs:
+        t = np.asarray(tcs, dtype=np.float64)
+        missing = next((i for i, ft in enumerate(ftcs) if ft is None), None)
+        if missing is not None:
+            raise SceneSemanticError("expected 'v/vt' face indices (the file has 'vt' lines), found plain "
+                                     "'v' indices", face_locs[missing][0])
+        ft = np.asarray(ftcs, dtype=np.int64)
+        bad = np.argwhere((ft < 0) | (ft >= len(t)))
+        if len(bad):
+            i, k = bad[0]
+            loc_tc = tc_locs[i]
+            assert loc_tc is not None
+            raise SceneSemanticError(f"texture coordinate index {ft[i, k] + 1} out of range: expected 1 to "
+                                     f"{len(t)} ({len(t)} 'vt' lines)", loc_tc[k])
+        mesh.texcoords, mesh.face_texcoords = t, ft
+    return mesh
+
+
+def face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unnormalised ``(p1 - p0) × (p2 - p0)`` per face, shape (F, 3): length = twice the face's area."""
+    p = vertices[faces]
+    return np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+
+
+def uses_smooth_normals(vertex_count: int, normals: NormalMode = "auto",
+                        smooth_threshold: int = SMOOTH_THRESHOLD) -> bool:
+    """SPEC A.6: ``auto`` is smooth iff ``vertex_count > smooth_threshold`` (120 for a5soln)."""
+    if normals not in ("auto", "smooth", "flat"):
+        raise ValueError(f"normals must be 'auto', 'smooth' or 'flat', not {normals!r}")
+    return normals == "smooth" or (normals == "auto" and vertex_count > smooth_threshold)
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray, normals: NormalMode = "auto",
+                   smooth_threshold: int = SMOOTH_THRESHOLD) -> np.ndarray | None:
+    """Smooth per-vertex normals ``normalize(Σ face cross products)`` (N, 3) if the rule says smooth, else None
+    (flat: each triangle shades with its own face normal). A vertex used by no face (or whose faces cancel)
+    gets the zero vector."""
+    if not uses_smooth_normals(len(vertices), normals, smooth_threshold):
+        return None
+    acc = np.zeros_like(vertices, dtype=np.float64)
+    fn = face_normals(vertices, faces)
+    for k in range(3):
+        np.add.at(acc, faces[:, k], fn)
+    length = np.linalg.norm(acc, axis=1, keepdims=True)
+    return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
