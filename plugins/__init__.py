@@ -17,7 +17,7 @@ PLUGIN_MODULES: tuple[str, ...] = (
     "bitmap",           # a5_bitmap texture
     "point_light",      # a5_point emitter
     "cubemap",          # a5_cubemap emitter
-    # "camera",         # a5_camera sensor
+    "camera",           # a5_camera sensor
     "a5_material",      # a5_material BSDF
     "whitted",          # a5_whitted integrator
 )
