@@ -74,20 +74,18 @@ def blur(img: npt.ArrayLike, kernel: str = "binary", strip_rows: int = 64) -> Fl
     if a.ndim < 2:
         raise ValueError(f"blur needs an image of at least 2 dimensions, got shape {a.shape}")
     taps = kernel_taps(kernel)
-    planes = [a] if a.ndim == 2 else [a[(slice(None), slice(None)) + c] for c in np.ndindex(*a.shape[2:])]
-    results = [np.empty(a.shape[:2], np.float32) for _ in planes]
-    jobs = [(p, r, r0, min(a.shape[0], r0 + strip_rows))
-            for p, r in zip(planes, results, strict=True) for r0 in range(0, a.shape[0], strip_rows)]
+    result = np.empty_like(a)
+    index = [(...,)] if a.ndim == 2 else [(slice(None), slice(None)) + c for c in np.ndindex(*a.shape[2:])]
+    jobs = [(a[i], result[i], r0, min(a.shape[0], r0 + strip_rows))
+            for i in index for r0 in range(0, a.shape[0], strip_rows)]
     workers = min(len(jobs), os.cpu_count() or 1)
     if workers <= 1:
-        for p, r, r0, r1 in jobs:
-            _blur_strip(p, taps, r0, r1, r)
+        for plane, out, r0, r1 in jobs:
+            _blur_strip(plane, taps, r0, r1, out)
     else:
         with ThreadPoolExecutor(max_workers=workers) as pool:
             list(pool.map(lambda job: _blur_strip(job[0], taps, job[2], job[3], job[1]), jobs))
-    if a.ndim == 2:
-        return results[0]
-    return np.stack(results, axis=-1).reshape(a.shape)
+    return result
 
 
 def downsample3(img: npt.ArrayLike) -> FloatImage:
