@@ -72,8 +72,10 @@ class GlibcRand:
     def __init__(self, seed: int = 1, block: int = _BLOCK) -> None:
         self._block = block
         m = _block_matrix(block)
-        self._m_lo = (m & np.uint64(0xFFFF)).astype(np.float64)
-        self._m_hi = (m >> np.uint64(16)).astype(np.float64)
+        m_lo = (m & np.uint64(0xFFFF)).astype(np.float64).T  # 31 x N
+        m_hi = (m >> np.uint64(16)).astype(np.float64).T
+        self._m_lo_t = np.ascontiguousarray(m_lo)
+        self._m_mid_t = np.ascontiguousarray(np.vstack([m_hi, m_lo]))  # [s_lo s_hi] @ this = hi*lo + lo*hi
         self._m_tail = m[-_LAG:]  # state after one block = m_tail @ state
         init = _initial_state(seed)
         # Run the 310 discarded values the slow way, then keep the last 31 as the state.
@@ -91,12 +93,17 @@ class GlibcRand:
             states[:, b] = s
             s = (self._m_tail @ s) & _MASK32
         self._state = s
-        s_lo = (states & np.uint64(0xFFFF)).astype(np.float64)
-        s_hi = (states >> np.uint64(16)).astype(np.float64)
-        low = (self._m_lo @ s_lo).astype(np.uint64)
-        mid = (self._m_hi @ s_lo + self._m_lo @ s_hi).astype(np.uint64)
-        out = (low + ((mid & np.uint64(0xFFFF)) << np.uint64(16))) & _MASK32
-        return out.T.reshape(-1)  # column b is block b
+        st = states.T  # count x 31: one block per row, so the result rows come out in stream order
+        s_lo = (st & np.uint64(0xFFFF)).astype(np.float64)
+        s_hi = (st >> np.uint64(16)).astype(np.float64)
+        low = (s_lo @ self._m_lo_t).astype(np.uint64)  # < 31 * 2^32: exact in float64
+        mid = (np.hstack([s_lo, s_hi]) @ self._m_mid_t).astype(np.uint64)
+        mid &= np.uint64(0xFFFF)
+        mid <<= np.uint64(16)
+        low += mid
+        low &= _MASK32
+        return low.reshape(-1)
+
 
     def next(self, n: int) -> npt.NDArray[np.uint32]:
         """The next ``n`` values of ``rand()`` (``r >> 1``), as uint32."""
