@@ -129,10 +129,12 @@ def _sensor(W: int, H: int, **kw):
 
 
 def test_b2_sensor_sample_ray_maps_film_rows(variant: str) -> None:
-    """Film position of pixel (col, row) centre, row 0 = top, gives the a5 ray of (i, j) = (col, H-1-row)."""
+    """Film position of pixel (col, row) centre, row 0 = top, gives the a5 ray of (i, j) = (col, H-1-row),
+    bit for bit. At W = 300, 77 of the 300 float32 positions (i + 0.5)*(1/W) map back to i only up to
+    3e-5 pixel: the sensor's snap to pixel centres is what makes this exact."""
     import mitsuba as mi
 
-    W, H = 7, 4
+    W, H = 300, 3
     sensor = _sensor(W, H)
     rows, cols = np.mgrid[0:H, 0:W]
     scale = F32(1) / np.array([W, H], F32)  # what Mitsuba's render loop does: (pixel + 0.5) * (1/size)
