@@ -6,8 +6,9 @@
        [-normals IMG] [-depth DMIN DMAX IMG] [-reflection_off] [-refraction_off]
 
 plus the extras ``-seed N``, ``-variant llvm|cuda|auto``, ``-threads N``, ``-phong``,
-``-fresnel a5|schlick|exact``, ``-kernel binary|handout``, ``-v``, ``--debug``, ``-h``. A flag given twice
-keeps its last value, as the binary's loop does. ``a5mi`` is the toolbox: ``a5mi render <a5 flags>``,
+``-fresnel a5|schlick|exact``, ``-kernel binary|handout``, ``-normals_mode main|quadrant``, ``-v``,
+``--debug``, ``-h``. A flag given twice keeps its last value, as the binary's loop does. ``a5mi`` is the
+toolbox: ``a5mi render <a5 flags>``,
 ``a5mi convert SCENE.txt -o OUT.xml [--stock]``; further sub-commands are one line in :data:`SUBCOMMANDS`.
 
 Errors (issue 8): a user error prints one line on stderr, ``FILE:LINE:COL: error: ...`` for the scene or
@@ -31,13 +32,14 @@ from typing import TextIO
 from a5mi.errors import UsageError, UserError
 
 PROG = "a5"
-MAX_SIZE = 16384  # per side; 3x that with -jitter is already 2.4 G samples
+MAX_SIZE = 16384  # per side
+MAX_SAMPLES = 1 << 28  # render-buffer samples (3W x 3H with -jitter): 3 GB of float32 colour
 
 A5_USAGE = """\
 usage: a5 -input SCENE.txt -output IMG [-size W H] [-shadows] [-bounces N] [-jitter] [-filter]
           [-normals IMG] [-depth DMIN DMAX IMG] [-reflection_off] [-refraction_off]
           [-seed N] [-variant llvm|cuda|auto] [-threads N] [-phong] [-fresnel a5|schlick|exact]
-          [-kernel binary|handout] [-v] [--debug] [-h]
+          [-kernel binary|handout] [-normals_mode main|quadrant] [-v] [--debug] [-h]
 
 Render a 6.837 assignment-5 scene as the course's sample solution a5soln does.
 
@@ -61,6 +63,8 @@ extras:
   -phong                 add the handout's Phong highlight (a5soln has none)
   -fresnel MODE          a5 (the binary's R0, default), schlick or exact
   -kernel K              blur kernel: binary (centre tap 0.2921, default) or handout (0.2931, a typo)
+  -normals_mode M        main (default: -normals/-depth use the image's rays) or quadrant (a5soln's
+                         top-right-quadrant rays, SPEC B.6)
   -v                     print stage timings, ray counts and peak memory on stderr
   --debug                show tracebacks
   -h, -help, --help      show this help
@@ -141,6 +145,7 @@ class A5Args:
     phong: bool = False
     fresnel: str = "a5"
     kernel: str = "binary"
+    normals_mode: str = "main"
     verbose: bool = False
     debug: bool = False
     help: bool = False
@@ -208,6 +213,9 @@ _A5_FLAGS: dict[str, tuple[int, Callable[[A5Args, list[str]], None]]] = {
     "-phong": (0, _set("phong", True)),
     "-fresnel": (1, lambda a, v: setattr(a, "fresnel", _choice("-fresnel", v[0], ("a5", "schlick", "exact")))),
     "-kernel": (1, lambda a, v: setattr(a, "kernel", _choice("-kernel", v[0], ("binary", "handout")))),
+    "-normals_mode": (
+        1, lambda a, v: setattr(a, "normals_mode", _choice("-normals_mode", v[0], ("main", "quadrant")))
+    ),
     "-v": (0, _set("verbose", True)),
     "--debug": (0, _set("debug", True)),
     "-debug": (0, _set("debug", True)),
@@ -240,6 +248,12 @@ def parse_a5_args(argv: Sequence[str]) -> A5Args:
         raise UsageError("missing -input SCENE.txt")
     if args.output is None:
         raise UsageError("missing -output IMG")
+    samples = args.width * args.height * (9 if args.jitter else 1)
+    if samples > MAX_SAMPLES:
+        raise UsageError(
+            f"-size {args.width} {args.height}{' with -jitter' if args.jitter else ''} is {samples} samples; "
+            f"the limit is {MAX_SAMPLES}"
+        )
     if args.filter and not args.jitter and (args.width < 3 or args.height < 3):
         raise UsageError(
             f"-filter without -jitter saves a W/3 x H/3 image; -size {args.width} {args.height} is too small"
@@ -301,6 +315,7 @@ def _render_command(args: A5Args) -> int:
         kernel=args.kernel,
         normals=args.normals is not None,
         depth=args.depth[:2] if args.depth else None,
+        aov_mode=args.normals_mode,
         threads=args.threads,
         count_rays=args.verbose,
     )

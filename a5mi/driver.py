@@ -12,7 +12,8 @@
 * ``-filter``: blur + 3x3 downsample (:mod:`a5mi.filters`) of the render buffer;
 * ``-normals``: ``|N|`` per component; ``-depth dmin dmax``: gray ``1`` if ``t <= dmin``, ``0`` if
   ``t >= dmax`` or ``dmin >= dmax``, else ``1 - (t - dmin)/(dmax - dmin)`` (SPEC B.6), both at the render
-  buffer's resolution, unfiltered, traced with the main image's rays.
+  buffer's resolution, unfiltered, traced with the main image's rays (``aov_mode="quadrant"``: with the
+  binary's top-right-quadrant rays instead, a second pass).
 
 Images in :class:`RenderResult` have row 0 = the **top** row (ready for :func:`a5mi.imageio.write_image`).
 This module never prints: progress goes through a callback.
@@ -36,6 +37,7 @@ from a5mi.glibc_rand import GlibcRand, jitter_offsets
 TILE_RAYS = 1 << 20
 
 FRESNEL_MODES = ("a5", "schlick", "exact")
+AOV_MODES = ("main", "quadrant")
 
 Progress = Callable[[int, int], None]  # (samples done, samples total)
 CameraRays = Callable[..., Any]  # a5mi.plugins.camera.camera_rays
@@ -62,6 +64,7 @@ class RenderOptions:
     tile_rays: int = TILE_RAYS
     threads: int | None = None
     count_rays: bool = False  # ask a5_whitted for per-lane secondary/shadow ray counts (for -v)
+    aov_mode: str = "main"  # "main": AOVs from the main rays; "quadrant": the binary's AOV rays (SPEC B.6)
 
     def __post_init__(self) -> None:
         if self.width <= 0 or self.height <= 0:
@@ -72,6 +75,8 @@ class RenderOptions:
             raise ValueError(f"fresnel must be one of {', '.join(FRESNEL_MODES)}, got '{self.fresnel}'")
         if self.kernel not in KERNELS:
             raise ValueError(f"kernel must be one of {', '.join(KERNELS)}, got '{self.kernel}'")
+        if self.aov_mode not in AOV_MODES:
+            raise ValueError(f"aov_mode must be one of {', '.join(AOV_MODES)}, got '{self.aov_mode}'")
         if self.tile_rays <= 0:
             raise ValueError(f"tile_rays must be positive, got {self.tile_rays}")
 
@@ -197,6 +202,90 @@ def _default_camera_rays() -> CameraRays:
     return camera_rays
 
 
+def quadrant_coords(rw: int, rh: int, j0: int, j1: int) -> tuple[np.ndarray, np.ndarray]:
+    """``x_pix``, ``y_pix`` of the sample solution's AOV rays (SPEC B.6 compatibility, ``aov_mode="quadrant"``).
+
+    Pixel (X, Y) uses the camera-plane point ``p = ((X+0.5-W/2)/max(W,H) + 0.5, (Y+0.5-H/2)/max(W,H) + 0.5)``
+    in [0, 1] directly as B.2's ``(x, y)`` in [-1, 1] (only the top-right quadrant, magnified 2x). Expressed as
+    pixel coordinates of :func:`camera_rays`: ``x_pix = (p_x + 1)(W-1)/2`` (likewise y), in float64 then
+    rounded to float32, so the rays agree with the binary's to float precision, not bit for bit.
+    """
+    m = float(max(rw, rh))
+    xs = (np.arange(rw) + 0.5 - rw / 2) / m + 0.5
+    ys = (np.arange(j0, j1) + 0.5 - rh / 2) / m + 0.5
+    x_pix = ((xs + 1.0) * (rw - 1) / 2.0).astype(np.float32)
+    y_pix = ((ys + 1.0) * (rh - 1) / 2.0).astype(np.float32)
+    return np.tile(x_pix, j1 - j0), np.repeat(y_pix, rw)
+
+
+@dataclass
+class _Pass:
+    """Buffers and counters of one tile loop over the render buffer."""
+
+    color: np.ndarray | None
+    normal: np.ndarray | None
+    dist: np.ndarray | None
+    counts: dict[str, int] = field(default_factory=dict)
+
+
+_COUNT_NAMES = ("reflection", "refraction", "shadow")
+
+
+def _trace_pass(
+    mi_scene: Any,
+    camera: Any,
+    integrator: Any,
+    camera_rays: CameraRays,
+    rw: int,
+    rh: int,
+    tiles: Iterator[tuple[int, int, np.ndarray, np.ndarray]],
+    buffers: _Pass,
+    timings: dict[str, float],
+    progress: Progress | None,
+    done: int,
+    total: int,
+) -> int:
+    """Trace every tile ``(j0, j1, x_pix, y_pix)`` and fill ``buffers``; returns the updated ``done``."""
+    import drjit as dr
+    import mitsuba as mi
+
+    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
+    want_aov = buffers.normal is not None or buffers.dist is not None
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        dr.kernel_history_clear()
+        for j0, j1, x_pix, y_pix in tiles:
+            n = (j1 - j0) * rw
+            ray = camera_rays(
+                camera.center, camera.direction, camera.up, camera.angle,
+                mi.Float(x_pix), mi.Float(y_pix), rw, rh,
+            )  # fmt: skip
+            sampler.seed(0, n)
+            rgb, _valid, aovs = integrator.sample(mi_scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
+            if want_aov and len(aovs) < 4:
+                raise RuntimeError(f"integrator returned {len(aovs)} AOVs, expected [nx, ny, nz, t]")
+            counted = buffers.color is not None and len(aovs) >= 7
+            outputs = ([rgb] if buffers.color is not None else []) + (list(aovs)[:4] if want_aov else [])
+            sums = [dr.sum(mi.UInt32(a)) for a in aovs[4:7]] if counted else []
+            dr.eval(*outputs, *sums)
+            dr.sync_thread()
+            if buffers.color is not None:
+                buffers.color[j0:j1] = np.asarray(rgb).T.reshape(j1 - j0, rw, 3)
+            if buffers.normal is not None:
+                nrm = np.stack([np.asarray(aovs[k]) for k in range(3)], axis=-1)
+                buffers.normal[j0:j1] = np.abs(nrm).reshape(j1 - j0, rw, 3)
+            if buffers.dist is not None:
+                buffers.dist[j0:j1] = np.asarray(aovs[3]).reshape(j1 - j0, rw)
+            for name, a in zip(_COUNT_NAMES, sums, strict=False):
+                buffers.counts[name] = buffers.counts.get(name, 0) + int(a[0])
+            for entry in dr.kernel_history():
+                timings["execute"] += entry.get("execution_time", 0.0) / 1000.0
+                timings["compile"] += (entry.get("codegen_time", 0.0) + entry.get("backend_time", 0.0)) / 1000.0
+            done += n
+            if progress is not None:
+                progress(done, total)
+    return done
+
+
 def render_scene(
     mi_scene: Any,
     camera: Any,
@@ -208,83 +297,63 @@ def render_scene(
 ) -> RenderResult:
     """Render a loaded Mitsuba scene with the a5 camera ``camera`` (``center``, ``direction``, ``up``,
     ``angle`` in degrees). ``integrator`` defaults to ``mi_scene.integrator()``; ``camera_rays`` to
-    :func:`a5mi.plugins.camera.camera_rays`."""
+    :func:`a5mi.plugins.camera.camera_rays`. With ``aov_mode="quadrant"`` the AOV images come from a second
+    pass with the sample solution's own AOV rays (:func:`quadrant_coords`)."""
     import drjit as dr
-    import mitsuba as mi
 
     if options.threads is not None:
         dr.set_thread_count(options.threads)
     integrator = integrator if integrator is not None else mi_scene.integrator()
     camera_rays = camera_rays if camera_rays is not None else _default_camera_rays()
     rw, rh = options.render_size
-    total = rw * rh
     tiles = tile_rows(rw, rh, options.tile_rays)
     want_aov = options.normals or options.depth is not None
-    count_names = ("reflection", "refraction", "shadow")
-    counts = dict.fromkeys(count_names, 0)
-    counted = False
+    separate = want_aov and options.aov_mode == "quadrant"
+    total = rw * rh * (2 if separate else 1)
 
-    color = np.empty((rh, rw, 3), np.float32)
-    normal = np.empty((rh, rw, 3), np.float32) if options.normals else None
-    dist = np.empty((rh, rw), np.float32) if options.depth is not None else None
-    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
+    aov = _Pass(
+        color=None,
+        normal=np.empty((rh, rw, 3), np.float32) if options.normals else None,
+        dist=np.empty((rh, rw), np.float32) if options.depth is not None else None,
+    )
+    main = _Pass(color=np.empty((rh, rw, 3), np.float32), normal=None, dist=None)
+    if not separate:
+        main.normal, main.dist = aov.normal, aov.dist
     timings: dict[str, float] = {"compile": 0.0, "execute": 0.0, "jitter": 0.0}
 
-    t_start = time.perf_counter()
-    done = 0
-    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
-        dr.kernel_history_clear()
+    def main_tiles() -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
         for j0, j1, jit in _tiles_with_jitter(rw, tiles, options.seed, options.jitter, timings):
-            n = (j1 - j0) * rw
-            x_pix, y_pix = _pixel_coords(rw, j0, j1, jit)
-            ray = camera_rays(
-                camera.center, camera.direction, camera.up, camera.angle,
-                mi.Float(x_pix), mi.Float(y_pix), rw, rh,
-            )  # fmt: skip
-            sampler.seed(0, n)
-            rgb, _valid, aovs = integrator.sample(mi_scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
-            counted = len(aovs) >= 7
-            outputs = [rgb] + (list(aovs)[:4] if want_aov else [])
-            if counted:
-                outputs += [dr.sum(mi.UInt32(a)) for a in aovs[4:7]]
-            dr.eval(*outputs)
-            dr.sync_thread()
-            color[j0:j1] = np.asarray(rgb).T.reshape(j1 - j0, rw, 3)
-            if want_aov:
-                if len(aovs) < 4:
-                    raise RuntimeError(f"integrator returned {len(aovs)} AOVs, expected [nx, ny, nz, t]")
-                if normal is not None:
-                    nrm = np.stack([np.asarray(aovs[k]) for k in range(3)], axis=-1)
-                    normal[j0:j1] = np.abs(nrm).reshape(j1 - j0, rw, 3)
-                if dist is not None:
-                    dist[j0:j1] = np.asarray(aovs[3]).reshape(j1 - j0, rw)
-            if counted:
-                for name, a in zip(count_names, outputs[-3:], strict=True):
-                    counts[name] += int(a[0])
-            for entry in dr.kernel_history():
-                timings["execute"] += entry.get("execution_time", 0.0) / 1000.0
-                timings["compile"] += (entry.get("codegen_time", 0.0) + entry.get("backend_time", 0.0)) / 1000.0
-            done += n
-            if progress is not None:
-                progress(done, total)
+            yield (j0, j1, *_pixel_coords(rw, j0, j1, jit))
+
+    def quadrant_tiles() -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
+        for j0, j1 in tiles:
+            yield (j0, j1, *quadrant_coords(rw, rh, j0, j1))
+
+    t_start = time.perf_counter()
+    done = _trace_pass(mi_scene, camera, integrator, camera_rays, rw, rh, main_tiles(), main, timings, progress,
+                       0, total)
+    if separate:
+        _trace_pass(mi_scene, camera, integrator, camera_rays, rw, rh, quadrant_tiles(), aov, timings, progress,
+                    done, total)
     timings["render"] = time.perf_counter() - t_start
 
     t0 = time.perf_counter()
-    image = postprocess(color, filter=options.filter, kernel=options.kernel)
+    assert main.color is not None
+    image = postprocess(main.color, filter=options.filter, kernel=options.kernel)
     timings["filter"] = time.perf_counter() - t0
     depth_img = None
-    if dist is not None and options.depth is not None:
-        gray = depth_gray(dist, *options.depth)
+    if aov.dist is not None and options.depth is not None:
+        gray = depth_gray(aov.dist, *options.depth)
         depth_img = np.ascontiguousarray(np.repeat(gray[:, :, None], 3, axis=2)[::-1])
     return RenderResult(
         image=np.ascontiguousarray(image[::-1]),
-        normals=None if normal is None else np.ascontiguousarray(normal[::-1]),
+        normals=None if aov.normal is None else np.ascontiguousarray(aov.normal[::-1]),
         depth=depth_img,
         render_size=(rw, rh),
         camera_rays=total,
         tiles=len(tiles),
         timings=timings,
-        ray_counts=counts if counted else {},
+        ray_counts=main.counts,
     )
 
 

@@ -63,10 +63,12 @@ def test_b1_flags_any_order_and_defaults() -> None:
     b = cli.parse_a5_args(["-size", "60", "40", "-bounces", "0", "-input", "s.txt", "-output", "o.png",
                            "-depth", "1", "2.5", "d.png", "-normals", "n.png", "-reflection_off",
                            "-refraction_off", "-seed", "3", "-fresnel", "exact", "-kernel", "handout",
-                           "-threads", "2", "-phong", "-variant", "llvm", "-filter", "-bounces", "2"])
+                           "-threads", "2", "-phong", "-variant", "llvm", "-filter", "-bounces", "2",
+                           "-normals_mode", "quadrant"])
     assert (b.width, b.height, b.bounces, b.depth, b.normals) == (60, 40, 2, (1.0, 2.5, "d.png"), "n.png")
     assert not b.reflection and not b.refraction and b.filter and b.phong
     assert (b.seed, b.fresnel, b.kernel, b.threads, b.variant) == (3, "exact", "handout", 2, "llvm")
+    assert b.normals_mode == "quadrant"
 
 
 @pytest.mark.parametrize(
@@ -84,6 +86,8 @@ def test_b1_flags_any_order_and_defaults() -> None:
         (["-input", "s.txt", "-output", "o.png", "-depth", "nan", "1", "d.png"], "finite number"),
         (["-input", "s.txt", "-output", "o.png", "-fresnel", "fast"], "-fresnel expects one of a5, schlick, exact"),
         (["-input", "s.txt", "-output", "o.png", "-filter", "-size", "2", "9"], "too small"),
+        (["-input", "s.txt", "-output", "o.png", "-jitter", "-size", "16384", "16384"], "the limit is 268435456"),
+        (["-input", "s.txt", "-output", "o.png", "-normals_mode", "half"], "-normals_mode expects one of main"),
     ],
 )
 def test_b1_usage_errors(argv, message, capsys) -> None:

@@ -180,3 +180,14 @@ def test_b2_real_integrator_centre_pixel(variant) -> None:
     np.testing.assert_allclose(res.depth[2, 2], 0.5, rtol=1e-6)  # 1 - 4/8
     np.testing.assert_array_equal(res.image[0, 0], 0.0)
     np.testing.assert_array_equal(res.depth[0, 0], 0.0)
+
+
+def test_b6_quadrant_mode_uses_the_binarys_aov_rays(variant) -> None:
+    """aov_mode="quadrant": AOV pixel X sees camera x = (X+0.5-W/2)/max(W,H) + 0.5, i.e. x_pix = (x+1)(W-1)/2;
+    the main image keeps its own rays. For W = H = 4: X = 0 -> x = 0.125 -> x_pix = 1.6875; X = 3 -> 2.8125."""
+    res = _render(width=4, height=4, normals=True, depth=(0.0, 10.0), aov_mode="quadrant")
+    bottom_up_n = res.normals[::-1, :, 0]  # |n.x| = x_pix in the probe
+    np.testing.assert_allclose(bottom_up_n[0], [1.6875, 2.0625, 2.4375, 2.8125])
+    np.testing.assert_allclose(res.depth[::-1, 0, 0], 1 - np.array([1.6875, 2.0625, 2.4375, 2.8125]) / 10, rtol=1e-6)
+    np.testing.assert_array_equal(res.image[::-1][0, :, 0], [0, 1, 2, 3])  # main pass: pixel centres
+    assert res.camera_rays == 32
