@@ -1,0 +1,661 @@
+"""``a5mi crosscheck``: the a5 dielectric against textbook Schlick, exact Fresnel and Mitsuba's ``path``.
+
+One scene, five passes, all through the **same camera rays** (SPEC B.2, pixel centres, no jitter), so every
+difference is light transport, never sampling:
+
+* ``a5``, ``schlick``, ``exact``: ``a5_whitted`` (SPEC B.3) with its three Fresnel modes
+  (:func:`a5mi.plugins.common.fresnel_weight`): ``R = R0 + (1 − R0)(1 − c)⁵`` with the binary's
+  ``R0 = ((nt − 1)/(nt + 1))²`` or the textbook ``R0 = ((nt − n)/(nt + n))²``, or the unpolarised exact
+  ``R = ½(r_s² + r_p²)`` of ``mi.fresnel`` (stock ``dielectric``);
+* ``path``: the ``stock=True`` conversion rendered by Mitsuba's own ``path`` integrator, ``spp`` samples
+  through each pixel centre, ``max_depth = bounces + 2`` (camera segment + ``bounces`` secondary segments +
+  the light connection of the last hit, the longest path ``a5_whitted`` forms) and no Russian roulette;
+* a class pass: a depth-first walk of the same Whitted ray tree (same push rules as SPEC B.3) that marks
+  each pixel as *background* (the camera ray misses), *opaque* (the tree never hits a material with
+  ``refraction_index > 0``) or *glass* (some node of the tree hits one, the last level included).
+
+The three Fresnel modes can only differ where a refracted ray is pushed, so they agree **exactly** (bit for
+bit) on every non-glass pixel; :func:`crosscheck` reports per pair the metrics of :mod:`a5mi.compare` over
+the glass pixels and over all other pixels, in 8-bit levels as the images would be saved
+(``byte = clamp(int(c·255))``, SPEC B.1), plus the signed ``bias = mean(B − A)``.
+:func:`write_montage` draws ``a5 | schlick | exact | path`` with their error maps.
+
+What separates ``path`` from Whitted (see the README section "Cross-check against physically based
+rendering"): Whitted has an ``ambient ⊙ diffuseColor`` term and no indirect diffuse light; Whitted never
+lights a surface by the environment (only misses see it); lights shine through nothing with ``-shadows`` off
+(this command always renders with shadows, as ``path`` cannot do otherwise); the a5 point light has no
+inverse-square law; and Mitsuba's dielectric scales radiance by ``1/η²`` on the way into glass and ``η²`` on
+the way out, which cancels on every path from an outside camera to an outside light.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from a5mi.compare import Metrics, compare_arrays, heatmap
+
+#: The Whitted Fresnel modes, in montage order.
+FRESNEL_MODES: tuple[str, ...] = ("a5", "schlick", "exact")
+#: Every rendering of a cross-check, in montage order.
+LABELS: tuple[str, ...] = (*FRESNEL_MODES, "path")
+#: Reported pairs (A, B); metrics are of B against A.
+PAIRS: tuple[tuple[str, str], ...] = (
+    ("a5", "schlick"), ("a5", "exact"), ("schlick", "exact"),
+    ("a5", "path"), ("schlick", "path"), ("exact", "path"),
+)  # fmt: skip
+#: Pixel classes of :func:`pixel_classes`.
+BACKGROUND, OPAQUE, GLASS = 0, 1, 2
+#: Upper bound of path-traced lanes per kernel launch (memory); the kernel is compiled once.
+PATH_LANES = 1 << 20
+#: ``rr_depth`` of the path integrator: far beyond any ``max_depth``, so Russian roulette never starts.
+NO_RR_DEPTH = 1 << 16
+#: Full scale of the montage's heatmaps, in levels: Fresnel-mode pairs and pairs against ``path``.
+FRESNEL_SCALE, PATH_SCALE = 16.0, 64.0
+
+
+@dataclass(frozen=True)
+class CrosscheckOptions:
+    """What to render: size (default 300x300), Whitted bounce budget, path samples per pixel and seed."""
+
+    width: int = 300
+    height: int = 300
+    bounces: int = 4
+    spp: int = 256
+    seed: int = 0
+    shadows: bool = True
+
+    def __post_init__(self) -> None:
+        if self.width <= 0 or self.height <= 0:
+            raise ValueError(f"size must be positive, got {self.width}x{self.height}")
+        if self.bounces < 0:
+            raise ValueError(f"bounces must be >= 0, got {self.bounces}")
+        if self.spp <= 0:
+            raise ValueError(f"spp must be positive, got {self.spp}")
+
+    @property
+    def path_max_depth(self) -> int:
+        """``bounces + 2``: Mitsuba's ``max_depth`` counts path segments (1 = emitters seen directly)."""
+        return self.bounces + 2
+
+
+@dataclass(frozen=True)
+class PairReport:
+    """Metrics of ``b`` against ``a`` over one region (``glass`` or ``other``); ``metrics`` None if empty."""
+
+    a: str
+    b: str
+    region: str
+    pixels: int
+    metrics: Metrics | None
+    bias: float  # mean(B - A) over the region's pixels and channels, in levels
+
+    def to_dict(self) -> dict[str, Any]:
+        m = None
+        if self.metrics is not None:
+            m = asdict(self.metrics)
+            m["psnr"] = None if math.isinf(self.metrics.psnr) else self.metrics.psnr
+        return {"a": self.a, "b": self.b, "region": self.region, "pixels": self.pixels, "bias": self.bias,
+                "metrics": m}
+
+
+@dataclass
+class CrosscheckResult:
+    """Images (float32 HxWx3, row 0 = top, linear), pixel classes (HxW uint8), the pair table, statistics.
+
+    ``path_stderr`` is the mean standard error of the path image, in levels (Monte Carlo noise floor of
+    every comparison against ``path``); ``timings`` are seconds per rendering.
+    """
+
+    images: dict[str, npt.NDArray[np.float32]]
+    classes: npt.NDArray[np.uint8]
+    pairs: list[PairReport]
+    options: CrosscheckOptions
+    path_stderr: float
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def glass(self) -> npt.NDArray[np.bool_]:
+        return self.classes == GLASS
+
+
+# --------------------------------------------------------------------------------------------------------
+# The class pass: does the Whitted ray tree of a pixel touch a dielectric?
+# --------------------------------------------------------------------------------------------------------
+
+
+# Dr.Jit may only load after a5mi.variant's LLVM check, and @dr.syntax drops closures: the kernel is a plain
+# module-level function whose globals below are bound, and which is converted by dr.syntax, on first use.
+dr: Any = None  # drjit
+mi: Any = None  # mitsuba
+_snell: Any = None  # a5mi.plugins.common.snell
+_reflect: Any = None  # a5mi.plugins.common.reflect
+_MIRROR_THRESHOLD: Any = None  # a5mi.plugins.whitted.MIRROR_THRESHOLD (SPEC B.3 |specularColor| > 0.001)
+_touch_kernel: Any = None
+
+
+def _touch_trace_source(scene, ray_o, ray_d, max_depth, tmin, size, reflection, refraction):  # noqa: ANN001, ANN202
+    """Walk the SPEC B.3 ray tree of each camera ray; return ``(camera ray hit, some node hit glass)``.
+
+    The push rules are ``a5_whitted``'s: a mirror child when ``bounces > 0`` and ``|specularColor| > 0.001``,
+    a refracted child when ``bounces > 0``, ``refractionIndex > 0`` and Snell has a solution (medium index
+    tracked along the ray, ``nt = 1`` when leaving by the sign of d·N). A node "hits glass" when its material
+    has ``refraction_index > 0``; weights are irrelevant here, so the tree is the same for every Fresnel mode.
+    """
+    width = dr.width(ray_d)
+    stack_o = dr.alloc_local(mi.Point3f, size)
+    stack_d = dr.alloc_local(mi.Vector3f, size)
+    stack_b = dr.alloc_local(mi.UInt32, size)   # remaining bounces
+    stack_n = dr.alloc_local(mi.Float, size)    # index of the medium the ray travels in
+    stack_t = dr.alloc_local(mi.Float, size)    # the ray's tmin
+    zero_u = dr.zeros(mi.UInt32, width)
+    stack_o[zero_u] = mi.Point3f(ray_o)
+    stack_d[zero_u] = mi.Vector3f(ray_d)
+    stack_b[zero_u] = zero_u + max_depth
+    stack_n[zero_u] = dr.full(mi.Float, 1.0, width)
+    stack_t[zero_u] = dr.zeros(mi.Float, width)
+    top = zero_u + 1                                     # stack pointer, full width
+    first = dr.full(mi.Bool, True, width)               # the node is the camera ray
+    first_hit = dr.full(mi.Bool, False, width)          # the camera ray hit something
+    glass = dr.full(mi.Bool, False, width)              # some node hit a dielectric
+    while top > 0:
+        top -= 1
+        o = stack_o[top]
+        d = stack_d[top]
+        bounces = stack_b[top]
+        n_medium = stack_n[top]
+        t_min = stack_t[top]
+        si = scene.ray_intersect(mi.Ray3f(o + t_min * d, d))
+        hit = si.is_valid()
+        p = o + (si.t + t_min) * d
+        n = mi.Vector3f(si.sh_frame.n)
+        bsdf = si.bsdf()
+        a5 = bsdf.has_attribute("diffuse_color", hit) & hit
+        specular = bsdf.eval_attribute_3("specular_color", si, a5)
+        ior = bsdf.eval_attribute_1("refraction_index", si, a5)
+        glass |= a5 & (ior > 0.0)
+        first_hit = dr.select(first, hit, first_hit)
+        first = dr.full(mi.Bool, False, width)
+        go = hit & (bounces > 0)
+        if refraction:
+            leaving = dr.dot(d, n) > 0.0
+            n_facing = dr.select(leaving, -n, n)
+            nt = dr.select(leaving, 1.0, ior)
+            t_dir, exists = _snell(d, n_facing, n_medium, nt)
+            push_refr = go & a5 & (ior > 0.0) & exists
+            stack_o.write(p, top, push_refr)
+            stack_d.write(t_dir, top, push_refr)
+            stack_b.write(bounces - 1, top, push_refr)
+            stack_n.write(nt, top, push_refr)
+            stack_t.write(tmin, top, push_refr)
+            top += dr.select(push_refr, 1, 0)
+        if reflection:
+            push_refl = go & a5 & (dr.norm(specular) > _MIRROR_THRESHOLD)
+            stack_o.write(p, top, push_refl)
+            stack_d.write(_reflect(d, n), top, push_refl)
+            stack_b.write(bounces - 1, top, push_refl)
+            stack_n.write(n_medium, top, push_refl)
+            stack_t.write(tmin, top, push_refl)
+            top += dr.select(push_refl, 1, 0)
+    return first_hit, glass
+
+
+def _touch_trace(*args: Any) -> tuple[Any, Any]:
+    """:func:`_touch_trace_source` as a ``@dr.syntax`` kernel (bound on first call)."""
+    global dr, mi, _snell, _reflect, _MIRROR_THRESHOLD, _touch_kernel
+    if _touch_kernel is None:
+        import drjit
+        import mitsuba
+
+        from a5mi.plugins.common import reflect, snell
+        from a5mi.plugins.whitted import MIRROR_THRESHOLD
+
+        dr, mi, _snell, _reflect, _MIRROR_THRESHOLD = drjit, mitsuba, snell, reflect, MIRROR_THRESHOLD
+        _touch_kernel = drjit.syntax(_touch_trace_source)
+    return _touch_kernel(*args)
+
+
+def _pixel_rays(camera: Any, width: int, height: int, repeat: int = 1) -> Any:
+    """SPEC B.2 camera rays through the pixel centres, row-major from the bottom row, each ``repeat`` times
+    (sample-major: lane ``k·W·H + j·W + i``)."""
+    import mitsuba as mi
+
+    from a5mi.plugins.camera import camera_rays
+
+    i = np.tile(np.arange(width, dtype=np.float32), height * repeat)
+    j = np.tile(np.repeat(np.arange(height, dtype=np.float32), width), repeat)
+    return camera_rays(camera.center, camera.direction, camera.up, camera.angle, mi.Float(i), mi.Float(j),
+                       width, height)
+
+
+def pixel_classes(
+    mi_scene: Any, camera: Any, width: int, height: int, bounces: int, *, tmin: float = 0.001,
+    reflection: bool = True, refraction: bool = True,
+) -> npt.NDArray[np.uint8]:
+    """Class of each pixel (HxW, row 0 = top): :data:`BACKGROUND`, :data:`OPAQUE` or :data:`GLASS`.
+
+    Parameter ``mi_scene``: a loaded scene with a5 materials. ``camera``: ``center``, ``direction``, ``up``,
+    ``angle`` (SPEC A.2). ``bounces``, ``tmin``, ``reflection``, ``refraction``: as ``a5_whitted``'s.
+    Output: ``GLASS`` where some node of the pixel's SPEC B.3 ray tree hits a material with
+    ``refraction_index > 0``; else ``BACKGROUND`` where the camera ray misses, else ``OPAQUE``.
+    """
+    import drjit as dr
+    import mitsuba as mi
+
+    from a5mi.plugins.whitted import stack_size
+
+    ray = _pixel_rays(camera, width, height)
+    first_hit, glass = _touch_trace(
+        mi_scene, ray.o, ray.d, dr.opaque(mi.UInt32, bounces), dr.opaque(mi.Float, tmin), stack_size(bounces),
+        reflection, refraction,
+    )
+    dr.eval(first_hit, glass)
+    hit = np.asarray(first_hit, dtype=bool).reshape(height, width)
+    gl = np.asarray(glass, dtype=bool).reshape(height, width)
+    out = np.where(gl, GLASS, np.where(hit, OPAQUE, BACKGROUND)).astype(np.uint8)
+    return np.ascontiguousarray(out[::-1])
+
+
+# --------------------------------------------------------------------------------------------------------
+# Renderings
+# --------------------------------------------------------------------------------------------------------
+
+
+def render_whitted(
+    mi_scene: Any, camera: Any, integrator: Mapping[str, Any], options: CrosscheckOptions, fresnel: str
+) -> npt.NDArray[np.float32]:
+    """``a5_whitted`` with ``fresnel`` (and ``options.bounces``/``shadows``) over ``integrator``'s other
+    parameters (ambient, tmin, ...); float image HxWx3, row 0 = top, through :func:`a5mi.driver.render_scene`."""
+    import mitsuba as mi
+
+    from a5mi.driver import RenderOptions, render_scene
+
+    spec = {**integrator, "type": "a5_whitted", "fresnel": fresnel, "max_depth": options.bounces,
+            "shadows": options.shadows, "reflection": True, "refraction": True}
+    integ = mi.load_dict(spec)
+    ro = RenderOptions(width=options.width, height=options.height, bounces=options.bounces,
+                       shadows=options.shadows, fresnel=fresnel)
+    return render_scene(mi_scene, camera, ro, integrator=integ).image
+
+
+def render_path(
+    mi_scene: Any, camera: Any, width: int, height: int, spp: int, max_depth: int, *, seed: int = 0,
+    lanes: int = PATH_LANES,
+) -> tuple[npt.NDArray[np.float32], float]:
+    """Mitsuba's ``path`` integrator (``max_depth``, no Russian roulette) through the SPEC B.2 pixel centres.
+
+    Parameter ``spp``: samples per pixel, all through the pixel centre (no antialiasing, as the a5
+    renders). ``lanes``: samples per kernel launch (rounded to whole images). Output: the mean image
+    ``L̄ = (1/spp) Σ L_k`` (float32 HxWx3, row 0 = top) and its mean standard error
+    ``mean(sqrt(Var(L)/spp))`` in 8-bit levels.
+    """
+    import drjit as dr
+    import mitsuba as mi
+
+    integ = mi.load_dict({"type": "path", "max_depth": max_depth, "rr_depth": NO_RR_DEPTH,
+                          "hide_emitters": False})
+    n_pix = width * height
+    per_launch = max(1, min(spp, lanes // n_pix))
+    total = np.zeros((3, n_pix), np.float64)
+    total_sq = np.zeros((3, n_pix), np.float64)
+    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
+    done = 0
+    launch = 0
+    while done < spp:
+        k = min(per_launch, spp - done)
+        ray = _pixel_rays(camera, width, height, repeat=k)
+        sampler.seed(seed * 1_000_003 + launch, k * n_pix)
+        rgb, _valid, _aovs = integ.sample(mi_scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
+        dr.eval(rgb)
+        dr.sync_thread()
+        c = np.asarray(rgb, dtype=np.float64).reshape(3, k, n_pix)
+        total += c.sum(axis=1)
+        total_sq += (c * c).sum(axis=1)
+        done += k
+        launch += 1
+    mean = total / spp
+    var = np.maximum(total_sq / spp - mean * mean, 0.0) * (spp / max(spp - 1, 1))
+    stderr = float(np.mean(np.sqrt(var / spp)) * 255.0)
+    img = mean.T.reshape(height, width, 3).astype(np.float32)
+    return np.ascontiguousarray(img[::-1]), stderr
+
+
+# --------------------------------------------------------------------------------------------------------
+# Metrics
+# --------------------------------------------------------------------------------------------------------
+
+
+def levels(img: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """8-bit levels as the image would be saved: ``clamp(int(c·255), 0, 255)`` (SPEC B.1)."""
+    from a5mi.imageio import quantize
+
+    return quantize(img).astype(np.float64)
+
+
+def masked_metrics(
+    a: npt.NDArray[np.float64], b: npt.NDArray[np.float64], mask: npt.NDArray[np.bool_]
+) -> Metrics | None:
+    """:func:`a5mi.compare.compare_arrays` over the pixels of ``mask`` only (shares are of those pixels);
+    ``bbox`` in image coordinates, ``width``/``height`` the image's. None for an empty mask."""
+    if not mask.any():
+        return None
+    m = compare_arrays(a[mask][None], b[mask][None])
+    over = np.zeros(mask.shape, bool)
+    over[mask] = np.abs(a[mask] - b[mask]).max(axis=1) > m.threshold
+    bbox = None
+    if over.any():
+        ys, xs = np.nonzero(over)
+        bbox = (int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max()))
+    return replace(m, bbox=bbox, width=mask.shape[1], height=mask.shape[0])
+
+
+def pair_reports(
+    images: Mapping[str, npt.NDArray[np.float32]], glass: npt.NDArray[np.bool_],
+    pairs: Sequence[tuple[str, str]] = PAIRS,
+) -> list[PairReport]:
+    """Per pair (A, B) and region (``glass``, ``other`` = not glass): metrics in 8-bit levels and the bias
+    ``mean(B − A)``."""
+    lv = {k: levels(v) for k, v in images.items()}
+    out = []
+    for a, b in pairs:
+        for region, mask in (("glass", glass), ("other", ~glass)):
+            n = int(mask.sum())
+            bias = float(np.mean(lv[b][mask] - lv[a][mask])) if n else 0.0
+            out.append(PairReport(a, b, region, n, masked_metrics(lv[a], lv[b], mask), bias))
+    return out
+
+
+# --------------------------------------------------------------------------------------------------------
+# The whole cross-check
+# --------------------------------------------------------------------------------------------------------
+
+
+def path_dict(stock_dict: Mapping[str, Any], options: CrosscheckOptions) -> dict[str, Any]:
+    """The stock scene dict with its integrator replaced by ``path`` (``max_depth = bounces + 2``, no RR)."""
+    out = dict(stock_dict)
+    out["integrator"] = {"type": "path", "max_depth": options.path_max_depth, "rr_depth": NO_RR_DEPTH}
+    return out
+
+
+def crosscheck_dicts(
+    a5_dict: Mapping[str, Any], stock_dict: Mapping[str, Any], camera: Any, options: CrosscheckOptions
+) -> CrosscheckResult:
+    """Render the cross-check of two scene dicts: ``a5_dict`` (a5 plugins, its ``integrator`` entry an
+    ``a5_whitted`` dict whose ambient/tmin are kept) for the three Fresnel modes and the class pass, and
+    ``stock_dict`` for ``path``. Both must place the same objects; ``camera`` gives the SPEC B.2 rays."""
+    import mitsuba as mi
+
+    timings: dict[str, float] = {}
+    integrator = dict(a5_dict.get("integrator") or {"type": "a5_whitted"})
+    t0 = time.perf_counter()
+    a5_scene = mi.load_dict(dict(a5_dict))
+    timings["load"] = time.perf_counter() - t0
+    images: dict[str, npt.NDArray[np.float32]] = {}
+    for mode in FRESNEL_MODES:
+        t0 = time.perf_counter()
+        images[mode] = render_whitted(a5_scene, camera, integrator, options, mode)
+        timings[mode] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    classes = pixel_classes(a5_scene, camera, options.width, options.height, options.bounces,
+                            tmin=float(integrator.get("tmin", 0.001)))
+    timings["classes"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    stock_scene = mi.load_dict(path_dict(stock_dict, options))
+    images["path"], stderr = render_path(stock_scene, camera, options.width, options.height, options.spp,
+                                         options.path_max_depth, seed=options.seed)
+    timings["path"] = time.perf_counter() - t0
+    return CrosscheckResult(images, classes, pair_reports(images, classes == GLASS), options, stderr, timings)
+
+
+def crosscheck(scene_model: Any, options: CrosscheckOptions) -> CrosscheckResult:
+    """The cross-check of a parsed scene (``a5mi.converters.a5_parser.parse_file``): converted with
+    ``to_dict(scene, settings)`` and ``to_dict(scene, settings, stock=True)``. Needs an active JIT variant
+    with the a5mi plugins registered (:func:`a5mi.variant.activate`)."""
+    from a5mi.converters.to_mitsuba import RenderSettings, to_dict
+
+    settings = RenderSettings(width=options.width, height=options.height, bounces=options.bounces,
+                              shadows=options.shadows, phong=False, fresnel="a5", reflection=True,
+                              refraction=True)
+    return crosscheck_dicts(to_dict(scene_model, settings), to_dict(scene_model, settings, stock=True),
+                            scene_model.camera, options)
+
+
+# --------------------------------------------------------------------------------------------------------
+# Output: table, JSON, montage
+# --------------------------------------------------------------------------------------------------------
+
+
+def table(result: CrosscheckResult) -> str:
+    """The pair table as text: one row per pair and region."""
+    o = result.options
+    n_glass = int(result.glass.sum())
+    n_bg = int((result.classes == BACKGROUND).sum())
+    lines = [
+        f"{o.width}x{o.height}, bounces {o.bounces}, shadows {'on' if o.shadows else 'off'}; path: {o.spp} spp, "
+        f"max_depth {o.path_max_depth}, no Russian roulette, mean standard error {result.path_stderr:.2f}/255",
+        f"pixels: {n_glass} glass (ray tree touches a dielectric), {o.width * o.height - n_glass} other "
+        f"({n_bg} background)",
+        f"{'A':<8} {'B':<8} {'region':<6} {'pixels':>7} {'PSNR':>7} {'mean':>7} {'bias B-A':>9} {'>2/255':>8} "
+        f"{'max':>5}",
+    ]
+    for r in result.pairs:
+        if r.metrics is None:
+            lines.append(f"{r.a:<8} {r.b:<8} {r.region:<6} {r.pixels:>7} {'-':>7}")
+            continue
+        m = r.metrics
+        psnr = "inf" if math.isinf(m.psnr) else f"{m.psnr:.1f}"
+        lines.append(f"{r.a:<8} {r.b:<8} {r.region:<6} {r.pixels:>7} {psnr:>7} {m.mean_error:>7.3f} "
+                     f"{r.bias:>+9.3f} {100 * m.share_over:>7.2f}% {m.max_error:>5.0f}")
+    lines.append("(levels of 1/255; PSNR in dB; bias = mean(B - A); '>2/255' = share of the region's pixels)")
+    return "\n".join(lines)
+
+
+def to_json(result: CrosscheckResult) -> str:
+    o = result.options
+    return json.dumps({
+        "options": asdict(o), "path_max_depth": o.path_max_depth, "path_stderr": result.path_stderr,
+        "pixels": {"glass": int(result.glass.sum()), "background": int((result.classes == BACKGROUND).sum()),
+                   "total": o.width * o.height},
+        "pairs": [r.to_dict() for r in result.pairs], "timings": result.timings,
+    })
+
+
+def _signed_map(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64], full_scale: float) -> npt.NDArray[np.float64]:
+    """Mean channel difference ``b − a``: red where B is brighter, blue where darker, black equal."""
+    s = np.clip((b - a).mean(axis=2) / full_scale, -1.0, 1.0)
+    out = np.zeros((*s.shape, 3))
+    out[..., 0] = np.maximum(s, 0.0) * 255.0
+    out[..., 2] = np.maximum(-s, 0.0) * 255.0
+    return out
+
+
+def montage_image(result: CrosscheckResult) -> npt.NDArray[np.uint8]:
+    """Three rows of four tiles, each labelled underneath (levels, uint8):
+
+    1. ``a5 | schlick | exact | path``;
+    2. ``|a5−schlick|``, ``|a5−exact|``, ``|schlick−exact|`` (full scale 16/255), and the pixel classes
+       (glass white, other grey, background black);
+    3. ``|a5−path|``, ``|schlick−path|``, ``|exact−path|`` (full scale 64/255), and ``path − exact``
+       signed (red: path brighter, blue: darker, full scale 64/255).
+    """
+    import OpenImageIO as oiio
+
+    lv = {k: levels(v) for k, v in result.images.items()}
+    cls = np.choose(result.classes, [0.0, 96.0, 255.0])[..., None].repeat(3, axis=2)
+    tiles = [
+        [(lv[k], k) for k in LABELS],
+        [(heatmap(lv["a5"], lv["schlick"], FRESNEL_SCALE), "|a5-schlick| x16"),
+         (heatmap(lv["a5"], lv["exact"], FRESNEL_SCALE), "|a5-exact| x16"),
+         (heatmap(lv["schlick"], lv["exact"], FRESNEL_SCALE), "|schlick-exact| x16"),
+         (cls, "glass / other / bg")],
+        [(heatmap(lv["a5"], lv["path"], PATH_SCALE), "|a5-path| x4"),
+         (heatmap(lv["schlick"], lv["path"], PATH_SCALE), "|schlick-path| x4"),
+         (heatmap(lv["exact"], lv["path"], PATH_SCALE), "|exact-path| x4"),
+         (_signed_map(lv["exact"], lv["path"], PATH_SCALE), "path-exact (red +)")],
+    ]
+    h, w = result.classes.shape
+    gap, label_h = 4, 18
+    rows, cols = len(tiles), len(tiles[0])
+    out = np.full((rows * (h + label_h + gap), cols * (w + gap) - gap, 3), 32.0)
+    for r, row in enumerate(tiles):
+        for c, (img, _) in enumerate(row):
+            y, x = r * (h + label_h + gap), c * (w + gap)
+            out[y : y + h, x : x + w] = img
+    buf = oiio.ImageBuf(np.ascontiguousarray(out.astype(np.uint8)))
+    size = max(8, min(14, w // 12))
+    for r, row in enumerate(tiles):
+        for c, (_, label) in enumerate(row):
+            # Without a font the montage just has no labels (the order is documented above).
+            oiio.ImageBufAlgo.render_text(buf, c * (w + gap) + 2, r * (h + label_h + gap) + h + label_h - 4,
+                                          label, size, "", [1.0, 1.0, 1.0])
+    return np.asarray(buf.get_pixels(oiio.UINT8)).reshape(out.shape)
+
+
+def write_montage(result: CrosscheckResult, path: str | os.PathLike[str]) -> None:
+    """Write :func:`montage_image` atomically through :func:`a5mi.imageio.write_image`."""
+    from a5mi.imageio import write_image
+
+    write_image(path, montage_image(result).astype(np.float32) / np.float32(255.0) + np.float32(0.5 / 255))
+
+
+# --------------------------------------------------------------------------------------------------------
+# Command line
+# --------------------------------------------------------------------------------------------------------
+
+USAGE = """\
+usage: a5mi crosscheck SCENE.txt [-size W H] [-o MONTAGE.png] [--spp N] [-bounces N] [--json] [--debug]
+
+Render SCENE with the a5 dielectric, textbook Schlick and exact Fresnel (a5_whitted, shadows on) and with
+Mitsuba's path integrator on the --stock conversion (pixel centres, max_depth = bounces + 2, no Russian
+roulette); print per pair the metrics over glass pixels (the Whitted ray tree touches a dielectric) and over
+all other pixels, and write a montage (default SCENE_crosscheck.png in the working folder).
+
+  -size W H        image size (default 300 300)
+  -o MONTAGE.png   montage: renders, Fresnel-mode error maps, pixel classes, error maps against path
+  --spp N          path samples per pixel (default 256)
+  -bounces N       Whitted bounce budget (default 4)
+  --json           print the table as JSON
+"""
+
+
+@dataclass
+class _Args:
+    scene: str | None = None
+    width: int = 300
+    height: int = 300
+    out: str | None = None
+    spp: int = 256
+    bounces: int = 4
+    json: bool = False
+    help: bool = False
+
+
+def _parse(argv: Sequence[str]) -> _Args:
+    from a5mi.errors import UsageError
+
+    def number(flag: str, text: str, lo: int, hi: int) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise UsageError(f"{flag} expects an integer, found '{text}'") from None
+        if not lo <= v <= hi:
+            raise UsageError(f"{flag} must be in {lo}..{hi}, found {v}")
+        return v
+
+    a = _Args()
+    k = 0
+    while k < len(argv):
+        arg = argv[k]
+
+        def value(n: int = 1, arg: str = arg, k: int = k) -> list[str]:
+            if k + n >= len(argv):
+                raise UsageError(f"{arg} expects {n} value{'s' if n > 1 else ''}, found end of arguments")
+            return list(argv[k + 1 : k + 1 + n])
+
+        if arg in ("-h", "-help", "--help"):
+            a.help = True
+        elif arg in ("-size", "--size"):
+            w, h = value(2)
+            a.width, a.height = number(arg, w, 1, 16384), number(arg, h, 1, 16384)
+            k += 2
+        elif arg in ("-o", "-output", "--output"):
+            a.out = value()[0]
+            k += 1
+        elif arg in ("--spp", "-spp"):
+            a.spp = number(arg, value()[0], 1, 1 << 20)
+            k += 1
+        elif arg in ("-bounces", "--bounces"):
+            a.bounces = number(arg, value()[0], 0, 64)
+            k += 1
+        elif arg == "--json":
+            a.json = True
+        elif arg in ("--debug", "-debug"):
+            pass
+        elif arg.startswith("-"):
+            raise UsageError(f"unknown flag '{arg}' (see a5mi crosscheck -h)")
+        elif a.scene is None:
+            a.scene = arg
+        else:
+            raise UsageError(f"unexpected argument '{arg}' (one scene file per call)")
+        k += 1
+    return a
+
+
+def run(argv: Sequence[str]) -> int:
+    """``a5mi crosscheck SCENE.txt [-size W H] [-o MONTAGE.png] [--spp N] [-bounces N] [--json]``.
+
+    Prints the pair table (or JSON) on stdout and writes the montage; exit status 0, 2 for user errors
+    (one line on stderr), 1 for internal errors (the error policy of :mod:`a5mi.cli`).
+    """
+    from a5mi.cli import _guarded
+    from a5mi.errors import UsageError, UserError
+
+    debug = "--debug" in argv or "-debug" in argv
+
+    def body() -> int:
+        args = _parse(argv)
+        if args.help:
+            print(USAGE, end="")
+            return 0
+        if args.scene is None:
+            raise UsageError("crosscheck: missing SCENE.txt")
+        out = args.out or f"{Path(args.scene).stem}_crosscheck.png"
+        from a5mi.imageio import check_output_path
+
+        check_output_path(out)
+        from a5mi.converters.a5_parser import parse_file
+
+        try:
+            model = parse_file(args.scene)
+        except OSError as exc:
+            raise UserError(f"cannot read '{args.scene}': {exc.strerror or exc}") from None
+        from a5mi.variant import VariantError, activate
+
+        try:
+            activate()
+        except VariantError as exc:
+            raise UserError(str(exc)) from None
+        options = CrosscheckOptions(width=args.width, height=args.height, bounces=args.bounces, spp=args.spp)
+        result = crosscheck(model, options)
+        write_montage(result, out)
+        print(to_json(result) if args.json else f"{args.scene}\n{table(result)}\nmontage: {out}")
+        return 0
+
+    return _guarded(debug, body)
+
+
+__all__ = [
+    "BACKGROUND", "GLASS", "OPAQUE", "FRESNEL_MODES", "LABELS", "PAIRS",
+    "CrosscheckOptions", "CrosscheckResult", "PairReport",
+    "crosscheck", "crosscheck_dicts", "masked_metrics", "montage_image", "pair_reports", "path_dict",
+    "pixel_classes", "render_path", "render_whitted", "run", "table", "to_json", "write_montage",
+]
