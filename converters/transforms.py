@@ -149,6 +149,19 @@ def normal_matrix(m: np.ndarray) -> np.ndarray:
     return np.linalg.inv(m[:3, :3]).T
 
 
+def look_at(origin: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Mitsuba's ``Transform4f.look_at``: columns ``(left, up', dir, origin)`` with ``dir = normalize(target -
+    origin)``, ``left = normalize(up × dir)``, ``up' = dir × left`` (camera looks along +z)."""
+    d = np.asarray(target, dtype=np.float64) - np.asarray(origin, dtype=np.float64)
+    d /= np.linalg.norm(d)
+    left = np.cross(np.asarray(up, dtype=np.float64), d)
+    left /= np.linalg.norm(left)
+    new_up = np.cross(d, left)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = left, new_up, d, origin
+    return m
+
+
 def similarity_scale(m: np.ndarray, rtol: float = 1e-9) -> float | None:
     """``s`` when the upper 3x3 is ``s`` times an orthogonal matrix (a similarity), else None."""
     a = m[:3, :3]
