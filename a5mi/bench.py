@@ -1,0 +1,734 @@
+"""``a5mi bench``: how fast the real ``a5`` command is, and how far it is from what Mitsuba can do (issue 7).
+
+For each benchmark scene (the four assignment test scenes, ``scene13_diamond`` and ``extras/sibenik/s.txt``)
+at the assignment's test command ``-size 300 300 -shadows -bounces 4 -jitter -filter`` (SPEC B.1, B.5):
+
+* **process**: the real ``a5`` command as a child process, run from the scene's folder (as the reference
+  images were made), once with an empty Dr.Jit kernel cache (``DRJIT_CACHE_DIR`` set to a fresh folder:
+  *cold*) and once more with the same cache (*warm*). Wall time is measured around ``fork`` .. ``wait4``;
+  peak memory is the child's own ``ru_maxrss`` from ``os.wait4``. Both runs pass ``-v``, whose stderr lines
+  give the stages (parse, variant, build, compile, execute, filter, write) and the ray counts of that very
+  process; ``startup`` = wall - the sum of the stages (interpreter + imports + exit).
+* **floor**: in this process, the same Mitsuba scene and the render's exact camera rays (glibc jitter,
+  SPEC B.2/B.5) replayed through ``scene.ray_intersect`` (evaluating ``t`` and the shading normal), plus
+  secondary and shadow rays in the render's counts per camera ray, re-cast from that camera ray's first hit
+  (reflection: ``reflect(d, N)``; refraction: straight on, ``d``; shadow: ``ray_test`` towards each light in
+  turn, ``tmax = dist - tmin``) -- a pure traversal pass, timed by ``dr.kernel_history()`` execution time
+  (best of ``repeat``). ``kernel / floor`` = the render's kernel execution time (same process, warm) over
+  the floor.
+* **stock**: the same scene converted with ``stock=True`` and rendered by Mitsuba's C++ integrators at the
+  render resolution (``3W x 3H``), 1 sample per pixel, so the camera-ray count is identical: ``direct``
+  with one emitter sample per light (the camera rays + one shadow ray per light per first hit: a lower
+  bound of the a5 ray budget) and ``path`` with ``max_depth = bounces + 2`` and no Russian roulette (every
+  vertex continues and samples a light: an upper bound). Time = best of ``repeat`` after a warm-up render.
+* **a5soln**: with ``--a5soln PATH`` the sample-solution binary is timed the same way; otherwise the
+  published single-core figures of ``reference/README.md`` are printed with ``a5soln / warm``.
+
+``--4k`` adds one ``-size 3840 2160 -jitter -filter`` process run (peak memory is bounded by the tiles plus
+the full-resolution float buffers). Output: markdown tables on stdout, or JSON with ``--json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import os
+import re
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from a5mi import data_dir
+
+#: The benchmark scenes, relative to the course data folder.
+SCENES: tuple[str, ...] = (
+    "scenes/scene06_bunny_1k.txt",
+    "scenes/scene10_sphere.txt",
+    "scenes/scene11_cube.txt",
+    "scenes/scene12_vase.txt",
+    "scenes/scene13_diamond.txt",
+    "extras/sibenik/s.txt",
+)
+#: The four assignment test scenes (the targets apply to these).
+TEST_SCENES: tuple[str, ...] = ("scene06_bunny_1k", "scene10_sphere", "scene11_cube", "scene12_vase")
+
+#: Used when ``reference/README.md`` cannot be read: a5soln, 2-vCPU Xeon, one core, ``-jitter -filter -bounces 4``.
+PUBLISHED_A5SOLN: dict[str, float] = {"scene06": 5.7, "scene10": 4.8, "scene11": 3.5, "scene12": 64.7}
+
+#: Targets of issue 7 (reported, never asserted by a timed test).
+TARGET_WARM_S = 0.6
+TARGET_COLD_S = 3.0
+TARGET_FLOOR_RATIO = 2.0
+TARGET_PEAK_MB = 1024.0
+
+STAGES: tuple[str, ...] = ("parse", "variant", "build", "compile", "execute", "filter", "write")
+RAY_KINDS: tuple[str, ...] = ("camera", "reflection", "refraction", "shadow")
+TMIN = 0.001  # SPEC B.3: tmin of secondary and shadow rays
+
+
+# --------------------------------------------------------------------------------------------------------
+# Child processes
+# --------------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class ProcessRun:
+    """One child process: wall time (s), its own peak RSS (MB), exit status, stderr, and its ``-v`` report."""
+
+    wall: float
+    peak_mb: float
+    returncode: int
+    stderr: str
+    stages: dict[str, float] = field(default_factory=dict)
+    rays: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def startup(self) -> float | None:
+        """Wall time not covered by the reported stages (interpreter start, imports, exit); None without ``-v``."""
+        if not self.stages:
+            return None
+        return self.wall - sum(self.stages.get(k, 0.0) for k in STAGES)
+
+
+def run_process(
+    cmd: Sequence[str], *, cwd: str | Path | None = None, env: dict[str, str] | None = None, timeout: float = 600.0
+) -> ProcessRun:
+    """Run ``cmd``; wall time from spawn to reaping, peak memory = the child's ``ru_maxrss`` (KiB on Linux)
+    from ``os.wait4`` (that child alone, unlike ``RUSAGE_CHILDREN``, which is the maximum over all children).
+    The child is killed after ``timeout`` seconds (returncode then negative)."""
+    with tempfile.TemporaryFile() as err:
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(list(cmd), cwd=cwd, env=env, stdout=subprocess.DEVNULL, stderr=err)
+        timer = threading.Timer(timeout, proc.kill)
+        timer.start()
+        try:
+            _, status, usage = os.wait4(proc.pid, 0)
+        finally:
+            timer.cancel()
+        wall = time.perf_counter() - t0
+        proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here: tell Popen
+        err.seek(0)
+        text = err.read().decode(errors="replace")
+    stages, rays = parse_verbose(text)
+    return ProcessRun(wall=wall, peak_mb=usage.ru_maxrss / 1024.0, returncode=proc.returncode, stderr=text,
+                      stages=stages, rays=rays)
+
+
+_TIMES = re.compile(r"^a5: times (.*)$", re.M)
+_TIME_ITEM = re.compile(r"(\w+) ([0-9.]+) s")
+_CAMERA = re.compile(r"\((\d+) camera rays")
+_SECONDARY = re.compile(r"^a5: secondary rays (.*)$", re.M)
+_RAY_ITEM = re.compile(r"(\w+) (\d+)")
+
+
+def parse_verbose(text: str) -> tuple[dict[str, float], dict[str, int]]:
+    """The stage times (s) and ray counts printed by ``a5 -v`` (see :func:`a5mi.cli._render_command`).
+
+    ``a5: times parse 0.010 s, build 0.200 s, ...`` -> ``{'parse': 0.01, 'build': 0.2, ...}``;
+    ``(810000 camera rays`` and ``a5: secondary rays reflection 5, refraction 0, shadow 7`` ->
+    ``{'camera': 810000, 'reflection': 5, 'refraction': 0, 'shadow': 7}``. Missing lines give empty dicts.
+    """
+    stages: dict[str, float] = {}
+    rays: dict[str, int] = {}
+    m = _TIMES.search(text)
+    if m:
+        stages = {k: float(v) for k, v in _TIME_ITEM.findall(m.group(1))}
+    m = _CAMERA.search(text)
+    if m:
+        rays["camera"] = int(m.group(1))
+    m = _SECONDARY.search(text)
+    if m:
+        rays.update({k: int(v) for k, v in _RAY_ITEM.findall(m.group(1))})
+    return stages, rays
+
+
+def a5_command() -> list[str]:
+    """The installed ``a5`` console script beside this interpreter, else ``python -m a5mi`` (the same entry)."""
+    script = Path(sys.executable).with_name("a5")
+    if script.is_file() and os.access(script, os.X_OK):
+        return [str(script)]
+    return [sys.executable, "-m", "a5mi"]
+
+
+def render_flags(width: int, height: int, bounces: int) -> list[str]:
+    """The assignment's test flags at a size: ``-size W H -shadows -bounces N -jitter -filter``."""
+    return ["-size", str(width), str(height), "-shadows", "-bounces", str(bounces), "-jitter", "-filter"]
+
+
+def cache_env(cache_dir: str | Path) -> dict[str, str]:
+    """This environment with Dr.Jit's kernel cache (``DRJIT_CACHE_DIR``; default ``~/.drjit``) moved."""
+    env = dict(os.environ)
+    env["DRJIT_CACHE_DIR"] = str(cache_dir)
+    return env
+
+
+# --------------------------------------------------------------------------------------------------------
+# Published figures, scene names, tables
+# --------------------------------------------------------------------------------------------------------
+
+_PUBLISHED = re.compile(r"(scene\d+) ([0-9.]+) s")
+
+
+def published_times(readme: str) -> dict[str, float]:
+    """``scene06 5.7 s, scene10 4.8 s`` in ``reference/README.md`` -> ``{'scene06': 5.7, 'scene10': 4.8}``."""
+    return {k: float(v) for k, v in _PUBLISHED.findall(readme)}
+
+
+def load_published(root: Path | None = None) -> dict[str, float]:
+    """The sample solution's published times, from the course README when readable (else the copy above)."""
+    path = (root or data_dir()) / "reference" / "README.md"
+    try:
+        found = published_times(path.read_text())
+    except OSError:
+        found = {}
+    return found or dict(PUBLISHED_A5SOLN)
+
+
+def scene_name(path: str | Path) -> str:
+    """Display name: the file stem, or ``folder/stem`` for generic stems (``extras/sibenik/s.txt`` -> ``sibenik/s``)."""
+    p = Path(path)
+    return p.stem if p.stem.startswith("scene") else f"{p.parent.name}/{p.stem}"
+
+
+def published_key(name: str) -> str | None:
+    """``scene06_bunny_1k`` -> ``scene06`` (the README's key); None for other names."""
+    m = re.match(r"(scene\d+)", name)
+    return m.group(1) if m else None
+
+
+def resolve_scenes(names: Sequence[str], root: Path | None = None) -> list[Path]:
+    """Benchmark scene files: :data:`SCENES` when ``names`` is empty; else each name is a path, or a stem /
+    prefix of one of :data:`SCENES` (``scene10`` -> ``scenes/scene10_sphere.txt``). Raises ``ValueError``."""
+    root = root or data_dir()
+    if not names:
+        return [root / s for s in SCENES]
+    out = []
+    for name in names:
+        p = Path(name)
+        if p.suffix == ".txt" and p.is_file():
+            out.append(p.resolve())
+            continue
+        hits = [s for s in SCENES if scene_name(s).startswith(name) or Path(s).stem.startswith(name)]
+        if len(hits) != 1:
+            raise ValueError(f"unknown benchmark scene '{name}' (expected a .txt file or one of "
+                             f"{', '.join(scene_name(s) for s in SCENES)})")
+        out.append(root / hits[0])
+    return out
+
+
+def format_table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
+    """A markdown table, columns padded to their widest cell; floats with 3 significant-ish decimals."""
+
+    def cell(v: Any) -> str:
+        if v is None:
+            return "-"
+        if isinstance(v, float):
+            return f"{v:.3f}" if abs(v) < 10 else f"{v:.1f}" if abs(v) < 1000 else f"{v:.0f}"
+        return str(v)
+
+    table = [[cell(h) for h in headers]] + [[cell(v) for v in r] for r in rows]
+    widths = [max(len(r[c]) for r in table) for c in range(len(headers))]
+    lines = ["| " + " | ".join(c.ljust(w) if i == 0 else c.rjust(w)
+                               for i, (c, w) in enumerate(zip(r, widths, strict=True))) + " |" for r in table]
+    lines.insert(1, "|" + "|".join("-" * (w + 2) if i == 0 else "-" * (w + 1) + ":" for i, w in enumerate(widths))
+                 + "|")
+    return "\n".join(lines)
+
+
+def lane_repeat(counts: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    """Lane index ``i`` repeated ``counts[i]`` times (rounded, negatives as 0): ``[2, 0, 1] -> [0, 0, 2]``.
+
+    Used to re-cast, from each camera ray's first hit, as many rays of a kind as that camera ray's tree cast.
+    """
+    c = np.rint(np.asarray(counts, dtype=np.float64)).clip(min=0).astype(np.int64)
+    return np.repeat(np.arange(c.size, dtype=np.int64), c)
+
+
+def rank_within_lane(lanes: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """For sorted lane indices, the occurrence number of each entry within its lane: ``[0,0,2,2,2] -> [0,1,0,1,2]``.
+
+    Shadow ray ``r`` of a camera ray goes to light ``r mod n_lights`` (lights are visited in order per hit)."""
+    if lanes.size == 0:
+        return lanes.copy()
+    start = np.r_[0, np.flatnonzero(np.diff(lanes)) + 1]
+    first = np.repeat(start, np.diff(np.r_[start, lanes.size]))
+    return np.arange(lanes.size, dtype=np.int64) - first
+
+
+# --------------------------------------------------------------------------------------------------------
+# In-process measurements (need Mitsuba)
+# --------------------------------------------------------------------------------------------------------
+
+
+@contextmanager
+def _chdir(path: Path) -> Iterator[None]:
+    old = os.getcwd()
+    os.chdir(path)
+    try:
+        yield
+    finally:
+        os.chdir(old)
+
+
+def _free(*_objs: Any) -> None:
+    """Drop Mitsuba scenes: kernels are only reused across scenes once the previous scene is gone."""
+    import drjit as dr
+
+    gc.collect()
+    gc.collect()
+    dr.flush_malloc_cache()
+
+
+def _timed_kernels(fn: Any, repeat: int) -> tuple[float, Any]:
+    """Best Dr.Jit kernel execution time (s) of ``fn()`` (which must ``dr.eval`` its outputs) over ``repeat``
+    runs after one warm-up run, from ``dr.kernel_history()``; also returns the last result."""
+    import drjit as dr
+
+    best = float("inf")
+    out = None
+    for k in range(repeat + 1):
+        with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+            dr.kernel_history_clear()
+            out = fn()
+            dr.sync_thread()
+            hist = dr.kernel_history()
+        if k > 0:
+            best = min(best, sum(e.get("execution_time", 0.0) for e in hist) / 1000.0)
+    return best, out
+
+
+@dataclass
+class InProcess:
+    """Floor and render-kernel figures of one scene, measured in this process."""
+
+    kernel_execute: float  # s, the a5 render's kernels (warm, best of repeat)
+    rays: dict[str, int]
+    floor: dict[str, float]  # s per ray kind
+    lights: int
+
+    @property
+    def floor_total(self) -> float:
+        return sum(self.floor.values())
+
+
+def _camera_rays_for(model: Any, rw: int, rh: int) -> Any:
+    """The render's camera rays, all of them, in the driver's order (SPEC B.2, B.5 glibc jitter)."""
+    import mitsuba as mi
+
+    from a5mi.driver import jitter_stream
+    from a5mi.plugins.camera import camera_rays
+
+    jx, jy = jitter_stream(None)(rw * rh)
+    x = np.tile(np.arange(rw, dtype=np.float32), rh) + jx
+    y = np.repeat(np.arange(rh, dtype=np.float32), rw) + jy
+    cam = model.camera
+    return camera_rays(cam.center, cam.direction, cam.up, cam.angle, mi.Float(x), mi.Float(y), rw, rh)
+
+
+def _full_ray(o: Any, d: Any, maxt: Any) -> Any:
+    """A ``Ray3f`` whose every field is full width (``ray_test`` rejects an evaluated width-1 ``time``)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    n = dr.width(o)
+    ray = mi.Ray3f(o, d)
+    ray.maxt = maxt if maxt is not None else dr.full(mi.Float, dr.largest(mi.Float), n)
+    ray.time = dr.zeros(mi.Float, n)
+    return ray
+
+
+def _floor_passes(
+    scene: Any, model: Any, rw: int, rh: int, repeat: int
+) -> tuple[dict[str, int], dict[str, float], int]:
+    """Per-lane ray counts from the counting integrator, then the timed traversal passes (module docstring)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from a5mi.plugins.common import reflect
+
+    ray = _camera_rays_for(model, rw, rh)
+    dr.eval(ray)
+    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
+    sampler.seed(0, rw * rh)
+    _rgb, _valid, aovs = scene.integrator().sample(scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
+    counts = {name: np.asarray(a) for name, a in zip(("reflection", "refraction", "shadow"), aovs[4:7], strict=True)}
+    si = scene.ray_intersect(ray)
+    o, d = np.asarray(ray.o), np.asarray(ray.d)
+    t, n = np.asarray(si.t), np.asarray(si.sh_frame.n)
+    hit_p = o + np.where(np.isfinite(t), t, 0.0) * d
+
+    def floor_intersect(ro: npt.NDArray[np.float32], rd: npt.NDArray[np.float32]) -> float:
+        r = _full_ray(mi.Point3f(ro), mi.Vector3f(rd), None)
+        dr.eval(r)
+
+        def cast() -> Any:
+            s = scene.ray_intersect(r)
+            dr.eval(s.t, s.sh_frame.n)
+            return s.t
+
+        return _timed_kernels(cast, repeat)[0] if ro.shape[1] else 0.0
+
+    floor = {"camera": floor_intersect(o, d)}
+    lanes = lane_repeat(counts["reflection"])
+    refl = np.asarray(reflect(mi.Vector3f(d[:, lanes]), mi.Vector3f(n[:, lanes])))
+    floor["reflection"] = floor_intersect(hit_p[:, lanes] + TMIN * refl, refl)
+    lanes = lane_repeat(counts["refraction"])
+    floor["refraction"] = floor_intersect(hit_p[:, lanes] + TMIN * d[:, lanes], d[:, lanes])
+
+    # shadow rays: from the first hit towards light (rank mod n_lights), tmax = dist - tmin
+    emitters = [e for e in scene.emitters() if mi.has_flag(e.flags(), mi.EmitterFlags.Delta)]
+    lanes = lane_repeat(counts["shadow"])
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    if emitters and lanes.size:
+        which = rank_within_lane(lanes) % len(emitters)
+        for k, emitter in enumerate(emitters):
+            sel = lanes[which == k]
+            if not sel.size:
+                continue
+            sub = mi.Ray3f(mi.Point3f(o[:, sel]), mi.Vector3f(d[:, sel]))
+            s = scene.ray_intersect(sub)
+            ds, _ = emitter.sample_direction(s, mi.Point2f(0.5, 0.5))
+            p = s.p
+            dr.eval(p, ds.d, ds.dist)
+            # a directional light gives one direction and distance for all lanes: broadcast
+            ld = np.broadcast_to(np.asarray(ds.d).reshape(3, -1), (3, sel.size))
+            dist = np.broadcast_to(np.asarray(ds.dist), (sel.size,))
+            parts.append((np.asarray(p) + TMIN * ld, ld, dist - TMIN))
+    if parts:
+        so = np.concatenate([q[0] for q in parts], axis=1)
+        sd = np.concatenate([q[1] for q in parts], axis=1)
+        st = np.concatenate([q[2] for q in parts])
+        sray = _full_ray(mi.Point3f(so), mi.Vector3f(sd), mi.Float(st))
+        dr.eval(sray)
+
+        def cast_shadow() -> Any:
+            b = scene.ray_test(sray)
+            dr.eval(b)
+            return b
+
+        floor["shadow"] = _timed_kernels(cast_shadow, repeat)[0]
+    else:
+        floor["shadow"] = 0.0
+    rays = {"camera": rw * rh} | {k: int(np.rint(v).sum()) for k, v in counts.items()}
+    return rays, floor, len(emitters)
+
+
+def measure_in_process(model: Any, options: Any, repeat: int = 3) -> InProcess:
+    """Render-kernel time and the traversal floor for the same rays (see the module docstring)."""
+    from a5mi import driver
+
+    rw, rh = options.render_size
+
+    # 1. the render's kernel time, plain integrator, warm (best of repeat after a warm-up)
+    scene = driver.build_scene(model, options)
+    best = float("inf")
+    for k in range(repeat + 1):
+        res = driver.render_scene(scene, model.camera, options)
+        if k > 0:
+            best = min(best, res.timings["execute"])
+    del scene, res
+    _free()
+
+    # 2. per-lane ray counts and first hits with the counting integrator, then the floor passes
+    scene = driver.build_scene(model, replace(options, count_rays=True))
+    rays, floor, n_lights = _floor_passes(scene, model, rw, rh, repeat)
+    del scene
+    _free()
+    return InProcess(kernel_execute=best, rays=rays, floor=floor, lights=n_lights)
+
+
+def measure_stock(model: Any, options: Any, repeat: int = 3) -> dict[str, float]:
+    """Wall time (best of ``repeat`` after a warm-up) of ``mi.render`` with the stock ``direct`` and ``path``
+    integrators on the ``stock=True`` conversion, at the render resolution and 1 spp (see module docstring)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from a5mi.converters.to_mitsuba import RenderSettings, to_dict
+
+    rw, rh = options.render_size
+    settings = RenderSettings(width=rw, height=rh, bounces=options.bounces, shadows=options.shadows)
+    base = to_dict(model, settings, stock=True)
+    n_lights = sum(1 for v in base.values() if isinstance(v, dict) and v.get("type") in ("point", "directional",
+                                                                                          "spot", "a5_point"))
+    integrators = {
+        "direct": {"type": "direct", "emitter_samples": max(1, n_lights), "bsdf_samples": 0},
+        "path": {"type": "path", "max_depth": options.bounces + 2, "rr_depth": options.bounces + 3},
+    }
+    out: dict[str, float] = {}
+    for name, integ in integrators.items():
+        scene_dict = dict(base)
+        scene_dict["integrator"] = integ
+        scene = mi.load_dict(scene_dict)
+        sensor = scene.sensors()[0]
+        size = sensor.film().crop_size()
+        if (int(size[0]), int(size[1])) != (rw, rh):
+            raise RuntimeError(f"stock sensor film is {size[0]}x{size[1]}, expected {rw}x{rh}")
+        best = float("inf")
+        for k in range(repeat + 1):
+            t0 = time.perf_counter()
+            img = mi.render(scene, spp=1)
+            dr.eval(img)
+            dr.sync_thread()
+            if k > 0:
+                best = min(best, time.perf_counter() - t0)
+        out[name] = best
+        del scene, sensor, img
+        _free()
+    return out
+
+
+# --------------------------------------------------------------------------------------------------------
+# The benchmark
+# --------------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class SceneResult:
+    name: str
+    path: str
+    cold: ProcessRun | None = None
+    warm: ProcessRun | None = None
+    inproc: InProcess | None = None
+    stock: dict[str, float] = field(default_factory=dict)
+    a5soln: float | None = None  # measured here
+    a5soln_published: float | None = None
+    errors: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        for key in ("cold", "warm"):
+            if d[key] is not None:
+                d[key].pop("stderr")
+                d[key]["startup"] = getattr(self, key).startup
+        if self.inproc is not None:
+            d["inproc"]["floor_total"] = self.inproc.floor_total
+        return d
+
+
+def bench_scene(path: Path, args: argparse.Namespace, published: dict[str, float], log: Any) -> SceneResult:
+    """All measurements of one scene (each part records its error instead of aborting the run)."""
+    name = scene_name(path)
+    res = SceneResult(name=name, path=str(path))
+    key = published_key(name)
+    res.a5soln_published = published.get(key) if key else None
+    w, h = args.size
+    flags = render_flags(w, h, args.bounces)
+    with tempfile.TemporaryDirectory(prefix="a5bench-") as tmp:
+        out = str(Path(tmp) / "out.png")
+        if not args.no_process:
+            cache = Path(tmp) / "drjit-cache"
+            cache.mkdir()
+            cmd = a5_command() + ["-input", path.name, "-output", out, *flags, "-v"]
+            for label in ("cold", "warm"):
+                log(f"{name}: {label} process ...")
+                run = run_process(cmd, cwd=path.parent, env=cache_env(cache), timeout=args.timeout)
+                if run.returncode != 0:
+                    res.errors.append(f"{label} a5 exited {run.returncode}: {run.stderr.strip()[-300:]}")
+                setattr(res, label, run)
+        if args.a5soln:
+            log(f"{name}: a5soln ...")
+            run = run_process([args.a5soln, "-input", path.name, "-output", str(Path(tmp) / "soln.bmp"), *flags],
+                              cwd=path.parent, timeout=args.timeout)
+            if run.returncode == 0:
+                res.a5soln = run.wall
+            else:
+                res.errors.append(f"a5soln exited {run.returncode}: {run.stderr.strip()[-300:]}")
+    if args.no_inprocess:
+        return res
+    from a5mi import driver
+    from a5mi.converters.a5_parser import parse_file
+
+    options = driver.RenderOptions(width=w, height=h, bounces=args.bounces, shadows=True, jitter=True, filter=True)
+    with _chdir(path.parent):
+        model = parse_file(path.name)
+        log(f"{name}: floor ...")
+        try:
+            res.inproc = measure_in_process(model, options, repeat=args.repeat)
+        except Exception as exc:  # noqa: BLE001 - a benchmark reports what failed and goes on
+            res.errors.append(f"floor: {type(exc).__name__}: {exc}")
+        if not args.no_stock:
+            log(f"{name}: stock ...")
+            try:
+                res.stock = measure_stock(model, options, repeat=args.repeat)
+            except Exception as exc:  # noqa: BLE001
+                res.errors.append(f"stock: {type(exc).__name__}: {exc}")
+    return res
+
+
+def machine_info() -> dict[str, Any]:
+    """CPU model, logical cores, LLVM library, Mitsuba / Dr.Jit versions (what BENCHMARKS.md quotes)."""
+    cpu = "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    info: dict[str, Any] = {"cpu": cpu, "cores": os.cpu_count(), "python": sys.version.split()[0]}
+    try:
+        from a5mi import llvm
+
+        lib = llvm.check()
+        info["llvm"] = f"{lib.major} ({lib.path})"
+    except Exception as exc:  # noqa: BLE001
+        info["llvm"] = f"unavailable: {exc}"
+    try:
+        import drjit as dr
+        import mitsuba as mi
+
+        info["mitsuba"], info["drjit"] = mi.__version__, dr.__version__
+    except Exception:  # noqa: BLE001
+        pass
+    return info
+
+
+def _ratio(a: float | None, b: float | None) -> float | None:
+    return a / b if a is not None and b else None
+
+
+def report(results: Sequence[SceneResult], info: dict[str, Any], extra: dict[str, Any]) -> str:
+    """The markdown tables of a run."""
+    out = [f"machine: {info.get('cpu')}, {info.get('cores')} logical cores, LLVM {info.get('llvm')}, "
+           f"Mitsuba {info.get('mitsuba')}, Dr.Jit {info.get('drjit')}", ""]
+    rows = []
+    for r in results:
+        rows.append([r.name,
+                     r.cold.wall if r.cold else None, r.warm.wall if r.warm else None,
+                     r.cold.peak_mb if r.cold else None, r.warm.peak_mb if r.warm else None,
+                     r.a5soln if r.a5soln is not None else r.a5soln_published,
+                     "measured" if r.a5soln is not None else ("published" if r.a5soln_published else None),
+                     _ratio(r.a5soln if r.a5soln is not None else r.a5soln_published, r.warm.wall if r.warm else None)])
+    out += ["Whole process (`a5 ... -v`, wall s; peak RSS MB)", "",
+            format_table(["scene", "cold s", "warm s", "cold MB", "warm MB", "a5soln s", "a5soln", "a5soln/warm"],
+                         rows), ""]
+    rows = []
+    for r in results:
+        for label, run in (("cold", r.cold), ("warm", r.warm)):
+            if run is None or not run.stages:
+                continue
+            rows.append([f"{r.name} {label}", run.startup] + [run.stages.get(s) for s in STAGES])
+    if rows:
+        out += ["Stages (s, from the same processes' `-v` report; startup = wall - stages)", "",
+                format_table(["run", "startup", *STAGES], rows), ""]
+    rows = []
+    for r in results:
+        ip = r.inproc
+        rays = ip.rays if ip else (r.warm.rays if r.warm else {})
+        total = sum(rays.get(k, 0) for k in RAY_KINDS) if rays else None
+        rows.append([r.name] + [rays.get(k) for k in RAY_KINDS] + [
+            total / ip.kernel_execute / 1e6 if ip and total else None,
+            ip.kernel_execute if ip else None,
+            ip.floor.get("camera") if ip else None,
+            ip.floor.get("reflection", 0) + ip.floor.get("refraction", 0) if ip else None,
+            ip.floor.get("shadow") if ip else None,
+            ip.floor_total if ip else None,
+            _ratio(ip.kernel_execute, ip.floor_total) if ip else None])
+    out += ["Rays and the traversal floor (in-process, warm kernels, best of repeat; times in s)", "",
+            format_table(["scene", *RAY_KINDS, "Mrays/s", "kernel", "floor cam", "floor refl+refr",
+                          "floor shadow", "floor", "kernel/floor"], rows), ""]
+    rows = [[r.name, r.inproc.kernel_execute if r.inproc else None, r.stock.get("direct"), r.stock.get("path"),
+             _ratio(r.inproc.kernel_execute if r.inproc else None, r.stock.get("path"))]
+            for r in results]
+    out += ["Stock Mitsuba, same scene (`stock=True`), render resolution, 1 spp (s, best of repeat)", "",
+            format_table(["scene", "a5 kernel", "stock direct", "stock path", "a5 kernel/path"], rows), ""]
+    if "4k" in extra:
+        run = extra["4k"]
+        out += [f"4K: `{extra['4k_cmd']}`: wall {run.wall:.1f} s, peak {run.peak_mb:.0f} MB, exit {run.returncode}"
+                + (f"; stages {run.stages}" if run.stages else ""), ""]
+    errors = [f"- {r.name}: {e}" for r in results for e in r.errors]
+    if errors:
+        out += ["Errors:", *errors, ""]
+    return "\n".join(out)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="a5mi bench", description=__doc__.split("\n\n")[0] if __doc__ else None)
+    p.add_argument("scenes", nargs="*", help="scene files or names (default: the six benchmark scenes)")
+    p.add_argument("--size", nargs=2, type=int, default=(300, 300), metavar=("W", "H"))
+    p.add_argument("--bounces", type=int, default=4)
+    p.add_argument("--repeat", type=int, default=3, help="timed repetitions of in-process passes (best kept)")
+    p.add_argument("--a5soln", metavar="PATH", help="time the sample-solution binary too")
+    p.add_argument("--4k", dest="k4", action="store_true", help="also one 3840x2160 -jitter -filter process run")
+    p.add_argument("--4k-scene", dest="k4_scene", default="scene10", help="scene of the --4k run")
+    p.add_argument("--json", nargs="?", const="-", metavar="FILE", help="write JSON (to stdout without FILE)")
+    p.add_argument("--no-process", action="store_true", help="skip the a5 child processes")
+    p.add_argument("--no-inprocess", action="store_true", help="skip the floor and stock measurements")
+    p.add_argument("--no-stock", action="store_true", help="skip the stock Mitsuba comparison")
+    p.add_argument("--timeout", type=float, default=600.0, help="per child process (s)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines on stderr")
+    return p
+
+
+def run(argv: Sequence[str]) -> int:
+    """``a5mi bench [SCENE ...] [flags]``: measure, print the tables (or JSON). Returns the exit status."""
+    args = build_parser().parse_args(list(argv))
+    if min(args.size) <= 0 or args.bounces < 0 or args.repeat < 1:
+        print("a5mi bench: error: --size, --bounces and --repeat must be positive", file=sys.stderr)
+        return 2
+    if args.a5soln and not (shutil.which(args.a5soln) or os.access(args.a5soln, os.X_OK)):
+        print(f"a5mi bench: error: --a5soln '{args.a5soln}' is not an executable", file=sys.stderr)
+        return 2
+    if args.a5soln:
+        args.a5soln = os.path.abspath(shutil.which(args.a5soln) or args.a5soln)
+    try:
+        paths = resolve_scenes(args.scenes)
+    except ValueError as exc:
+        print(f"a5mi bench: error: {exc}", file=sys.stderr)
+        return 2
+
+    def log(msg: str) -> None:
+        if not args.quiet:
+            print(f"[bench] {msg}", file=sys.stderr, flush=True)
+
+    if not args.no_inprocess:
+        from a5mi.variant import activate
+
+        activate()
+    published = load_published()
+    results = [bench_scene(p, args, published, log) for p in paths]
+    extra: dict[str, Any] = {}
+    if args.k4:
+        (p4,) = resolve_scenes([args.k4_scene])
+        with tempfile.TemporaryDirectory(prefix="a5bench-4k-") as tmp:
+            cmd = a5_command() + ["-input", p4.name, "-output", str(Path(tmp) / "4k.png"),
+                                  *render_flags(3840, 2160, args.bounces), "-v"]
+            log(f"4K: {scene_name(p4)} ...")
+            extra["4k"] = run_process(cmd, cwd=p4.parent, timeout=args.timeout)
+            extra["4k_cmd"] = " ".join(["a5", *cmd[len(a5_command()):]]).replace(str(Path(tmp)) + "/", "")
+    info = machine_info()
+    self_peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    if args.json is not None:
+        doc = {"machine": info, "flags": render_flags(*args.size, args.bounces), "bench_peak_mb": self_peak,
+               "scenes": [r.to_json() for r in results]}
+        if "4k" in extra:
+            k4 = asdict(extra["4k"])
+            k4.pop("stderr")
+            doc["4k"] = {"cmd": extra["4k_cmd"], **k4}
+        text = json.dumps(doc, indent=2)
+        if args.json == "-":
+            print(text)
+        else:
+            Path(args.json).write_text(text + "\n")
+            print(report(results, info, extra))
+    else:
+        print(report(results, info, extra))
+    failed = any(r.errors for r in results) or ("4k" in extra and extra["4k"].returncode != 0)
+    return 1 if failed else 0
+
+
+__all__ = ["run", "run_process", "parse_verbose", "published_times", "resolve_scenes", "format_table",
+           "lane_repeat", "rank_within_lane", "measure_in_process", "measure_stock", "SCENES"]
