@@ -20,12 +20,14 @@ the glass pixels and over all other pixels, in 8-bit levels as the images would 
 (``byte = clamp(int(c·255))``, SPEC B.1), plus the signed ``bias = mean(B − A)``.
 :func:`write_montage` draws ``a5 | schlick | exact | path`` with their error maps.
 
-What separates ``path`` from Whitted (see the README section "Cross-check against physically based
-rendering"): Whitted has an ``ambient ⊙ diffuseColor`` term and no indirect diffuse light; Whitted never
-lights a surface by the environment (only misses see it); lights shine through nothing with ``-shadows`` off
-(this command always renders with shadows, as ``path`` cannot do otherwise); the a5 point light has no
-inverse-square law; and Mitsuba's dielectric scales radiance by ``1/η²`` on the way into glass and ``η²`` on
-the way out, which cancels on every path from an outside camera to an outside light.
+What separates ``path`` from Whitted (measured on scene10 in the README section "Cross-check against
+physically based rendering"): the ``stock=True`` conversion's approximations (``converters/to_mitsuba.py``:
+Noise -> mean colour, ``blendbsdf`` instead of a5's diffuse + mirror sum, inverse-square point lights); the
+a5 ``ambient ⊙ diffuseColor`` term, which ``path`` drops; Lambert's ``kd/π`` against a5's ``kd`` for the same
+light colour; environment light on diffuse surfaces (Whitted only shows the environment to rays that miss);
+indirect diffuse light; and Mitsuba's dielectric scaling radiance by ``1/η²`` into glass and ``η²`` out of
+it, which cancels on every path from an outside camera to an outside light. Shadows are always on here, as
+``path`` cannot do otherwise.
 """
 
 from __future__ import annotations
