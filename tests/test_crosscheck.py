@@ -352,7 +352,6 @@ def test13_cli_usage_errors(capsys):
 
 
 def test14_scene10_end_to_end(variant, scenes_dir, tmp_path, capsys):
-    pytest.importorskip("a5mi.converters.to_mitsuba", reason="the converter is being written (issue 3)")
     out = tmp_path / "m.png"
     rc = xc.run([str(scenes_dir / "scene10_sphere.txt"), "-size", "48", "48", "--spp", "8", "-o", str(out),
                  "--json"])
