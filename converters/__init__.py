@@ -3,3 +3,8 @@
 Only :mod:`a5mi.converters.to_mitsuba` (and the XML writer built on it) import Mitsuba; lexing, parsing and
 the model are pure Python, so syntax errors never wait for a JIT backend.
 """
+
+from .a5_parser import parse_file, parse_text
+from .errors import FileLoc, SceneError, SceneSemanticError, SceneSyntaxError
+
+__all__ = ["FileLoc", "SceneError", "SceneSemanticError", "SceneSyntaxError", "parse_file", "parse_text"]

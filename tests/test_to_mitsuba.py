@@ -17,16 +17,24 @@ from a5mi.converters.to_mitsuba import (
     RenderSettings,
     build,
     plane_rectangle_to_world,
+    resolve_cube_map,
     to_dict,
     world_plane,
 )
+
+from a5mi import data_dir
 
 A5_PLUGINS = ("a5_whitted", "a5_material", "a5_marble", "a5_bitmap", "a5_point", "a5_cubemap", "a5_camera")
 CAM = "PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
 
 
-def _scene_files(a5_data: Path) -> list[Path]:
-    return sorted((a5_data / "scenes").glob("*.txt")) + [a5_data / "extras" / "sibenik" / "s.txt"]
+def _scene_files() -> list[Path]:
+    root = data_dir()
+    return sorted((root / "scenes").glob("*.txt")) + [root / "extras" / "sibenik" / "s.txt"]
+
+
+SCENE_FILES = _scene_files()
+SCENE_IDS = [p.stem if p.stem != "s" else "sibenik" for p in SCENE_FILES]
 
 
 def _load_or_skip_unknown_plugin(d: dict):
@@ -180,26 +188,30 @@ def test_paths_resolve_against_the_scene_folder_and_missing_files_are_errors(sce
 
 
 def test_a4_cubemap_link_file_is_followed_with_a_warning(a5_data: Path) -> None:
-    built = build(parse_file(a5_data / "extras" / "sibenik" / "s.txt"))
-    assert Path(built.scene["background"]["filename"]) == (a5_data / "scenes" / "tex" / "church").resolve()
-    assert any("symlink checked out as a file" in msg for _, msg in built.warnings)
+    warnings: list = []
+    folder = resolve_cube_map(parse_file(a5_data / "extras" / "sibenik" / "s.txt"), warnings)
+    assert folder == (a5_data / "scenes" / "tex" / "church").resolve()
+    assert len(warnings) == 1 and "symlink checked out as a file" in warnings[0][1]
+    assert warnings[0][0].line == 26
 
 
 # --------------------------------------------------------------------------------- loading
-def test_every_shipped_scene_loads_stock(variant: str, a5_data: Path) -> None:
+@pytest.mark.parametrize("path", SCENE_FILES, ids=SCENE_IDS)
+def test_shipped_scene_loads_stock(variant: str, path: Path) -> None:
     import mitsuba as mi
 
-    for path in _scene_files(a5_data):
-        scene = mi.load_dict(to_dict(parse_file(path), RenderSettings(8, 8), stock=True))
-        assert len(scene.shapes()) == len(parse_file(path).objects), path.name
+    model = parse_file(path)
+    scene = mi.load_dict(to_dict(model, RenderSettings(8, 8), stock=True))
+    assert len(scene.shapes()) == len(model.objects)
+    assert len(scene.emitters()) == len(model.lights) + 1  # + the background
 
 
-def test_every_shipped_scene_loads_with_a5_plugins(variant: str, a5_data: Path) -> None:
-    for path in _scene_files(a5_data):
-        model = parse_file(path)
-        scene = _load_or_skip_unknown_plugin(to_dict(model, RenderSettings(8, 8)))
-        assert len(scene.shapes()) == len(model.objects), path.name
-        assert len(scene.emitters()) == len(model.lights) + 1, path.name  # + the background
+@pytest.mark.parametrize("path", SCENE_FILES, ids=SCENE_IDS)
+def test_shipped_scene_loads_with_a5_plugins(variant: str, path: Path) -> None:
+    model = parse_file(path)
+    scene = _load_or_skip_unknown_plugin(to_dict(model, RenderSettings(8, 8)))
+    assert len(scene.shapes()) == len(model.objects)
+    assert len(scene.emitters()) == len(model.lights) + 1  # + the background
 
 
 def test_stock_sensor_puts_pixel_centres_where_b2_does(variant: str, scenes_dir: Path) -> None:

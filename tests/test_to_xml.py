@@ -1,0 +1,101 @@
+"""Mitsuba XML export: every shipped scene loads (a5 plugins, and stock without them); same images as the dict."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+from a5mi.converters.a5_parser import parse_file, parse_text
+from a5mi.converters.errors import SceneSemanticError
+from a5mi.converters.to_mitsuba import RenderSettings, to_dict
+from a5mi.converters.to_xml import write_xml
+
+from a5mi import data_dir
+
+A5_PLUGINS = ("a5_whitted", "a5_material", "a5_marble", "a5_bitmap", "a5_point", "a5_cubemap", "a5_camera")
+
+
+def _scene_files() -> list[Path]:
+    root = data_dir()
+    return sorted((root / "scenes").glob("*.txt")) + [root / "extras" / "sibenik" / "s.txt"]
+
+
+SCENE_FILES = _scene_files()
+SCENE_IDS = [p.stem if p.stem != "s" else "sibenik" for p in SCENE_FILES]
+
+
+def _load_file_or_skip_unknown_plugin(path: Path, **kw):
+    import mitsuba as mi
+
+    try:
+        return mi.load_file(str(path), **kw)
+    except RuntimeError as exc:
+        msg = str(exc)
+        missing = [p for p in A5_PLUGINS if f'"{p}"' in msg or f"'{p}'" in msg]
+        if "unknown" in msg.lower() and "plugin" in msg.lower() and missing:
+            pytest.skip(f"a5 plugin not registered yet: {missing}")
+        raise
+
+
+def test_xml_structure(variant: str, scenes_dir: Path, tmp_path: Path) -> None:
+    out = write_xml(parse_file(scenes_dir / "scene11_cube.txt"), tmp_path / "s11.xml",
+                    settings=RenderSettings(40, 30, shadows=True))
+    root = ET.parse(out).getroot()
+    assert root.tag == "scene" and root.get("version") == "3.0.0"
+    integ = root.find("integrator")
+    assert integ is not None and integ.get("type") == "a5_whitted"
+    assert integ.find("boolean[@name='shadows']").get("value") == "true"  # type: ignore[union-attr]
+    film = root.find("sensor/film")
+    assert film is not None and film.find("integer[@name='width']").get("value") == "40"  # type: ignore[union-attr]
+    mesh = root.find("shape[@id='mesh_001']")
+    assert mesh is not None and mesh.get("type") == "ply"
+    assert mesh.find("string[@name='filename']").get("value") == "s11_meshes/mesh_001.ply"  # type: ignore[union-attr]
+    assert mesh.find("boolean[@name='face_normals']").get("value") == "true"  # type: ignore[union-attr]
+    assert (tmp_path / "s11_meshes" / "mesh_001.ply").is_file()
+    point = root.find("emitter[@id='light_001']")
+    assert point is not None and point.get("type") == "a5_point"
+    assert point.find("point[@name='position']").get("value") == "-2.0, 0.8, -2.0"  # type: ignore[union-attr]
+
+
+def test_xml_errors_before_writing(variant: str, tmp_path: Path) -> None:
+    text = ("PerspectiveCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 angle 30 }\n"
+            "Materials { numMaterials 1 Material { } }\n"
+            "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file missing.obj } }\n")
+    with pytest.raises(SceneSemanticError, match=r"m.txt:3:62: error: obj_file file 'missing.obj' not found"):
+        write_xml(parse_text(text, str(tmp_path / "m.txt")), tmp_path / "m.xml")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("path", SCENE_FILES, ids=SCENE_IDS)
+def test_shipped_scene_stock_xml_loads_in_plain_mitsuba(variant: str, path: Path, tmp_path: Path) -> None:
+    import mitsuba as mi
+
+    model = parse_file(path)
+    out = write_xml(model, tmp_path / "stock.xml", stock=True, settings=RenderSettings(8, 8))
+    assert 'type="a5_' not in out.read_text()
+    scene = mi.load_file(str(out), optimize=False)
+    assert len(scene.shapes()) == len(model.objects)
+
+
+@pytest.mark.parametrize("path", SCENE_FILES, ids=SCENE_IDS)
+def test_shipped_scene_xml_loads_with_a5_plugins(variant: str, path: Path, tmp_path: Path) -> None:
+    model = parse_file(path)
+    out = write_xml(model, tmp_path / "a5.xml", settings=RenderSettings(8, 8))
+    scene = _load_file_or_skip_unknown_plugin(out, optimize=False)
+    assert len(scene.shapes()) == len(model.objects)
+
+
+@pytest.mark.parametrize("name", ["scene08_c", "scene12_vase", "scene03_sphere"])
+def test_xml_renders_like_the_dict(variant: str, scenes_dir: Path, tmp_path: Path, name: str) -> None:
+    """Textured (uv through PLY), smooth-normal, and instanced-sphere scenes: XML image == dict image."""
+    import mitsuba as mi
+
+    model = parse_file(scenes_dir / f"{name}.txt")
+    settings = RenderSettings(24, 24, shadows=True)
+    a = mi.load_dict(to_dict(model, settings))
+    b = _load_file_or_skip_unknown_plugin(write_xml(model, tmp_path / f"{name}.xml", settings=settings))
+    img_a = np.asarray(mi.render(a, spp=1))[..., :3]
+    img_b = np.asarray(mi.render(b, spp=1))[..., :3]
+    assert np.abs(img_a - img_b).max() < 1e-4
