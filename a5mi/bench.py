@@ -6,9 +6,12 @@ at the assignment's test command ``-size 300 300 -shadows -bounces 4 -jitter -fi
 * **process**: the real ``a5`` command as a child process, run from the scene's folder (as the reference
   images were made), once with an empty Dr.Jit kernel cache (``DRJIT_CACHE_DIR`` set to a fresh folder:
   *cold*) and once more with the same cache (*warm*). Wall time is measured around ``fork`` .. ``wait4``;
-  peak memory is the child's own ``ru_maxrss`` from ``os.wait4``. Both runs pass ``-v``, whose stderr lines
-  give the stages (parse, variant, build, compile, execute, filter, write) and the ray counts of that very
-  process; ``startup`` = wall - the sum of the stages (interpreter + imports + exit).
+  peak memory is the child's own ``ru_maxrss`` from ``os.wait4``. No ``-v``: its ray counting changes the
+  kernels (and costs three extra trace kernels in this driver version).
+* **stages**: in this process, the first render of the scene (warm disk cache): parse, build, kernel compile
+  and execution (``dr.kernel_history()`` via the driver), filter, write; ``startup`` = warm process wall
+  minus those (interpreter start, imports, variant activation, exit). Ray counts come from ``a5_whitted``'s
+  ``count_rays`` AOVs.
 * **floor**: in this process, the same Mitsuba scene and the render's exact camera rays (glibc jitter,
   SPEC B.2/B.5) replayed through ``scene.ray_intersect`` (evaluating ``t`` and the shading normal), plus
   secondary and shadow rays in the render's counts per camera ray, re-cast from that camera ray's first hit
@@ -74,7 +77,10 @@ TARGET_COLD_S = 3.0
 TARGET_FLOOR_RATIO = 2.0
 TARGET_PEAK_MB = 1024.0
 
-STAGES: tuple[str, ...] = ("parse", "variant", "build", "compile", "execute", "filter", "write")
+#: Stages printed by ``a5 -v`` (its ``render`` = compile + execute + the tile loop's Python work).
+VERBOSE_STAGES: tuple[str, ...] = ("parse", "variant", "build", "render", "filter", "write")
+#: Stages measured in-process for the table (``render`` split into kernel compile and execution).
+STAGES: tuple[str, ...] = ("parse", "build", "compile", "execute", "filter", "write")
 RAY_KINDS: tuple[str, ...] = ("camera", "reflection", "refraction", "shadow")
 TMIN = 0.001  # SPEC B.3: tmin of secondary and shadow rays
 
@@ -100,7 +106,7 @@ class ProcessRun:
         """Wall time not covered by the reported stages (interpreter start, imports, exit); None without ``-v``."""
         if not self.stages:
             return None
-        return self.wall - sum(self.stages.get(k, 0.0) for k in STAGES)
+        return self.wall - sum(self.stages.get(k, 0.0) for k in VERBOSE_STAGES)
 
 
 def run_process(
@@ -153,6 +159,34 @@ def parse_verbose(text: str) -> tuple[dict[str, float], dict[str, int]]:
     if m:
         rays.update({k: int(v) for k, v in _RAY_ITEM.findall(m.group(1))})
     return stages, rays
+
+
+def cpu_busy(interval: float = 0.5, stat: str = "/proc/stat") -> float:
+    """Fraction of all CPUs busy over ``interval`` s, from the ``cpu`` line of ``/proc/stat``
+    (busy = 1 - (idle + iowait) / total jiffies); 0.0 where ``/proc/stat`` is unreadable."""
+
+    def sample() -> tuple[int, int]:
+        with open(stat) as f:
+            fields = [int(v) for v in f.readline().split()[1:]]
+        return fields[3] + (fields[4] if len(fields) > 4 else 0), sum(fields)
+
+    try:
+        idle0, total0 = sample()
+        time.sleep(interval)
+        idle1, total1 = sample()
+    except (OSError, ValueError, IndexError):
+        return 0.0
+    return 1.0 - (idle1 - idle0) / max(1, total1 - total0)
+
+
+def wait_for_idle(max_wait: float, threshold: float = 0.1) -> float:
+    """Wait (up to ``max_wait`` s) until other processes use less than ``threshold`` of the CPUs, so timings
+    are not shared with someone else's work; returns the last busy fraction seen."""
+    deadline = time.monotonic() + max_wait
+    busy = cpu_busy()
+    while busy >= threshold and time.monotonic() < deadline:
+        busy = cpu_busy()
+    return busy
 
 
 def a5_command() -> list[str]:
@@ -318,6 +352,9 @@ class InProcess:
     rays: dict[str, int]
     floor: dict[str, float]  # s per ray kind
     lights: int
+    stages: dict[str, float] = field(default_factory=dict)  # first render in this process (s)
+    recompiles: int = 0  # of the ``renders`` repeated renders of one loaded scene, how many compiled a kernel
+    renders: int = 0
 
     @property
     def floor_total(self) -> float:
@@ -426,19 +463,34 @@ def _floor_passes(
     return rays, floor, len(emitters)
 
 
-def measure_in_process(model: Any, options: Any, repeat: int = 3) -> InProcess:
-    """Render-kernel time and the traversal floor for the same rays (see the module docstring)."""
-    from a5mi import driver
+def measure_in_process(scene_file: Path, options: Any, repeat: int = 3) -> InProcess:
+    """Stages of the first render of ``scene_file`` in this process, then the render's best kernel time and
+    the traversal floor for the same rays (see the module docstring). Run from the scene's folder."""
+    from a5mi import driver, imageio
+    from a5mi.converters.a5_parser import parse_file
 
     rw, rh = options.render_size
 
-    # 1. the render's kernel time, plain integrator, warm (best of repeat after a warm-up)
+    # 1. stages of one a5 run (what the child process does after its imports), then the warm kernel time
+    t0 = time.perf_counter()
+    model = parse_file(scene_file)
+    stages = {"parse": time.perf_counter() - t0}
+    t0 = time.perf_counter()
     scene = driver.build_scene(model, options)
+    stages["build"] = time.perf_counter() - t0
+    recompiles = 0
     best = float("inf")
     for k in range(repeat + 1):
         res = driver.render_scene(scene, model.camera, options)
-        if k > 0:
+        if k == 0:
+            stages.update({key: res.timings[key] for key in ("compile", "execute", "render", "filter")})
+            with tempfile.TemporaryDirectory(prefix="a5bench-") as tmp:
+                t0 = time.perf_counter()
+                imageio.write_images([(str(Path(tmp) / "out.png"), res.image)])
+                stages["write"] = time.perf_counter() - t0
+        else:
             best = min(best, res.timings["execute"])
+            recompiles += res.timings["compile"] > 0.02  # a kernel compiled again (not a cache hit)
     del scene, res
     _free()
 
@@ -447,7 +499,8 @@ def measure_in_process(model: Any, options: Any, repeat: int = 3) -> InProcess:
     rays, floor, n_lights = _floor_passes(scene, model, rw, rh, repeat)
     del scene
     _free()
-    return InProcess(kernel_execute=best, rays=rays, floor=floor, lights=n_lights)
+    return InProcess(kernel_execute=best, rays=rays, floor=floor, lights=n_lights, stages=stages,
+                     recompiles=int(recompiles), renders=repeat)
 
 
 def measure_stock(model: Any, options: Any, repeat: int = 3) -> dict[str, float]:
@@ -505,6 +558,7 @@ class SceneResult:
     stock: dict[str, float] = field(default_factory=dict)
     a5soln: float | None = None  # measured here
     a5soln_published: float | None = None
+    busy_before: float | None = None  # CPU fraction used by others just before this scene's runs
     errors: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
@@ -526,18 +580,25 @@ def bench_scene(path: Path, args: argparse.Namespace, published: dict[str, float
     res.a5soln_published = published.get(key) if key else None
     w, h = args.size
     flags = render_flags(w, h, args.bounces)
+    if args.wait_idle > 0:
+        log(f"{name}: waiting for idle CPUs (up to {args.wait_idle:.0f} s) ...")
+        res.busy_before = wait_for_idle(args.wait_idle)
     with tempfile.TemporaryDirectory(prefix="a5bench-") as tmp:
         out = str(Path(tmp) / "out.png")
         if not args.no_process:
             cache = Path(tmp) / "drjit-cache"
             cache.mkdir()
-            cmd = a5_command() + ["-input", path.name, "-output", out, *flags, "-v"]
-            for label in ("cold", "warm"):
+            cmd = a5_command() + ["-input", path.name, "-output", out, *flags]
+            for k in range(1 + args.warm_runs):
+                label = "cold" if k == 0 else "warm"
                 log(f"{name}: {label} process ...")
                 run = run_process(cmd, cwd=path.parent, env=cache_env(cache), timeout=args.timeout)
                 if run.returncode != 0:
                     res.errors.append(f"{label} a5 exited {run.returncode}: {run.stderr.strip()[-300:]}")
-                setattr(res, label, run)
+                if k == 0:
+                    res.cold = run
+                elif res.warm is None or run.wall < res.warm.wall:
+                    res.warm = run  # best of the warm runs
         if args.a5soln:
             log(f"{name}: a5soln ...")
             run = run_process([args.a5soln, "-input", path.name, "-output", str(Path(tmp) / "soln.bmp"), *flags],
@@ -553,16 +614,15 @@ def bench_scene(path: Path, args: argparse.Namespace, published: dict[str, float
 
     options = driver.RenderOptions(width=w, height=h, bounces=args.bounces, shadows=True, jitter=True, filter=True)
     with _chdir(path.parent):
-        model = parse_file(path.name)
-        log(f"{name}: floor ...")
+        log(f"{name}: stages and floor ...")
         try:
-            res.inproc = measure_in_process(model, options, repeat=args.repeat)
+            res.inproc = measure_in_process(Path(path.name), options, repeat=args.repeat)
         except Exception as exc:  # noqa: BLE001 - a benchmark reports what failed and goes on
             res.errors.append(f"floor: {type(exc).__name__}: {exc}")
         if not args.no_stock:
             log(f"{name}: stock ...")
             try:
-                res.stock = measure_stock(model, options, repeat=args.repeat)
+                res.stock = measure_stock(parse_file(path.name), options, repeat=args.repeat)
             except Exception as exc:  # noqa: BLE001
                 res.errors.append(f"stock: {type(exc).__name__}: {exc}")
     return res
@@ -611,19 +671,27 @@ def report(results: Sequence[SceneResult], info: dict[str, Any], extra: dict[str
                      r.cold.peak_mb if r.cold else None, r.warm.peak_mb if r.warm else None,
                      r.a5soln if r.a5soln is not None else r.a5soln_published,
                      "measured" if r.a5soln is not None else ("published" if r.a5soln_published else None),
-                     _ratio(r.a5soln if r.a5soln is not None else r.a5soln_published, r.warm.wall if r.warm else None)])
-    out += ["Whole process (`a5 ... -v`, wall s; peak RSS MB)", "",
-            format_table(["scene", "cold s", "warm s", "cold MB", "warm MB", "a5soln s", "a5soln", "a5soln/warm"],
+                     _ratio(r.a5soln if r.a5soln is not None else r.a5soln_published, r.warm.wall if r.warm else None),
+                     r.busy_before])
+    out += ["Whole process (`a5 -input SCENE -output OUT.png " + " ".join(extra.get("flags", [])) + "`, wall s, "
+            "warm = best of the warm runs; peak RSS MB; busy = CPU share used by other processes just before)", "",
+            format_table(["scene", "cold s", "warm s", "cold MB", "warm MB", "a5soln s", "a5soln", "a5soln/warm",
+                          "busy"],
                          rows), ""]
     rows = []
     for r in results:
-        for label, run in (("cold", r.cold), ("warm", r.warm)):
-            if run is None or not run.stages:
-                continue
-            rows.append([f"{r.name} {label}", run.startup] + [run.stages.get(s) for s in STAGES])
+        if r.inproc is None or not r.inproc.stages:
+            continue
+        st = r.inproc.stages
+        rest = None
+        if r.warm is not None:
+            rest = r.warm.wall - sum(st.get(k, 0.0) for k in ("parse", "build", "render", "filter", "write"))
+        rows.append([r.name, rest] + [st.get(k) for k in STAGES] + [f"{r.inproc.recompiles}/{r.inproc.renders}"])
     if rows:
-        out += ["Stages (s, from the same processes' `-v` report; startup = wall - stages)", "",
-                format_table(["run", "startup", *STAGES], rows), ""]
+        out += ["Stages of one render (s; in-process, first render of the scene; `startup` = warm process wall - "
+                "parse - build - render - filter - write: interpreter, imports, variant, exit; `recompiled` = "
+                "repeated renders of the loaded scene that compiled a kernel again)", "",
+                format_table(["scene", "startup", *STAGES, "recompiled"], rows), ""]
     rows = []
     for r in results:
         ip = r.inproc
@@ -668,6 +736,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-process", action="store_true", help="skip the a5 child processes")
     p.add_argument("--no-inprocess", action="store_true", help="skip the floor and stock measurements")
     p.add_argument("--no-stock", action="store_true", help="skip the stock Mitsuba comparison")
+    p.add_argument("--warm-runs", type=int, default=2, help="warm process runs per scene (best kept)")
+    p.add_argument("--wait-idle", type=float, default=30.0, metavar="S",
+                   help="before each scene, wait up to S s for other processes to leave the CPUs (0: never)")
     p.add_argument("--timeout", type=float, default=600.0, help="per child process (s)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines on stderr")
     return p
@@ -676,8 +747,8 @@ def build_parser() -> argparse.ArgumentParser:
 def run(argv: Sequence[str]) -> int:
     """``a5mi bench [SCENE ...] [flags]``: measure, print the tables (or JSON). Returns the exit status."""
     args = build_parser().parse_args(list(argv))
-    if min(args.size) <= 0 or args.bounces < 0 or args.repeat < 1:
-        print("a5mi bench: error: --size, --bounces and --repeat must be positive", file=sys.stderr)
+    if min(args.size) <= 0 or args.bounces < 0 or args.repeat < 1 or args.warm_runs < 1:
+        print("a5mi bench: error: --size, --repeat and --warm-runs must be positive, --bounces >= 0", file=sys.stderr)
         return 2
     if args.a5soln and not (shutil.which(args.a5soln) or os.access(args.a5soln, os.X_OK)):
         print(f"a5mi bench: error: --a5soln '{args.a5soln}' is not an executable", file=sys.stderr)
@@ -700,12 +771,12 @@ def run(argv: Sequence[str]) -> int:
         activate()
     published = load_published()
     results = [bench_scene(p, args, published, log) for p in paths]
-    extra: dict[str, Any] = {}
+    extra: dict[str, Any] = {"flags": render_flags(*args.size, args.bounces)}
     if args.k4:
         (p4,) = resolve_scenes([args.k4_scene])
         with tempfile.TemporaryDirectory(prefix="a5bench-4k-") as tmp:
             cmd = a5_command() + ["-input", p4.name, "-output", str(Path(tmp) / "4k.png"),
-                                  *render_flags(3840, 2160, args.bounces), "-v"]
+                                  *render_flags(3840, 2160, args.bounces)]
             log(f"4K: {scene_name(p4)} ...")
             extra["4k"] = run_process(cmd, cwd=p4.parent, timeout=args.timeout)
             extra["4k_cmd"] = " ".join(["a5", *cmd[len(a5_command()):]]).replace(str(Path(tmp)) + "/", "")

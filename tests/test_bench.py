@@ -1,0 +1,141 @@
+"""Tests of ``a5mi bench``'s own logic (issue 7): parsing, scene lookup, tables, ray replay bookkeeping,
+child-process measurement. Never a timed assertion: only counts, shapes, exit codes and memory lower bounds."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from a5mi import bench
+
+VERBOSE = """\
+a5: llvm_ad_rgb, render 900x900 (810000 camera rays, 1 tiles), saved 300x300
+a5: secondary rays reflection 2252268, refraction 1140699, shadow 5618298
+a5: times parse 0.016 s, variant 0.177 s, build 0.308 s, compile 0.290 s, execute 0.604 s, render 0.780 s, \
+jitter 0.076 s, filter 0.035 s, write 0.027 s
+a5: peak memory 328 MB
+"""
+
+
+def test01_parse_verbose() -> None:
+    stages, rays = bench.parse_verbose(VERBOSE)
+    assert stages == {"parse": 0.016, "variant": 0.177, "build": 0.308, "compile": 0.290, "execute": 0.604,
+                      "render": 0.780, "jitter": 0.076, "filter": 0.035, "write": 0.027}
+    assert rays == {"camera": 810000, "reflection": 2252268, "refraction": 1140699, "shadow": 5618298}
+    assert bench.parse_verbose("a5: error: nothing\n") == ({}, {})
+
+
+def test02_startup_is_wall_minus_verbose_stages() -> None:
+    stages, rays = bench.parse_verbose(VERBOSE)
+    run = bench.ProcessRun(wall=2.0, peak_mb=1.0, returncode=0, stderr=VERBOSE, stages=stages, rays=rays)
+    # parse + variant + build + render + filter + write (compile/execute/jitter are inside render)
+    assert run.startup == pytest.approx(2.0 - (0.016 + 0.177 + 0.308 + 0.780 + 0.035 + 0.027))
+    assert bench.ProcessRun(wall=1.0, peak_mb=1.0, returncode=0, stderr="").startup is None
+
+
+def test03_published_times_from_the_course_readme(a5_data: Path) -> None:
+    found = bench.published_times((a5_data / "reference" / "README.md").read_text())
+    assert found == bench.PUBLISHED_A5SOLN
+    assert bench.load_published(a5_data) == bench.PUBLISHED_A5SOLN
+    assert bench.load_published(a5_data / "no-such-folder") == bench.PUBLISHED_A5SOLN  # fallback copy
+
+
+def test04_scene_names_and_lookup(a5_data: Path) -> None:
+    assert bench.scene_name("scenes/scene12_vase.txt") == "scene12_vase"
+    assert bench.scene_name("extras/sibenik/s.txt") == "sibenik/s"
+    assert bench.published_key("scene06_bunny_1k") == "scene06"
+    assert bench.published_key("sibenik/s") is None
+    default = bench.resolve_scenes([], a5_data)
+    assert [p.relative_to(a5_data).as_posix() for p in default] == list(bench.SCENES)
+    assert all(p.is_file() for p in default)
+    assert bench.resolve_scenes(["scene10"], a5_data) == [a5_data / "scenes/scene10_sphere.txt"]
+    assert bench.resolve_scenes(["sibenik"], a5_data) == [a5_data / "extras/sibenik/s.txt"]
+    explicit = a5_data / "scenes" / "scene01_plane.txt"
+    assert bench.resolve_scenes([str(explicit)], a5_data) == [explicit.resolve()]
+    with pytest.raises(ValueError, match="unknown benchmark scene 'scene1'"):
+        bench.resolve_scenes(["scene1"], a5_data)  # ambiguous: scene10..scene13
+
+
+def test05_format_table_is_aligned_markdown() -> None:
+    text = bench.format_table(["scene", "s", "MB"], [["a", 0.5, 1289.4], ["longer name", None, 12.0]])
+    lines = text.splitlines()
+    assert len(lines) == 4
+    assert len({len(line) for line in lines}) == 1  # every row padded to the same width
+    assert lines[1].startswith("|---") and lines[1].endswith(":|")
+    assert lines[2].split("|")[1:-1] == [" a           ", " 0.500 ", " 1289 "]
+    assert lines[3].split("|")[1:-1] == [" longer name ", "     - ", " 12.0 "]
+
+
+@given(st.lists(st.integers(0, 5), max_size=30))
+def test06_lane_repeat_and_rank_match_a_direct_loop(counts: list[int]) -> None:
+    lanes = bench.lane_repeat(counts)
+    expected = [i for i, c in enumerate(counts) for _ in range(c)]
+    assert lanes.tolist() == expected
+    ranks = [r for c in counts for r in range(c)]
+    assert bench.rank_within_lane(lanes).tolist() == ranks
+
+
+def test07_lane_repeat_rounds_float_counts() -> None:
+    assert bench.lane_repeat(np.array([1.0000001, 0.0, 2.9999998, -1.0], np.float32)).tolist() == [0, 2, 2, 2]
+
+
+def test08_run_process_measures_the_child_alone(tmp_path: Path) -> None:
+    script = ("import sys, numpy as np; a = np.ones(200 * 2**20 // 8); sys.stderr.write('hello\\n'); "
+              "sys.exit(3)")
+    run = bench.run_process([sys.executable, "-c", script], cwd=tmp_path)
+    assert run.returncode == 3
+    assert run.stderr == "hello\n"
+    assert run.peak_mb >= 200  # its own ru_maxrss, touched pages of the 200 MB array included
+    assert run.wall > 0
+
+
+def test09_run_process_kills_at_the_timeout() -> None:
+    run = bench.run_process([sys.executable, "-c", "import time; time.sleep(60)"], timeout=0.5)
+    assert run.returncode < 0  # killed by a signal
+
+
+def test10_cache_env_and_command() -> None:
+    env = bench.cache_env("/tmp/x")
+    assert env["DRJIT_CACHE_DIR"] == "/tmp/x"
+    cmd = bench.a5_command()
+    assert cmd[0].endswith("a5") or cmd[-2:] == ["-m", "a5mi"]
+    assert bench.render_flags(300, 200, 4) == ["-size", "300", "200", "-shadows", "-bounces", "4", "-jitter",
+                                               "-filter"]
+
+
+def test11_cpu_busy_is_a_fraction(tmp_path: Path) -> None:
+    assert 0.0 <= bench.cpu_busy(0.05) <= 1.0
+    assert bench.cpu_busy(0.0, stat=str(tmp_path / "missing")) == 0.0
+
+
+def test12_bad_arguments_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert bench.run(["--size", "0", "10"]) == 2
+    assert bench.run(["no_such_scene"]) == 2
+    assert bench.run(["--a5soln", "/no/such/binary", "scene10"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("a5mi bench: error:") == 3
+
+
+def test13_floor_replays_the_render_ray_counts(
+    variant: str, scenes_dir: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The in-process pass casts exactly as many rays of each kind as the driver counts for the same render."""
+    from a5mi.converters.a5_parser import parse_file
+
+    from a5mi import driver
+
+    monkeypatch.chdir(scenes_dir)
+    options = driver.RenderOptions(width=20, height=20, bounces=4, shadows=True, jitter=True, filter=True)
+    counted = driver.render(parse_file("scene10_sphere.txt"), driver.RenderOptions(
+        width=20, height=20, bounces=4, shadows=True, jitter=True, filter=True, count_rays=True))
+    result = bench.measure_in_process(Path("scene10_sphere.txt"), options, repeat=1)
+    assert result.rays == {"camera": 60 * 60, **counted.ray_counts}
+    assert result.rays["shadow"] > 0 and result.rays["reflection"] > 0 and result.rays["refraction"] > 0
+    assert result.lights == 2
+    assert set(result.floor) == set(bench.RAY_KINDS) and all(v > 0 for v in result.floor.values())
+    assert set(bench.STAGES) <= set(result.stages)
