@@ -461,6 +461,8 @@ def run_render(argv: Sequence[str]) -> int:
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "render": ("a5mi.cli:run_render", "render a scene (the a5 flags)"),
     "convert": ("a5mi.cli:run_convert", "convert a scene to Mitsuba XML"),
+    "crosscheck": ("a5mi.crosscheck:run", "a5 Whitted vs Mitsuba's path tracer on the same rays"),
+    "bench": ("a5mi.bench:run", "time the stages (cold/warm), optionally against a5soln"),
 }
 
 

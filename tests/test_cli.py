@@ -197,6 +197,12 @@ def test_a5mi_dispatch(tmp_path, scene, fake_render, capsys) -> None:
     assert cli.run_a5mi(["frob"]) == 2
     assert "unknown command 'frob'" in _one_error_line(capsys.readouterr().err)
     assert cli.run_a5mi([]) == 2 and "render" in capsys.readouterr().out
+    assert cli.run_a5mi(["-h"]) == 0
+    listed = capsys.readouterr().out
+    for name, (target, _) in cli.SUBCOMMANDS.items():
+        assert f"  {name} " in listed
+        module, func = target.split(":")
+        assert callable(getattr(__import__(module, fromlist=[func]), func))  # every entry resolves
     out = tmp_path / "r.png"
     assert cli.run_a5mi(["render", "-input", scene, "-output", str(out), "-size", "7", "5"]) == 0
     assert imageio.read_image(out).shape == (5, 7, 3)
