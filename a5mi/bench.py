@@ -43,7 +43,6 @@ import shutil
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -109,27 +108,40 @@ class ProcessRun:
         return self.wall - sum(self.stages.get(k, 0.0) for k in VERBOSE_STAGES)
 
 
+#: Runs the measured command as its own child: on Linux a child's ``ru_maxrss`` starts from the RSS of the
+#: process that spawned it (``exec`` keeps the old image's high-water mark), so the command is launched from
+#: this small interpreter rather than from the benchmark process, which holds scenes and buffers.
+_LAUNCHER = """\
+import json, os, subprocess, sys, threading, time
+cmd, timeout = json.loads(sys.argv[1]), float(sys.argv[2])
+t0 = time.perf_counter()
+proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL)
+timer = threading.Timer(timeout, proc.kill)
+timer.start()
+_, status, usage = os.wait4(proc.pid, 0)
+timer.cancel()
+wall = time.perf_counter() - t0
+print(json.dumps({"wall": wall, "maxrss_kb": usage.ru_maxrss, "returncode": os.waitstatus_to_exitcode(status)}))
+"""
+
+
 def run_process(
     cmd: Sequence[str], *, cwd: str | Path | None = None, env: dict[str, str] | None = None, timeout: float = 600.0
 ) -> ProcessRun:
-    """Run ``cmd``; wall time from spawn to reaping, peak memory = the child's ``ru_maxrss`` (KiB on Linux)
-    from ``os.wait4`` (that child alone, unlike ``RUSAGE_CHILDREN``, which is the maximum over all children).
-    The child is killed after ``timeout`` seconds (returncode then negative)."""
+    """Run ``cmd``: wall time from spawn to reaping, peak memory = that child's own ``ru_maxrss`` (KiB on
+    Linux) from ``os.wait4``, both taken by a small launcher interpreter (see :data:`_LAUNCHER`). The child is
+    killed after ``timeout`` seconds (returncode then negative); its stderr is returned."""
     with tempfile.TemporaryFile() as err:
-        t0 = time.perf_counter()
-        proc = subprocess.Popen(list(cmd), cwd=cwd, env=env, stdout=subprocess.DEVNULL, stderr=err)
-        timer = threading.Timer(timeout, proc.kill)
-        timer.start()
-        try:
-            _, status, usage = os.wait4(proc.pid, 0)
-        finally:
-            timer.cancel()
-        wall = time.perf_counter() - t0
-        proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here: tell Popen
+        proc = subprocess.run([sys.executable, "-c", _LAUNCHER, json.dumps(list(cmd)), str(timeout)], cwd=cwd,
+                              env=env, stdout=subprocess.PIPE, stderr=err, check=False)
         err.seek(0)
         text = err.read().decode(errors="replace")
+    try:
+        m = json.loads(proc.stdout.decode().strip().splitlines()[-1])
+    except (ValueError, IndexError):
+        raise RuntimeError(f"bench launcher failed (exit {proc.returncode}): {text.strip()[-300:]}") from None
     stages, rays = parse_verbose(text)
-    return ProcessRun(wall=wall, peak_mb=usage.ru_maxrss / 1024.0, returncode=proc.returncode, stderr=text,
+    return ProcessRun(wall=m["wall"], peak_mb=m["maxrss_kb"] / 1024.0, returncode=m["returncode"], stderr=text,
                       stages=stages, rays=rays)
 
 

@@ -94,6 +94,13 @@ def test08_run_process_measures_the_child_alone(tmp_path: Path) -> None:
     assert run.wall > 0
 
 
+def test08b_peak_memory_is_not_inherited_from_a_large_parent() -> None:
+    ballast = np.ones(400 * 2**20 // 8)  # this process: >= 400 MB resident
+    run = bench.run_process([sys.executable, "-c", "pass"])
+    assert ballast.sum() > 0 and run.returncode == 0
+    assert run.peak_mb < 200  # a bare interpreter, not this process's high-water mark
+
+
 def test09_run_process_kills_at_the_timeout() -> None:
     run = bench.run_process([sys.executable, "-c", "import time; time.sleep(60)"], timeout=0.5)
     assert run.returncode < 0  # killed by a signal
