@@ -444,6 +444,12 @@ def run_convert(argv: Sequence[str]) -> int:
             raise UserError(f"cannot read '{scene_path}': {exc.strerror or exc}") from None
         for loc, msg in getattr(scene, "warnings", ()):
             _note(f"{loc}: warning: {msg}")
+        from a5mi.variant import VariantError, activate
+
+        try:
+            activate(None)  # the XML writer builds meshes (PLY) through Mitsuba
+        except VariantError as exc:
+            raise UserError(str(exc)) from None
         from a5mi.converters.to_xml import write_xml
 
         write_xml(scene, out, stock=stock)

@@ -208,7 +208,8 @@ def test_a5mi_dispatch(tmp_path, scene, fake_render, capsys) -> None:
     assert imageio.read_image(out).shape == (5, 7, 3)
 
 
-def test_a5mi_convert(tmp_path, scene, monkeypatch, capsys) -> None:
+def test_a5mi_convert(tmp_path, scene, monkeypatch, capsys, variant) -> None:
+    """Flag handling with a stand-in write_xml (the real one is exercised in test_a5mi_convert_real)."""
     written = []
     fake = type(sys)("a5mi.converters.to_xml")
     fake.write_xml = lambda model, path, *, stock=False, settings=None: written.append((model, path, stock))
@@ -250,3 +251,12 @@ def test_b5_assignment_commands(tmp_path, scenes_dir, monkeypatch, variant, name
     assert rc == 0
     img = imageio.read_image(out)
     assert img.shape == (300, 300, 3) and img.std() > 0.01  # a picture, not a constant
+
+
+def test_a5mi_convert_real(tmp_path, scenes_dir, monkeypatch, variant) -> None:
+    pytest.importorskip("a5mi.converters.to_xml")
+    monkeypatch.chdir(scenes_dir)
+    out = tmp_path / "cube.xml"
+    assert cli.run_a5mi(["convert", "scene11_cube.txt", "-o", str(out)]) == 0
+    text = out.read_text()
+    assert text.lstrip().startswith("<") and "a5_whitted" in text
