@@ -125,7 +125,8 @@ def _trace(
             d_light = ds.d                                   # SPEC L
             visible = mi.Bool(hit)                           # SPEC S
             if shadows:
-                shadow_ray = mi.Ray3f(p + tmin * d_light, d_light, ds.dist - tmin)
+                # Ray3f(o, d, x) would read x as the ray's *time*: set maxt through the copy constructor.
+                shadow_ray = mi.Ray3f(mi.Ray3f(p + tmin * d_light, d_light), ds.dist - tmin)
                 visible &= ~scene.ray_test(shadow_ray, hit)
                 n_shadow += dr.select(hit, 1.0, 0.0)
             term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * kd

@@ -115,6 +115,21 @@ def test_b3_shadowed_point(mi, shadows):
     assert np.allclose(aovs["n_shadow"], 1.0 if shadows else 0.0)
 
 
+def test_b3_occluder_beyond_the_point_light_casts_no_shadow(mi):
+    """Shadow rays end at the light (0.001 < t < dist): a wall *behind* the point light must not block it.
+
+    Floor point (0,-1,0), light at (0,1,0) (d = 2, L·N = 1), wall y = 3 above the light: lit = kd·colour.
+    """
+    floor = {"type": "rectangle", "bsdf": _material(diffuse_color=(0.5, 0.5, 0.5)),
+             "to_world": mi.ScalarTransform4f().translate([0, -1, 0]).rotate([1, 0, 0], -90).scale(50)}
+    wall = {"type": "rectangle", "bsdf": _material(diffuse_color=(1, 1, 1)),
+            "to_world": mi.ScalarTransform4f().translate([0, 3, 0]).rotate([1, 0, 0], 90).scale(50)}
+    scene = _scene(mi, floor=floor, wall=wall,
+                   l={"type": "a5_point", "position": [0, 1, 0], "color": _rgb(1, 1, 1), "falloff": 0.0})
+    color, _ = _render(mi, scene, {"shadows": True}, o=[(-4, 0, 0)], d=[(4, -1, 0)])
+    assert np.allclose(color[0], 0.5, atol=1e-6)
+
+
 def test_a3_a5_point_light_falloff(mi):
     """a5_point: colour / (1 + f d²), no inverse square. Light at (0,0,-3), hit (0,0,-1): d = 2, L·N = 1."""
     scene = _scene(mi, s=_sphere(diffuse_color=(1, 1, 1), kd=(0.5, 1.0, 0.25)),
