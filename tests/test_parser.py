@@ -217,3 +217,64 @@ def test_a_shipped_sibenik(a5_data: Path) -> None:
     assert scene.materials[2].texture == "tex/kamen.bmp" and scene.materials[2].bump == "bump/kamen.bmp"
     assert [p.primitive.material for p in scene.objects] == list(range(15))
     assert scene.warnings == ()
+
+
+# ------------------------------------------------------------------------------------ fuzzing (issue 8)
+def _fuzz_sources() -> list[tuple[str, list[str]]]:
+    from a5mi import data_dir
+
+    root = data_dir()
+    files = sorted((root / "scenes").glob("*.txt")) + sorted(VALID)
+    return [(p.name, p.read_text().split()) for p in files]
+
+
+FUZZ_SOURCES = _fuzz_sources()
+FUZZ_WORDS = ["{", "}", "0", "-1", "1e999", "nan", "inf", "abc", "#", "1}", "{x", "Group", "Sphere", "Transform",
+              "MaterialIndex", "numObjects", "Noise", "color", "Matrix4f", "Rotate", "99999999999", "\x00", "é"]
+
+
+def test_issue8_fuzz_mutated_scenes_raise_only_scene_errors_with_positions() -> None:
+    """2,000+ mutations (delete, duplicate, swap, replace, truncate tokens) of the real scenes: the parser
+    either succeeds or raises SceneError with a position inside the text; never any other exception."""
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    @st.composite
+    def mutated(draw: st.DrawFn) -> str:
+        _, words = draw(st.sampled_from(FUZZ_SOURCES))
+        words = list(words)
+        for _ in range(draw(st.integers(1, 3))):
+            if not words:
+                break
+            i = draw(st.integers(0, len(words) - 1))
+            op = draw(st.sampled_from(["delete", "duplicate", "swap", "replace", "truncate"]))
+            if op == "delete":
+                del words[i]
+            elif op == "duplicate":
+                words.insert(i, words[i])
+            elif op == "swap":
+                j = draw(st.integers(0, len(words) - 1))
+                words[i], words[j] = words[j], words[i]
+            elif op == "replace":
+                words[i] = draw(st.sampled_from(FUZZ_WORDS))
+            else:
+                words = words[:i]
+        return "\n".join(" ".join(words[k:k + 7]) for k in range(0, len(words), 7))
+
+    count = 0
+
+    @settings(max_examples=2000, deadline=None, derandomize=True, database=None,
+              suppress_health_check=list(HealthCheck))
+    @given(mutated())
+    def check(text: str) -> None:
+        nonlocal count
+        count += 1
+        try:
+            parse_text(text, "fuzz.txt")
+        except SceneError as e:
+            assert e.loc is not None and e.loc.path == "fuzz.txt"
+            assert 1 <= e.loc.line <= text.count("\n") + 1 and e.loc.col >= 1
+            assert str(e).startswith(f"{e.loc}: error: ")
+
+    check()
+    assert count >= 2000
