@@ -458,6 +458,109 @@ def run_convert(argv: Sequence[str]) -> int:
     return _guarded(debug, body)
 
 
+def _take_value(argv: Sequence[str], k: int) -> str:
+    if k + 1 >= len(argv):
+        raise UsageError(f"{argv[k]} expects a value, found end of arguments")
+    return argv[k + 1]
+
+
+def run_compare(argv: Sequence[str]) -> int:
+    """``a5mi compare A B [--diff OUT.png] [--json] [--threshold L]``: the metrics of :mod:`a5mi.compare`."""
+    usage = "usage: a5mi compare A B [--diff OUT.png] [--json] [--threshold LEVELS] [--debug]\n"
+    debug = "--debug" in argv
+
+    def body() -> int:
+        from a5mi import compare
+        from a5mi.imageio import check_output_path
+
+        images: list[str] = []
+        diff: str | None = None
+        as_json = False
+        threshold = compare.DEFAULT_THRESHOLD
+        k = 0
+        while k < len(argv):
+            a = argv[k]
+            if a in ("-h", "--help", "-help"):
+                print(usage, end="")
+                return 0
+            if a == "--diff":
+                diff, k = _take_value(argv, k), k + 2
+                continue
+            if a == "--threshold":
+                threshold, k = _float(a, _take_value(argv, k)), k + 2
+                continue
+            if a == "--json":
+                as_json = True
+            elif a != "--debug":
+                if a.startswith("-") and len(a) > 1:
+                    raise UsageError(f"unknown flag '{a}' (see a5mi compare -h)")
+                images.append(a)
+            k += 1
+        if len(images) != 2:
+            raise UsageError(f"compare takes two images, found {len(images)}")
+        if diff is not None:
+            check_output_path(diff)
+        a_img, b_img = compare.read_levels(images[0]), compare.read_levels(images[1])
+        metrics = compare.compare_arrays(a_img, b_img, threshold)
+        if diff is not None:
+            compare.write_diff(a_img, b_img, metrics, diff, (os.path.basename(images[0]), os.path.basename(images[1])))
+        if as_json:
+            print(metrics.to_json())
+        else:
+            print(f"{images[0]} vs {images[1]} ({metrics.width}x{metrics.height}): {metrics.summary()}")
+            if metrics.bbox is not None:
+                x0, y0, x1, y1 = metrics.bbox
+                print(f"pixels over {metrics.threshold:g}/255 lie in x {x0}..{x1}, y {y0}..{y1} (row 0 = top)")
+        return 0
+
+    return _guarded(debug, body)
+
+
+def run_fidelity(argv: Sequence[str]) -> int:
+    """``a5mi fidelity [--diff-dir DIR]``: re-render every reference image and print the README table."""
+    usage = "usage: a5mi fidelity [--diff-dir DIR] [--debug]\n"
+    debug = "--debug" in argv
+
+    def body() -> int:
+        from a5mi import fidelity
+        from a5mi.compare import write_diff
+        from a5mi.variant import VariantError, activate
+
+        diff_dir: str | None = None
+        k = 0
+        while k < len(argv):
+            a = argv[k]
+            if a in ("-h", "--help", "-help"):
+                print(usage, end="")
+                return 0
+            if a == "--diff-dir":
+                diff_dir, k = _take_value(argv, k), k + 2
+                continue
+            if a != "--debug":
+                raise UsageError(f"unknown argument '{a}' (see a5mi fidelity -h)")
+            k += 1
+        if diff_dir is not None and not os.path.isdir(diff_dir):
+            raise UsageError(f"--diff-dir: folder '{diff_dir}' does not exist")
+        cases = list(fidelity.cases())
+        if not cases:
+            raise UserError(f"no reference images under {fidelity.data_dir() / 'reference'} (set A5_DATA)")
+        try:
+            activate(None)
+        except VariantError as exc:
+            raise UserError(str(exc)) from None
+        rows = []
+        for case in cases:
+            metrics, ours, ref = fidelity.measure(case)
+            _note(f"{case}: {metrics.summary()}")
+            if diff_dir is not None:
+                write_diff(ours, ref, metrics, os.path.join(diff_dir, f"{case}.diff.png"), ("a5mi", "a5soln"))
+            rows.append((case, metrics))
+        print(fidelity.table(rows))
+        return 0
+
+    return _guarded(debug, body)
+
+
 def run_render(argv: Sequence[str]) -> int:
     """``a5mi render <a5 flags>``: the same as ``a5``."""
     return run(argv)
@@ -467,6 +570,8 @@ def run_render(argv: Sequence[str]) -> int:
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "render": ("a5mi.cli:run_render", "render a scene (the a5 flags)"),
     "convert": ("a5mi.cli:run_convert", "convert a scene to Mitsuba XML"),
+    "compare": ("a5mi.cli:run_compare", "PSNR, mean error, share of pixels > 2/255 of two images (+ diff)"),
+    "fidelity": ("a5mi.cli:run_fidelity", "re-render the reference images and print the fidelity table"),
     "crosscheck": ("a5mi.crosscheck:run", "a5 Whitted vs Mitsuba's path tracer on the same rays"),
     "bench": ("a5mi.bench:run", "time the stages (cold/warm), optionally against a5soln"),
 }

@@ -23,10 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
+from a5mi.errors import UserError
+
 DEFAULT_THRESHOLD = 2.0
 
 
-class CompareError(ValueError):
+class CompareError(UserError):
     """An image cannot be read, or the two images cannot be compared (user-fixable)."""
 
 
