@@ -472,6 +472,14 @@ def bake_cubemap_envmap(folder: str, size: tuple[int, int] = ENVMAP_SIZE) -> np.
     return np.stack([np.asarray(c, dtype=np.float32) for c in color], axis=-1).reshape(h, w, 3)
 
 
+def write_float_image(pixels: np.ndarray, path: Path) -> None:
+    """Write an (H, W, 3) float image (EXR for the stock envmap) through ``mi.Bitmap`` (keeps the Mitsuba
+    import in this module)."""
+    import mitsuba as mi
+
+    mi.Bitmap(np.ascontiguousarray(pixels, dtype=np.float32)).write(str(path))
+
+
 def _materialise(value: Any, objects: dict[str, Any]) -> Any:
     """Plain description value -> ``mi.load_dict`` value (transforms, meshes, refs to loaded BSDFs)."""
     import mitsuba as mi

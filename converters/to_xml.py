@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from .model import Scene
-from .to_mitsuba import MeshData, RenderSettings, bake_cubemap_envmap, build, make_mesh
+from .to_mitsuba import MeshData, RenderSettings, bake_cubemap_envmap, build, make_mesh, write_float_image
 
 PLUGIN_TAGS: dict[str, str] = {
     **dict.fromkeys(("a5_whitted", "path", "direct"), "integrator"),
@@ -79,9 +79,7 @@ class _Writer:
                 self.mesh(parent, key, value, attr)
             elif "_bake_cubemap" in value:
                 exr = self.xml_path.parent / f"{self.xml_path.stem}_envmap.exr"
-                import mitsuba as mi
-
-                mi.Bitmap(bake_cubemap_envmap(value["_bake_cubemap"])).write(str(exr))
+                write_float_image(bake_cubemap_envmap(value["_bake_cubemap"]), exr)
                 el = ET.SubElement(parent, "emitter", type="envmap", **{attr: key})
                 ET.SubElement(el, "string", name="filename", value=exr.name)
             else:
