@@ -71,3 +71,20 @@ def test_variant_activation_refuses_old_llvm_in_a_subprocess(tmp_path: Path) -> 
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("a5: error: Dr.Jit would load LLVM 15")
+
+
+def test_a5_cli_with_only_llvm15_prints_the_fix_and_writes_nothing(tmp_path: Path, scenes_dir: Path) -> None:
+    """Issue 2: the real command line, LLVM 15 forced: one line, exit 2, no output file, no abort."""
+    fake = tmp_path / "libLLVM-15.so"
+    fake.write_bytes(b"\x7fELF")
+    out = tmp_path / "out.png"
+    env = {"DRJIT_LIBLLVM_PATH": str(fake), "PATH": "/usr/bin:/bin", "A5_DATA": str(scenes_dir.parent)}
+    proc = subprocess.run(
+        [sys.executable, "-m", "a5mi", "-input", str(scenes_dir / "scene11_cube.txt"), "-size", "20", "20",
+         "-output", str(out)],
+        env=env, capture_output=True, text=True, timeout=120, cwd=tmp_path,
+    )
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "LLVM 15" in lines[0] and "apt-get install -y libllvm19" in lines[0]
+    assert "Traceback" not in proc.stderr and not out.exists()
