@@ -1,11 +1,15 @@
-"""Generate the meshes of the project's own demo scenes (written by us, no third-party data).
+"""Generate the meshes, textures and cube map of the project's own scenes (ours, no third-party data).
 
-    python scenes/make_meshes.py        # rewrites scenes/meshes/*.obj
+    python scenes/make_assets.py        # rewrites scenes/meshes/*.obj, scenes/tex/*.bmp, scenes/sky/*.bmp
 
 * ``box.obj``: the unit cube [-1, 1]^3, 8 vertices, 12 triangles, outward winding (flat-shaded: <= 120
   vertices, SPEC A.6).
 * ``icosphere.obj``: an icosahedron subdivided twice and projected on the unit sphere, 162 vertices
   (> 120, so smooth area-weighted normals per SPEC A.6), with ``vt`` longitude/latitude coordinates.
+* ``tex/checker.bmp``: 64 x 64 24-bit BMP, 8 x 8 checks of two colours with a red/green gradient border, so
+  orientation mistakes (flipped rows, swapped u/v) show.
+* ``sky/{left,right,up,down,front,back}.bmp``: a 32 x 32 cube map, each face its own hue with a vertical
+  gradient and a dark mark in its top-left corner (SPEC A.4's face/uv table is visible in a render).
 """
 
 from __future__ import annotations
@@ -13,7 +17,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-HERE = Path(__file__).resolve().parent / "meshes"
+ROOT = Path(__file__).resolve().parent
+HERE = ROOT / "meshes"
 
 
 def box() -> tuple[list[tuple[float, float, float]], list[tuple[int, int, int]]]:
@@ -72,8 +77,61 @@ def write_obj(path: Path, verts, faces, with_uv: bool = False) -> None:
     path.write_text("\n".join(lines) + "\n")
 
 
+def write_bmp(path: Path, rows: list[list[tuple[int, int, int]]]) -> None:
+    """A 24-bit uncompressed BMP; ``rows[0]`` is the top row of the image (BMP stores bottom-up)."""
+    import struct
+
+    h, w = len(rows), len(rows[0])
+    stride = (3 * w + 3) & ~3
+    data = bytearray()
+    for row in reversed(rows):
+        line = bytearray()
+        for r, g, b in row:
+            line += bytes((b, g, r))
+        data += line + bytes(stride - len(line))
+    header = struct.pack("<2sIHHI", b"BM", 54 + len(data), 0, 0, 54)
+    info = struct.pack("<IiiHHIIiiII", 40, w, h, 1, 24, 0, len(data), 2835, 2835, 0, 0)
+    path.write_bytes(header + info + bytes(data))
+
+
+def checker(n: int = 64, checks: int = 8) -> list[list[tuple[int, int, int]]]:
+    rows = []
+    for y in range(n):
+        row = []
+        for x in range(n):
+            if x < 2 or y < 2 or x >= n - 2 or y >= n - 2:
+                row.append((255 * x // (n - 1), 255 * y // (n - 1), 40))
+            elif ((x * checks // n) + (y * checks // n)) % 2:
+                row.append((235, 225, 200))
+            else:
+                row.append((40, 60, 110))
+        rows.append(row)
+    return rows
+
+
+SKY_HUES = {"right": (230, 120, 90), "left": (90, 200, 120), "up": (150, 190, 255),
+            "down": (120, 100, 80), "front": (200, 180, 240), "back": (240, 220, 120)}
+
+
+def sky_face(colour: tuple[int, int, int], n: int = 32) -> list[list[tuple[int, int, int]]]:
+    rows = []
+    for y in range(n):
+        k = 0.55 + 0.45 * (1 - y / (n - 1))
+        row = [tuple(int(c * k) for c in colour) for _ in range(n)]
+        rows.append(row)
+    for y in range(4):
+        for x in range(4):
+            rows[y][x] = (20, 20, 20)
+    return rows  # type: ignore[return-value]
+
+
 if __name__ == "__main__":
     HERE.mkdir(exist_ok=True)
     write_obj(HERE / "box.obj", *box())
     write_obj(HERE / "icosphere.obj", *icosphere(2), with_uv=True)
-    print("wrote", HERE / "box.obj", HERE / "icosphere.obj")
+    (ROOT / "tex").mkdir(exist_ok=True)
+    write_bmp(ROOT / "tex" / "checker.bmp", checker())
+    (ROOT / "sky").mkdir(exist_ok=True)
+    for face, colour in SKY_HUES.items():
+        write_bmp(ROOT / "sky" / f"{face}.bmp", sky_face(colour))
+    print("wrote meshes/, tex/checker.bmp, sky/*.bmp under", ROOT)

@@ -1,0 +1,52 @@
+"""Golden images of the project's own scenes (issue 6): rendered by a5mi, checked by eye once, compared each run.
+
+Each case renders ``scenes/NAME.txt`` at 150 x 150 with the assignment's flags and compares it with
+``tests/golden/NAME.FLAGS.png`` using :mod:`a5mi.compare`: PSNR >= 60 dB and at most 0.1% of pixels off by more
+than 2/255 (tighter than the sample-solution floors: the same renderer should agree with itself to the last
+bits, apart from LLVM/CPU differences in float rounding at triangle edges).
+
+After an intended change of the rendering, look at the new images and regenerate them with
+``A5MI_UPDATE_GOLDEN=1 .venv/bin/python -m pytest tests/test_golden.py``, then commit them with the change.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from a5mi.compare import compare_arrays, read_levels, write_diff
+
+ROOT = Path(__file__).resolve().parent.parent
+GOLDEN = Path(__file__).resolve().parent / "golden"
+SIZE = 150
+CASES = {
+    "b4-jitter-filter": {"shadows": True, "bounces": 4, "jitter": True, "filter": True},
+    "b4": {"shadows": True, "bounces": 4},
+}
+SCENES = ("demo", "gallery")
+
+
+@pytest.mark.parametrize("suffix", list(CASES))
+@pytest.mark.parametrize("scene", SCENES)
+def test_golden(scene: str, suffix: str, variant: str, tmp_path: Path) -> None:
+    from a5mi.converters.a5_parser import parse_file
+
+    from a5mi.driver import RenderOptions, render
+    from a5mi.imageio import quantize, write_image
+
+    options = RenderOptions(width=SIZE, height=SIZE, **CASES[suffix])
+    result = render(parse_file(ROOT / "scenes" / f"{scene}.txt"), options)
+    ours = quantize(result.image).astype(np.float64)
+    golden = GOLDEN / f"{scene}.{suffix}.png"
+    if os.environ.get("A5MI_UPDATE_GOLDEN") == "1":
+        write_image(golden, result.image)
+    assert golden.is_file(), f"missing {golden}: run with A5MI_UPDATE_GOLDEN=1 and check the image by eye"
+    ref = read_levels(golden)
+    m = compare_arrays(ours, ref)
+    if m.psnr < 60.0 or m.share_over > 0.001:
+        write_diff(ours, ref, m, tmp_path / f"{scene}.{suffix}.diff.png", ("now", "golden"))
+    assert m.psnr >= 60.0, f"{scene}.{suffix}: {m.summary()} (diff in {tmp_path})"
+    assert m.share_over <= 0.001, f"{scene}.{suffix}: {m.summary()} (diff in {tmp_path})"
