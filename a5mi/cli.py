@@ -286,9 +286,10 @@ def _render_command(args: A5Args) -> int:
         scene = parse_file(args.input)
     except OSError as exc:
         raise UserError(f"cannot read '{args.input}': {exc.strerror or exc}") from None
-    timings["parse"] = time.perf_counter() - t0
     for loc, msg in getattr(scene, "warnings", ()):
         _note(f"{loc}: warning: {msg}")
+    _check_files(scene, stock=False)
+    timings["parse"] = time.perf_counter() - t0
 
     from a5mi import driver
     from a5mi.variant import VariantError, activate
@@ -348,6 +349,15 @@ def _render_command(args: A5Args) -> int:
     return 0
 
 
+def _check_files(scene: object, stock: bool) -> None:
+    """Validate the meshes, textures and cube-map faces the scene names before Mitsuba is imported (a bad
+    file is a ``FILE:LINE:COL`` error in a fraction of a second) and print the conversion warnings."""
+    from a5mi.converters.to_mitsuba import check_files
+
+    for loc, msg in check_files(scene, stock=stock):  # type: ignore[arg-type]
+        _note(f"{loc}: warning: {msg}")
+
+
 def _guarded(debug: bool, body: Callable[[], int]) -> int:
     """Run ``body`` with the error policy: user errors -> one line, 2; bugs -> short message, 1."""
     from a5mi.converters.errors import SceneError
@@ -371,7 +381,9 @@ def _guarded(debug: bool, body: Callable[[], int]) -> int:
         if debug:
             traceback.print_exc()
         else:
-            detail = str(exc).splitlines()[0] if str(exc) else ""
+            # First line only, and never the text of a traceback embedded in the message (Mitsuba's
+            # load_dict wraps a plugin's Python exception that way).
+            detail = (str(exc).split("Traceback")[0].strip().splitlines() or [""])[0]
             _note(f"{PROG}: internal error: {type(exc).__name__}{': ' + detail if detail else ''} "
                   "(re-run with --debug for the traceback)")
         return 1
@@ -444,6 +456,7 @@ def run_convert(argv: Sequence[str]) -> int:
             raise UserError(f"cannot read '{scene_path}': {exc.strerror or exc}") from None
         for loc, msg in getattr(scene, "warnings", ()):
             _note(f"{loc}: warning: {msg}")
+        _check_files(scene, stock=stock)
         from a5mi.variant import VariantError, activate
 
         try:

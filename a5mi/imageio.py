@@ -50,6 +50,9 @@ def check_output_path(path: str | os.PathLike[str]) -> Path:
         raise ImageWriteError(f"{p}: unknown image extension {found} (expected one of {' '.join(EXTENSIONS)})")
     folder = p.parent if str(p.parent) else Path(".")
     if not folder.is_dir():
+        above = next((q for q in (folder, *folder.parents) if q.exists()), None)
+        if above is not None and not above.is_dir():
+            raise ImageWriteError(f"{p}: output folder '{folder}' is not a folder: '{above}' is a file")
         raise ImageWriteError(f"{p}: output folder '{folder}' does not exist")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise ImageWriteError(f"{p}: output folder '{folder}' is not writable")

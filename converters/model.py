@@ -240,12 +240,17 @@ class Scene:
 def resolve_path(name: str, base_dir: Path, loc: FileLoc, what: str, *, directory: bool = False) -> Path:
     """Resolve a file name of the scene: ``base_dir / name`` if it exists, else ``cwd / name`` (SPEC A.0 used
     only the working directory; the scene folder first lets scenes run from anywhere). A missing path is a
-    :class:`SceneSemanticError` at ``loc``, naming both places tried."""
+    :class:`SceneSemanticError` at ``loc``, naming both places tried; so is a folder where a file is expected
+    (or the reverse)."""
     p = Path(name)
     candidates = [p] if p.is_absolute() else [base_dir / p, Path.cwd() / p]
     for c in candidates:
         if (c.is_dir() if directory else c.is_file()):
             return c
     kind = "folder" if directory else "file"
+    for c in candidates:
+        if c.exists():
+            found = "a file" if directory else "a folder"
+            raise SceneSemanticError(f"{what} '{name}' is {found}, not a {kind} ('{c}')", loc)
     tried = " or ".join(f"'{c}'" for c in dict.fromkeys(candidates))
     raise SceneSemanticError(f"{what} {kind} '{name}' not found (looked for {tried})", loc)

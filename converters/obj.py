@@ -11,8 +11,11 @@ Reading, line by line, as the starter does:
 * texture coordinates are attached only if the file has at least one ``vt`` line.
 
 Errors are :class:`SceneSemanticError` at the OBJ file's own ``path:line:col`` (a face index outside the
-vertex or texture-coordinate list, a NaN/inf or malformed number), or at the scene's ``obj_file`` keyword
-when the file is missing or unreadable.
+vertex or texture-coordinate list, a NaN/inf, malformed or out-of-float32-range number), or at the scene's
+``obj_file`` keyword when the file is missing or unreadable. Zero-area faces (``(p1 - p0) × (p2 - p0) = 0``)
+are accepted with one warning at the first of them: no ray hits them and they add nothing to the smooth
+normals, so they render as the sample solution renders them (a lone ``Triangle`` of zero area, written by
+hand, is an error in the parser instead).
 
 Normals (:func:`vertex_normals`) are computed, never read. a5soln: more than 120 vertices -> smooth,
 area-weighted vertex normals ``n_v = normalize(Σ_{faces f ∋ v} (p1 - p0) × (p2 - p0))`` (unnormalised
@@ -32,6 +35,8 @@ import numpy as np
 from .errors import FileLoc, SceneSemanticError
 
 SMOOTH_THRESHOLD = 120
+FLOAT32_MAX = 3.4028234663852886e38
+INDEX_LIMIT = 2**31 - 1  # the starter reads indices with %d
 NormalMode = Literal["auto", "smooth", "flat"]
 
 
@@ -89,6 +94,9 @@ def load_obj(path: str | Path, loc: FileLoc | None = None) -> ObjMesh:
             raise SceneSemanticError(f"expected {what}, found '{word}'", FileLoc(spath, line_no, col)) from None
         if conv is float and not math.isfinite(value):
             raise SceneSemanticError(f"expected a finite number in {what}, found '{word}'",
+                                     FileLoc(spath, line_no, col))
+        if abs(value) > (FLOAT32_MAX if conv is float else INDEX_LIMIT):
+            raise SceneSemanticError(f"{what.removeprefix('a ')} out of range: '{word}'",
                                      FileLoc(spath, line_no, col))
         return value
 
@@ -157,6 +165,10 @@ def load_obj(path: str | Path, loc: FileLoc | None = None) -> ObjMesh:
         i, k = bad[0]
         raise SceneSemanticError(f"face index {f[i, k] + 1} out of range: expected 1 to {len(v)} "
                                  f"({len(v)} vertices)", face_locs[i][k])
+    zero = np.flatnonzero(~np.any(face_normals(v, f), axis=1))
+    if len(zero):
+        warnings.append((face_locs[zero[0]][0], f"{len(zero)} zero-area face{'s' if len(zero) > 1 else ''} "
+                         f"(first here): never hit, as in the sample solution"))
     mesh = ObjMesh(spath, v, f, warnings=warnings)
     if tcs:
         t = np.asarray(tcs, dtype=np.float64)

@@ -92,9 +92,9 @@ from .obj import NormalMode, ObjMesh, load_obj, vertex_normals
 
 #: Half-size of the rectangle standing in for an infinite plane (scene units); see the module docstring.
 PLANE_HALF_SIZE = 1.0e7
-#: Cube-map faces (SPEC A.4) and the image extensions looked for.
+#: Cube-map faces (SPEC A.4) and the image extensions looked for, in the ``a5_cubemap`` plugin's order.
 CUBE_FACES = ("left", "right", "up", "down", "front", "back")
-IMAGE_EXTENSIONS = (".bmp", ".png", ".jpg", ".jpeg", ".tga", ".ppm", ".exr", ".hdr", ".tif", ".tiff")
+IMAGE_EXTENSIONS = (".bmp", ".png", ".jpg", ".jpeg", ".tga", ".ppm", ".tif", ".tiff", ".exr", ".hdr")
 #: Size of the baked latitude-longitude environment in stock mode.
 ENVMAP_SIZE = (2048, 1024)
 MIRROR_THRESHOLD = 0.001
@@ -144,10 +144,80 @@ def rgb(c: Any) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------------------------------------- file paths
+_MESH_CACHE: dict[tuple[str, int, int], ObjMesh] = {}
+_IMAGES_OK: set[tuple[str, int, int]] = set()
+_CACHE_SIZE = 16
+
+
+def _file_key(path: Path) -> tuple[str, int, int] | None:
+    """``(absolute path, mtime_ns, size)``: a file's identity for the caches below (None if stat fails)."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return (str(path.resolve()), st.st_mtime_ns, st.st_size)
+
+
+def load_mesh(path: Path, loc: FileLoc) -> ObjMesh:
+    """:func:`.obj.load_obj`, remembered per (path, mtime, size), so that :func:`check_files` (run by the CLI
+    before Mitsuba is imported) and the :func:`build` that follows read each OBJ once."""
+    key = _file_key(path)
+    if key is not None and key in _MESH_CACHE:
+        return _MESH_CACHE[key]
+    mesh = load_obj(path, loc)
+    if key is not None:
+        if len(_MESH_CACHE) >= _CACHE_SIZE:
+            del _MESH_CACHE[next(iter(_MESH_CACHE))]
+        _MESH_CACHE[key] = mesh
+    return mesh
+
+
+def check_image(path: Path, loc: FileLoc, what: str) -> None:
+    """Read the whole image at ``path`` with OpenImageIO, as the ``a5_bitmap`` / ``a5_cubemap`` plugins will
+    (8 bits per channel, SPEC A.4), so a bad file is reported at the scene keyword that named it instead of
+    failing inside ``mi.load_dict``. Raises :class:`SceneSemanticError` at ``loc``:
+    ``{what} '{path}' is not a readable image: {reason}`` (empty, unreadable, not an image, truncated).
+    A file that passed is remembered per (path, mtime, size)."""
+    key = _file_key(path)
+    if key is not None and key in _IMAGES_OK:
+        return
+    if key is not None and key[2] == 0:
+        raise SceneSemanticError(f"{what} '{path}' is not a readable image: the file is empty", loc)
+    import OpenImageIO as oiio  # deferred: only scenes with images pay for it
+
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        reason = oiio.geterror()
+    else:
+        try:
+            spec = inp.spec()
+            ok = spec.width > 0 and spec.height > 0 and inp.read_image(0, 0, 0, spec.nchannels, "uint8") is not None
+            reason = "" if ok else (inp.geterror() or oiio.geterror() or "no pixel data")
+        finally:
+            inp.close()
+    if reason:
+        reason = " ".join(reason.split())  # OpenImageIO messages may span lines
+        raise SceneSemanticError(f"{what} '{path}' is not a readable image: {reason}", loc)
+    if key is not None:
+        if len(_IMAGES_OK) >= 4 * _CACHE_SIZE:
+            _IMAGES_OK.clear()
+        _IMAGES_OK.add(key)
+
+
+def find_cube_face(folder: Path, face: str) -> Path | None:
+    """The file the ``a5_cubemap`` plugin reads for ``face``: ``face`` + the first of :data:`IMAGE_EXTENSIONS`
+    that exists, else the first other ``face.*`` file (sorted); None if there is none."""
+    for ext in IMAGE_EXTENSIONS:
+        if (folder / f"{face}{ext}").is_file():
+            return folder / f"{face}{ext}"
+    return next((p for p in sorted(folder.glob(f"{face}.*")) if p.is_file()), None)
+
+
 def resolve_cube_map(scene: Scene, warnings: list[tuple[FileLoc, str]]) -> Path:
     """The cube-map folder (scene folder first, then cwd). A small regular file whose content is a relative
     path to an existing folder (a git symlink checked out as text, like extras/sibenik/tex/church) is
-    followed, with a warning. Each of the six faces must exist (SPEC A.4)."""
+    followed, with a warning. Each of the six faces must exist and be a readable image (SPEC A.4,
+    :func:`check_image`)."""
     bg = scene.background
     assert bg.cube_map is not None
     loc = bg.cube_map_loc or bg.loc
@@ -171,23 +241,21 @@ def resolve_cube_map(scene: Scene, warnings: list[tuple[FileLoc, str]]) -> Path:
         if folder is None:
             raise
     for face in CUBE_FACES:
-        if not any((folder / f"{face}{ext}").is_file() for ext in IMAGE_EXTENSIONS):
+        path = find_cube_face(folder, face)
+        if path is None:
             raise SceneSemanticError(f"cubeMap folder '{folder}' has no '{face}' face (expected {face}.bmp or "
                                      f"{face}.png)", loc)
+        check_image(path, loc, "cubeMap face")  # type: ignore[arg-type]
     return folder.resolve()
 
 
 def resolve_texture(scene: Scene, mat: Material) -> Path:
-    """The material's texture file (scene folder first, then cwd); missing/unreadable -> error at its loc."""
+    """The material's texture file (scene folder first, then cwd); missing, unreadable or not an image
+    (:func:`check_image`) -> :class:`SceneSemanticError` at its loc."""
     assert mat.texture is not None
     loc = mat.texture_loc or mat.loc
     p = resolve_path(mat.texture, scene.base_dir, loc, "texture")  # type: ignore[arg-type]
-    try:
-        with open(p, "rb") as fh:
-            if not fh.read(2):
-                raise SceneSemanticError(f"texture file '{p}' is empty", loc)
-    except OSError as exc:
-        raise SceneSemanticError(f"cannot read texture file '{p}': {exc.strerror or exc}", loc) from None
+    check_image(p, loc, "texture")  # type: ignore[arg-type]
     return p.resolve()
 
 
@@ -366,7 +434,7 @@ def build(scene: Scene, settings: RenderSettings | None = None, *, stock: bool =
         prim = p.primitive
         if isinstance(prim, TriangleMesh) and prim.obj_file not in meshes:
             path = resolve_path(prim.obj_file, scene.base_dir, prim.obj_file_loc, "obj_file")
-            meshes[prim.obj_file] = load_obj(path, prim.obj_file_loc)
+            meshes[prim.obj_file] = load_mesh(path, prim.obj_file_loc)
             warnings.extend(meshes[prim.obj_file].warnings)
 
     # ---------------------------------------------------------------- lights (SPEC A.3)
@@ -430,6 +498,15 @@ def build(scene: Scene, settings: RenderSettings | None = None, *, stock: bool =
             d[key] = {"type": "_mesh", "data": mesh_from_obj(key, meshes[prim.obj_file], m, normals),
                       "bsdf": bsdf}
     return out
+
+
+def check_files(scene: Scene, *, stock: bool = False) -> list[tuple[FileLoc, str]]:
+    """Resolve and validate every file the conversion reads (OBJ meshes, textures used on shapes with uv,
+    cube-map faces), exactly as :func:`build` does and without importing Mitsuba, so the CLI reports a bad file
+    before it starts the JIT. Returns the conversion warnings (OBJ quirks, zero-area faces, followed cube-map
+    links, stock approximations); raises :class:`SceneSemanticError` at the keyword that named a bad file or
+    at the OBJ line at fault."""
+    return build(scene, stock=stock).warnings
 
 
 # ------------------------------------------------------------------------------------------------- Mitsuba

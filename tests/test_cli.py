@@ -217,6 +217,7 @@ def test_a5mi_convert(tmp_path, scene, monkeypatch, capsys, variant) -> None:
     assert cli.run_a5mi(["convert", scene, "-o", str(tmp_path / "s.xml"), "--stock"]) == 0
     (model, path, stock), = written
     assert path == str(tmp_path / "s.xml") and stock and model.camera.angle > 0
+    assert "warning: stock conversion: the ambient term" in capsys.readouterr().err  # conversion warnings shown
     for argv, msg in [([scene], "missing -o OUT.xml"), (["-o", "x.xml"], "missing SCENE.txt"),
                       ([scene, "-o", "x.png"], "must end in .xml"), ([scene, "-o", "no/x.xml"], "does not exist")]:
         assert cli.run_a5mi(["convert"] + argv) == 2

@@ -183,6 +183,10 @@ def test_paths_resolve_against_the_scene_folder_and_missing_files_are_errors(sce
         build(parse_file(tmp_path / "t.txt"))
     for face in ("left", "right", "up", "down", "front", "back"):
         (tmp_path / "cm" / f"{face}.bmp").write_bytes(b"BM")
+    with pytest.raises(SceneSemanticError, match=r"t.txt:18:13: error: cubeMap face '.*left.bmp' is not a readable"):
+        build(parse_file(tmp_path / "t.txt"))  # faces are read whole when resolved (issue 8)
+    for face in ("left", "right", "up", "down", "front", "back"):
+        shutil.copy(scenes_dir / "tex" / "head.bmp", tmp_path / "cm" / f"{face}.bmp")
     # The texture is only needed on shapes with uv: cube.obj has none, so this converts.
     build(parse_file(tmp_path / "t.txt"))
 
