@@ -377,14 +377,15 @@ def _camera_rays_for(model: Any, rw: int, rh: int) -> Any:
     """The render's camera rays, all of them, in the driver's order (SPEC B.2, B.5 glibc jitter)."""
     import mitsuba as mi
 
-    from a5mi.driver import jitter_stream
+    from a5mi.driver import aligned_float32, jitter_stream
     from a5mi.plugins.camera import camera_rays
 
     jx, jy = jitter_stream(None)(rw * rh)
     x = np.tile(np.arange(rw, dtype=np.float32), rh) + jx
     y = np.repeat(np.arange(rh, dtype=np.float32), rw) + jy
     cam = model.camera
-    return camera_rays(cam.center, cam.direction, cam.up, cam.angle, mi.Float(x), mi.Float(y), rw, rh)
+    return camera_rays(cam.center, cam.direction, cam.up, cam.angle, mi.Float(aligned_float32(x)),
+                       mi.Float(aligned_float32(y)), rw, rh)
 
 
 def _full_ray(o: Any, d: Any, maxt: Any) -> Any:

@@ -9,7 +9,12 @@
   glibc's seed-1 stream (:mod:`a5mi.glibc_rand`); ``seed`` selects numpy's PCG64 instead;
 * ``integrator.sample(scene, sampler, ray, None, active)`` of ``a5_whitted`` gives the colour and the AOVs
   ``[nx, ny, nz, t]``, in tiles of at most ``tile_rays`` rays (one kernel, compiled once and reused);
-* ``-filter``: blur + 3x3 downsample (:mod:`a5mi.filters`) of the render buffer;
+* ``-filter``: blur + 3x3 downsample (:mod:`a5mi.filters`) of the render buffer, streamed tile by tile
+  (:class:`a5mi.filters.FilterStream`): the full-size colour buffer is never held, so with ``-jitter
+  -filter`` memory is bounded by the tile size plus the W x H output, not by the 3W x 3H buffer;
+* pixel coordinates are handed to Dr.Jit in 64-byte-aligned arrays: ``mi.Float(numpy)`` maps numpy memory
+  without copying and the kernel's load alignment (part of its hash) follows the address, so unaligned
+  arrays recompiled the render kernel at random;
 * ``-normals``: ``|N|`` per component; ``-depth dmin dmax``: gray ``1`` if ``t <= dmin``, ``0`` if
   ``t >= dmax`` or ``dmin >= dmax``, else ``1 - (t - dmin)/(dmax - dmin)`` (SPEC B.6), both at the render
   buffer's resolution, unfiltered, traced with the main image's rays (``aov_mode="quadrant"``: with the
@@ -30,7 +35,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from a5mi.filters import KERNELS, postprocess
+from a5mi.filters import KERNELS, FilterStream, postprocess
 from a5mi.glibc_rand import GlibcRand, jitter_offsets
 
 #: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
@@ -92,8 +97,8 @@ class RenderResult:
     """The saved image and the AOV images (float32 HxWx3, row 0 = top) plus statistics.
 
     ``timings`` (seconds): ``build`` (dict + ``mi.load_dict``), ``compile`` (Dr.Jit codegen + LLVM),
-    ``execute`` (kernels), ``render`` (wall time of the tile loop), ``jitter`` (offset generation, mostly
-    overlapped with rendering), ``filter``.
+    ``execute`` (kernels), ``render`` (wall time of the tile loop, without the filter), ``jitter`` (offset
+    generation, mostly overlapped with rendering), ``filter`` (blur + downsample, streamed per tile).
     """
 
     image: npt.NDArray[np.float32]
@@ -105,6 +110,9 @@ class RenderResult:
     timings: dict[str, float] = field(default_factory=dict)
     #: ``reflection``, ``refraction``, ``shadow`` ray totals, when the integrator reports them
     ray_counts: dict[str, int] = field(default_factory=dict)
+    #: kernel launches by where the kernel came from: ``memory`` (this process's cache), ``disk``
+    #: (Dr.Jit's cache folder), ``compiled`` (LLVM ran); a repeated render should be all ``memory``
+    kernels: dict[str, int] = field(default_factory=dict)
 
 
 def depth_gray(t: npt.ArrayLike, dmin: float, dmax: float) -> npt.NDArray[np.float32]:
@@ -150,6 +158,21 @@ def tile_rows(rw: int, rh: int, tile_rays: int) -> list[tuple[int, int]]:
     """Row ranges ``[j0, j1)`` (bottom-up) of at most ``tile_rays`` samples each (at least one row)."""
     rows = max(1, tile_rays // rw)
     return [(j0, min(rh, j0 + rows)) for j0 in range(0, rh, rows)]
+
+
+def aligned_float32(a: npt.ArrayLike, align: int = 64) -> npt.NDArray[np.float32]:
+    """A float32 copy of ``a`` whose data starts on an ``align``-byte boundary.
+
+    Dr.Jit maps numpy memory zero-copy and bakes the pointer's alignment into the kernel IR (``align 64`` or
+    ``align 4``), so the same kernel would hash differently, and recompile, depending on where numpy's
+    allocator put the array.
+    """
+    src = np.asarray(a, dtype=np.float32).ravel()
+    raw = np.empty(src.nbytes + align, np.uint8)
+    offset = (-raw.ctypes.data) % align
+    out = raw[offset : offset + src.nbytes].view(np.float32)
+    out[:] = src
+    return out
 
 
 def _pixel_coords(
@@ -220,12 +243,19 @@ def quadrant_coords(rw: int, rh: int, j0: int, j1: int) -> tuple[np.ndarray, np.
 
 @dataclass
 class _Pass:
-    """Buffers and counters of one tile loop over the render buffer."""
+    """Buffers and counters of one tile loop over the render buffer. ``trace_color``: the pass computes the
+    colour, stored in ``color`` (full render buffer) or pushed to ``stream`` (blur + downsample as it goes)."""
 
     color: np.ndarray | None
     normal: np.ndarray | None
     dist: np.ndarray | None
+    stream: FilterStream | None = None
     counts: dict[str, int] = field(default_factory=dict)
+    kernels: dict[str, int] = field(default_factory=dict)  # launches by source: memory / disk / compiled
+
+    @property
+    def trace_color(self) -> bool:
+        return self.color is not None or self.stream is not None
 
 
 _COUNT_NAMES = ("reflection", "refraction", "shadow")
@@ -257,27 +287,37 @@ def _trace_pass(
             n = (j1 - j0) * rw
             ray = camera_rays(
                 camera.center, camera.direction, camera.up, camera.angle,
-                mi.Float(x_pix), mi.Float(y_pix), rw, rh,
+                mi.Float(aligned_float32(x_pix)), mi.Float(aligned_float32(y_pix)), rw, rh,
             )  # fmt: skip
             sampler.seed(0, n)
             rgb, _valid, aovs = integrator.sample(mi_scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
             if want_aov and len(aovs) < 4:
                 raise RuntimeError(f"integrator returned {len(aovs)} AOVs, expected [nx, ny, nz, t]")
-            counted = buffers.color is not None and len(aovs) >= 7
-            outputs = ([rgb] if buffers.color is not None else []) + (list(aovs)[:4] if want_aov else [])
-            sums = [dr.sum(mi.UInt32(a)) for a in aovs[4:7]] if counted else []
-            dr.eval(*outputs, *sums)
+            counted = list(aovs)[4:7] if buffers.trace_color and len(aovs) >= 7 else []
+            outputs = ([rgb] if buffers.trace_color else []) + (list(aovs)[:4] if want_aov else [])
+            # one kernel for everything: a reduction of an unevaluated count would trace the scene again
+            dr.eval(*outputs, *counted)
             dr.sync_thread()
-            if buffers.color is not None:
-                buffers.color[j0:j1] = np.asarray(rgb).T.reshape(j1 - j0, rw, 3)
+            if buffers.trace_color:
+                rows = np.asarray(rgb).T.reshape(j1 - j0, rw, 3)
+                if buffers.stream is not None:
+                    t0 = time.perf_counter()
+                    buffers.stream.push(rows)
+                    timings["filter"] = timings.get("filter", 0.0) + time.perf_counter() - t0
+                else:
+                    assert buffers.color is not None
+                    buffers.color[j0:j1] = rows
             if buffers.normal is not None:
                 nrm = np.stack([np.asarray(aovs[k]) for k in range(3)], axis=-1)
                 buffers.normal[j0:j1] = np.abs(nrm).reshape(j1 - j0, rw, 3)
             if buffers.dist is not None:
                 buffers.dist[j0:j1] = np.asarray(aovs[3]).reshape(j1 - j0, rw)
-            for name, a in zip(_COUNT_NAMES, sums, strict=False):
-                buffers.counts[name] = buffers.counts.get(name, 0) + int(a[0])
+            for name, a in zip(_COUNT_NAMES, counted, strict=False):
+                buffers.counts[name] = buffers.counts.get(name, 0) + int(np.rint(np.asarray(a, np.float64)).sum())
             for entry in dr.kernel_history():
+                if entry.get("type") == dr.KernelType.JIT:  # not memsets, host functions, aggregates
+                    kind = "disk" if entry.get("cache_disk") else "memory" if entry.get("cache_hit") else "compiled"
+                    buffers.kernels[kind] = buffers.kernels.get(kind, 0) + 1
                 timings["execute"] += entry.get("execution_time", 0.0) / 1000.0
                 timings["compile"] += (entry.get("codegen_time", 0.0) + entry.get("backend_time", 0.0)) / 1000.0
             done += n
@@ -316,10 +356,13 @@ def render_scene(
         normal=np.empty((rh, rw, 3), np.float32) if options.normals else None,
         dist=np.empty((rh, rw), np.float32) if options.depth is not None else None,
     )
-    main = _Pass(color=np.empty((rh, rw, 3), np.float32), normal=None, dist=None)
+    if options.filter:
+        main = _Pass(color=None, normal=None, dist=None, stream=FilterStream(rw, rh, options.kernel))
+    else:
+        main = _Pass(color=np.empty((rh, rw, 3), np.float32), normal=None, dist=None)
     if not separate:
         main.normal, main.dist = aov.normal, aov.dist
-    timings: dict[str, float] = {"compile": 0.0, "execute": 0.0, "jitter": 0.0}
+    timings: dict[str, float] = {"compile": 0.0, "execute": 0.0, "jitter": 0.0, "filter": 0.0}
 
     def main_tiles() -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
         for j0, j1, jit in _tiles_with_jitter(rw, tiles, options.seed, options.jitter, timings):
@@ -335,12 +378,13 @@ def render_scene(
     if separate:
         _trace_pass(mi_scene, camera, integrator, camera_rays, rw, rh, quadrant_tiles(), aov, timings, progress,
                     done, total)
-    timings["render"] = time.perf_counter() - t_start
+    timings["render"] = time.perf_counter() - t_start - timings["filter"]  # the streamed filter is its own stage
 
-    t0 = time.perf_counter()
-    assert main.color is not None
-    image = postprocess(main.color, filter=options.filter, kernel=options.kernel)
-    timings["filter"] = time.perf_counter() - t0
+    if main.stream is not None:
+        image = main.stream.result()
+    else:
+        assert main.color is not None
+        image = postprocess(main.color, filter=False)
     depth_img = None
     if aov.dist is not None and options.depth is not None:
         gray = depth_gray(aov.dist, *options.depth)
@@ -354,6 +398,8 @@ def render_scene(
         tiles=len(tiles),
         timings=timings,
         ray_counts=main.counts,
+        kernels={k: main.kernels.get(k, 0) + (aov.kernels.get(k, 0) if separate else 0)
+                 for k in ("memory", "disk", "compiled")},
     )
 
 

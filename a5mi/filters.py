@@ -101,6 +101,66 @@ def downsample3(img: npt.ArrayLike) -> FloatImage:
     return s / np.float32(9.0)
 
 
+class FilterStream:
+    """Blur + 3x3 downsample (SPEC B.5) of a render buffer that arrives as bottom-up row bands.
+
+    :meth:`push` takes the next rows ``j0..j1-1`` of the ``width x height`` buffer (``j0`` = the rows
+    pushed so far); :attr:`image` fills in output rows as soon as they are determined. Output row ``y`` is
+    ``Σ_{dx} Σ_{dy} blur[3y+dy, 3x+dx] / 9`` and blurred row ``r`` reads render rows ``clamp(r-2 .. r+2)``,
+    so ``y`` is final once render row ``min(3y+4, height-1)`` has arrived. Only the rows still needed
+    (at most the last band plus 6 rows) are kept, so memory is bounded by the band size, not by
+    ``height``; every pixel sees the float32 operations of :func:`postprocess` in the same order (the y
+    taps over the same clamped rows, then the x taps, then the downsample), so the result is bit-identical.
+    """
+
+    def __init__(self, width: int, height: int, kernel: str = "binary", channels: int = 3) -> None:
+        if width // 3 == 0 or height // 3 == 0:
+            raise ValueError(f"cannot downsample a {width}x{height} image by 3")
+        self.width, self.height, self.channels = width, height, channels
+        self.taps = kernel_taps(kernel)
+        #: The output image, ``height//3 x width//3 x channels``, row 0 = the bottom row.
+        self.image: FloatImage = np.empty((height // 3, width // 3, channels), np.float32)
+        self.rows_in = 0  # render rows pushed so far
+        self.rows_out = 0  # output rows finished
+        self._window = np.empty((0, width, channels), np.float32)  # render rows [_base, rows_in)
+        self._base = 0
+        self.peak_window_rows = 0  # largest number of render rows held at once (tests, BENCHMARKS.md)
+
+    def push(self, rows: npt.ArrayLike) -> None:
+        """Append the next band of render rows (``n x width x channels`` float32, bottom-up)."""
+        band = np.asarray(rows, dtype=np.float32)
+        if band.shape[1:] != (self.width, self.channels):
+            raise ValueError(f"expected rows of shape (n, {self.width}, {self.channels}), got {band.shape}")
+        if self.rows_in + band.shape[0] > self.height:
+            raise ValueError(f"more than {self.height} rows pushed")
+        self._window = np.concatenate([self._window, band]) if self._window.shape[0] else band
+        self.rows_in += band.shape[0]
+        self.peak_window_rows = max(self.peak_window_rows, self._window.shape[0])
+        complete = self.rows_in == self.height
+        # output row y needs blurred rows 3y..3y+2, i.e. render rows up to 3y+4 (clamped to height-1)
+        ready = self.image.shape[0] if complete else max(0, (self.rows_in - 5) // 3 + 1)
+        ready = min(ready, self.image.shape[0])
+        if ready > self.rows_out:
+            r0, r1 = 3 * self.rows_out, 3 * ready
+            idx = np.clip(np.arange(r0 - 2, r1 + 2), 0, self.height - 1) - self._base
+            tmp = _blur_axis(self._window[idx], self.taps, 0, r1 - r0)
+            cols = np.clip(np.arange(-2, self.width + 2), 0, self.width - 1)
+            blurred = _blur_axis(tmp[:, cols], self.taps, 1, self.width)
+            self.image[self.rows_out : ready] = downsample3(blurred)
+            self.rows_out = ready
+        # keep render rows from 3*rows_out - 2 on (the next output row's lowest y tap)
+        keep = max(0, 3 * self.rows_out - 2) if not complete else self.rows_in
+        if keep > self._base:
+            self._window = self._window[keep - self._base :].copy()
+            self._base = keep
+
+    def result(self) -> FloatImage:
+        """The filtered image once every row has been pushed (``ValueError`` before)."""
+        if self.rows_in != self.height:
+            raise ValueError(f"only {self.rows_in} of {self.height} rows pushed")
+        return self.image
+
+
 def output_size(width: int, height: int, *, jitter: bool, filter: bool) -> tuple[int, int]:
     """Size of the saved image for ``-size width height`` and the flags (SPEC B.5 table)."""
     if jitter and filter:

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from a5mi import driver
-from a5mi.driver import RenderOptions, depth_gray, render_scene, tile_rows
+from a5mi.driver import RenderOptions, aligned_float32, depth_gray, render_scene, tile_rows
+from a5mi.filters import postprocess
 from a5mi.glibc_rand import GlibcRand, jitter_offsets
 
 CAMERA = SimpleNamespace(center=(0.0, 0.0, 0.0), direction=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0), angle=30.0)
@@ -100,6 +101,36 @@ def test_b5_tiles_do_not_change_the_image(variant, seed) -> None:
     np.testing.assert_array_equal(tiled.image, whole.image)
 
 
+@pytest.mark.parametrize("rows_per_tile", [1, 2, 3, 4, 5, 7, 100])
+def test_b5_streamed_filter_matches_whole_buffer(variant, rows_per_tile) -> None:
+    """-jitter -filter on a non-square image, tiles of any row count (also not multiples of 3): the streamed
+    blur + downsample equals postprocess() of the whole unfiltered 3W x 3H buffer bit for bit."""
+    whole = _render(width=7, height=5, jitter=True)  # 21 x 15 render buffer, row 0 = top
+    expected = postprocess(whole.image[::-1], filter=True)[::-1]
+    tiled = _render(width=7, height=5, jitter=True, filter=True, tile_rays=21 * rows_per_tile)
+    assert tiled.tiles == -(-15 // rows_per_tile)
+    np.testing.assert_array_equal(tiled.image, expected)
+
+
+def test_b5_streamed_filter_memory_does_not_grow_with_height(variant) -> None:
+    """Peak Python-side memory of -jitter -filter (numpy buffers, traced by tracemalloc) with a fixed tile
+    size: doubling the image height adds only the output rows (W x H x 12 B), not the 3W x 3H buffer."""
+    import tracemalloc
+
+    def peak(height: int) -> int:
+        tracemalloc.start()
+        try:
+            _render(width=40, height=height, jitter=True, filter=True, tile_rays=120 * 6)
+            return tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+
+    peak(50)  # warm-up: imports, kernel compile
+    small, large = peak(100), peak(200)
+    full_buffer_growth = 120 * 300 * 3 * 4  # the unstreamed render buffer would grow by this much
+    assert large - small < full_buffer_growth / 4, (small, large)
+
+
 def test_b5_seed_selects_numpy_generator(variant) -> None:
     a = _render(width=3, height=3, jitter=True, seed=1).image
     b = _render(width=3, height=3, jitter=True, seed=1).image
@@ -151,6 +182,14 @@ def test_tile_rows_bounded() -> None:
     assert all((b - a) * 1920 * 3 <= driver.TILE_RAYS for a, b in tile_rows(1920 * 3, 1080 * 3, driver.TILE_RAYS))
 
 
+def test_aligned_float32_copies_onto_a_64_byte_boundary() -> None:
+    base = np.arange(40, dtype=np.float32)
+    for start in range(5):
+        a = aligned_float32(base[start : start + 30])
+        assert a.ctypes.data % 64 == 0 and a.dtype == np.float32
+        np.testing.assert_array_equal(a, base[start : start + 30])
+
+
 @pytest.mark.parametrize("bad", [dict(width=0), dict(bounces=-1), dict(fresnel="x"), dict(kernel="gauss")])
 def test_options_validated(bad) -> None:
     with pytest.raises(ValueError):
@@ -191,3 +230,61 @@ def test_b6_quadrant_mode_uses_the_binarys_aov_rays(variant) -> None:
     np.testing.assert_allclose(res.depth[::-1, 0, 0], 1 - np.array([1.6875, 2.0625, 2.4375, 2.8125]) / 10, rtol=1e-6)
     np.testing.assert_array_equal(res.image[::-1][0, :, 0], [0, 1, 2, 3])  # main pass: pixel centres
     assert res.camera_rays == 32
+
+
+def _ball_scene(color, light):
+    import mitsuba as mi
+
+    return mi.load_dict({
+        "type": "scene",
+        "integrator": {"type": "a5_whitted", "max_depth": 2, "shadows": True},
+        "ball": {"type": "sphere", "bsdf": {"type": "a5_material",
+                                            "diffuse_color": {"type": "rgb", "value": color},
+                                            "specular_color": {"type": "rgb", "value": [0.5, 0.5, 0.5]}}},
+        "sun": {"type": "directional", "direction": light, "irradiance": {"type": "rgb", "value": [1, 1, 1]}},
+    })  # fmt: skip
+
+
+def _coords_at_alignment(coords, misaligned: bool):
+    """Wrap ``_pixel_coords``: arrays on a 64-byte boundary, or with ``misaligned`` every other tile's arrays
+    4 bytes past one (what numpy's allocator did at random)."""
+    calls = []
+
+    def placed(rw, j0, j1, jit):
+        calls.append(j0)
+        out = []
+        for a in coords(rw, j0, j1, jit):
+            buf = aligned_float32(np.zeros(a.size + 1, np.float32))
+            view = buf[1:] if misaligned and len(calls) % 2 else buf[:-1]
+            view[:] = a
+            out.append(view)
+        return tuple(out)
+
+    return placed
+
+
+def test_repeated_renders_compile_nothing(variant, monkeypatch) -> None:
+    """Issue 7: pixel coordinates used to be mapped from numpy at whatever alignment the allocator gave, which
+    changed the kernel hash and recompiled the render kernel at random. Now (with the coordinate arrays'
+    alignment made to differ from the first render's) a second render of the same scene, every tile of a many-tile
+    render, and a scene of the same structure with other values all reuse the in-memory kernels."""
+    import gc
+
+
+    cam = SimpleNamespace(center=(0.0, 0.0, 5.0), direction=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0), angle=30.0)
+    opts = RenderOptions(width=10, height=12, jitter=True, filter=True, tile_rays=30 * 2)  # 18 tiles
+    scene = _ball_scene([0.5, 0.25, 1.0], [0, 0, -1])
+    coords = driver._pixel_coords
+    monkeypatch.setattr(driver, "_pixel_coords", _coords_at_alignment(coords, misaligned=False))
+    first = render_scene(scene, cam, opts)
+    assert sum(first.kernels.values()) >= first.tiles == 18
+    monkeypatch.setattr(driver, "_pixel_coords", _coords_at_alignment(coords, misaligned=True))
+    for _ in range(3):
+        again = render_scene(scene, cam, opts)
+        assert again.kernels["compiled"] == 0 and again.kernels["disk"] == 0, again.kernels
+        np.testing.assert_array_equal(again.image, first.image)
+    del scene
+    gc.collect()
+    other = render_scene(_ball_scene([0.1, 0.9, 0.3], [0.3, -0.2, -1]), cam, opts)
+    assert other.kernels["compiled"] == 0 and other.kernels["disk"] == 0, other.kernels
+    assert not np.array_equal(other.image, first.image)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from a5mi.filters import blur, downsample3, kernel_taps, output_size, postprocess
+from a5mi.filters import FilterStream, blur, downsample3, kernel_taps, output_size, postprocess
 
 
 def _blur_loop(img: np.ndarray, taps: np.ndarray) -> np.ndarray:
@@ -101,3 +101,49 @@ def test_b5_flag_combinations(jitter, filt, expected) -> None:
     rw, rh = (3 * w, 3 * h) if jitter else (w, h)
     out = postprocess(np.zeros((rh, rw, 3), np.float32), filter=filt)
     assert (out.shape[1], out.shape[0]) == expected
+
+
+# ---------------------------------------------------------------- streamed filter (bounded memory)
+
+
+@pytest.mark.parametrize("band", [1, 2, 3, 4, 5, 7, 10, 33])
+@pytest.mark.parametrize("shape", [(33, 21, 3), (13, 20, 3), (6, 9, 3)])
+@pytest.mark.parametrize("kernel", ["binary", "handout"])
+def test_b5_stream_bit_identical_to_whole_image(shape, band, kernel) -> None:
+    """Bands of any height (also not multiples of 3, and heights not multiples of 3: -filter without -jitter)
+    give exactly postprocess() of the whole buffer, and the stream never holds more than band + 6 rows."""
+    img = np.random.default_rng(3).random(shape).astype(np.float32)
+    stream = FilterStream(shape[1], shape[0], kernel)
+    for j0 in range(0, shape[0], band):
+        stream.push(img[j0 : j0 + band])
+    np.testing.assert_array_equal(stream.result(), postprocess(img, filter=True, kernel=kernel))
+    assert stream.peak_window_rows <= min(shape[0], band + 6)
+
+
+def test_b5_stream_rows_final_as_soon_as_their_taps_arrived() -> None:
+    """Output row y needs render rows up to 3y+4: after 5 rows one output row is done, after 7 rows still
+    one, after 8 rows two; the window then starts 2 rows below the next block (its lowest blur tap)."""
+    stream = FilterStream(6, 30)
+    rows = np.ones((30, 6, 3), np.float32)
+    stream.push(rows[:4])
+    assert stream.rows_out == 0
+    stream.push(rows[4:5])
+    assert stream.rows_out == 1
+    stream.push(rows[5:7])
+    assert stream.rows_out == 1
+    stream.push(rows[7:8])
+    assert stream.rows_out == 2 and stream.rows_in == 8
+    np.testing.assert_allclose(stream.image[:2], 1.0001**2, rtol=2e-6)  # constant image: blur gain only
+
+
+def test_b5_stream_rejects_bad_input() -> None:
+    stream = FilterStream(6, 6)
+    with pytest.raises(ValueError, match="shape"):
+        stream.push(np.zeros((2, 5, 3), np.float32))
+    stream.push(np.zeros((4, 6, 3), np.float32))
+    with pytest.raises(ValueError, match="only 4 of 6"):
+        stream.result()
+    with pytest.raises(ValueError, match="more than 6"):
+        stream.push(np.zeros((3, 6, 3), np.float32))
+    with pytest.raises(ValueError, match="cannot downsample"):
+        FilterStream(2, 9)
