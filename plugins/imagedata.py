@@ -42,10 +42,11 @@ def load_rgb8(path: str | Path) -> np.ndarray:
     try:
         spec = inp.spec()
         pixels = inp.read_image(0, 0, 0, spec.nchannels, "uint8")
+        reason = inp.geterror() if pixels is None else ""  # e.g. a truncated file
     finally:
         inp.close()
     if pixels is None or spec.width <= 0 or spec.height <= 0:
-        raise ValueError(f"cannot read image {path}: {oiio.geterror() or 'no pixel data'}")
+        raise ValueError(f"cannot read image {path}: {reason or oiio.geterror() or 'no pixel data'}")
     pixels = np.asarray(pixels, dtype=np.uint8).reshape(spec.height, spec.width, spec.nchannels)
     if spec.nchannels in (1, 2):
         pixels = np.repeat(pixels[:, :, :1], 3, axis=2)
