@@ -141,18 +141,33 @@ class FilterStream:
         ready = self.image.shape[0] if complete else max(0, (self.rows_in - 5) // 3 + 1)
         ready = min(ready, self.image.shape[0])
         if ready > self.rows_out:
-            r0, r1 = 3 * self.rows_out, 3 * ready
-            idx = np.clip(np.arange(r0 - 2, r1 + 2), 0, self.height - 1) - self._base
-            tmp = _blur_axis(self._window[idx], self.taps, 0, r1 - r0)
-            cols = np.clip(np.arange(-2, self.width + 2), 0, self.width - 1)
-            blurred = _blur_axis(tmp[:, cols], self.taps, 1, self.width)
-            self.image[self.rows_out : ready] = downsample3(blurred)
+            self._filter_rows(3 * self.rows_out, 3 * ready)
             self.rows_out = ready
         # keep render rows from 3*rows_out - 2 on (the next output row's lowest y tap)
         keep = max(0, 3 * self.rows_out - 2) if not complete else self.rows_in
         if keep > self._base:
             self._window = self._window[keep - self._base :].copy()
             self._base = keep
+
+    def _filter_rows(self, r0: int, r1: int, strip_rows: int = 48) -> None:
+        """Output rows ``r0/3 .. r1/3 - 1`` from the window: per channel and per strip of ``strip_rows``
+        blurred rows (a multiple of 3, cache-sized), spread over threads (numpy releases the GIL)."""
+        cols = np.clip(np.arange(-2, self.width + 2), 0, self.width - 1)
+
+        def job(c: int, s0: int, s1: int) -> None:
+            rows = np.clip(np.arange(s0 - 2, s1 + 2), 0, self.height - 1) - self._base
+            tmp = _blur_axis(self._window[rows, :, c], self.taps, 0, s1 - s0)
+            blurred = _blur_axis(tmp[:, cols], self.taps, 1, self.width)
+            self.image[s0 // 3 : s1 // 3, :, c] = downsample3(blurred)
+
+        jobs = [(c, s0, min(r1, s0 + strip_rows)) for c in range(self.channels) for s0 in range(r0, r1, strip_rows)]
+        workers = min(len(jobs), os.cpu_count() or 1)
+        if workers <= 1:
+            for j in jobs:
+                job(*j)
+        else:
+            with ThreadPoolExecutor(max_workers=workers) as pool:
+                list(pool.map(lambda j: job(*j), jobs))
 
     def result(self) -> FloatImage:
         """The filtered image once every row has been pushed (``ValueError`` before)."""

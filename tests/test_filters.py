@@ -107,7 +107,7 @@ def test_b5_flag_combinations(jitter, filt, expected) -> None:
 
 
 @pytest.mark.parametrize("band", [1, 2, 3, 4, 5, 7, 10, 33])
-@pytest.mark.parametrize("shape", [(33, 21, 3), (13, 20, 3), (6, 9, 3)])
+@pytest.mark.parametrize("shape", [(33, 21, 3), (13, 20, 3), (6, 9, 3), (152, 12, 3)])  # 152: several 48-row strips
 @pytest.mark.parametrize("kernel", ["binary", "handout"])
 def test_b5_stream_bit_identical_to_whole_image(shape, band, kernel) -> None:
     """Bands of any height (also not multiples of 3, and heights not multiples of 3: -filter without -jitter)
