@@ -88,7 +88,7 @@ from .model import (
     TriangleMesh,
     resolve_path,
 )
-from .obj import NormalMode, ObjMesh, load_obj, vertex_normals
+from .obj import FLOAT32_MAX, NormalMode, ObjMesh, load_obj, vertex_normals
 
 #: Half-size of the rectangle standing in for an infinite plane (scene units); see the module docstring.
 PLANE_HALF_SIZE = 1.0e7
@@ -319,6 +319,17 @@ def plane_rectangle_to_world(n: np.ndarray, offset: float, near: np.ndarray,
     return out
 
 
+def _check_float32(prim: Any, *values: Any) -> None:
+    """Every world-space number handed to Mitsuba (float32) must be finite there: ``|x| <= 3.4028235e38``.
+    The parser bounds each number as written; an enclosing ``Transform`` can still scale them past float32
+    (``Scale 1e30`` on a vertex at 1e10), which is a :class:`SceneSemanticError` at the primitive."""
+    for v in values:
+        a = np.asarray(v, dtype=np.float64)
+        if not (np.all(np.isfinite(a)) and np.all(np.abs(a) <= FLOAT32_MAX)):
+            raise SceneSemanticError(f"{type(prim).__name__} is out of float32 range in world space (the enclosing "
+                                     "Transforms scale it beyond 3.4e38)", prim.loc)
+
+
 def _has_uv(p: Placed, meshes: dict[str, ObjMesh]) -> bool:
     prim = p.primitive
     return isinstance(prim, TriangleMesh) and meshes[prim.obj_file].texcoords is not None
@@ -408,7 +419,14 @@ def _geometry_centre(placed: tuple[Placed, ...], meshes: dict[str, ObjMesh]) -> 
 def build(scene: Scene, settings: RenderSettings | None = None, *, stock: bool = False,
           normals: NormalMode = "auto") -> Built:
     """The plain description of ``scene`` (see :class:`Built`); raises :class:`SceneSemanticError` for missing
-    meshes, textures or cube-map faces, at the keyword that named them."""
+    meshes, textures or cube-map faces, at the keyword that named them, and for geometry that nested
+    ``Transform`` s push out of float32 range or make singular, at the primitive. numpy's floating-point
+    warnings are silenced here: such overflows are checked and reported as errors instead."""
+    with np.errstate(all="ignore"):
+        return _build(scene, settings, stock=stock, normals=normals)
+
+
+def _build(scene: Scene, settings: RenderSettings | None, *, stock: bool, normals: NormalMode) -> Built:
     s = settings or RenderSettings()
     out = Built({"type": "scene"})
     d, warnings = out.scene, out.warnings
@@ -429,6 +447,12 @@ def build(scene: Scene, settings: RenderSettings | None = None, *, stock: bool =
 
     # ---------------------------------------------------------------- meshes (loaded once per file)
     placed = scene.objects
+    for p in placed:
+        m32 = p.to_world.astype(np.float32)
+        det = float(np.linalg.det(m32[:3, :3].astype(np.float64)))
+        if not (np.all(np.isfinite(m32)) and math.isfinite(det) and det != 0.0):
+            raise SceneSemanticError(f"{type(p.primitive).__name__} is placed by nested Transforms whose product is "
+                                     f"{'singular' if det == 0.0 else 'out of float32 range'}", p.primitive.loc)
     meshes: dict[str, ObjMesh] = {}
     for p in placed:
         prim = p.primitive
@@ -480,23 +504,30 @@ def build(scene: Scene, settings: RenderSettings | None = None, *, stock: bool =
             key = f"sphere_{i:03d}"
             scale = tf.similarity_scale(m)
             if scale is not None:
-                d[key] = {"type": "sphere", "center": tf.transform_points(m, np.asarray(prim.center)).tolist(),
-                          "radius": float(prim.radius * scale), "bsdf": bsdf}
+                center = tf.transform_points(m, np.asarray(prim.center))
+                _check_float32(prim, center, prim.radius * scale)
+                d[key] = {"type": "sphere", "center": center.tolist(), "radius": float(prim.radius * scale),
+                          "bsdf": bsdf}
             else:
+                _check_float32(prim, m)
                 d[key + "_group"] = {"type": "shapegroup", "shape": {
                     "type": "sphere", "center": list(prim.center), "radius": float(prim.radius), "bsdf": bsdf}}
                 d[key] = {"type": "instance", "shapegroup": {"type": "ref", "id": key + "_group"}, "to_world": m}
         elif isinstance(prim, Plane):
             n_w, off_w = world_plane(prim, m)
-            d[f"plane_{i:03d}"] = {"type": "rectangle", "to_world": plane_rectangle_to_world(n_w, off_w, cam_c),
-                                   "bsdf": bsdf}
+            rect = plane_rectangle_to_world(n_w, off_w, cam_c)
+            _check_float32(prim, rect)
+            d[f"plane_{i:03d}"] = {"type": "rectangle", "to_world": rect, "bsdf": bsdf}
         elif isinstance(prim, Triangle):
             key = f"triangle_{i:03d}"
-            d[key] = {"type": "_mesh", "data": mesh_from_triangle(key, prim, m), "bsdf": bsdf}
+            data = mesh_from_triangle(key, prim, m)
+            _check_float32(prim, data.positions)
+            d[key] = {"type": "_mesh", "data": data, "bsdf": bsdf}
         else:
             key = f"mesh_{i:03d}"
-            d[key] = {"type": "_mesh", "data": mesh_from_obj(key, meshes[prim.obj_file], m, normals),
-                      "bsdf": bsdf}
+            data = mesh_from_obj(key, meshes[prim.obj_file], m, normals)
+            _check_float32(prim, data.positions, 0.0 if data.normals is None else data.normals)
+            d[key] = {"type": "_mesh", "data": data, "bsdf": bsdf}
     return out
 
 
