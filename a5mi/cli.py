@@ -44,7 +44,7 @@ usage: a5 -input SCENE.txt -output IMG [-size W H] [-shadows] [-bounces N] [-jit
 Render a 6.837 assignment-5 scene as the course's sample solution a5soln does.
 
 assignment flags (SPEC B.1; any order):
-  -input SCENE.txt       scene file (relative mesh/texture paths resolve against the working directory)
+  -input SCENE.txt       scene file (relative paths: the scene's folder first, then the working directory)
   -output IMG            image to write: .png .bmp .tga .ppm .tif .tiff (8-bit) or .exr (float)
   -size W H              image size (default 100 100); non-square sizes work
   -shadows               cast shadow rays
