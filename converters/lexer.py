@@ -7,7 +7,8 @@ the parser). One exception: a number glued to closing braces (``shininess 20}`` 
 the number and the braces, because the binary reads numbers with ``%f``, which stops before the ``}`` (SPEC
 A.0 calls ``1}`` broken; the shipped scene01 relies on it). Such tokens have ``glued=True`` so the parser can
 warn. Input must be non-empty UTF-8 text without NUL bytes; anything else is a
-:class:`~a5mi.converters.errors.SceneSyntaxError` at the first offending byte.
+:class:`~a5mi.converters.errors.SceneSyntaxError` at the first offending byte (a leading
+byte-order mark included).
 """
 
 from __future__ import annotations
@@ -45,6 +46,9 @@ def decode(data: bytes, path: str) -> str:
     if not data.strip():
         raise SceneSyntaxError("empty scene file: expected PerspectiveCamera, Lights, Background, Materials "
                                "or Group, found end of file", FileLoc(path, 1, 1), "")
+    if data.startswith(b"\xef\xbb\xbf"):  # the sample solution would read it as part of the first word
+        raise SceneSyntaxError("expected scene text, found a UTF-8 byte-order mark (save the file without BOM)",
+                               FileLoc(path, 1, 1))
     nul = data.find(b"\x00")
     if nul >= 0:
         line, col = _line_col(data, nul)

@@ -193,6 +193,9 @@ def _file_cases() -> list[Case]:
         " }" * 3) + " }\n"
     cases.append(scene_case("nested_transforms_singular", t, f"{loc_of(t, 'Sphere')}: error: Sphere is placed by "
                             "nested Transforms whose product is singular"))
+    bom = b"\xef\xbb\xbf" + (HEAD + ONE_MATERIAL + SPHERE).encode()
+    cases.append(scene_case("utf8_byte_order_mark", "", "1:1: error: expected scene text, found a UTF-8 byte-order "
+                            "mark (save the file without BOM)", {"s.txt": bom}))
     return cases
 
 
