@@ -70,14 +70,175 @@ def _columns(line: str) -> list[tuple[str, int]]:
 
 def load_obj(path: str | Path, loc: FileLoc | None = None) -> ObjMesh:
     """Read an OBJ file per SPEC A.6 (see the module docstring). ``loc`` is the scene's ``obj_file`` position,
-    used when the file itself cannot be read."""
+    used when the file itself cannot be read.
+
+    Two readers with one result: :func:`_parse_fast` (whole-file string splits, ``map(float)`` /
+    ``map(int)`` over all numbers at once, numpy checks) handles clean files; whenever it sees anything it
+    does not handle exactly (a bad or out-of-range number, a face index outside the lists, ``v/vt/vn``,
+    mixed face forms, odd whitespace before a record, no faces) it returns None and the line-by-line
+    :func:`_parse_slow` reads the file instead and reports the error at its ``path:line:col``. Both use
+    Python's own ``float`` / ``int`` on the same words, so the numbers are identical
+    (tests/test_obj_fast.py compares them on every course OBJ and on generated odd files)."""
     path = Path(path)
     spath = str(path)
     try:
         text = path.read_bytes().decode("utf-8", errors="replace")
     except OSError as exc:
         raise SceneSemanticError(f"cannot read mesh file '{path}': {exc.strerror or exc}", loc) from None
+    mesh = _parse_fast(text, spath)
+    return mesh if mesh is not None else _parse_slow(text, spath, loc)
 
+
+def _record_words(lines: list[str], kind: str, width: int) -> tuple[list[str], list[int]] | None:
+    """The words of ``lines`` (each starting with ``kind`` + a space), laid out as ``width`` columns per
+    line: the ``width - 1`` words after the keyword, plus the indices of lines that had more words (the
+    starter ignores them). None when a line has fewer than ``width`` words."""
+    n = len(lines)
+    words = " ".join(lines).split()
+    if len(words) == width * n and words[0::width].count(kind) == n:
+        # Each line starts with the keyword; if every keyword sits on a multiple of ``width`` and there
+        # are exactly n of them, then, as no number word equals the keyword (float/int rejects it below),
+        # every line has exactly ``width`` words.
+        del words[0::width]
+        return words, []
+    rows = [line.split() for line in lines]
+    if any(len(r) < width for r in rows):
+        return None
+    longer = [i for i, r in enumerate(rows) if len(r) > width]
+    return [w for r in rows for w in r[1:width]], longer
+
+
+def _floats(words: list[str], cols: int) -> np.ndarray | None:
+    """``float(word)`` for every word, as an (N, cols) float64 array; None if one is not a finite number
+    within float32 range (the slow reader reports which)."""
+    try:
+        a = np.array(list(map(float, words)), dtype=np.float64).reshape(-1, cols)
+    except ValueError:
+        return None
+    with np.errstate(invalid="ignore"):
+        if not np.all(np.abs(a) <= FLOAT32_MAX):  # also false for NaN
+            return None
+    return a
+
+
+def _ints(words: list[str]) -> np.ndarray | None:
+    """``int(word)`` for every word as int64, None if one is not an integer within ``INDEX_LIMIT``."""
+    try:
+        a = np.array(list(map(int, words)), dtype=np.int64)
+    except (ValueError, OverflowError):
+        return None
+    if not np.all(np.abs(a) <= INDEX_LIMIT):
+        return None
+    return a
+
+
+def _parse_fast(text: str, spath: str) -> ObjMesh | None:
+    """The whole-file reader of :func:`load_obj`: the same mesh and warnings as :func:`_parse_slow`, or
+    None when the file needs the slow reader (see :func:`load_obj`)."""
+    lines = text.split("\n")
+    if "\r" in text:
+        lines = [line.rstrip("\r") for line in lines]
+    v_lines: list[str] = []
+    vt_lines: list[str] = []
+    f_lines: list[str] = []
+    f_nos: list[int] = []
+    for no, line in enumerate(lines, start=1):
+        c = line[:1]
+        if c == "v":
+            c2 = line[1:2]
+            if c2 == " ":
+                v_lines.append(line)
+            elif c2 == "t":
+                c3 = line[2:3]
+                if c3 == " ":
+                    vt_lines.append(line)
+                elif not c3 or c3.isspace():
+                    return None
+            elif not c2 or c2.isspace():
+                return None
+        elif c == "f":
+            c2 = line[1:2]
+            if c2 == " ":
+                f_lines.append(line)
+                f_nos.append(no)
+            elif not c2 or c2.isspace():
+                return None
+        elif c.isspace() and line.split(None, 1)[:1] in (["v"], ["vt"], ["f"]):
+            return None  # a record after leading whitespace: the slow reader
+    if not f_lines:
+        return None
+
+    vw = _record_words(v_lines, "v", 4)
+    if vw is None:
+        return None
+    v = _floats(vw[0], 3)
+    if v is None:
+        return None
+    t: np.ndarray | None = None
+    if vt_lines:
+        tw = _record_words(vt_lines, "vt", 3)
+        if tw is None:
+            return None
+        t = _floats(tw[0], 2)
+        if t is None:
+            return None
+
+    slashed = ["/" in line for line in f_lines]
+    n_slashed = sum(slashed)
+    if n_slashed not in (0, len(f_lines)):
+        return None
+    fw = _record_words(f_lines, "f", 4)
+    if fw is None:
+        return None
+    words, longer = fw
+    warnings: list[tuple[FileLoc, str]] = []
+    if n_slashed:
+        if longer:
+            return None  # more than 3 pairs, or 'v/vt/vn': the slow reader numbers them
+        joined = " ".join(words)
+        # Every word must be exactly 'a/b': the separators of the joined words then alternate
+        # '/', ' ', '/', ..., '/' (checked on the UTF-8 bytes, where no other character holds 0x20 or 0x2f).
+        b = np.frombuffer(joined.encode(), dtype=np.uint8)
+        seps = b[(b == 0x2F) | (b == 0x20)]
+        expected = np.full(2 * len(words) - 1, 0x2F, dtype=np.uint8)
+        expected[1::2] = 0x20
+        if not np.array_equal(seps, expected):
+            return None
+        parts = joined.replace("/", " ").split()
+        if len(parts) != 2 * len(words):
+            return None  # an empty side ('1/ 2/2 3/3')
+        idx = _ints(parts)
+        if idx is None:
+            return None
+        idx = idx.reshape(-1, 3, 2) - 1
+        f, ft = np.ascontiguousarray(idx[:, :, 0]), np.ascontiguousarray(idx[:, :, 1])
+    else:
+        if longer:
+            warnings.append((FileLoc(spath, f_nos[longer[0]], 1),
+                             "face with more than 3 vertices: only the first triangle is kept (SPEC A.6)"))
+        idx = _ints(words)
+        if idx is None:
+            return None
+        f, ft = idx.reshape(-1, 3) - 1, None
+    if np.any((f < 0) | (f >= len(v))):
+        return None
+    zero = np.flatnonzero(~np.any(face_normals(v, f), axis=1))
+    if len(zero):
+        line = f_lines[zero[0]]
+        col = len(line) - len(line[1:].lstrip()) + 1  # the first index word, right after "f" and blanks
+        warnings.append((FileLoc(spath, f_nos[zero[0]], col), f"{len(zero)} zero-area face"
+                         f"{'s' if len(zero) > 1 else ''} (first here): never hit, as in the sample solution"))
+    mesh = ObjMesh(spath, v, f, warnings=warnings)
+    if t is not None:
+        if ft is None or np.any((ft < 0) | (ft >= len(t))):
+            return None
+        mesh.texcoords, mesh.face_texcoords = t, ft
+    return mesh
+
+
+def _parse_slow(text: str, spath: str, loc: FileLoc | None) -> ObjMesh:
+    """The line-by-line reader of :func:`load_obj` (the reference semantics; positioned errors)."""
+    path = spath
     verts: list[tuple[float, float, float]] = []
     tcs: list[tuple[float, float]] = []
     faces: list[tuple[int, int, int]] = []
