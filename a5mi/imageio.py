@@ -8,6 +8,9 @@
   unquantised, linear).
 * Writes are atomic: the image goes to a temporary file in the destination folder, then ``os.replace``
   moves it over the target, so a failure never leaves a partial file and never clobbers an existing one.
+  :func:`write_images` is all-or-nothing for several outputs (``-output``, ``-normals``, ``-depth``):
+  every temporary file is written first and only then are they all renamed; if any write fails, every
+  temporary is removed and no target is touched.
 """
 
 from __future__ import annotations
@@ -86,10 +89,15 @@ def write_image(path: str | os.PathLike[str], img: npt.ArrayLike) -> None:
     8-bit formats are quantised with :func:`quantize`; ``.exr`` stores float32 as is. Raises
     :class:`ImageWriteError` (and leaves any existing file untouched) on failure.
     """
+    write_images([(path, img)])
+
+
+def _write_temp(p: Path, img: npt.ArrayLike) -> str:
+    """Write ``img`` to a new temporary file beside ``p`` (same extension, the mode ``p`` will get) and
+    return its name; on failure nothing is left behind."""
+    a = _as_hwc(img)
     import OpenImageIO as oiio  # deferred: only the commands that write images pay for it
 
-    p = check_output_path(path)
-    a = _as_hwc(img)
     if _extension(p) in FLOAT_FORMATS:
         pixels, fmt = np.ascontiguousarray(a, dtype=np.float32), oiio.FLOAT
     else:
@@ -108,21 +116,40 @@ def write_image(path: str | os.PathLike[str], img: npt.ArrayLike) -> None:
         if not ok:
             raise ImageWriteError(f"{p}: write failed: {err or out.geterror() or 'unknown OpenImageIO error'}")
         os.chmod(tmp, _target_mode(p))
-        os.replace(tmp, p)
     except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
+        _remove(tmp)
         raise
+    return tmp
+
+
+def _remove(tmp: str) -> None:
+    try:
+        os.unlink(tmp)
+    except FileNotFoundError:
+        pass
 
 
 def write_images(outputs: Sequence[tuple[str | os.PathLike[str], npt.ArrayLike]]) -> None:
-    """Write several images; all paths are checked first, so a bad one fails before any file is touched."""
-    for path, _ in outputs:
-        check_output_path(path)
-    for path, img in outputs:
-        write_image(path, img)
+    """Write several images, all or nothing (module docstring).
+
+    All paths are checked first (:func:`check_output_path`), then every image is written to a temporary
+    file beside its target; only when all of them are written is each moved over its target with
+    ``os.replace``. If a check or a write fails, the temporaries are removed, no target is touched, and
+    the error (:class:`ImageWriteError`, or ``ValueError`` for a malformed image) is raised.
+    """
+    paths = [check_output_path(path) for path, _ in outputs]
+    temps: list[str] = []
+    renamed = 0
+    try:
+        for p, (_, img) in zip(paths, outputs, strict=True):
+            temps.append(_write_temp(p, img))
+        for tmp, p in zip(temps, paths, strict=True):
+            os.replace(tmp, p)  # same folder: fails only if the target became a directory meanwhile
+            renamed += 1
+    except BaseException:
+        for tmp in temps[renamed:]:
+            _remove(tmp)
+        raise
 
 
 def read_image(path: str | os.PathLike[str]) -> npt.NDArray[np.float32]:

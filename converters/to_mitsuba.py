@@ -145,8 +145,9 @@ def rgb(c: Any) -> dict[str, Any]:
 
 # ------------------------------------------------------------------------------------------------- file paths
 _MESH_CACHE: dict[tuple[str, int, int], ObjMesh] = {}
-_IMAGES_OK: set[tuple[str, int, int]] = set()
+_IMAGES: dict[tuple[str, int, int], np.ndarray] = {}  # file identity -> pixels decoded by check_image
 _CACHE_SIZE = 16
+_IMAGE_CACHE_BYTES = 256 << 20
 
 
 def _file_key(path: Path) -> tuple[str, int, int] | None:
@@ -177,9 +178,10 @@ def check_image(path: Path, loc: FileLoc, what: str) -> None:
     (8 bits per channel, SPEC A.4), so a bad file is reported at the scene keyword that named it instead of
     failing inside ``mi.load_dict``. Raises :class:`SceneSemanticError` at ``loc``:
     ``{what} '{path}' is not a readable image: {reason}`` (empty, unreadable, not an image, truncated).
-    A file that passed is remembered per (path, mtime, size)."""
+    A file that passed is remembered per (path, mtime, size) with its pixels, which :func:`decoded_image`
+    hands to the plugins (``a5mi.plugins.imagedata.set_pixel_source``) so the file is decoded once."""
     key = _file_key(path)
-    if key is not None and key in _IMAGES_OK:
+    if key is not None and key in _IMAGES:
         return
     if key is not None and key[2] == 0:
         raise SceneSemanticError(f"{what} '{path}' is not a readable image: the file is empty", loc)
@@ -191,17 +193,28 @@ def check_image(path: Path, loc: FileLoc, what: str) -> None:
     else:
         try:
             spec = inp.spec()
-            ok = spec.width > 0 and spec.height > 0 and inp.read_image(0, 0, 0, spec.nchannels, "uint8") is not None
-            reason = "" if ok else (inp.geterror() or oiio.geterror() or "no pixel data")
+            pixels = (inp.read_image(0, 0, 0, spec.nchannels, "uint8")
+                      if spec.width > 0 and spec.height > 0 else None)
+            reason = "" if pixels is not None else (inp.geterror() or oiio.geterror() or "no pixel data")
         finally:
             inp.close()
     if reason:
         reason = " ".join(reason.split())  # OpenImageIO messages may span lines
         raise SceneSemanticError(f"{what} '{path}' is not a readable image: {reason}", loc)
     if key is not None:
-        if len(_IMAGES_OK) >= 4 * _CACHE_SIZE:
-            _IMAGES_OK.clear()
-        _IMAGES_OK.add(key)
+        decoded = np.asarray(pixels, dtype=np.uint8).reshape(spec.height, spec.width, spec.nchannels)
+        decoded.flags.writeable = False  # shared with every reader of the cache
+        while _IMAGES and sum(a.nbytes for a in _IMAGES.values()) + decoded.nbytes > _IMAGE_CACHE_BYTES:
+            del _IMAGES[next(iter(_IMAGES))]  # oldest first
+        _IMAGES[key] = decoded
+
+
+def decoded_image(path: str | Path) -> np.ndarray | None:
+    """The (H, W, C) uint8 pixels :func:`check_image` read from ``path`` (exactly as OpenImageIO's
+    ``read_image(..., "uint8")`` returned them), or None if the file was not checked or has changed since
+    (same path, mtime and size). A pixel source for ``a5mi.plugins.imagedata.set_pixel_source``."""
+    key = _file_key(Path(path))
+    return None if key is None else _IMAGES.get(key)
 
 
 def find_cube_face(folder: Path, face: str) -> Path | None:

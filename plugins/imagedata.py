@@ -10,11 +10,16 @@ The lookup is the sample solution's, for material textures and cube-map faces al
 
 with every pixel index clamped to the image, no wrapping, no half-texel offset and no gamma: the bytes of
 the file are used as they are. ``(int)`` truncates toward zero, as the C cast does.
+
+Decoding: :func:`load_rgb8` first asks the pixel sources registered with :func:`set_pixel_source` (the
+a5mi front end registers the converter's cache of the images it already decoded while checking the scene,
+``to_mitsuba.decoded_image``), so an image is decoded once per process; OpenImageIO is imported only when
+a file really has to be read.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import drjit as dr
@@ -31,11 +36,40 @@ def load_rgb8(path: str | Path) -> np.ndarray:
 
     Raises ``ValueError`` naming the path when the file is missing, unreadable or not an image.
     """
-    import OpenImageIO as oiio  # heavy import, only when a texture is loaded
-
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"image file not found: {path}")
+    pixels = _PIXEL_SOURCE(path) if _PIXEL_SOURCE is not None else None
+    if pixels is None:
+        pixels = _read_uint8(path)
+    if pixels.ndim != 3 or pixels.dtype != np.uint8 or pixels.shape[2] < 1:
+        raise ValueError(f"cannot read image {path}: expected (H, W, C) uint8 pixels, got {pixels.dtype} "
+                         f"{pixels.shape}")
+    if pixels.shape[2] in (1, 2):
+        pixels = np.repeat(pixels[:, :, :1], 3, axis=2)
+    return np.ascontiguousarray(pixels[:, :, :3])
+
+
+#: ``(path) -> (H, W, C) uint8 pixels as OpenImageIO reads them, or None``; see :func:`set_pixel_source`.
+PixelSource = Callable[[Path], "np.ndarray | None"]
+_PIXEL_SOURCE: PixelSource | None = None
+
+
+def set_pixel_source(source: PixelSource | None) -> None:
+    """Let :func:`load_rgb8` take already-decoded pixels from ``source`` (None: always decode).
+
+    Parameter ``source``: called with the image's path; returns the file's pixels exactly as
+    ``ImageInput.read_image(0, 0, 0, nchannels, "uint8")`` gives them, shaped (H, W, C), or None when it
+    does not hold that file (it must key its entries by the file's identity, e.g. path + mtime + size,
+    so a changed file is read again)."""
+    global _PIXEL_SOURCE
+    _PIXEL_SOURCE = source
+
+
+def _read_uint8(path: Path) -> np.ndarray:
+    """(H, W, C) uint8 pixels of ``path`` through OpenImageIO (imported here: only when a file is read)."""
+    import OpenImageIO as oiio
+
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
         raise ValueError(f"cannot read image {path}: {oiio.geterror() or 'unknown format'}")
@@ -47,10 +81,7 @@ def load_rgb8(path: str | Path) -> np.ndarray:
         inp.close()
     if pixels is None or spec.width <= 0 or spec.height <= 0:
         raise ValueError(f"cannot read image {path}: {reason or oiio.geterror() or 'no pixel data'}")
-    pixels = np.asarray(pixels, dtype=np.uint8).reshape(spec.height, spec.width, spec.nchannels)
-    if spec.nchannels in (1, 2):
-        pixels = np.repeat(pixels[:, :, :1], 3, axis=2)
-    return np.ascontiguousarray(pixels[:, :, :3])
+    return np.asarray(pixels, dtype=np.uint8).reshape(spec.height, spec.width, spec.nchannels)
 
 
 class ImageAtlas:
@@ -58,14 +89,16 @@ class ImageAtlas:
 
     Parameter ``images``: (H, W, 3) ``uint8`` arrays, row 0 = top (as :func:`load_rgb8` returns them).
 
-    Pixel bytes are stored as float32 0..255; offsets, widths and heights are opaque arrays, so the
-    compiled lookup is the same for every texture and every scene.
+    Each pixel is one ``UInt32`` ``R + 256 G + 65536 B`` (its bytes R, G, B, 0: a copy of the file's bytes,
+    4 bytes per pixel instead of 12 for float RGB, and one gather per texel); the lookup unpacks the bytes
+    to floats 0..255, exactly the values the bytes hold. Offsets, widths and heights are opaque arrays, so
+    the compiled lookup is the same for every texture and every scene.
     """
 
     def __init__(self, images: Sequence[np.ndarray]) -> None:
         if not images:
             raise ValueError("ImageAtlas needs at least one image")
-        offsets, widths, heights, chunks = [], [], [], []
+        offsets, widths, heights, arrays = [], [], [], []
         offset = 0
         for img in images:
             img = np.asarray(img)
@@ -75,10 +108,18 @@ class ImageAtlas:
             offsets.append(offset)
             widths.append(w)
             heights.append(h)
-            chunks.append(img.astype(np.float32).ravel())
+            arrays.append(img)
             offset += w * h
         self.sizes: list[tuple[int, int]] = list(zip(widths, heights, strict=True))
-        self.data = mi.Float(np.concatenate(chunks))  # 3 floats per pixel, 0..255
+        # Bytes R, G, B, 0 per pixel in a 64-byte-aligned buffer: Dr.Jit maps numpy memory without a copy
+        # and the pointer's alignment is part of the kernel's hash (a5mi/driver.py, aligned_float32).
+        raw = np.zeros(4 * offset + 64, dtype=np.uint8)
+        start0 = (-raw.ctypes.data) % 64
+        packed = raw[start0 : start0 + 4 * offset].reshape(offset, 4)
+        for start, img in zip(offsets, arrays, strict=True):
+            packed[start : start + img.shape[0] * img.shape[1], :3] = img.reshape(-1, 3)
+        words = packed.view("<u4").reshape(-1)
+        self.data = mi.UInt32(words if words.dtype == np.uint32 else words.astype(np.uint32))  # R + 256 G + 65536 B
         self.offsets = mi.UInt32(offsets)  # first pixel of each image
         self.widths = mi.Int32(widths)
         self.heights = mi.Int32(heights)
@@ -103,7 +144,8 @@ class ImageAtlas:
         wu = mi.UInt32(w)
 
         def px(xi: mi.UInt32, yi: mi.UInt32) -> mi.Color3f:
-            return dr.gather(mi.Color3f, self.data, off + yi * wu + xi, active)
+            p = dr.gather(mi.UInt32, self.data, off + yi * wu + xi, active)
+            return mi.Color3f(mi.Float(p & 0xFF), mi.Float((p >> 8) & 0xFF), mi.Float(p >> 16))
 
         c = (1.0 - a) * (1.0 - b) * px(x0, y0)
         c += a * (1.0 - b) * px(x1, y0)
