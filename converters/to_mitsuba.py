@@ -68,6 +68,8 @@ to the integrator.
 from __future__ import annotations
 
 import math
+import os
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -148,6 +150,7 @@ _MESH_CACHE: dict[tuple[str, int, int], ObjMesh] = {}
 _IMAGES: dict[tuple[str, int, int], np.ndarray] = {}  # file identity -> pixels decoded by check_image
 _CACHE_SIZE = 16
 _IMAGE_CACHE_BYTES = 256 << 20
+_IMAGES_LOCK = threading.Lock()
 
 
 def _file_key(path: Path) -> tuple[str, int, int] | None:
@@ -204,9 +207,53 @@ def check_image(path: Path, loc: FileLoc, what: str) -> None:
     if key is not None:
         decoded = np.asarray(pixels, dtype=np.uint8).reshape(spec.height, spec.width, spec.nchannels)
         decoded.flags.writeable = False  # shared with every reader of the cache
-        while _IMAGES and sum(a.nbytes for a in _IMAGES.values()) + decoded.nbytes > _IMAGE_CACHE_BYTES:
-            del _IMAGES[next(iter(_IMAGES))]  # oldest first
-        _IMAGES[key] = decoded
+        with _IMAGES_LOCK:  # _prefetch_images runs checks in threads
+            while _IMAGES and sum(a.nbytes for a in _IMAGES.values()) + decoded.nbytes > _IMAGE_CACHE_BYTES:
+                del _IMAGES[next(iter(_IMAGES))]  # oldest first
+            _IMAGES[key] = decoded
+
+
+def _prefetch_images(paths: list[Path]) -> None:
+    """Run :func:`check_image` on ``paths`` in parallel (OpenImageIO decodes without the GIL) to fill the
+    cache; errors are dropped here: the sequential checks that follow find the bad file again and report
+    it at its keyword, in the usual order."""
+    todo = list(dict.fromkeys(p for p in paths if (k := _file_key(p)) is not None and k not in _IMAGES))
+    workers = min(len(todo), os.cpu_count() or 1, 8)
+    if workers < 2:
+        return
+
+    def one(path: Path) -> None:
+        try:
+            check_image(path, None, "image")  # type: ignore[arg-type]
+        except SceneSemanticError:
+            pass
+
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(workers) as pool:
+        list(pool.map(one, todo))
+
+
+def _image_candidates(scene: Scene, used_with_uv: set[int]) -> list[Path]:
+    """The cube-map faces and the textures (of materials used on shapes with uv) that :func:`build` will
+    check, where they resolve without error (no warnings, no exceptions: the real resolution follows)."""
+    out: list[Path] = []
+    bg = scene.background
+    if bg.cube_map is not None:
+        try:
+            folder = resolve_path(bg.cube_map, scene.base_dir, bg.cube_map_loc or bg.loc, "cubeMap",  # type: ignore[arg-type]
+                                  directory=True)
+            out += [f for f in (find_cube_face(folder, face) for face in CUBE_FACES) if f is not None]
+        except (SceneSemanticError, OSError):
+            pass
+    for index in sorted(used_with_uv):
+        mat = scene.materials[index]
+        if mat.texture is not None and mat.noise is None:
+            try:
+                out.append(resolve_path(mat.texture, scene.base_dir, mat.texture_loc or mat.loc, "texture"))  # type: ignore[arg-type]
+            except (SceneSemanticError, OSError):
+                pass
+    return out
 
 
 def decoded_image(path: str | Path) -> np.ndarray | None:
@@ -278,21 +325,42 @@ def _face_normals_flip(faces: np.ndarray, m: np.ndarray) -> np.ndarray:
     return faces[:, ::-1].copy() if np.linalg.det(m[:3, :3]) < 0 else faces
 
 
+_MESH_DATA: dict[tuple[str, int, bytes, str], tuple[ObjMesh, MeshData]] = {}
+
+
 def mesh_from_obj(name: str, obj: ObjMesh, m: np.ndarray, normals: NormalMode = "auto") -> MeshData:
-    """World-space :class:`MeshData` for an OBJ placed with ``M`` (module docstring: normals, winding, uv)."""
+    """World-space :class:`MeshData` for an OBJ placed with ``M`` (module docstring: normals, winding, uv).
+
+    Remembered per (name, OBJ object, M, normals), so :func:`check_files` and the :func:`build` that
+    follows compute it once; the result is shared and must not be modified."""
+    key = (name, id(obj), np.asarray(m, dtype=np.float64).tobytes(), str(normals))
+    hit = _MESH_DATA.get(key)
+    if hit is not None and hit[0] is obj:
+        return hit[1]
+    data = _mesh_from_obj(name, obj, m, normals)
+    if len(_MESH_DATA) >= 4 * _CACHE_SIZE:
+        del _MESH_DATA[next(iter(_MESH_DATA))]
+    _MESH_DATA[key] = (obj, data)  # holds obj, so its id is not reused while the entry lives
+    return data
+
+
+def _mesh_from_obj(name: str, obj: ObjMesh, m: np.ndarray, normals: NormalMode) -> MeshData:
     vn = vertex_normals(obj.vertices, obj.faces, normals)
     faces = obj.faces
     positions = obj.vertices
     texcoords = None
     if obj.texcoords is not None and obj.face_texcoords is not None:
-        # Split vertices per distinct (v, vt) pair: Mitsuba stores one uv per vertex.
-        pairs = np.stack([faces.ravel(), obj.face_texcoords.ravel()], axis=1)
-        uniq, inverse = np.unique(pairs, axis=0, return_inverse=True)
+        # Split vertices per distinct (v, vt) pair: Mitsuba stores one uv per vertex. The pairs, in
+        # lexicographic order, are the sorted keys v·T + vt (0 <= vt < T, checked by load_obj).
+        nt = len(obj.texcoords)
+        pair_key = faces.ravel().astype(np.int64) * nt + obj.face_texcoords.ravel()
+        uniq, inverse = np.unique(pair_key, return_inverse=True)
         faces = inverse.reshape(-1, 3)
-        positions = obj.vertices[uniq[:, 0]]
-        texcoords = obj.texcoords[uniq[:, 1]]
+        uniq_v, uniq_t = uniq // nt, uniq % nt
+        positions = obj.vertices[uniq_v]
+        texcoords = obj.texcoords[uniq_t]
         if vn is not None:
-            vn = vn[uniq[:, 0]]
+            vn = vn[uniq_v]
     world = tf.transform_points(m, positions)
     world_n = None
     if vn is not None:
@@ -489,6 +557,9 @@ def _build(scene: Scene, settings: RenderSettings | None, *, stock: bool, normal
                 scale = dist2 / (1.0 + light.falloff * dist2)
                 d[key] = {"type": "point", "position": list(light.position),
                           "intensity": rgb(np.asarray(light.color) * scale)}
+
+    # ---------------------------------------------------------------- images: decode in parallel first
+    _prefetch_images(_image_candidates(scene, {p.primitive.material for p in placed if _has_uv(p, meshes)}))
 
     # ---------------------------------------------------------------- background (SPEC A.4)
     bg = scene.background
