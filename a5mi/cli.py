@@ -408,40 +408,57 @@ def run(argv: Sequence[str]) -> int:
 # --------------------------------------------------------------------------------------------------------
 
 
+def _parse_sub(
+    argv: Sequence[str], command: str, *, valued: dict[str, str], switches: dict[str, str]
+) -> tuple[list[str], dict[str, str | bool]] | None:
+    """Flags of an ``a5mi`` sub-command, in any order: ``(positionals, {key: value})``, or None for ``-h``.
+
+    ``valued`` / ``switches`` map each accepted spelling to its key (``{"-o": "out", "--output": "out"}``);
+    ``--debug`` is always accepted. Unknown flags and missing values raise :class:`UsageError`.
+    """
+    positionals: list[str] = []
+    found: dict[str, str | bool] = {}
+    k = 0
+    while k < len(argv):
+        a = argv[k]
+        if a in ("-h", "--help", "-help"):
+            return None
+        if a in valued:
+            if k + 1 >= len(argv):
+                raise UsageError(f"{a} expects a value, found end of arguments")
+            found[valued[a]] = argv[k + 1]
+            k += 2
+            continue
+        if a in switches:
+            found[switches[a]] = True
+        elif a != "--debug":
+            if a.startswith("-") and len(a) > 1:
+                raise UsageError(f"unknown flag '{a}' (see a5mi {command} -h)")
+            positionals.append(a)
+        k += 1
+    return positionals, found
+
+
 def run_convert(argv: Sequence[str]) -> int:
     """``a5mi convert SCENE.txt -o OUT.xml [--stock]``: write the scene as Mitsuba XML (+ PLY meshes)."""
     usage = "usage: a5mi convert SCENE.txt -o OUT.xml [--stock] [--debug]\n"
     debug = "--debug" in argv
 
     def body() -> int:
-        scene_path: str | None = None
-        out: str | None = None
-        stock = False
-        k = 0
-        while k < len(argv):
-            a = argv[k]
-            if a in ("-h", "--help", "-help"):
-                print(usage, end="")
-                return 0
-            if a in ("-o", "--output", "-output"):
-                if k + 1 >= len(argv):
-                    raise UsageError(f"{a} expects a file name, found end of arguments")
-                out, k = argv[k + 1], k + 2
-                continue
-            if a == "--stock":
-                stock = True
-            elif a == "--debug":
-                pass
-            elif a.startswith("-"):
-                raise UsageError(f"unknown flag '{a}' (see a5mi convert -h)")
-            elif scene_path is None:
-                scene_path = a
-            else:
-                raise UsageError(f"unexpected argument '{a}' (one scene file per call)")
-            k += 1
-        if scene_path is None:
+        parsed = _parse_sub(argv, "convert", valued=dict.fromkeys(("-o", "--output", "-output"), "out"),
+                            switches={"--stock": "stock"})
+        if parsed is None:
+            print(usage, end="")
+            return 0
+        positionals, opts = parsed
+        if len(positionals) > 1:
+            raise UsageError(f"unexpected argument '{positionals[1]}' (one scene file per call)")
+        if not positionals:
             raise UsageError("convert: missing SCENE.txt")
-        if out is None:
+        scene_path = positionals[0]
+        stock = bool(opts.get("stock", False))
+        out = opts.get("out")
+        if not isinstance(out, str):
             raise UsageError("convert: missing -o OUT.xml")
         if not out.endswith(".xml"):
             raise UsageError(f"convert: the output must end in .xml, found '{out}'")
@@ -471,12 +488,6 @@ def run_convert(argv: Sequence[str]) -> int:
     return _guarded(debug, body)
 
 
-def _take_value(argv: Sequence[str], k: int) -> str:
-    if k + 1 >= len(argv):
-        raise UsageError(f"{argv[k]} expects a value, found end of arguments")
-    return argv[k + 1]
-
-
 def run_compare(argv: Sequence[str]) -> int:
     """``a5mi compare A B [--diff OUT.png] [--json] [--threshold L]``: the metrics of :mod:`a5mi.compare`."""
     usage = "usage: a5mi compare A B [--diff OUT.png] [--json] [--threshold LEVELS] [--debug]\n"
@@ -486,29 +497,16 @@ def run_compare(argv: Sequence[str]) -> int:
         from a5mi import compare
         from a5mi.imageio import check_output_path
 
-        images: list[str] = []
-        diff: str | None = None
-        as_json = False
-        threshold = compare.DEFAULT_THRESHOLD
-        k = 0
-        while k < len(argv):
-            a = argv[k]
-            if a in ("-h", "--help", "-help"):
-                print(usage, end="")
-                return 0
-            if a == "--diff":
-                diff, k = _take_value(argv, k), k + 2
-                continue
-            if a == "--threshold":
-                threshold, k = _float(a, _take_value(argv, k)), k + 2
-                continue
-            if a == "--json":
-                as_json = True
-            elif a != "--debug":
-                if a.startswith("-") and len(a) > 1:
-                    raise UsageError(f"unknown flag '{a}' (see a5mi compare -h)")
-                images.append(a)
-            k += 1
+        parsed = _parse_sub(argv, "compare", valued={"--diff": "diff", "--threshold": "threshold"},
+                            switches={"--json": "json"})
+        if parsed is None:
+            print(usage, end="")
+            return 0
+        images, opts = parsed
+        diff = opts.get("diff")
+        diff = diff if isinstance(diff, str) else None
+        as_json = bool(opts.get("json", False))
+        threshold = _float("--threshold", str(opts["threshold"])) if "threshold" in opts else compare.DEFAULT_THRESHOLD
         if len(images) != 2:
             raise UsageError(f"compare takes two images, found {len(images)}")
         if diff is not None:
@@ -539,19 +537,15 @@ def run_fidelity(argv: Sequence[str]) -> int:
         from a5mi.compare import write_diff
         from a5mi.variant import VariantError, activate
 
-        diff_dir: str | None = None
-        k = 0
-        while k < len(argv):
-            a = argv[k]
-            if a in ("-h", "--help", "-help"):
-                print(usage, end="")
-                return 0
-            if a == "--diff-dir":
-                diff_dir, k = _take_value(argv, k), k + 2
-                continue
-            if a != "--debug":
-                raise UsageError(f"unknown argument '{a}' (see a5mi fidelity -h)")
-            k += 1
+        parsed = _parse_sub(argv, "fidelity", valued={"--diff-dir": "diff_dir"}, switches={})
+        if parsed is None:
+            print(usage, end="")
+            return 0
+        positionals, opts = parsed
+        if positionals:
+            raise UsageError(f"unknown argument '{positionals[0]}' (see a5mi fidelity -h)")
+        diff_dir = opts.get("diff_dir")
+        diff_dir = diff_dir if isinstance(diff_dir, str) else None
         if diff_dir is not None and not os.path.isdir(diff_dir):
             raise UsageError(f"--diff-dir: folder '{diff_dir}' does not exist")
         cases = list(fidelity.cases())

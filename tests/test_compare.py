@@ -73,3 +73,37 @@ def test_unreadable_image_is_a_user_error(tmp_path) -> None:
     bad.write_bytes(b"not a png")
     with pytest.raises(CompareError, match="cannot read image"):
         read_levels(bad)
+
+
+def test_cli_compare_prints_metrics_json_and_writes_diff(tmp_path, capsys) -> None:
+    import json
+
+    from a5mi.cli import run_a5mi
+    from a5mi.imageio import write_image
+
+    a = np.zeros((4, 5, 3), dtype=np.float32)
+    b = a.copy()
+    b[0, 0, 0] = 10 / 255 + 1e-4  # quantises to 10 levels
+    write_image(tmp_path / "a.png", a)
+    write_image(tmp_path / "b.png", b)
+    assert run_a5mi(["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--json",
+                     "--diff", str(tmp_path / "d.png")]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["max_error"] == 10.0 and out["share_over"] == pytest.approx(1 / 20) and out["bbox"] == [0, 0, 0, 0]
+    assert (tmp_path / "d.png").is_file()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [(["compare", "x.png"], "compare takes two images, found 1"),
+     (["compare", "a.png", "b.png", "--bogus"], "unknown flag '--bogus' (see a5mi compare -h)"),
+     (["compare", "a.png", "b.png", "--diff"], "--diff expects a value, found end of arguments"),
+     (["fidelity", "extra"], "unknown argument 'extra' (see a5mi fidelity -h)")],
+)
+def test_cli_subcommand_misuse_is_one_line_exit_2(args, message, tmp_path, capsys, monkeypatch) -> None:
+    from a5mi.cli import run_a5mi
+
+    monkeypatch.chdir(tmp_path)
+    assert run_a5mi(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"a5: error: {message}"]
