@@ -432,6 +432,91 @@ def crosscheck(scene_model: Any, options: CrosscheckOptions) -> CrosscheckResult
 
 
 # --------------------------------------------------------------------------------------------------------
+# Explaining the difference to path: one term per render
+# --------------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ExplainTerm:
+    """One term of ``stock path − exact Whitted``: mean signed levels per region (glass, other surfaces)."""
+
+    term: str
+    isolated_by: str
+    glass: float
+    other: float
+
+
+def explain(scene_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]:
+    """Split ``stock path − exact Whitted`` into terms that add up exactly, each isolated by a render.
+
+    With A = exact Whitted, B = A without ambient, C = B with light colours ÷ π, F = C without lamps,
+    D = ``path`` on the a5-plugin scene, E = D without lamps, G = ``path`` on the ``--stock`` conversion::
+
+        G − A = (G − D) + (B − A) + (C − B) + (E − F) + ((D − C) − (E − F))
+
+    i.e. stock-conversion approximations, the ambient term, Lambert's 1/π, environment light on diffuse
+    surfaces, and indirect light from the lamps (plus what remains). Means over the glass and the other
+    surface pixels of :func:`pixel_classes` (background excluded), in 8-bit levels (unquantised).
+    """
+    import math
+
+    import mitsuba as mi
+
+    from a5mi.converters.to_mitsuba import RenderSettings, to_dict
+
+    settings = RenderSettings(width=options.width, height=options.height, bounces=options.bounces,
+                              shadows=options.shadows)
+    a5d = to_dict(scene_model, settings)
+    stock = to_dict(scene_model, settings, stock=True)
+    cam = scene_model.camera
+    integ = dict(a5d["integrator"])
+    lights = [k for k, v in a5d.items() if isinstance(v, dict) and k.startswith("light_")]
+
+    def whitted(d: Mapping[str, Any], integrator: Mapping[str, Any]) -> npt.NDArray[np.float64]:
+        return render_whitted(mi.load_dict(dict(d)), cam, integrator, options, "exact").astype(np.float64) * 255
+
+    def path(d: Mapping[str, Any]) -> npt.NDArray[np.float64]:
+        img, _ = render_path(mi.load_dict(path_dict(d, options)), cam, options.width, options.height,
+                             options.spp, options.path_max_depth, seed=options.seed + 1)
+        return img.astype(np.float64) * 255
+
+    no_ambient = dict(integ, ambient={"type": "rgb", "value": [0.0, 0.0, 0.0]})
+    dimmed = dict(a5d)
+    for k in lights:
+        e = dict(a5d[k])
+        key = "irradiance" if e["type"] == "directional" else "color"
+        e[key] = {"type": "rgb", "value": [v / math.pi for v in e[key]["value"]]}
+        dimmed[k] = e
+    no_lamps = {k: v for k, v in a5d.items() if k not in lights}
+    a, b = whitted(a5d, integ), whitted(a5d, no_ambient)
+    c, f = whitted(dimmed, no_ambient), whitted(no_lamps, no_ambient)
+    d, e, g = path(a5d), path(no_lamps), path(stock)
+    classes = pixel_classes(mi.load_dict(a5d), cam, options.width, options.height, options.bounces,
+                            tmin=float(integ.get("tmin", 0.001)))
+
+    def term(name: str, how: str, x: npt.NDArray[np.float64]) -> ExplainTerm:
+        glass, other = classes == GLASS, classes == OPAQUE
+        return ExplainTerm(name, how, float(x[glass].mean()) if glass.any() else 0.0,
+                           float(x[other].mean()) if other.any() else 0.0)
+
+    return [
+        term("stock-conversion approximations", "stock path - path on the a5-plugin scene", g - d),
+        term("no ambient term in path", "Whitted with ambient 0", b - a),
+        term("Lambert kd/pi against a5's kd", "Whitted with light colours / pi", c - b),
+        term("environment light on diffuse surfaces", "path - Whitted, both without lamps", e - f),
+        term("indirect light from the lamps, and the rest", "remainder", (d - c) - (e - f)),
+        term("total: stock path - exact", "", g - a),
+    ]
+
+
+def explain_table(terms: Sequence[ExplainTerm]) -> str:
+    """The terms of :func:`explain` as text (mean signed levels)."""
+    lines = [f"{'term':<46}{'isolated by':<44}{'glass':>8}{'other':>8}"]
+    lines += [f"{t.term:<46}{t.isolated_by:<44}{t.glass:>+8.1f}{t.other:>+8.1f}" for t in terms]
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------------------------------------
 # Output: table, JSON, montage
 # --------------------------------------------------------------------------------------------------------
 
@@ -534,7 +619,8 @@ def write_montage(result: CrosscheckResult, path: str | os.PathLike[str]) -> Non
 # --------------------------------------------------------------------------------------------------------
 
 USAGE = """\
-usage: a5mi crosscheck SCENE.txt [-size W H] [-o MONTAGE.png] [--spp N] [-bounces N] [--json] [--debug]
+usage: a5mi crosscheck SCENE.txt [-size W H] [-o MONTAGE.png] [--spp N] [-bounces N] [--json] [--explain]
+                        [--debug]
 
 Render SCENE with the a5 dielectric, textbook Schlick and exact Fresnel (a5_whitted, shadows on) and with
 Mitsuba's path integrator on the --stock conversion (pixel centres, max_depth = bounces + 2, no Russian
@@ -546,6 +632,8 @@ all other pixels, and write a montage (default SCENE_crosscheck.png in the worki
   --spp N          path samples per pixel (default 256)
   -bounces N       Whitted bounce budget (default 4)
   --json           print the table as JSON
+  --explain        also split (stock path - exact Whitted) into terms, each isolated by a render (slow:
+                   three more path renders)
 """
 
 
@@ -558,6 +646,7 @@ class _Args:
     spp: int = 256
     bounces: int = 4
     json: bool = False
+    explain: bool = False
     help: bool = False
 
 
@@ -600,6 +689,8 @@ def _parse(argv: Sequence[str]) -> _Args:
             k += 1
         elif arg == "--json":
             a.json = True
+        elif arg == "--explain":
+            a.explain = True
         elif arg in ("--debug", "-debug"):
             pass
         elif arg.startswith("-"):
@@ -650,6 +741,8 @@ def run(argv: Sequence[str]) -> int:
         result = crosscheck(model, options)
         write_montage(result, out)
         print(to_json(result) if args.json else f"{args.scene}\n{table(result)}\nmontage: {out}")
+        if args.explain:
+            print(explain_table(explain(model, options)))
         return 0
 
     return _guarded(debug, body)
@@ -657,7 +750,8 @@ def run(argv: Sequence[str]) -> int:
 
 __all__ = [
     "BACKGROUND", "GLASS", "OPAQUE", "FRESNEL_MODES", "LABELS", "PAIRS",
-    "CrosscheckOptions", "CrosscheckResult", "PairReport",
-    "crosscheck", "crosscheck_dicts", "masked_metrics", "montage_image", "pair_reports", "path_dict",
+    "CrosscheckOptions", "CrosscheckResult", "ExplainTerm", "PairReport",
+    "crosscheck", "crosscheck_dicts", "explain", "explain_table", "masked_metrics", "montage_image",
+    "pair_reports", "path_dict",
     "pixel_classes", "render_path", "render_whitted", "run", "table", "to_json", "write_montage",
 ]

@@ -362,3 +362,19 @@ def test14_scene10_end_to_end(variant, scenes_dir, tmp_path, capsys):
         if p["b"] != "path" and p["region"] == "other":
             assert p["metrics"]["max_error"] == 0.0
     assert out.is_file()
+
+
+def test_explain_terms_add_up_to_the_total(variant, a5_data) -> None:
+    """The decomposition of (stock path − exact Whitted) is exact: the five terms sum to the total."""
+    from a5mi.converters.a5_parser import parse_file
+
+    from a5mi.crosscheck import CrosscheckOptions, explain
+
+    terms = explain(parse_file(a5_data / "scenes" / "scene10_sphere.txt"),
+                    CrosscheckOptions(width=24, height=24, spp=2))
+    *parts, total = terms
+    assert total.term.startswith("total")
+    assert sum(t.glass for t in parts) == pytest.approx(total.glass, abs=1e-6)
+    assert sum(t.other for t in parts) == pytest.approx(total.other, abs=1e-6)
+    ambient = next(t for t in parts if "ambient" in t.term)
+    assert ambient.glass < 0 and ambient.other < 0  # removing ambient can only darken
