@@ -6,8 +6,12 @@ at the assignment's test command ``-size 300 300 -shadows -bounces 4 -jitter -fi
 * **process**: the real ``a5`` command as a child process, run from the scene's folder (as the reference
   images were made), once with an empty Dr.Jit kernel cache (``DRJIT_CACHE_DIR`` set to a fresh folder:
   *cold*) and once more with the same cache (*warm*). Wall time is measured around ``fork`` .. ``wait4``;
-  peak memory is the child's own ``ru_maxrss`` from ``os.wait4``. No ``-v``: its ray counting adds three
-  AOVs to the render kernel (a different kernel; the counts themselves come from the same launch).
+  peak memory is the child's own ``ru_maxrss`` from ``os.wait4``. No ``-v`` in these runs: its ray counting
+  adds three AOVs to the render kernel (a different kernel; the counts themselves come from the same launch).
+* **process stages**: ``--verbose-runs`` more warm runs with ``-v`` (the first also compiles the ``-v``
+  kernel into the scene's cache; the best is kept): the command's own stage times, where ``parse`` includes
+  the file checks (meshes read, images decoded) and ``startup`` = wall minus the reported stages
+  (interpreter start, imports before the parse, exit).
 * **stages**: in this process, the first render of the scene (warm disk cache): parse, build, kernel compile
   and execution (``dr.kernel_history()`` via the driver), filter, write; ``startup`` = warm process wall
   minus those (interpreter start, imports, variant activation, exit). Ray counts come from ``a5_whitted``'s
@@ -568,6 +572,7 @@ class SceneResult:
     path: str
     cold: ProcessRun | None = None
     warm: ProcessRun | None = None
+    verbose: ProcessRun | None = None  # best warm ``a5 -v`` run: the process's own stage times
     inproc: InProcess | None = None
     stock: dict[str, float] = field(default_factory=dict)
     a5soln: float | None = None  # measured here
@@ -577,7 +582,7 @@ class SceneResult:
 
     def to_json(self) -> dict[str, Any]:
         d = asdict(self)
-        for key in ("cold", "warm"):
+        for key in ("cold", "warm", "verbose"):
             if d[key] is not None:
                 d[key].pop("stderr")
                 d[key]["startup"] = getattr(self, key).startup
@@ -613,6 +618,13 @@ def bench_scene(path: Path, args: argparse.Namespace, published: dict[str, float
                     res.cold = run
                 elif res.warm is None or run.wall < res.warm.wall:
                     res.warm = run  # best of the warm runs
+            for _ in range(args.verbose_runs):
+                log(f"{name}: warm process -v ...")
+                run = run_process(cmd + ["-v"], cwd=path.parent, env=cache_env(cache), timeout=args.timeout)
+                if run.returncode != 0:
+                    res.errors.append(f"a5 -v exited {run.returncode}: {run.stderr.strip()[-300:]}")
+                elif res.verbose is None or run.wall < res.verbose.wall:
+                    res.verbose = run
         if args.a5soln:
             log(f"{name}: a5soln ...")
             run = run_process([args.a5soln, "-input", path.name, "-output", str(Path(tmp) / "soln.bmp"), *flags],
@@ -692,6 +704,16 @@ def report(results: Sequence[SceneResult], info: dict[str, Any], extra: dict[str
             format_table(["scene", "cold s", "warm s", "cold MB", "warm MB", "a5soln s", "a5soln", "a5soln/warm",
                           "busy"],
                          rows), ""]
+    rows = [[r.name, r.verbose.wall, r.verbose.startup, *(r.verbose.stages.get(k) for k in VERBOSE_STAGES),
+             r.verbose.stages.get("compile"), r.verbose.stages.get("execute"), r.verbose.stages.get("jitter")]
+            for r in results if r.verbose is not None and r.verbose.stages]
+    if rows:
+        out += ["Warm process by stage (`a5 ... -v`, best of the -v runs; s): `parse` includes the file checks "
+                "(meshes read, images decoded); `startup` = wall - parse - variant - build - render - filter - "
+                "write (interpreter, imports before the parse, exit); compile, execute and jitter are inside "
+                "render; -v adds the ray-count AOVs to the kernel", "",
+                format_table(["scene", "wall", "startup", *VERBOSE_STAGES, "compile", "execute", "jitter"], rows),
+                ""]
     rows = []
     for r in results:
         if r.inproc is None or not r.inproc.stages:
@@ -751,6 +773,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-inprocess", action="store_true", help="skip the floor and stock measurements")
     p.add_argument("--no-stock", action="store_true", help="skip the stock Mitsuba comparison")
     p.add_argument("--warm-runs", type=int, default=2, help="warm process runs per scene (best kept)")
+    p.add_argument("--verbose-runs", type=int, default=2,
+                   help="warm 'a5 -v' runs per scene for the process stage table (best kept; 0: none)")
     p.add_argument("--wait-idle", type=float, default=30.0, metavar="S",
                    help="before each scene, wait up to S s for other processes to leave the CPUs (0: never)")
     p.add_argument("--timeout", type=float, default=600.0, help="per child process (s)")
@@ -761,8 +785,9 @@ def build_parser() -> argparse.ArgumentParser:
 def run(argv: Sequence[str]) -> int:
     """``a5mi bench [SCENE ...] [flags]``: measure, print the tables (or JSON). Returns the exit status."""
     args = build_parser().parse_args(list(argv))
-    if min(args.size) <= 0 or args.bounces < 0 or args.repeat < 1 or args.warm_runs < 1:
-        print("a5mi bench: error: --size, --repeat and --warm-runs must be positive, --bounces >= 0", file=sys.stderr)
+    if min(args.size) <= 0 or args.bounces < 0 or args.repeat < 1 or args.warm_runs < 1 or args.verbose_runs < 0:
+        print("a5mi bench: error: --size, --repeat and --warm-runs must be positive, --bounces and "
+              "--verbose-runs >= 0", file=sys.stderr)
         return 2
     if args.a5soln and not (shutil.which(args.a5soln) or os.access(args.a5soln, os.X_OK)):
         print(f"a5mi bench: error: --a5soln '{args.a5soln}' is not an executable", file=sys.stderr)

@@ -146,3 +146,26 @@ def test13_floor_replays_the_render_ray_counts(
     assert result.lights == 2
     assert set(result.floor) == set(bench.RAY_KINDS) and all(v > 0 for v in result.floor.values())
     assert set(bench.STAGES) <= set(result.stages)
+
+
+def test14_report_has_the_process_stage_table() -> None:
+    """The ``-v`` run's stages go into their own table; ``startup`` = wall - the six reported stages."""
+    stages, rays = bench.parse_verbose(VERBOSE)
+    res = bench.SceneResult(name="scene10_sphere", path="x",
+                            verbose=bench.ProcessRun(wall=2.0, peak_mb=1.0, returncode=0, stderr=VERBOSE,
+                                                     stages=stages, rays=rays))
+    text = bench.report([res], {}, {})
+    table = text.split("Warm process by stage")[1].split("\n\n")[1]
+    header, _, row = table.splitlines()
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    names = [c.strip() for c in header.strip("|").split("|")]
+    assert names == ["scene", "wall", "startup", *bench.VERBOSE_STAGES, "compile", "execute", "jitter"]
+    assert float(cells[2]) == pytest.approx(2.0 - (0.016 + 0.177 + 0.308 + 0.780 + 0.035 + 0.027), abs=1e-3)
+    assert cells[names.index("variant")] == "0.177" and cells[names.index("jitter")] == "0.076"
+    assert res.to_json()["verbose"]["startup"] == pytest.approx(0.657)
+    assert "Warm process by stage" not in bench.report([bench.SceneResult(name="a", path="x")], {}, {})
+
+
+def test15_negative_verbose_runs_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert bench.run(["--verbose-runs", "-1", "scene10"]) == 2
+    assert "a5mi bench: error:" in capsys.readouterr().err
