@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import drjit as dr
 import mitsuba as mi
+
 from a5mi.plugins.imagedata import ImageAtlas, load_rgb8
 
 

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import drjit as dr
 import mitsuba as mi
+
 from a5mi.plugins.imagedata import ImageAtlas, load_rgb8
 
 #: Face order of the atlas (image index used by :meth:`A5CubeMap.lookup`).

@@ -6,6 +6,7 @@ from collections.abc import Sequence
 
 import drjit as dr
 import mitsuba as mi
+
 from a5mi.plugins.perlin import octave_noise
 
 

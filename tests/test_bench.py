@@ -132,9 +132,8 @@ def test13_floor_replays_the_render_ray_counts(
     variant: str, scenes_dir: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The in-process pass casts exactly as many rays of each kind as the driver counts for the same render."""
-    from a5mi.converters.a5_parser import parse_file
-
     from a5mi import driver
+    from a5mi.converters.a5_parser import parse_file
 
     monkeypatch.chdir(scenes_dir)
     options = driver.RenderOptions(width=20, height=20, bounces=4, shadows=True, jitter=True, filter=True)

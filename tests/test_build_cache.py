@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from a5mi.converters import to_mitsuba as tm
-from a5mi.converters.obj import load_obj
 
 from a5mi import data_dir
+from a5mi.converters import to_mitsuba as tm
+from a5mi.converters.obj import load_obj
 
 UV_OBJS = [p for p in sorted(data_dir().rglob("*.obj")) if b"\nvt " in p.read_bytes()]
 

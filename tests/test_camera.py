@@ -40,6 +40,7 @@ def ref_rays(center, direction, up, angle_deg, xp, yp, W, H) -> tuple[np.ndarray
 
 def _rays(center, direction, up, angle, xp, yp, W, H):
     import mitsuba as mi
+
     from a5mi.plugins.camera import camera_rays
 
     ray = camera_rays(center, direction, up, angle, mi.Float(np.asarray(xp, F32)), mi.Float(np.asarray(yp, F32)), W, H)

@@ -367,7 +367,6 @@ def test14_scene10_end_to_end(variant, scenes_dir, tmp_path, capsys):
 def test_explain_terms_add_up_to_the_total(variant, a5_data) -> None:
     """The decomposition of (stock path − exact Whitted) is exact: the five terms sum to the total."""
     from a5mi.converters.a5_parser import parse_file
-
     from a5mi.crosscheck import CrosscheckOptions, explain
 
     terms = explain(parse_file(a5_data / "scenes" / "scene10_sphere.txt"),

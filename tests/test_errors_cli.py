@@ -407,9 +407,8 @@ def test_issue8_internal_error_exit_1_short_message_and_debug_traceback(tmp_path
     """A bug (here: the parser raising ZeroDivisionError) is exit 1 with one line and a --debug hint; an
     embedded traceback in the message (as Mitsuba's load_dict reports plugin failures) is cut; ``--debug``
     prints the traceback. A pre-existing output stays as it was."""
-    from a5mi.converters import a5_parser
-
     from a5mi import cli
+    from a5mi.converters import a5_parser
 
     def buggy(path: object) -> None:
         raise ZeroDivisionError("float division by zero\nTraceback (most recent call last):\n  File ...")
@@ -436,11 +435,12 @@ def test_issue8_fuzz_converter_stage_raises_only_positioned_scene_errors_and_no_
     parser-only fuzz with 2,000 scenes is in tests/test_parser.py."""
     import warnings
 
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
     from a5mi.converters.a5_parser import parse_text
     from a5mi.converters.errors import SceneError
     from a5mi.converters.to_mitsuba import check_files
-    from hypothesis import HealthCheck, given, settings
-    from hypothesis import strategies as st
 
     sources = [p.read_text().split() for p in sorted(scenes_dir.glob("*.txt"))]
     numbers = ["0", "-0", "1e-45", "1e-30", "3.4e38", "-3.4e38", "1e30", "-1", "0.5", "2"]

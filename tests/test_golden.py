@@ -33,7 +33,6 @@ SCENES = ("demo", "gallery")
 @pytest.mark.parametrize("scene", SCENES)
 def test_golden(scene: str, suffix: str, variant: str, tmp_path: Path) -> None:
     from a5mi.converters.a5_parser import parse_file
-
     from a5mi.driver import RenderOptions, render
     from a5mi.imageio import quantize, write_image
 

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from a5mi.converters.errors import FileLoc
-from a5mi.converters.to_mitsuba import check_image, decoded_image
 
 from a5mi import imageio
+from a5mi.converters.errors import FileLoc
+from a5mi.converters.to_mitsuba import check_image, decoded_image
 
 
 def _png(path: Path, pixels: np.ndarray) -> Path:
@@ -54,7 +54,6 @@ def test_a4_load_rgb8_takes_the_pixel_source_and_reads_the_file_otherwise(varian
 
 def test_a4_activate_wires_the_converter_cache(variant: str) -> None:
     from a5mi.plugins import imagedata
-
     from a5mi.variant import activate
 
     activate()
@@ -65,6 +64,7 @@ def test_a4_packed_atlas_returns_the_bytes_over_255_at_texel_corners(variant: st
     """tex(u, v) at u = i/W, v = 1 - j/H is pixel (i, j) exactly (a = b = 0): every byte value 0..255 and
     both images of the atlas (the packed UInt32 texels unpack to the file's bytes)."""
     import mitsuba as mi
+
     from a5mi.plugins.imagedata import ImageAtlas
 
     rng = np.random.default_rng(7)  # sizes are powers of 2: u, v and u·W, (1 - v)·H exact

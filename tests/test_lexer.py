@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+
 from a5mi.converters.errors import FileLoc, SceneError, SceneSyntaxError
 from a5mi.converters.lexer import decode, read_source, tokenize
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from a5mi.converters.errors import FileLoc, SceneSemanticError
 from a5mi.converters.obj import face_normals, load_obj, uses_smooth_normals, vertex_normals
 

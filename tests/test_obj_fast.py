@@ -8,12 +8,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from a5mi.converters.errors import FileLoc, SceneSemanticError
-from a5mi.converters.obj import ObjMesh, _parse_fast, _parse_slow, load_obj
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from a5mi import data_dir
+from a5mi.converters.errors import FileLoc, SceneSemanticError
+from a5mi.converters.obj import ObjMesh, _parse_fast, _parse_slow, load_obj
 
 COURSE_OBJS = sorted(data_dir().rglob("*.obj"))
 

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+
 from a5mi.converters import model as m
 from a5mi.converters.a5_parser import parse_file, parse_text
 from a5mi.converters.errors import FileLoc, SceneError, SceneSemanticError, SceneSyntaxError

@@ -85,6 +85,7 @@ def test_b4_permutation_is_the_reference(variant: str) -> None:
 
 def test_b4_noise_matches_reference(variant: str) -> None:
     import mitsuba as mi
+
     from a5mi.plugins.perlin import noise
 
     pts = np.random.default_rng(1).uniform(-300.0, 300.0, size=(10_000, 3))
@@ -97,6 +98,7 @@ def test_b4_noise_matches_reference(variant: str) -> None:
 @pytest.mark.parametrize("octaves", [1, 3, 8])
 def test_b4_octave_noise_matches_reference(variant: str, octaves: int) -> None:
     import mitsuba as mi
+
     from a5mi.plugins.perlin import octave_noise
 
     pts = _points(np.random.default_rng(octaves), 2_000, -20.0, 20.0)
@@ -108,6 +110,7 @@ def test_b4_octave_noise_matches_reference(variant: str, octaves: int) -> None:
 @pytest.mark.parametrize("octaves", [0, 1, 2, 5, 12])
 def test_b4_octave_noise_zero_on_lattice(variant: str, octaves: int) -> None:
     import mitsuba as mi
+
     from a5mi.plugins.perlin import octave_noise
 
     pts = np.random.default_rng(7).integers(-1000, 1000, size=(500, 3)).astype(np.float32)
@@ -118,6 +121,7 @@ def test_b4_octave_noise_zero_on_lattice(variant: str, octaves: int) -> None:
 def test_b4_octave_noise_per_lane_counts(variant: str) -> None:
     """The symbolic loop honours a per-lane octave count (one kernel for any count)."""
     import mitsuba as mi
+
     from a5mi.plugins.perlin import octave_noise
 
     pt = np.array([0.3, 1.7, -2.2], dtype=np.float32)

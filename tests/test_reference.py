@@ -47,8 +47,8 @@ def test_b4_marble_plane_of_scene10_matches_reference_plane_pixels(variant, a5_d
     the noise) is excluded. SPEC B.4 reports the binary's marble reproduced exactly apart from 8-bit rounding.
     """
     import numpy as np
-    from a5mi.converters.a5_parser import parse_file
 
+    from a5mi.converters.a5_parser import parse_file
     from a5mi.driver import RenderOptions, render
     from a5mi.imageio import quantize
 

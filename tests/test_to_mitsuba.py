@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from a5mi import data_dir
 from a5mi.converters import transforms as tf
 from a5mi.converters.a5_parser import parse_file, parse_text
 from a5mi.converters.errors import SceneSemanticError
@@ -21,8 +23,6 @@ from a5mi.converters.to_mitsuba import (
     to_dict,
     world_plane,
 )
-
-from a5mi import data_dir
 
 A5_PLUGINS = ("a5_whitted", "a5_material", "a5_marble", "a5_bitmap", "a5_point", "a5_cubemap", "a5_camera")
 CAM = "PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
@@ -221,6 +221,7 @@ def test_shipped_scene_loads_with_a5_plugins(variant: str, path: Path) -> None:
 def test_stock_sensor_puts_pixel_centres_where_b2_does(variant: str, scenes_dir: Path) -> None:
     """fov = 2 atan(tan(a/2) W/(W-1)): the stock perspective camera's pixel-centre rays equal B.2's."""
     import mitsuba as mi
+
     from a5mi.plugins.camera import camera_rays
 
     model = parse_file(scenes_dir / "scene11_cube.txt")
@@ -258,6 +259,7 @@ def test_a6_plane_rectangle_reaches_the_horizon(variant: str, scenes_dir: Path, 
     """Every B.2 pixel ray (300 x 300) hits the rectangle exactly when it hits the infinite plane at t > 0;
     scene10's last plane row is hit at t ~ 16,000 (SPEC B.2), far inside the 1e7 rectangle."""
     import mitsuba as mi
+
     from a5mi.plugins.camera import camera_rays
 
     model = parse_file(scenes_dir / f"{name}.txt")
@@ -298,6 +300,7 @@ def test_a6_horizon_row_matches_the_reference_image(variant: str, a5_data: Path,
     cube-map background for that ray (so a5soln missed it too); on the last hit row it shows something else."""
     import drjit as dr
     import mitsuba as mi
+
     from a5mi.plugins.camera import camera_rays
 
     model = parse_file(a5_data / "scenes" / f"{name}.txt")

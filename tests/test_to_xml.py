@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from a5mi import data_dir
 from a5mi.converters.a5_parser import parse_file, parse_text
 from a5mi.converters.errors import SceneSemanticError
 from a5mi.converters.to_mitsuba import RenderSettings, to_dict
 from a5mi.converters.to_xml import write_xml
-
-from a5mi import data_dir
 
 A5_PLUGINS = ("a5_whitted", "a5_material", "a5_marble", "a5_bitmap", "a5_point", "a5_cubemap", "a5_camera")
 

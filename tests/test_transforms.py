@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from a5mi.converters import transforms as t
 from a5mi.converters.a5_parser import parse_text
 
