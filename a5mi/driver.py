@@ -36,7 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from a5mi.filters import KERNELS, FilterStream, postprocess
-from a5mi.glibc_rand import GlibcRand, jitter_offsets
+from a5mi.glibc_rand import glibc_stream, jitter_offsets
 
 #: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
 TILE_RAYS = 1 << 20
@@ -134,11 +134,12 @@ def depth_gray(t: npt.ArrayLike, dmin: float, dmax: float) -> npt.NDArray[np.flo
 def jitter_stream(seed: int | None) -> Callable[[int], tuple[np.ndarray, np.ndarray]]:
     """A function ``next(n) -> (jx, jy)`` giving the offsets of the next ``n`` samples (SPEC B.5 order).
 
-    ``seed=None``: glibc ``rand()`` from seed 1 (r1 -> jy first, r2 -> jx); else numpy's PCG64 with that
-    seed, also drawn in (jy, jx) pairs so a sample's offsets do not depend on the tile size.
+    ``seed=None``: glibc ``rand()`` from seed 1 (r1 -> jy first, r2 -> jx), its fixed prefix read from the
+    disk cache of :func:`a5mi.glibc_rand.glibc_stream`; else numpy's PCG64 with that seed, also drawn in
+    (jy, jx) pairs so a sample's offsets do not depend on the tile size.
     """
     if seed is None:
-        rng = GlibcRand()
+        rng = glibc_stream()
 
         def glibc_next(n: int) -> tuple[np.ndarray, np.ndarray]:
             pairs = rng.next(2 * n).reshape(n, 2)

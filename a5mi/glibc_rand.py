@@ -16,9 +16,19 @@ the 31 values before the block and ``M`` (N x 31) is the recurrence applied to u
 so it is exact): ``r = lo*lo + 2^16 (hi*lo + lo*hi) mod 2^32``. Only the 31-value state is carried from
 block to block, sequentially (one 31 x 31 integer product per block). This makes the 2 x 9WH values of a
 1920x1080 ``-jitter`` render a fraction of a second instead of a Python loop's minutes.
+
+The stream never changes, so :func:`glibc_stream` also keeps its first :data:`PREFIX_VALUES` values (and the
+generator state after them) on disk, in ``$A5MI_CACHE_DIR`` or ``~/.cache/a5mi``: a warm 300x300 ``-jitter``
+render then memory-maps its 1.6 M values instead of computing them (~1 ms instead of ~35 ms). The cache is
+checked against values computed afresh and rebuilt when it does not match; when it cannot be read or written
+the stream is simply computed.
 """
 
 from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
@@ -53,6 +63,24 @@ def _initial_state(seed: int = 1) -> np.ndarray:
     return np.array(r, dtype=np.uint64)
 
 
+def _discarded_state(seed: int) -> list[int]:
+    """The 31 raw values after glibc's 310 discarded ones: the state before the first ``rand()`` output."""
+    r = [int(v) for v in _initial_state(seed)]
+    for i in range(34, 34 + _DISCARD):
+        r.append((r[i - _SHORT] + r[i - _LAG]) & 0xFFFFFFFF)
+    return r[-_LAG:]
+
+
+def first_values(k: int, seed: int = 1) -> npt.NDArray[np.uint32]:
+    """The first ``k`` outputs by the plain recurrence (pure Python; for checks and small ``k``)."""
+    r = _discarded_state(seed)
+    out = []
+    for _ in range(k):
+        r.append((r[-_SHORT] + r[-_LAG]) & 0xFFFFFFFF)
+        out.append(r[-1] >> 1)
+    return np.array(out, dtype=np.uint32)
+
+
 def _block_matrix(n: int) -> np.ndarray:
     """``M`` (n x 31, uint64 < 2^32): row k gives ``r[B+k]`` from the state ``r[B-31..B-1]``."""
     c = np.zeros((n + _LAG, _LAG), dtype=np.uint64)
@@ -69,7 +97,7 @@ class GlibcRand:
     consecutive calls continue the stream, so a renderer can draw it tile by tile with bounded memory.
     """
 
-    def __init__(self, seed: int = 1, block: int = _BLOCK) -> None:
+    def __init__(self, seed: int = 1, block: int = _BLOCK, *, state: npt.ArrayLike | None = None) -> None:
         self._block = block
         m = _block_matrix(block)
         m_lo = (m & np.uint64(0xFFFF)).astype(np.float64).T  # 31 x N
@@ -77,13 +105,20 @@ class GlibcRand:
         self._m_lo_t = np.ascontiguousarray(m_lo)
         self._m_mid_t = np.ascontiguousarray(np.vstack([m_hi, m_lo]))  # [s_lo s_hi] @ this = hi*lo + lo*hi
         self._m_tail = m[-_LAG:]  # state after one block = m_tail @ state
-        init = _initial_state(seed)
-        # Run the 310 discarded values the slow way, then keep the last 31 as the state.
-        r = list(int(v) for v in init)
-        for i in range(34, 34 + _DISCARD):
-            r.append((r[i - _SHORT] + r[i - _LAG]) & 0xFFFFFFFF)
-        self._state = np.array(r[-_LAG:], dtype=np.uint64)
+        if state is not None:
+            # Continue a stream from a saved state (:meth:`state`), e.g. after the cached prefix.
+            self._state = np.asarray(state, dtype=np.uint64).copy()
+            if self._state.shape != (_LAG,):
+                raise ValueError(f"state must hold {_LAG} values, got shape {self._state.shape}")
+        else:
+            self._state = np.array(_discarded_state(seed), dtype=np.uint64)
         self._pending = np.empty(0, dtype=np.uint32)  # generated but not yet returned
+
+    def state(self) -> npt.NDArray[np.uint64]:
+        """The 31 raw values that determine the rest of the stream (only at a block boundary)."""
+        if len(self._pending):
+            raise ValueError("the state is defined only between whole blocks (values are pending)")
+        return self._state.copy()
 
     def _blocks(self, count: int) -> np.ndarray:
         """Generate ``count`` whole blocks (raw r values, uint64) and advance the state."""
@@ -120,6 +155,98 @@ class GlibcRand:
         stream = np.concatenate(parts) if len(parts) > 1 else parts[0]
         self._pending = stream[n:]
         return stream[:n]
+
+
+#: Values of the seed-1 stream kept on disk (32 MB): a 682x682 -jitter render's worth. A multiple of the block.
+PREFIX_VALUES = 1 << 23
+_CHECK_VALUES = 4096  # how many cached values are compared with freshly computed ones on load
+
+
+def cache_dir() -> Path:
+    """``$A5MI_CACHE_DIR``, else ``$XDG_CACHE_HOME/a5mi``, else ``~/.cache/a5mi``."""
+    env = os.environ.get("A5MI_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "a5mi"
+
+
+class CachedStream:
+    """The seed-1 ``rand()`` stream whose first values come from a memory-mapped prefix, then computed on.
+
+    ``next(n)`` behaves exactly like :meth:`GlibcRand.next` on a fresh seed-1 generator.
+    """
+
+    def __init__(self, prefix: npt.NDArray[np.uint32], tail_state: npt.NDArray[np.uint64]) -> None:
+        self._prefix = prefix
+        self._tail_state = tail_state
+        self._tail: GlibcRand | None = None
+        self._pos = 0
+
+    def next(self, n: int) -> npt.NDArray[np.uint32]:
+        if n < 0:
+            raise ValueError(f"n must be >= 0, got {n}")
+        take = max(0, min(n, len(self._prefix) - self._pos))
+        head = np.array(self._prefix[self._pos : self._pos + take], dtype=np.uint32)
+        self._pos += take
+        if take == n:
+            return head
+        if self._tail is None:
+            self._tail = GlibcRand(state=self._tail_state)
+        return np.concatenate([head, self._tail.next(n - take)])
+
+
+def _prefix_paths(folder: Path, seed: int) -> tuple[Path, Path]:
+    stem = f"glibc-rand-seed{seed}-{PREFIX_VALUES}"
+    return folder / f"{stem}.npy", folder / f"{stem}.state.npy"
+
+
+def _load_prefix(folder: Path, seed: int) -> CachedStream | None:
+    values_path, state_path = _prefix_paths(folder, seed)
+    try:
+        values = np.load(values_path, mmap_mode="r")
+        state = np.load(state_path)
+    except (OSError, ValueError):
+        return None
+    if values.dtype != np.uint32 or values.shape != (PREFIX_VALUES,) or state.shape != (_LAG,):
+        return None
+    head = np.asarray(values[:_CHECK_VALUES])
+    if not np.array_equal(head, first_values(_CHECK_VALUES, seed)):
+        return None
+    return CachedStream(values, state.astype(np.uint64))
+
+
+def _atomic_save(path: Path, array: np.ndarray) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npy", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.save(f, array)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def glibc_stream(seed: int = 1, folder: Path | None = None) -> CachedStream | GlibcRand:
+    """The ``rand()`` stream of ``seed``, its first :data:`PREFIX_VALUES` values from the disk cache.
+
+    The first call on a machine computes the prefix (~0.2 s) and stores it (values, then the state after
+    them, each written atomically); any file problem just means the stream is computed as usual.
+    """
+    folder = cache_dir() if folder is None else folder
+    cached = _load_prefix(folder, seed)
+    if cached is not None:
+        return cached
+    rng = GlibcRand(seed)
+    prefix = rng.next(PREFIX_VALUES)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        values_path, state_path = _prefix_paths(folder, seed)
+        _atomic_save(state_path, rng.state())
+        _atomic_save(values_path, prefix)
+    except OSError:
+        pass
+    return CachedStream(prefix, rng.state())
 
 
 def jitter_offsets(values: npt.NDArray[np.uint32]) -> npt.NDArray[np.float32]:

@@ -29,3 +29,11 @@ def variant() -> str:
     from a5mi.variant import activate
 
     return activate()
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Keep the glibc rand() prefix cache (a5mi.glibc_rand) of this test session out of the user's home."""
+    import os
+    import tempfile
+
+    os.environ.setdefault("A5MI_CACHE_DIR", tempfile.mkdtemp(prefix="a5mi-test-cache-"))

@@ -77,3 +77,39 @@ def test_b5_first_call_is_y() -> None:
     a = glibc_jitter(2, g)
     b = glibc_jitter(3, g)
     np.testing.assert_array_equal(np.concatenate([a[0], b[0]]), jx)
+
+
+# ---------------------------------------------------------------------------------- on-disk prefix cache
+
+
+def test_b5_cached_stream_equals_computed_stream_across_the_prefix_end(tmp_path, monkeypatch) -> None:
+    """The cached prefix and the computed continuation after it give exactly glibc's stream."""
+    from a5mi import glibc_rand as g
+
+    monkeypatch.setattr(g, "PREFIX_VALUES", 3 * 4096)
+    built = g.glibc_stream(folder=tmp_path)  # computes and stores the prefix
+    loaded = g.glibc_stream(folder=tmp_path)  # memory-maps it
+    assert isinstance(loaded, g.CachedStream) and loaded._prefix.__class__ is np.memmap
+    want = g.GlibcRand().next(3 * 4096 + 5000)
+    for stream in (built, loaded):
+        got = np.concatenate([stream.next(7), stream.next(3 * 4096 - 10), stream.next(5003)])
+        assert np.array_equal(got, want)
+    assert np.array_equal(g.first_values(10), want[:10])
+
+
+def test_b5_corrupt_or_unwritable_cache_falls_back_to_computing(tmp_path, monkeypatch) -> None:
+    from a5mi import glibc_rand as g
+
+    monkeypatch.setattr(g, "PREFIX_VALUES", 4096)
+    g.glibc_stream(folder=tmp_path)
+    values_path, _ = g._prefix_paths(tmp_path, 1)
+    bad = np.load(values_path)
+    bad[100] ^= 1
+    np.save(values_path, bad)
+    assert g._load_prefix(tmp_path, 1) is None  # the check against fresh values catches it
+    want = g.GlibcRand().next(5000)
+    assert np.array_equal(g.glibc_stream(folder=tmp_path).next(5000), want)  # rebuilt
+    assert g._load_prefix(tmp_path, 1) is not None
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    assert np.array_equal(g.glibc_stream(folder=blocker / "cache").next(5000), want)
