@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import importlib
 import os
+import re
 import sys
 import time
 import traceback
@@ -383,10 +384,22 @@ def _guarded(debug: bool, body: Callable[[], int]) -> int:
         else:
             # First line only, and never the text of a traceback embedded in the message (Mitsuba's
             # load_dict wraps a plugin's Python exception that way).
-            detail = (str(exc).split("Traceback")[0].strip().splitlines() or [""])[0]
+            detail = _exception_summary(exc)
             _note(f"{PROG}: internal error: {type(exc).__name__}{': ' + detail if detail else ''} "
                   "(re-run with --debug for the traceback)")
         return 1
+
+
+def _exception_summary(exc: BaseException) -> str:
+    """One line for an unexpected exception: its first line, plus the innermost cause when Mitsuba's
+    ``load_dict`` has wrapped a plugin's Python exception (with its traceback text) into its message."""
+    head, *embedded = str(exc).split("Traceback")
+    first = (head.strip().splitlines() or [""])[0]
+    if embedded:
+        lines = [ln.strip() for ln in embedded[-1].strip().splitlines() if ln.strip()]
+        if lines and re.match(r"[A-Za-z_][\w.]*(Error|Exception|Exit|Interrupt)\b", lines[-1]):
+            return f"{first} ({lines[-1]})" if first else lines[-1]
+    return first
 
 
 def run(argv: Sequence[str]) -> int:

@@ -205,6 +205,10 @@ def parse_point_light(ts: TokenStream, start: Token) -> PointLight:
                 f"expected position, color, falloff or '}}' in PointLight, found {_quoted(tok)}", tok
             )
         values[tok.text] = ts.number("falloff") if tok.text == "falloff" else ts.vec3(tok.text)
+        if tok.text == "falloff" and values["falloff"] < 0.0:  # type: ignore[operator]
+            # colour / (1 + falloff d²) would grow with distance and divide by zero at d = 1/sqrt(-falloff)
+            raise ts.semantic_error(f"PointLight falloff must not be negative, found {values['falloff']:g}",
+                                    tok.loc)
     for key in ("position", "color"):
         if key not in values:
             ts.warn(start.loc, f"PointLight has no {key}; using 0 0 0 as the sample solution does")
@@ -369,11 +373,16 @@ class _GroupState:
     def __init__(self, num_materials: int | None) -> None:
         self.num_materials = num_materials
         self.current: int | None = None
+        self.materials_line: int | None = None  # line of the Materials block in effect
 
 
 def _material_for(ts: TokenStream, state: _GroupState, tok: Token) -> int:
     if state.current is None:
         raise ts.semantic_error(f"{tok.text} has no material: expected 'MaterialIndex' before it", tok.loc)
+    if state.num_materials is not None and state.current >= state.num_materials:
+        raise ts.semantic_error(
+            f"{tok.text} uses material {state.current}, set before the Materials block at line "
+            f"{state.materials_line} replaced the list with {_count(state.num_materials, 'material')}", tok.loc)
     return state.current
 
 
@@ -520,10 +529,13 @@ def parse_tokens(ts: TokenStream) -> Scene:
     """The top level (A.1): any sequence of the five blocks; a repeated block replaces the earlier one."""
     fields: dict[str, object] = {}
     seen: dict[str, Token] = {}
+    # One "current material" for the whole file (A.6: it persists, also into a later Group block).
+    state = _GroupState(None)
+    group_materials: object = None  # the Materials list the (last) Group was parsed with
     while (tok := ts.next()) is not None:
         if tok.text not in TOP_LEVEL:
             raise ts.syntax_error(f"expected {_one_of(TOP_LEVEL)}, found '{tok.text}'", tok)
-        if tok.text in seen:
+        if tok.text in seen and not (tok.text == "Materials" and "Group" in seen):
             ts.warn(tok.loc, f"second {tok.text} block replaces the one at line {seen[tok.text].loc.line}")
         seen[tok.text] = tok
         if tok.text == "PerspectiveCamera":
@@ -536,10 +548,16 @@ def parse_tokens(ts: TokenStream) -> Scene:
             fields["background"] = parse_background(ts, tok)
         elif tok.text == "Materials":
             fields["materials"] = parse_materials(ts, tok)
+            state.num_materials = len(fields["materials"])  # type: ignore[arg-type]
+            state.materials_line = tok.loc.line
+            if "Group" in seen:
+                ts.warn(tok.loc, "Materials block after the Group: the group keeps the materials it was parsed "
+                                 "with (as the sample solution does)")
         else:
-            materials = fields.get("materials")
-            state = _GroupState(None if materials is None else len(materials))  # type: ignore[arg-type]
             fields["root"] = parse_group(ts, tok, state)
+            group_materials = fields.get("materials")
+    if "root" in fields and group_materials is not None:
+        fields["materials"] = group_materials
     for block, key in (("PerspectiveCamera", "camera"), ("Group", "root")):
         if key not in fields:
             raise ts.syntax_error(f"expected a {block} block somewhere in the file, found end of file", None)

@@ -279,3 +279,26 @@ def test_issue8_fuzz_mutated_scenes_raise_only_scene_errors_with_positions() -> 
 
     check()
     assert count >= 2000
+
+
+_CAMERA = "PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
+_TWO_MATERIALS = "Materials { numMaterials 2 Material { diffuseColor 1 0 0 } Material { diffuseColor 0 1 0 } }\n"
+
+
+def test_a1_materials_after_the_group_keep_the_groups_materials() -> None:
+    """The binary's primitives point at the materials they were parsed with: a later Materials block does
+    not change the rendered group (warned)."""
+    text = (_CAMERA + _TWO_MATERIALS + "Group { numObjects 1 MaterialIndex 1 Sphere { center 0 0 0 radius 1 } }\n"
+            "Materials { numMaterials 1 Material { diffuseColor 0 0 1 } }\n")
+    scene = parse_text(text, "s.txt")
+    assert len(scene.materials) == 2 and scene.materials[1].diffuse_color == (0.0, 1.0, 0.0)
+    assert any("keeps the materials it was parsed with" in msg for _, msg in scene.warnings)
+
+
+def test_a6_current_material_persists_into_a_later_group_block() -> None:
+    """A.6: one global current material; a second Group block (which replaces the first) still has it."""
+    text = (_CAMERA + _TWO_MATERIALS + "Group { numObjects 1 MaterialIndex 1 Sphere { center 0 0 0 radius 1 } }\n"
+            "Group { numObjects 1 Sphere { center 1 0 0 radius 1 } }\n")
+    scene = parse_text(text, "s.txt")
+    (sphere,) = scene.root.children
+    assert sphere.center == (1.0, 0.0, 0.0) and sphere.material == 1
