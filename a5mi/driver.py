@@ -131,15 +131,16 @@ def depth_gray(t: npt.ArrayLike, dmin: float, dmax: float) -> npt.NDArray[np.flo
 # --------------------------------------------------------------------------------------------------------
 
 
-def jitter_stream(seed: int | None) -> Callable[[int], tuple[np.ndarray, np.ndarray]]:
+def jitter_stream(seed: int | None, total: int | None = None) -> Callable[[int], tuple[np.ndarray, np.ndarray]]:
     """A function ``next(n) -> (jx, jy)`` giving the offsets of the next ``n`` samples (SPEC B.5 order).
 
     ``seed=None``: glibc ``rand()`` from seed 1 (r1 -> jy first, r2 -> jx), its fixed prefix read from the
     disk cache of :func:`a5mi.glibc_rand.glibc_stream`; else numpy's PCG64 with that seed, also drawn in
-    (jy, jx) pairs so a sample's offsets do not depend on the tile size.
+    (jy, jx) pairs so a sample's offsets do not depend on the tile size. ``total``: the number of samples
+    that will be drawn, if known (small renders skip the disk cache).
     """
     if seed is None:
-        rng = glibc_stream()
+        rng = glibc_stream(need=None if total is None else 2 * total)
 
         def glibc_next(n: int) -> tuple[np.ndarray, np.ndarray]:
             pairs = rng.next(2 * n).reshape(n, 2)
@@ -197,7 +198,7 @@ def _tiles_with_jitter(
         for j0, j1 in tiles:
             yield j0, j1, None
         return
-    draw = jitter_stream(seed)
+    draw = jitter_stream(seed, total=rw * sum(j1 - j0 for j0, j1 in tiles))
 
     def timed(n: int) -> tuple[np.ndarray, np.ndarray]:
         t0 = time.perf_counter()

@@ -31,9 +31,24 @@ def variant() -> str:
     return activate()
 
 
+_SESSION_CACHE: str | None = None
+
+
 def pytest_configure(config: pytest.Config) -> None:
     """Keep the glibc rand() prefix cache (a5mi.glibc_rand) of this test session out of the user's home."""
     import os
     import tempfile
 
-    os.environ.setdefault("A5MI_CACHE_DIR", tempfile.mkdtemp(prefix="a5mi-test-cache-"))
+    global _SESSION_CACHE
+    if "A5MI_CACHE_DIR" not in os.environ:
+        _SESSION_CACHE = tempfile.mkdtemp(prefix="a5mi-test-cache-")
+        os.environ["A5MI_CACHE_DIR"] = _SESSION_CACHE
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    import os
+    import shutil
+
+    if _SESSION_CACHE is not None:
+        shutil.rmtree(_SESSION_CACHE, ignore_errors=True)
+        os.environ.pop("A5MI_CACHE_DIR", None)

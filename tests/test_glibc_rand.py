@@ -97,19 +97,46 @@ def test_b5_cached_stream_equals_computed_stream_across_the_prefix_end(tmp_path,
     assert np.array_equal(g.first_values(10), want[:10])
 
 
-def test_b5_corrupt_or_unwritable_cache_falls_back_to_computing(tmp_path, monkeypatch) -> None:
+@pytest.mark.parametrize("damage", ["value_in_head", "value_past_head", "state", "empty_values", "empty_state",
+                                    "truncated_values", "garbage_state"])
+def test_b5_damaged_cache_is_rejected_and_rebuilt(tmp_path, monkeypatch, damage) -> None:
+    """Any damage to the cache files is caught on load (CRC-32s of values and state, fresh head values,
+    shapes); the stream is then rebuilt and still exactly glibc's."""
     from a5mi import glibc_rand as g
 
-    monkeypatch.setattr(g, "PREFIX_VALUES", 4096)
+    monkeypatch.setattr(g, "PREFIX_VALUES", 2 * 4096)
+    monkeypatch.setattr(g, "_CHECK_VALUES", 100)
     g.glibc_stream(folder=tmp_path)
-    values_path, _ = g._prefix_paths(tmp_path, 1)
-    bad = np.load(values_path)
-    bad[100] ^= 1
-    np.save(values_path, bad)
-    assert g._load_prefix(tmp_path, 1) is None  # the check against fresh values catches it
-    want = g.GlibcRand().next(5000)
-    assert np.array_equal(g.glibc_stream(folder=tmp_path).next(5000), want)  # rebuilt
+    values_path, state_path = g._prefix_paths(tmp_path, 1)
     assert g._load_prefix(tmp_path, 1) is not None
+    if damage in ("value_in_head", "value_past_head"):
+        v = np.load(values_path)
+        v[50 if damage == "value_in_head" else 5000] ^= 1
+        np.save(values_path, v)
+    elif damage == "state":
+        m = np.load(state_path)
+        m[0] ^= 1
+        np.save(state_path, m)
+    elif damage == "empty_values":
+        values_path.write_bytes(b"")
+    elif damage == "empty_state":
+        state_path.write_bytes(b"")
+    elif damage == "truncated_values":
+        values_path.write_bytes(values_path.read_bytes()[:1000])
+    else:
+        state_path.write_bytes(b"\x93NUMPY garbage")
+    assert g._load_prefix(tmp_path, 1) is None
+    want = g.GlibcRand().next(2 * 4096 + 3000)
+    assert np.array_equal(g.glibc_stream(folder=tmp_path).next(2 * 4096 + 3000), want)  # rebuilt ...
+    assert g._load_prefix(tmp_path, 1) is not None  # ... and stored again
+
+
+def test_b5_small_draws_and_unwritable_cache_compute_the_stream(tmp_path) -> None:
+    from a5mi import glibc_rand as g
+
+    assert isinstance(g.glibc_stream(folder=tmp_path, need=100), g.GlibcRand)
+    assert list(tmp_path.iterdir()) == []  # a small render never touches the cache
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
+    want = g.GlibcRand().next(5000)
     assert np.array_equal(g.glibc_stream(folder=blocker / "cache").next(5000), want)
