@@ -17,6 +17,8 @@ smooth ones).
 
 from __future__ import annotations
 
+import os
+import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
@@ -116,7 +118,14 @@ def write_xml(scene: Scene, path: str | Path, *, stock: bool = False,
         if key != "type":
             writer.element(root, key, value, top=True)
     ET.indent(root, space="    ")
-    tmp = xml_path.with_name(xml_path.name + ".tmp")
-    ET.ElementTree(root).write(tmp, encoding="unicode", xml_declaration=True)
-    tmp.replace(xml_path)
+    # The XML last and atomically (a unique temporary beside it, then a rename): it is the file that refers
+    # to the meshes, so a reader never sees an XML whose PLY files are not written yet.
+    fd, tmp = tempfile.mkstemp(prefix=f".{xml_path.name}.", suffix=".tmp", dir=xml_path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            ET.ElementTree(root).write(f, encoding="unicode", xml_declaration=True)
+        os.replace(tmp, xml_path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
     return xml_path

@@ -11,7 +11,6 @@ from __future__ import annotations
 import importlib
 
 # Explicit list, in dependency order (textures before the BSDF that nests them).
-# Each plugin's author uncomments its line once the module exists.
 PLUGIN_MODULES: tuple[str, ...] = (
     "marble",           # a5_marble texture (noise functions in perlin.py)
     "bitmap",           # a5_bitmap texture

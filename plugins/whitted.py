@@ -156,7 +156,6 @@ def _trace(
             t_dir, exists = snell(d, n_facing, n_medium, nt)
             push_refr = refractive & exists
             r_fresnel = dr.select(push_refr, fresnel_weight(fresnel, d, n_facing, t_dir, n_medium, nt), 1.0)
-        if refraction:
             stack_o.write(p, top, push_refr)
             stack_d.write(t_dir, top, push_refr)
             stack_w.write(weight * specular * (1.0 - r_fresnel), top, push_refr)
