@@ -35,61 +35,13 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from a5mi.filters import KERNELS, FilterStream, postprocess
+from a5mi.filters import FilterStream, postprocess
 from a5mi.glibc_rand import glibc_stream, jitter_offsets
+from a5mi.options import TILE_RAYS, RenderOptions  # noqa: F401 - re-exported
 
-#: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
-TILE_RAYS = 1 << 20
-
-FRESNEL_MODES = ("a5", "schlick", "exact")
-AOV_MODES = ("main", "quadrant")
-
+FRESNEL_MODES = ("a5", "schlick", "exact")  # moved to a5mi.spec; kept until the spine lands
 Progress = Callable[[int, int], None]  # (samples done, samples total)
 CameraRays = Callable[..., Any]  # a5mi.plugins.camera.camera_rays
-
-
-@dataclass(frozen=True)
-class RenderOptions:
-    """What to render: the ``a5`` flags (SPEC B.1) plus the extras (seed, kernel, tiles, threads)."""
-
-    width: int = 100
-    height: int = 100
-    bounces: int = 4
-    shadows: bool = False
-    jitter: bool = False
-    filter: bool = False
-    seed: int | None = None  # None: glibc rand() from seed 1, as the binary
-    phong: bool = False
-    fresnel: str = "a5"
-    reflection: bool = True
-    refraction: bool = True
-    kernel: str = "binary"
-    normals: bool = False  # compute the |N| image
-    depth: tuple[float, float] | None = None  # (dmin, dmax): compute the depth image
-    tile_rays: int = TILE_RAYS
-    threads: int | None = None
-    count_rays: bool = False  # ask a5_whitted for per-lane secondary/shadow ray counts (for -v)
-    aov_mode: str = "main"  # "main": AOVs from the main rays; "quadrant": the binary's AOV rays (SPEC B.6)
-
-    def __post_init__(self) -> None:
-        if self.width <= 0 or self.height <= 0:
-            raise ValueError(f"size must be positive, got {self.width}x{self.height}")
-        if self.bounces < 0:
-            raise ValueError(f"bounces must be >= 0, got {self.bounces}")
-        if self.fresnel not in FRESNEL_MODES:
-            raise ValueError(f"fresnel must be one of {', '.join(FRESNEL_MODES)}, got '{self.fresnel}'")
-        if self.kernel not in KERNELS:
-            raise ValueError(f"kernel must be one of {', '.join(KERNELS)}, got '{self.kernel}'")
-        if self.aov_mode not in AOV_MODES:
-            raise ValueError(f"aov_mode must be one of {', '.join(AOV_MODES)}, got '{self.aov_mode}'")
-        if self.tile_rays <= 0:
-            raise ValueError(f"tile_rays must be positive, got {self.tile_rays}")
-
-    @property
-    def render_size(self) -> tuple[int, int]:
-        """``(RW, RH)``: the render buffer, 3W x 3H with ``-jitter`` (SPEC B.5)."""
-        k = 3 if self.jitter else 1
-        return k * self.width, k * self.height
 
 
 @dataclass

@@ -21,4 +21,8 @@ class ImageWriteError(UserError):
 
 
 class ImageReadError(UserError):
-    """An input image (for ``compare``) is missing, unreadable or corrupt."""
+    """An input image is missing, unreadable or corrupt; ``reason`` is the cause without the path."""
+
+    def __init__(self, msg: str, reason: str | None = None) -> None:
+        super().__init__(msg)
+        self.reason = reason if reason is not None else msg

@@ -17,8 +17,10 @@ from __future__ import annotations
 
 import os
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
+from typing import IO, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -157,30 +159,81 @@ def write_images(outputs: Sequence[tuple[str | os.PathLike[str], npt.ArrayLike]]
         raise
 
 
+def _decode(p: Path, dtype: str | None) -> tuple[np.ndarray, bool]:
+    """The one OpenImageIO reader of the project: the whole image at ``p`` as (H, W, C), row 0 = the top row,
+    and whether the file stores 8 bits per channel. ``dtype``: ``"uint8"`` (converted by OpenImageIO when the
+    file is deeper), ``"float"``, or None (uint8 for 8-bit files, float32 otherwise). Raises
+    :class:`ImageReadError` whose ``reason`` is the cause without the path (empty, not an image, truncated)."""
+
+    def fail(reason: str) -> ImageReadError:
+        reason = " ".join(reason.split()) or "unknown error"  # OpenImageIO messages may span lines
+        return ImageReadError(f"{p}: cannot read image: {reason}", reason=reason)
+
+    if not p.is_file():
+        raise fail("no such image file") if not p.exists() else fail("not a regular file")
+    if p.stat().st_size == 0:
+        raise fail("the file is empty")
+    import OpenImageIO as oiio  # deferred: only the commands that read images pay for it
+
+    inp = oiio.ImageInput.open(str(p))
+    if inp is None:
+        raise fail(oiio.geterror() or "unknown format")
+    try:
+        spec = inp.spec()
+        native = spec.format.basetype == oiio.UINT8
+        want = dtype or ("uint8" if native else "float")
+        data = inp.read_image(0, 0, 0, spec.nchannels, want) if spec.width > 0 and spec.height > 0 else None
+        reason = "" if data is not None else (inp.geterror() or oiio.geterror() or "no pixel data")
+    finally:
+        inp.close()
+    if data is None:
+        raise fail(reason)
+    a = np.asarray(data).reshape(spec.height, spec.width, spec.nchannels)
+    return a, native
+
+
+def read_uint8(path: str | os.PathLike[str]) -> npt.NDArray[np.uint8]:
+    """An image file as (H, W, C) ``uint8`` exactly as OpenImageIO's ``read_image(..., "uint8")`` gives it
+    (row 0 = top; SPEC A.4 uses the file's bytes as they are). Raises :class:`ImageReadError`."""
+    a, _ = _decode(Path(path), "uint8")
+    return np.ascontiguousarray(a, dtype=np.uint8)
+
+
 def read_image(path: str | os.PathLike[str]) -> npt.NDArray[np.float32]:
     """Read an image as float32 HxWxC (row 0 = top of the file); 8-bit data is divided by 255, no gamma.
 
     Raises :class:`ImageReadError` for a missing, unreadable or corrupt file.
     """
-    import OpenImageIO as oiio
-
-    p = Path(path)
-    if not p.is_file():
-        raise ImageReadError(f"{p}: no such image file")
-    inp = oiio.ImageInput.open(str(p))
-    if inp is None:
-        raise ImageReadError(f"{p}: cannot read image: {oiio.geterror().strip() or 'unknown format'}")
-    try:
-        spec = inp.spec()
-        native = spec.format.basetype == oiio.UINT8
-        data = inp.read_image(0, 0, 0, spec.nchannels, oiio.UINT8 if native else oiio.FLOAT)
-        if data is None:
-            raise ImageReadError(f"{p}: corrupt image: {inp.geterror().strip()}")
-    finally:
-        inp.close()
-    a = np.asarray(data)
-    if a.ndim == 2:
-        a = a[:, :, None]
+    a, native = _decode(Path(path), None)
     if native:
         return a.astype(np.float32) / np.float32(255.0)
     return a.astype(np.float32)
+
+
+def read_levels(path: str | os.PathLike[str]) -> npt.NDArray[np.float64]:
+    """An image as float64 8-bit levels (H, W, 3), row 0 = top: 8-bit files exactly 0..255, deeper files
+    ``value·255``; grey replicated to three channels, alpha dropped. Raises :class:`ImageReadError`."""
+    a, native = _decode(Path(path), None)
+    img = a.astype(np.float64) * (1.0 if native else 255.0)
+    if img.shape[2] < 3:
+        img = np.repeat(img[:, :, :1], 3, axis=2)
+    return img[:, :, :3]
+
+
+@contextmanager
+def atomic_file(path: str | os.PathLike[str], mode: str = "wb") -> Iterator[IO[Any]]:
+    """Open a temporary file beside ``path`` for writing; on a clean exit it is flushed, ``fsync``-ed, given
+    the mode a plain ``open`` would give ``path`` and moved over it with ``os.replace``; on any exception it
+    is removed and ``path`` is untouched. The one atomic text/binary writer (XML, caches)."""
+    p = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent if str(p.parent) else ".")
+    try:
+        with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": "utf-8"})) as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, _target_mode(p))
+        os.replace(tmp, p)
+    except BaseException:
+        _remove(tmp)
+        raise

@@ -1,0 +1,90 @@
+"""The one options object: what to render, from the command line to the integrator dict (SPEC B.1, B.3, B.5).
+
+:class:`RenderOptions` is built once by the command layer (``a5mi/cli``) from the flags and handed, unchanged,
+to the converter (film size and the ``a5_whitted`` parameters, :meth:`RenderOptions.integrator_params`) and to
+the driver (jitter, filter, tiles, AOV images). A leaf module: standard library and :mod:`a5mi.spec` only, so
+every layer may import it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR
+
+#: Blur kernels of SPEC B.5: the binary's stored taps (centre 0.2921) or the handout's (0.2931, a typo).
+KERNELS: tuple[str, ...] = ("binary", "handout")
+#: Where ``-normals`` / ``-depth`` rays come from (SPEC B.6): the image's rays, or the binary's quadrant rays.
+AOV_MODES: tuple[str, ...] = ("main", "quadrant")
+#: AOV groups ``a5_whitted`` computes on request (its ``aovs`` parameter), in channel order:
+#: ``normal`` -> nx, ny, nz; ``depth`` -> t; ``class`` -> 0 miss / 1 opaque / 2 the ray tree touches glass;
+#: ``counts`` -> n_reflection, n_refraction, n_shadow (rays traced per camera ray).
+AOV_GROUPS: tuple[str, ...] = ("normal", "depth", "class", "counts")
+#: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
+TILE_RAYS: int = 1 << 20
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    """What to render: the ``a5`` flags (SPEC B.1) and the extras. Frozen: derive variants with
+    ``dataclasses.replace``.
+
+    ``width`` x ``height`` is the saved image size as given to ``-size``; :attr:`render_size` is the render
+    buffer (3W x 3H with ``jitter``, SPEC B.5). ``seed=None`` replays glibc ``rand()`` from seed 1 as the binary.
+    ``normals`` / ``depth`` ask for the AOV images (``depth`` = (dmin, dmax)); ``count_rays`` for the
+    per-kind ray counts of ``-v``; ``aov_mode`` says which rays the AOV images use (SPEC B.6).
+    """
+
+    width: int = DEFAULT_SIZE[0]
+    height: int = DEFAULT_SIZE[1]
+    bounces: int = DEFAULT_BOUNCES
+    shadows: bool = False
+    jitter: bool = False
+    filter: bool = False
+    seed: int | None = None
+    phong: bool = False
+    fresnel: str = "a5"
+    reflection: bool = True
+    refraction: bool = True
+    kernel: str = "binary"
+    normals: bool = False
+    depth: tuple[float, float] | None = None
+    tile_rays: int = TILE_RAYS
+    threads: int | None = None
+    count_rays: bool = False
+    aov_mode: str = "main"
+
+    def __post_init__(self) -> None:
+        if self.width <= 0 or self.height <= 0:
+            raise ValueError(f"size must be positive, got {self.width}x{self.height}")
+        if self.bounces < 0:
+            raise ValueError(f"bounces must be >= 0, got {self.bounces}")
+        if self.fresnel not in FRESNEL_MODES:
+            raise ValueError(f"fresnel must be one of {', '.join(FRESNEL_MODES)}, got '{self.fresnel}'")
+        if self.kernel not in KERNELS:
+            raise ValueError(f"kernel must be one of {', '.join(KERNELS)}, got '{self.kernel}'")
+        if self.aov_mode not in AOV_MODES:
+            raise ValueError(f"aov_mode must be one of {', '.join(AOV_MODES)}, got '{self.aov_mode}'")
+        if self.tile_rays <= 0:
+            raise ValueError(f"tile_rays must be positive, got {self.tile_rays}")
+
+    @property
+    def render_size(self) -> tuple[int, int]:
+        """``(RW, RH)``: the render buffer, 3W x 3H with ``-jitter`` (SPEC B.5)."""
+        k = JITTER_FACTOR if self.jitter else 1
+        return k * self.width, k * self.height
+
+    @property
+    def aov_groups(self) -> tuple[str, ...]:
+        """The AOV groups (:data:`AOV_GROUPS`) the integrator must compute for these options."""
+        wanted = {"normal": self.normals, "depth": self.depth is not None, "class": False,
+                  "counts": self.count_rays}
+        return tuple(g for g in AOV_GROUPS if wanted[g])
+
+    def integrator_params(self) -> dict[str, Any]:
+        """The ``a5_whitted`` parameters these options set (ARCHITECTURE.md, plugin contract); the scene
+        adds ``ambient``. ``aovs`` is a comma-separated list of :data:`AOV_GROUPS` (empty: colour only)."""
+        return {"max_depth": int(self.bounces), "shadows": bool(self.shadows), "phong": bool(self.phong),
+                "fresnel": str(self.fresnel), "reflection": bool(self.reflection),
+                "refraction": bool(self.refraction), "aovs": ",".join(self.aov_groups)}
