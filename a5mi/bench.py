@@ -15,7 +15,7 @@ at the assignment's test command ``-size 300 300 -shadows -bounces 4 -jitter -fi
 * **stages**: in this process, the first render of the scene (warm disk cache): parse, build, kernel compile
   and execution (``dr.kernel_history()`` via the driver), filter, write; ``startup`` = warm process wall
   minus those (interpreter start, imports, variant activation, exit). Ray counts come from ``a5_whitted``'s
-  ``count_rays`` AOVs.
+  ``counts`` AOVs.
 * **floor**: in this process, the same Mitsuba scene and the render's exact camera rays (glibc jitter,
   SPEC B.2/B.5) replayed through ``scene.ray_intersect`` (evaluating ``t`` and the shading normal), plus
   secondary and shadow rays in the render's counts per camera ray, re-cast from that camera ray's first hit
@@ -418,8 +418,10 @@ def _floor_passes(
     dr.eval(ray)
     sampler = mi.load_dict({"type": "independent", "sample_count": 1})
     sampler.seed(0, rw * rh)
-    _rgb, _valid, aovs = scene.integrator().sample(scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
-    counts = {name: np.asarray(a) for name, a in zip(("reflection", "refraction", "shadow"), aovs[4:7], strict=True)}
+    integrator = scene.integrator()
+    _rgb, _valid, aovs = integrator.sample(scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
+    named = dict(zip(integrator.aov_names(), aovs, strict=True))
+    counts = {name: np.asarray(named[f"n_{name}"]) for name in ("reflection", "refraction", "shadow")}
     si = scene.ray_intersect(ray)
     o, d = np.asarray(ray.o), np.asarray(ray.d)
     t, n = np.asarray(si.t), np.asarray(si.sh_frame.n)

@@ -245,10 +245,14 @@ def _trace_pass(
             )  # fmt: skip
             sampler.seed(0, n)
             rgb, _valid, aovs = integrator.sample(mi_scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
-            if want_aov and len(aovs) < 4:
-                raise RuntimeError(f"integrator returned {len(aovs)} AOVs, expected [nx, ny, nz, t]")
-            counted = list(aovs)[4:7] if buffers.trace_color and len(aovs) >= 7 else []
-            outputs = ([rgb] if buffers.trace_color else []) + (list(aovs)[:4] if want_aov else [])
+            named = dict(zip(integrator.aov_names(), aovs, strict=True))
+            missing = [k for k in (("nx", "ny", "nz") if buffers.normal is not None else ())
+                       + (("t",) if buffers.dist is not None else ()) if k not in named]
+            if missing:
+                raise RuntimeError(f"integrator has no AOV {', '.join(missing)} (a5_whitted 'aovs' parameter)")
+            counted = [named[f"n_{k}"] for k in _COUNT_NAMES if f"n_{k}" in named] if buffers.trace_color else []
+            outputs = ([rgb] if buffers.trace_color else []) + [named[k] for k in ("nx", "ny", "nz", "t")
+                                                                 if k in named and want_aov]
             # one kernel for everything: a reduction of an unevaluated count would trace the scene again
             dr.eval(*outputs, *counted)
             dr.sync_thread()
@@ -262,10 +266,10 @@ def _trace_pass(
                     assert buffers.color is not None
                     buffers.color[j0:j1] = rows
             if buffers.normal is not None:
-                nrm = np.stack([np.asarray(aovs[k]) for k in range(3)], axis=-1)
+                nrm = np.stack([np.asarray(named[k]) for k in ("nx", "ny", "nz")], axis=-1)
                 buffers.normal[j0:j1] = np.abs(nrm).reshape(j1 - j0, rw, 3)
             if buffers.dist is not None:
-                buffers.dist[j0:j1] = np.asarray(aovs[3]).reshape(j1 - j0, rw)
+                buffers.dist[j0:j1] = np.asarray(named["t"]).reshape(j1 - j0, rw)
             for name, a in zip(_COUNT_NAMES, counted, strict=False):
                 buffers.counts[name] = buffers.counts.get(name, 0) + int(np.rint(np.asarray(a, np.float64)).sum())
             for entry in dr.kernel_history():
@@ -375,8 +379,8 @@ def build_scene(scene_model: Any, options: RenderOptions) -> Any:
         refraction=options.refraction,
     )
     scene_dict = to_dict(scene_model, settings)
-    if options.count_rays and isinstance(scene_dict.get("integrator"), dict):
-        scene_dict["integrator"]["count_rays"] = True  # a5_whitted parameter (ARCHITECTURE.md AOVs)
+    if isinstance(scene_dict.get("integrator"), dict) and options.aov_groups:
+        scene_dict["integrator"]["aovs"] = ",".join(options.aov_groups)  # a5_whitted parameter (ARCHITECTURE.md)
     return mi.load_dict(scene_dict)
 
 

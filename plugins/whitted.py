@@ -14,10 +14,13 @@ import mitsuba as mi
 
 from .common import FRESNEL_MODES, fresnel_weight, reflect, snell
 
-#: AOVs always returned by ``sample`` (ARCHITECTURE.md, SPEC B.6): first-hit shading normal and distance.
-AOV_NAMES: tuple[str, ...] = ("nx", "ny", "nz", "t")
-#: Extra AOVs with ``count_rays``: rays traced per camera ray, by kind.
-COUNT_AOV_NAMES: tuple[str, ...] = ("n_reflection", "n_refraction", "n_shadow")
+#: AOV groups of the ``aovs`` parameter (a5mi.options.AOV_GROUPS) and the channels each adds, in order:
+#: first-hit shading normal and distance (SPEC B.6), and rays traced per camera ray by kind.
+AOV_CHANNELS: dict[str, tuple[str, ...]] = {
+    "normal": ("nx", "ny", "nz"),
+    "depth": ("t",),
+    "counts": ("n_reflection", "n_refraction", "n_shadow"),
+}
 #: SPEC B.3: mirror rays are traced when ``|specularColor| > 0.001`` (Euclidean length).
 MIRROR_THRESHOLD = 0.001
 
@@ -197,7 +200,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     reflection       bool    true    trace mirror rays (``-reflection_off`` = false)
     refraction       bool    true    trace refracted rays (``-refraction_off`` = false)
     tmin             float   0.001   tmin of secondary and shadow rays
-    count_rays       bool    false   extra AOVs n_reflection, n_refraction, n_shadow
+    aovs             string  ""      comma-separated AOV groups: ``normal`` (nx, ny, nz), ``depth``
+                                     (t), ``counts`` (n_reflection, n_refraction, n_shadow)
     ================ ======= ======= ==========================================================
 
     Per hit (``p = o + t d``, ``N`` the shading normal, never flipped toward the viewer)::
@@ -216,7 +220,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     scene's bounding sphere, always past every object, so its shadow test equals the binary's FLT_MAX).
 
     ``sample()`` treats its ray as a camera ray (unit direction, tmin 0, index 1) and returns the colour,
-    the ``active`` mask, and the AOVs ``nx, ny, nz, t`` of the first hit (0 and +inf on a miss).
+    the ``active`` mask, and the AOVs asked for by ``aovs`` (none by default, so ``mi.render`` gives RGB):
+    ``nx, ny, nz, t`` of the first hit (0 and +inf on a miss), the ray counts.
 
     Dict form: ``{'type': 'a5_whitted', 'max_depth': 4, 'shadows': True, 'ambient': {'type': 'rgb',
     'value': [0.1, 0.1, 0.1]}}``.
@@ -243,7 +248,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             raise ValueError(f"a5_whitted: 'ambient' must be an rgb colour, got {ambient!r}") from None
         flags = {}
         for name, default in (("shadows", False), ("phong", False), ("reflection", True),
-                              ("refraction", True), ("count_rays", False)):
+                              ("refraction", True)):
             value = props.get(name, default)
             if not isinstance(value, bool):
                 raise ValueError(f"a5_whitted: '{name}' must be a boolean, got {value!r}")
@@ -256,12 +261,16 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         self.phong = flags["phong"]
         self.reflection = flags["reflection"]
         self.refraction = flags["refraction"]
-        self.count_rays = flags["count_rays"]
+        aovs = props.get("aovs", "")
+        groups = [g.strip() for g in aovs.split(",") if g.strip()] if isinstance(aovs, str) else None
+        if groups is None or any(g not in AOV_CHANNELS for g in groups):
+            raise ValueError(f"a5_whitted: 'aovs' must list groups of {', '.join(AOV_CHANNELS)}, got {aovs!r}")
+        self.aovs = tuple(g for g in AOV_CHANNELS if g in groups)
 
     # ------------------------------------------------------------------ Mitsuba interface
 
     def aov_names(self) -> list[str]:
-        return list(AOV_NAMES + COUNT_AOV_NAMES) if self.count_rays else list(AOV_NAMES)
+        return [name for g in self.aovs for name in AOV_CHANNELS[g]]
 
     def _lights(self, scene: mi.Scene) -> tuple[mi.EmitterPtr, mi.UInt32]:
         """The scene's delta emitters as a gatherable pointer array, and their count (opaque)."""
@@ -296,9 +305,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
         """Colour of one camera ray per lane, the ``active`` mask, and the AOVs of :meth:`aov_names`."""
         color, n, t, n_refl, n_refr, n_shadow = self.trace(scene, ray, active)
-        aovs = [n.x, n.y, n.z, t]
-        if self.count_rays:
-            aovs += [n_refl, n_refr, n_shadow]
+        channels = {"normal": [n.x, n.y, n.z], "depth": [t], "counts": [n_refl, n_refr, n_shadow]}
+        aovs = [a for g in self.aovs for a in channels[g]]
         width = _width(ray, active)
         return color, dr.full(mi.Bool, True, width) & active, aovs
 
@@ -312,14 +320,14 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         callback.put("reflection", self.reflection, flags)
         callback.put("refraction", self.refraction, flags)
         callback.put("tmin", self.tmin, flags)
-        callback.put("count_rays", self.count_rays, flags)
+        callback.put("aovs", ",".join(self.aovs), flags)
 
     def to_string(self) -> str:
         return (
             f"A5WhittedIntegrator[max_depth={self.max_depth}, shadows={self.shadows}, "
             f"ambient={self.ambient}, phong={self.phong}, fresnel='{self.fresnel}', "
             f"reflection={self.reflection}, refraction={self.refraction}, tmin={self.tmin}, "
-            f"count_rays={self.count_rays}]"
+            f"aovs='{','.join(self.aovs)}']"
         )
 
 

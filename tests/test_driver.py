@@ -30,6 +30,9 @@ def _probe_rays(center, direction, up, angle, x_pix, y_pix, width, height):
 class _Probe:
     """colour = (x_pix, y_pix, 0.25); AOVs n = (-x_pix, 0.5, 0), t = y_pix."""
 
+    def aov_names(self):
+        return ["nx", "ny", "nz", "t"]
+
     def sample(self, scene, sampler, ray, medium, active):
         import mitsuba as mi
 
@@ -38,7 +41,10 @@ class _Probe:
 
 
 class _CountingProbe(_Probe):
-    """Also the a5_whitted ``count_rays`` AOVs: 1 reflection, 2 refraction, 3 shadow rays per lane."""
+    """Also the a5_whitted ``counts`` AOVs: 1 reflection, 2 refraction, 3 shadow rays per lane."""
+
+    def aov_names(self):
+        return [*super().aov_names(), "n_reflection", "n_refraction", "n_shadow"]
 
     def sample(self, scene, sampler, ray, medium, active):
         import mitsuba as mi
@@ -207,7 +213,7 @@ def test_b2_real_integrator_centre_pixel(variant) -> None:
 
     scene = mi.load_dict({
         "type": "scene",
-        "integrator": {"type": "a5_whitted", "max_depth": 0},
+        "integrator": {"type": "a5_whitted", "max_depth": 0, "aovs": "normal,depth"},
         "ball": {"type": "sphere", "bsdf": {"type": "a5_material",
                                             "diffuse_color": {"type": "rgb", "value": [0.5, 0.25, 1.0]}}},
         "sun": {"type": "directional", "direction": [0, 0, -1], "irradiance": {"type": "rgb", "value": [1, 1, 0.5]}},

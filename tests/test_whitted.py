@@ -48,7 +48,7 @@ def _scene(mi, **objects) -> object:
 
 def _render(mi, scene, integrator: dict | None = None, o=(0, 0, -5), d=(0, 0, 1)):
     """Trace hand-built camera rays; returns (colour (N,3), aovs dict of (N,) arrays)."""
-    integ = mi.load_dict({"type": "a5_whitted", **(integrator or {})})
+    integ = mi.load_dict({"type": "a5_whitted", "aovs": "normal,depth,counts", **(integrator or {})})
     o = np.atleast_2d(np.array(o, dtype=np.float64))
     d = np.atleast_2d(np.array(d, dtype=np.float64))
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
@@ -107,7 +107,7 @@ def _shadow_scene(mi):
 def test_b3_shadowed_point(mi, shadows):
     scene = _shadow_scene(mi)
     # ray from the side, hitting the floor at (0,-1,0), under the sphere; and one at x = 5 (lit)
-    color, aovs = _render(mi, scene, {"ambient": _rgb(0.1, 0.1, 0.1), "shadows": shadows, "count_rays": True},
+    color, aovs = _render(mi, scene, {"ambient": _rgb(0.1, 0.1, 0.1), "shadows": shadows},
                           o=[(-4, 0, 0), (1, 0, 0)], d=[(4, -1, 0), (4, -1, 0)])
     lit = 0.1 * 0.5 + 1.0 * 0.5
     assert np.allclose(color[0], 0.05 if shadows else lit, atol=1e-6)
@@ -175,10 +175,10 @@ def test_b3_mirror_sees_background(mi):
     """Black mirror sphere: the reflected ray (back along -z) misses and sees the background, ⊙ specularColor."""
     scene = _scene(mi, s=_sphere(diffuse_color=(0, 0, 0), specular_color=(0.5, 0.25, 1.0)),
                    bg={"type": "constant", "radiance": _rgb(0.2, 0.4, 0.6)})
-    color, aovs = _render(mi, scene, {"count_rays": True})
+    color, aovs = _render(mi, scene)
     assert np.allclose(color[0], [0.1, 0.1, 0.6], atol=1e-6)
     assert aovs["n_reflection"][0] == 1 and aovs["n_refraction"][0] == 0
-    off, aovs = _render(mi, scene, {"reflection": False, "count_rays": True})
+    off, aovs = _render(mi, scene, {"reflection": False})
     assert np.allclose(off[0], 0.0) and aovs["n_reflection"][0] == 0
 
 
@@ -186,7 +186,7 @@ def test_b3_mirror_threshold_is_euclidean_length(mi):
     """|(0.0006, 0.0006, 0.0006)| = 0.00104 > 0.001 reflects; (0.0005, 0.0005, 0.0005) (0.00087) does not."""
     for spec, expected in ((0.0006, 1), (0.0005, 0)):
         scene = _scene(mi, s=_sphere(diffuse_color=(0, 0, 0), specular_color=(spec, spec, spec)))
-        _, aovs = _render(mi, scene, {"count_rays": True})
+        _, aovs = _render(mi, scene)
         assert aovs["n_reflection"][0] == expected
 
 
@@ -195,7 +195,7 @@ def test_b3_bounces_zero_is_ambient_plus_shadowed_lambert(mi):
                    l={"type": "directional", "direction": [0, 0, 1], "irradiance": _rgb(0.5, 0.5, 0.5)},
                    bg={"type": "constant", "radiance": _rgb(1, 1, 1)})
     color, aovs = _render(mi, scene, {"max_depth": 0, "shadows": True, "ambient": _rgb(0.2, 0.2, 0.2),
-                                      "count_rays": True})
+                                      "aovs": "normal,depth,counts"})
     assert np.allclose(color[0], 0.2 * 0.5 + 0.5 * 0.5, atol=1e-6)
     assert aovs["n_reflection"][0] == aovs["n_refraction"][0] == 0 and aovs["n_shadow"][0] == 1
 
@@ -252,7 +252,7 @@ def test_b3_fresnel_grazing_incidence(mi, mode):
 
 def test_b3_refraction_switch_off_means_r_equals_one(mi):
     scene = _slab_scene(mi, second_face=False)
-    color, aovs = _render(mi, scene, {"refraction": False, "ambient": _rgb(1, 1, 1), "count_rays": True},
+    color, aovs = _render(mi, scene, {"refraction": False, "ambient": _rgb(1, 1, 1)},
                           o=(0, 0, 5), d=(0, 0, -1))
     assert np.allclose(color[0], 0.0)  # only the mirror ray, which sees black
     assert aovs["n_refraction"][0] == 0 and aovs["n_reflection"][0] == 1
@@ -266,7 +266,7 @@ def test_b3_total_internal_reflection(mi):
                    back={"type": "rectangle", "to_world": tilt, "bsdf": _material(**GLASS)},
                    wall=_plane(mi, -3.0, half=0.5, diffuse_color=(1, 0, 0)),
                    bg={"type": "constant", "radiance": _rgb(0, 0, 1)})
-    color, aovs = _render(mi, scene, {"ambient": _rgb(1, 1, 1), "count_rays": True, "max_depth": 4},
+    color, aovs = _render(mi, scene, {"ambient": _rgb(1, 1, 1), "aovs": "normal,depth,counts", "max_depth": 4},
                           o=(0, 0, 5), d=(0, 0, -1))
     assert np.allclose(color[0], [0, 0, 1], atol=1e-6)
     assert aovs["n_refraction"][0] == 1        # entering only; none at the TIR face
@@ -278,15 +278,17 @@ def test_b3_total_internal_reflection(mi):
 
 def test_b3_aov_names_and_traverse(mi):
     integ = mi.load_dict({"type": "a5_whitted"})
-    assert integ.aov_names() == ["nx", "ny", "nz", "t"]
-    integ = mi.load_dict({"type": "a5_whitted", "count_rays": True, "max_depth": 7, "fresnel": "exact"})
+    assert integ.aov_names() == []
+    assert mi.load_dict({"type": "a5_whitted", "aovs": "depth, normal"}).aov_names() == ["nx", "ny", "nz", "t"]
+    integ = mi.load_dict({"type": "a5_whitted", "aovs": "normal,depth,counts", "max_depth": 7, "fresnel": "exact"})
     assert integ.aov_names() == ["nx", "ny", "nz", "t", "n_reflection", "n_refraction", "n_shadow"]
     params = mi.traverse(integ)
     assert params["max_depth"] == 7 and params["fresnel"] == "exact" and params["shadows"] is False
 
 
 @pytest.mark.parametrize(("key", "value"), [("max_depth", -1), ("fresnel", "fast"), ("tmin", -0.5),
-                                             ("shadows", 3), ("ambient", "red")])
+                                             ("shadows", 3), ("ambient", "red"),
+                                             ("aovs", "normal,colour"), ("aovs", 3)])
 def test_b3_bad_parameters_name_the_parameter(mi, key, value):
     with pytest.raises((ValueError, RuntimeError), match=f"'{key}'"):
         mi.load_dict({"type": "a5_whitted", key: value})
@@ -321,18 +323,21 @@ def test_b3_second_scene_reuses_the_kernel(mi):
     assert first == second
 
 
-def test_b3_works_under_mi_render_with_a_stock_sensor(mi):
-    """mi.render drives sample() through the trampoline; the film gets RGB + the four AOVs."""
+@pytest.mark.parametrize("aovs", ["", "normal,depth"])
+def test_b3_works_under_mi_render_with_a_stock_sensor(mi, aovs):
+    """mi.render drives sample() through the trampoline; the film gets RGB, plus the four AOVs only when the
+    ``aovs`` parameter asks for them (so a Mitsuba user's ``mi.render`` gives a plain RGB image)."""
     scene = mi.load_dict({
         "type": "scene",
-        "integrator": {"type": "a5_whitted", "ambient": _rgb(0.5, 0.5, 0.5)},
+        "integrator": {"type": "a5_whitted", "ambient": _rgb(0.5, 0.5, 0.5), "aovs": aovs},
         "sensor": {"type": "perspective", "fov": 5.0,
                    "to_world": mi.ScalarTransform4f().look_at([0, 0, -5], [0, 0, 0], [0, 1, 0]),
                    "film": {"type": "hdrfilm", "width": 3, "height": 3, "rfilter": {"type": "box"}}},
         "s": _sphere(diffuse_color=(1.0, 0.5, 0.25)),
     })
     img = np.array(mi.render(scene, spp=1), dtype=np.float64)
-    assert img.shape == (3, 3, 7)
+    assert img.shape == ((3, 3, 7) if aovs else (3, 3, 3))
     assert np.allclose(img[..., :3], [0.5, 0.25, 0.125], atol=1e-6)   # no lights: ambient ⊙ diffuseColor
-    assert np.all(img[..., 5] < -0.95)                                 # nz of the front of the sphere
-    assert np.all(np.abs(img[..., 6] - 4.0) < 0.05)                    # t
+    if aovs:
+        assert np.all(img[..., 5] < -0.95)                             # nz of the front of the sphere
+        assert np.all(np.abs(img[..., 6] - 4.0) < 0.05)                # t
