@@ -11,7 +11,7 @@ setup: llvm $(STAMP)
 
 # Dr.Jit's llvm variant needs libLLVM >= 16 (Debian 12 ships 15 by default): check, install if root.
 llvm:
-	@$(PYTHON) a5mi/llvm.py --ensure
+	@$(PYTHON) -m a5mi.cli.setup llvm
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import ensurepip, venv' 2>/dev/null || { \

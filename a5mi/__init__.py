@@ -21,3 +21,15 @@ def data_dir() -> Path:
     if env:
         return Path(env).resolve()
     return (PROJECT_ROOT.parent / "shared" / "a5").resolve()
+
+
+def require_data_dir() -> Path:
+    """:func:`data_dir` if it holds the course data (``SPEC.md``), else a :class:`~a5mi.errors.UserError`
+    naming where it looked and ``A5_DATA``."""
+    from a5mi.errors import UserError
+
+    root = data_dir()
+    if not (root / "SPEC.md").is_file():
+        how = "$A5_DATA" if os.environ.get("A5_DATA") else "../shared/a5 beside the project"
+        raise UserError(f"course data not found at {root} ({how}); set A5_DATA to the folder holding SPEC.md")
+    return root

@@ -38,7 +38,6 @@ stdout, or JSON with ``--json``.
 
 from __future__ import annotations
 
-import argparse
 import gc
 import json
 import os
@@ -58,7 +57,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from a5mi import data_dir
+from a5mi import data_dir, require_data_dir
 
 #: The benchmark scenes, relative to the course data folder.
 SCENES: tuple[str, ...] = (
@@ -263,7 +262,7 @@ def published_key(name: str) -> str | None:
 def resolve_scenes(names: Sequence[str], root: Path | None = None) -> list[Path]:
     """Benchmark scene files: :data:`SCENES` when ``names`` is empty; else each name is a path, or a stem /
     prefix of one of :data:`SCENES` (``scene10`` -> ``scenes/scene10_sphere.txt``). Raises ``ValueError``."""
-    root = root or data_dir()
+    root = root or require_data_dir()
     if not names:
         return [root / s for s in SCENES]
     out = []
@@ -593,7 +592,7 @@ class SceneResult:
         return d
 
 
-def bench_scene(path: Path, args: argparse.Namespace, published: dict[str, float], log: Any) -> SceneResult:
+def bench_scene(path: Path, args: BenchSettings, published: dict[str, float], log: Any) -> SceneResult:
     """All measurements of one scene (each part records its error instead of aborting the run)."""
     name = scene_name(path)
     res = SceneResult(name=name, path=str(path))
@@ -761,86 +760,76 @@ def report(results: Sequence[SceneResult], info: dict[str, Any], extra: dict[str
     return "\n".join(out)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="a5mi bench", description=__doc__.split("\n\n")[0] if __doc__ else None)
-    p.add_argument("scenes", nargs="*", help="scene files or names (default: the six benchmark scenes)")
-    p.add_argument("--size", nargs=2, type=int, default=(300, 300), metavar=("W", "H"))
-    p.add_argument("--bounces", type=int, default=4)
-    p.add_argument("--repeat", type=int, default=3, help="timed repetitions of in-process passes (best kept)")
-    p.add_argument("--a5soln", metavar="PATH", help="time the sample-solution binary too")
-    p.add_argument("--4k", dest="k4", action="store_true", help="also one 3840x2160 -jitter -filter process run")
-    p.add_argument("--4k-scene", dest="k4_scene", default="scene10", help="scene of the --4k run")
-    p.add_argument("--json", nargs="?", const="-", metavar="FILE", help="write JSON (to stdout without FILE)")
-    p.add_argument("--no-process", action="store_true", help="skip the a5 child processes")
-    p.add_argument("--no-inprocess", action="store_true", help="skip the floor and stock measurements")
-    p.add_argument("--no-stock", action="store_true", help="skip the stock Mitsuba comparison")
-    p.add_argument("--warm-runs", type=int, default=2, help="warm process runs per scene (best kept)")
-    p.add_argument("--verbose-runs", type=int, default=2,
-                   help="warm 'a5 -v' runs per scene for the process stage table (best kept; 0: none)")
-    p.add_argument("--wait-idle", type=float, default=30.0, metavar="S",
-                   help="before each scene, wait up to S s for other processes to leave the CPUs (0: never)")
-    p.add_argument("--timeout", type=float, default=600.0, help="per child process (s)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines on stderr")
-    return p
+@dataclass(frozen=True)
+class BenchSettings:
+    """What ``a5mi bench`` measures (its flags): image size and bounces of the test command, repetitions,
+    which parts run, the optional a5soln binary and the 4K run, idle wait and child timeout (s)."""
+
+    size: tuple[int, int] = (300, 300)
+    bounces: int = 4
+    repeat: int = 3
+    a5soln: str | None = None
+    k4: bool = False
+    k4_scene: str = "scene10"
+    no_process: bool = False
+    no_inprocess: bool = False
+    no_stock: bool = False
+    warm_runs: int = 2
+    verbose_runs: int = 2
+    wait_idle: float = 30.0
+    timeout: float = 600.0
+
+    def __post_init__(self) -> None:
+        if min(self.size) <= 0 or self.bounces < 0 or self.repeat < 1 or self.warm_runs < 1 or self.verbose_runs < 0:
+            raise ValueError("--size, --repeat and --warm-runs must be positive, --bounces and --verbose-runs >= 0")
 
 
-def run(argv: Sequence[str]) -> int:
-    """``a5mi bench [SCENE ...] [flags]``: measure, print the tables (or JSON). Returns the exit status."""
-    args = build_parser().parse_args(list(argv))
-    if min(args.size) <= 0 or args.bounces < 0 or args.repeat < 1 or args.warm_runs < 1 or args.verbose_runs < 0:
-        print("a5mi bench: error: --size, --repeat and --warm-runs must be positive, --bounces and "
-              "--verbose-runs >= 0", file=sys.stderr)
-        return 2
-    if args.a5soln and not (shutil.which(args.a5soln) or os.access(args.a5soln, os.X_OK)):
-        print(f"a5mi bench: error: --a5soln '{args.a5soln}' is not an executable", file=sys.stderr)
-        return 2
-    if args.a5soln:
-        args.a5soln = os.path.abspath(shutil.which(args.a5soln) or args.a5soln)
-    try:
-        paths = resolve_scenes(args.scenes)
-    except ValueError as exc:
-        print(f"a5mi bench: error: {exc}", file=sys.stderr)
-        return 2
+@dataclass
+class BenchRun:
+    """A whole run: per-scene results, the machine, the command's flags, the 4K run, this process's peak."""
 
-    def log(msg: str) -> None:
-        if not args.quiet:
-            print(f"[bench] {msg}", file=sys.stderr, flush=True)
+    results: list[SceneResult]
+    info: dict[str, Any]
+    extra: dict[str, Any]
+    self_peak_mb: float
 
-    if not args.no_inprocess:
-        from a5mi.variant import activate
+    @property
+    def failed(self) -> bool:
+        return any(r.errors for r in self.results) or ("4k" in self.extra and self.extra["4k"].returncode != 0)
 
-        activate()
+    def report(self) -> str:
+        return report(self.results, self.info, self.extra)
+
+    def to_json(self) -> str:
+        doc: dict[str, Any] = {"machine": self.info, "flags": self.extra["flags"], "bench_peak_mb": self.self_peak_mb,
+                               "scenes": [r.to_json() for r in self.results]}
+        if "4k" in self.extra:
+            k4 = asdict(self.extra["4k"])
+            k4.pop("stderr")
+            doc["4k"] = {"cmd": self.extra["4k_cmd"], **k4}
+        return json.dumps(doc, indent=2)
+
+
+def find_executable(path: str) -> str:
+    """The absolute path of an executable given by name or path; ``ValueError`` if there is none."""
+    found = shutil.which(path) or (path if os.access(path, os.X_OK) and os.path.isfile(path) else None)
+    if found is None:
+        raise ValueError(f"'{path}' is not an executable")
+    return os.path.abspath(found)
+
+
+def run_benchmark(paths: Sequence[Path], settings: BenchSettings, log: Any) -> BenchRun:
+    """Measure every scene of ``paths`` (and the 4K run) as the module docstring says; ``log(msg)`` receives
+    progress lines. Needs the variant active unless ``no_inprocess``."""
     published = load_published()
-    results = [bench_scene(p, args, published, log) for p in paths]
-    extra: dict[str, Any] = {"flags": render_flags(*args.size, args.bounces)}
-    if args.k4:
-        (p4,) = resolve_scenes([args.k4_scene])
+    results = [bench_scene(p, settings, published, log) for p in paths]
+    extra: dict[str, Any] = {"flags": render_flags(*settings.size, settings.bounces)}
+    if settings.k4:
+        (p4,) = resolve_scenes([settings.k4_scene])
         with tempfile.TemporaryDirectory(prefix="a5bench-4k-") as tmp:
             cmd = a5_command() + ["-input", p4.name, "-output", str(Path(tmp) / "4k.png"),
-                                  *render_flags(3840, 2160, args.bounces)]
+                                  *render_flags(3840, 2160, settings.bounces)]
             log(f"4K: {scene_name(p4)} ...")
-            extra["4k"] = run_process(cmd, cwd=p4.parent, timeout=args.timeout)
+            extra["4k"] = run_process(cmd, cwd=p4.parent, timeout=settings.timeout)
             extra["4k_cmd"] = " ".join(["a5", *cmd[len(a5_command()):]]).replace(str(Path(tmp)) + "/", "")
-    info = machine_info()
-    self_peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    if args.json is not None:
-        doc = {"machine": info, "flags": render_flags(*args.size, args.bounces), "bench_peak_mb": self_peak,
-               "scenes": [r.to_json() for r in results]}
-        if "4k" in extra:
-            k4 = asdict(extra["4k"])
-            k4.pop("stderr")
-            doc["4k"] = {"cmd": extra["4k_cmd"], **k4}
-        text = json.dumps(doc, indent=2)
-        if args.json == "-":
-            print(text)
-        else:
-            Path(args.json).write_text(text + "\n")
-            print(report(results, info, extra))
-    else:
-        print(report(results, info, extra))
-    failed = any(r.errors for r in results) or ("4k" in extra and extra["4k"].returncode != 0)
-    return 1 if failed else 0
-
-
-__all__ = ["run", "run_process", "parse_verbose", "published_times", "resolve_scenes", "format_table",
-           "lane_repeat", "rank_within_lane", "measure_in_process", "measure_stock", "SCENES"]
+    return BenchRun(results, machine_info(), extra, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from a5mi.errors import UserError
+from a5mi.imageio import read_levels
 
 DEFAULT_THRESHOLD = 2.0
 
@@ -55,29 +56,6 @@ class Metrics:
         d = asdict(self)
         d["psnr"] = None if math.isinf(self.psnr) else self.psnr
         return json.dumps(d)
-
-
-def read_levels(path: str | Path) -> np.ndarray:
-    """Read an image as float64 levels (H, W, 3), row 0 = top row of the file; 8-bit stays 0..255 exactly."""
-    import OpenImageIO as oiio
-
-    inp = oiio.ImageInput.open(str(path))
-    if inp is None:
-        raise CompareError(f"cannot read image '{path}': {oiio.geterror() or 'unknown format'}")
-    try:
-        spec = inp.spec()
-        is_int8 = spec.format == oiio.UINT8
-        pixels = inp.read_image(0, 0, 0, spec.nchannels, "uint8" if is_int8 else "float")
-    finally:
-        inp.close()
-    if pixels is None:
-        raise CompareError(f"cannot read image '{path}': {oiio.geterror() or 'corrupt data'}")
-    img = np.asarray(pixels, dtype=np.float64).reshape(spec.height, spec.width, spec.nchannels)
-    if not is_int8:
-        img = img * 255.0
-    if spec.nchannels == 1:
-        img = np.repeat(img, 3, axis=2)
-    return img[:, :, :3]
 
 
 def compare_arrays(a: np.ndarray, b: np.ndarray, threshold: float = DEFAULT_THRESHOLD) -> Metrics:
@@ -136,26 +114,8 @@ def montage(a: np.ndarray, b: np.ndarray, caption: str) -> np.ndarray:
 
 
 def write_diff(a: np.ndarray, b: np.ndarray, metrics: Metrics, path: str | Path, labels: tuple[str, str]) -> None:
-    """Write the montage through OpenImageIO, atomically (temporary file in the same folder, then rename)."""
-    import os
-    import tempfile
-
-    import OpenImageIO as oiio
+    """Write the montage atomically (:func:`a5mi.imageio.write_image`)."""
+    from a5mi.imageio import write_image
 
     caption = f"{labels[0]} | {labels[1]} | |A-B| (full scale 16/255): {metrics.summary()}"
-    img = montage(a, b, caption)
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=".a5mi-", suffix=path.suffix, dir=path.parent or ".")
-    os.close(fd)
-    try:
-        out = oiio.ImageOutput.create(str(path))
-        if out is None:
-            raise CompareError(f"cannot write '{path}': {oiio.geterror() or 'unknown image extension'}")
-        spec = oiio.ImageSpec(img.shape[1], img.shape[0], 3, oiio.UINT8)
-        if not out.open(tmp, spec) or not out.write_image(img):
-            raise CompareError(f"cannot write '{path}': {out.geterror()}")
-        out.close()
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_image(path, montage(a, b, caption))

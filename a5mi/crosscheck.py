@@ -38,7 +38,6 @@ import os
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -614,144 +613,10 @@ def write_montage(result: CrosscheckResult, path: str | os.PathLike[str]) -> Non
     write_image(path, montage_image(result).astype(np.float32) / np.float32(255.0) + np.float32(0.5 / 255))
 
 
-# --------------------------------------------------------------------------------------------------------
-# Command line
-# --------------------------------------------------------------------------------------------------------
-
-USAGE = """\
-usage: a5mi crosscheck SCENE.txt [-size W H] [-o MONTAGE.png] [--spp N] [-bounces N] [--json] [--explain]
-                        [--debug]
-
-Render SCENE with the a5 dielectric, textbook Schlick and exact Fresnel (a5_whitted, shadows on) and with
-Mitsuba's path integrator on the --stock conversion (pixel centres, max_depth = bounces + 2, no Russian
-roulette); print per pair the metrics over glass pixels (the Whitted ray tree touches a dielectric) and over
-all other pixels, and write a montage (default SCENE_crosscheck.png in the working folder).
-
-  -size W H        image size (default 300 300)
-  -o MONTAGE.png   montage: renders, Fresnel-mode error maps, pixel classes, error maps against path
-  --spp N          path samples per pixel (default 256)
-  -bounces N       Whitted bounce budget (default 4)
-  --json           print the table as JSON
-  --explain        also split (stock path - exact Whitted) into terms, each isolated by a render (slow:
-                   three more path renders)
-"""
-
-
-@dataclass
-class _Args:
-    scene: str | None = None
-    width: int = 300
-    height: int = 300
-    out: str | None = None
-    spp: int = 256
-    bounces: int = 4
-    json: bool = False
-    explain: bool = False
-    help: bool = False
-
-
-def _parse(argv: Sequence[str]) -> _Args:
-    from a5mi.errors import UsageError
-
-    def number(flag: str, text: str, lo: int, hi: int) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise UsageError(f"{flag} expects an integer, found '{text}'") from None
-        if not lo <= v <= hi:
-            raise UsageError(f"{flag} must be in {lo}..{hi}, found {v}")
-        return v
-
-    a = _Args()
-    k = 0
-    while k < len(argv):
-        arg = argv[k]
-
-        def value(n: int = 1, arg: str = arg, k: int = k) -> list[str]:
-            if k + n >= len(argv):
-                raise UsageError(f"{arg} expects {n} value{'s' if n > 1 else ''}, found end of arguments")
-            return list(argv[k + 1 : k + 1 + n])
-
-        if arg in ("-h", "-help", "--help"):
-            a.help = True
-        elif arg in ("-size", "--size"):
-            w, h = value(2)
-            a.width, a.height = number(arg, w, 1, 16384), number(arg, h, 1, 16384)
-            k += 2
-        elif arg in ("-o", "-output", "--output"):
-            a.out = value()[0]
-            k += 1
-        elif arg in ("--spp", "-spp"):
-            a.spp = number(arg, value()[0], 1, 1 << 20)
-            k += 1
-        elif arg in ("-bounces", "--bounces"):
-            a.bounces = number(arg, value()[0], 0, 64)
-            k += 1
-        elif arg == "--json":
-            a.json = True
-        elif arg == "--explain":
-            a.explain = True
-        elif arg in ("--debug", "-debug"):
-            pass
-        elif arg.startswith("-"):
-            raise UsageError(f"unknown flag '{arg}' (see a5mi crosscheck -h)")
-        elif a.scene is None:
-            a.scene = arg
-        else:
-            raise UsageError(f"unexpected argument '{arg}' (one scene file per call)")
-        k += 1
-    return a
-
-
-def run(argv: Sequence[str]) -> int:
-    """``a5mi crosscheck SCENE.txt [-size W H] [-o MONTAGE.png] [--spp N] [-bounces N] [--json]``.
-
-    Prints the pair table (or JSON) on stdout and writes the montage; exit status 0, 2 for user errors
-    (one line on stderr), 1 for internal errors (the error policy of :mod:`a5mi.cli`).
-    """
-    from a5mi.cli import _guarded
-    from a5mi.errors import UsageError, UserError
-
-    debug = "--debug" in argv or "-debug" in argv
-
-    def body() -> int:
-        args = _parse(argv)
-        if args.help:
-            print(USAGE, end="")
-            return 0
-        if args.scene is None:
-            raise UsageError("crosscheck: missing SCENE.txt")
-        out = args.out or f"{Path(args.scene).stem}_crosscheck.png"
-        from a5mi.imageio import check_output_path
-
-        check_output_path(out)
-        from a5mi.converters.a5_parser import parse_file
-
-        try:
-            model = parse_file(args.scene)
-        except OSError as exc:
-            raise UserError(f"cannot read '{args.scene}': {exc.strerror or exc}") from None
-        from a5mi.variant import VariantError, activate
-
-        try:
-            activate()
-        except VariantError as exc:
-            raise UserError(str(exc)) from None
-        options = CrosscheckOptions(width=args.width, height=args.height, bounces=args.bounces, spp=args.spp)
-        result = crosscheck(model, options)
-        write_montage(result, out)
-        print(to_json(result) if args.json else f"{args.scene}\n{table(result)}\nmontage: {out}")
-        if args.explain:
-            print(explain_table(explain(model, options)))
-        return 0
-
-    return _guarded(debug, body)
-
-
 __all__ = [
     "BACKGROUND", "GLASS", "OPAQUE", "FRESNEL_MODES", "LABELS", "PAIRS",
     "CrosscheckOptions", "CrosscheckResult", "ExplainTerm", "PairReport",
     "crosscheck", "crosscheck_dicts", "explain", "explain_table", "masked_metrics", "montage_image",
     "pair_reports", "path_dict",
-    "pixel_classes", "render_path", "render_whitted", "run", "table", "to_json", "write_montage",
+    "pixel_classes", "render_path", "render_whitted", "table", "to_json", "write_montage",
 ]

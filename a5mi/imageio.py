@@ -91,7 +91,8 @@ def _target_mode(p: Path) -> int:
 def write_image(path: str | os.PathLike[str], img: npt.ArrayLike) -> None:
     """Write ``img`` (HxWxC float, row 0 = top of the file) to ``path`` atomically, format by extension.
 
-    8-bit formats are quantised with :func:`quantize`; ``.exr`` stores float32 as is. Raises
+    8-bit formats are quantised with :func:`quantize` (a ``uint8`` image is written as it is); ``.exr``
+    stores float32 as is. Raises
     :class:`ImageWriteError` (and leaves any existing file untouched) on failure.
     """
     write_images([(path, img)])
@@ -105,6 +106,8 @@ def _write_temp(p: Path, img: npt.ArrayLike) -> str:
 
     if _extension(p) in FLOAT_FORMATS:
         pixels, fmt = np.ascontiguousarray(a, dtype=np.float32), oiio.FLOAT
+    elif a.dtype == np.uint8:
+        pixels, fmt = np.ascontiguousarray(a), oiio.UINT8  # already 8-bit levels (montages, diffs)
     else:
         pixels, fmt = np.ascontiguousarray(quantize(a)), oiio.UINT8
     h, w, c = pixels.shape

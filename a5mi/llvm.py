@@ -5,10 +5,10 @@ process (``LLVM ERROR: Cannot select ... fminimum``), LLVM 14 and older are refu
 Mitsuba loads an ``llvm_*`` variant we find the library the way Dr.Jit does (``DRJIT_LIBLLVM_PATH`` if set,
 otherwise the newest ``libLLVM*`` on the library path) and check that it is LLVM >= 16.
 
-This module uses the standard library only, so ``make setup`` can run it as a script before any virtual
-environment exists::
+This module uses the standard library only, so ``make setup`` can run it before any virtual environment
+exists, through the command layer (:mod:`a5mi.cli.setup`)::
 
-    python3 a5mi/llvm.py --ensure     # check; on Debian/Ubuntu as root install libllvm19 if needed
+    python3 -m a5mi.cli.setup llvm    # check; on Debian/Ubuntu as root install libllvm19 if needed
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import os
 import re
 import shutil
 import subprocess
-import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 
 MIN_MAJOR = 16
@@ -133,42 +133,26 @@ def check() -> LLVMLibrary:
     return lib
 
 
-def ensure() -> int:
-    """``make setup``: check, and on Debian/Ubuntu as root install :data:`DEBIAN_PACKAGE` if needed."""
+def ensure(log: Callable[[str], None]) -> LLVMLibrary:
+    """``make setup``: check, and on Debian/Ubuntu as root install :data:`DEBIAN_PACKAGE` if needed.
+
+    ``log`` receives progress lines; returns the usable library or raises :class:`LLVMError` (whose message
+    names the fix)."""
     try:
         lib = check()
-        print(f"a5mi: libLLVM {lib.major} found ({lib.path})")
-        return 0
+        log(f"libLLVM {lib.major} found ({lib.path})")
+        return lib
     except LLVMError as exc:
         if os.environ.get("DRJIT_LIBLLVM_PATH"):
-            print(f"a5mi: error: {exc}", file=sys.stderr)
-            return 1
+            raise
         can_apt = shutil.which("apt-get") is not None and hasattr(os, "geteuid") and os.geteuid() == 0
         if not can_apt:
-            print(f"a5mi: error: {exc}", file=sys.stderr)
-            print(f"a5mi: as root on Debian/Ubuntu: {INSTALL_HINT}", file=sys.stderr)
-            return 1
-    print(f"a5mi: installing {DEBIAN_PACKAGE} (Dr.Jit needs libLLVM >= {MIN_MAJOR})")
+            raise LLVMError(f"{exc}; as root on Debian/Ubuntu: {INSTALL_HINT}") from None
+    log(f"installing {DEBIAN_PACKAGE} (Dr.Jit needs libLLVM >= {MIN_MAJOR})")
     env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
     for cmd in (["apt-get", "update", "-qq"], ["apt-get", "install", "-y", "-qq", DEBIAN_PACKAGE]):
         if subprocess.call(cmd, env=env) != 0:
-            print(f"a5mi: error: '{' '.join(cmd)}' failed; install LLVM >= {MIN_MAJOR} by hand", file=sys.stderr)
-            return 1
-    try:
-        lib = check()
-    except LLVMError as exc:
-        print(f"a5mi: error: {exc}", file=sys.stderr)
-        return 1
-    print(f"a5mi: libLLVM {lib.major} installed ({lib.path})")
-    return 0
-
-
-if __name__ == "__main__":
-    if sys.argv[1:] == ["--ensure"]:
-        sys.exit(ensure())
-    try:
-        found = check()
-        print(f"libLLVM {found.major}: {found.path}")
-    except LLVMError as err:
-        print(f"error: {err}", file=sys.stderr)
-        sys.exit(1)
+            raise LLVMError(f"'{' '.join(cmd)}' failed; install LLVM >= {MIN_MAJOR} by hand")
+    lib = check()
+    log(f"libLLVM {lib.major} installed ({lib.path})")
+    return lib

@@ -65,16 +65,19 @@ def test_b1_flags_any_order_and_defaults() -> None:
                            "-refraction_off", "-seed", "3", "-fresnel", "exact", "-kernel", "handout",
                            "-threads", "2", "-phong", "-variant", "llvm", "-filter", "-bounces", "2",
                            "-normals_mode", "quadrant"])
-    assert (b.width, b.height, b.bounces, b.depth, b.normals) == (60, 40, 2, (1.0, 2.5, "d.png"), "n.png")
+    assert (b.width, b.height, b.bounces, b.depth, b.depth_output, b.normals_output) == (
+        60, 40, 2, (1.0, 2.5), "d.png", "n.png")
     assert not b.reflection and not b.refraction and b.filter and b.phong
     assert (b.seed, b.fresnel, b.kernel, b.threads, b.variant) == (3, "exact", "handout", 2, "llvm")
-    assert b.normals_mode == "quadrant"
+    assert b.aov_mode == "quadrant"
 
 
 @pytest.mark.parametrize(
     "argv,message",
     [
         (["-input", "s.txt"], "missing -output IMG"),
+        (["-input", "s.txt", "-output", "o.png", "--size", "3", "3"], "unknown flag '--size'"),
+        (["-input", "s.txt", "-output=o.png"], "unknown flag '-output=o.png'"),
         (["-output", "o.png"], "missing -input SCENE.txt"),
         (["-input", "s.txt", "-output", "o.png", "-frobnicate"], "unknown flag '-frobnicate'"),
         (["-input", "s.txt", "-output", "o.png", "stray"], "unexpected argument 'stray'"),
@@ -199,10 +202,9 @@ def test_a5mi_dispatch(tmp_path, scene, fake_render, capsys) -> None:
     assert cli.run_a5mi([]) == 2 and "render" in capsys.readouterr().out
     assert cli.run_a5mi(["-h"]) == 0
     listed = capsys.readouterr().out
-    for name, (target, _) in cli.SUBCOMMANDS.items():
+    for name in cli.SUBCOMMANDS:
         assert f"  {name} " in listed
-        module, func = target.split(":")
-        assert callable(getattr(__import__(module, fromlist=[func]), func))  # every entry resolves
+        assert cli.command(name).name == name  # every entry resolves to its Command
     out = tmp_path / "r.png"
     assert cli.run_a5mi(["render", "-input", scene, "-output", str(out), "-size", "7", "5"]) == 0
     assert imageio.read_image(out).shape == (5, 7, 3)
@@ -212,7 +214,7 @@ def test_a5mi_convert(tmp_path, scene, monkeypatch, capsys, variant) -> None:
     """Flag handling with a stand-in write_xml (the real one is exercised in test_a5mi_convert_real)."""
     written = []
     fake = type(sys)("a5mi.converters.to_xml")
-    fake.write_xml = lambda model, path, *, stock=False, settings=None: written.append((model, path, stock))
+    fake.write_xml = lambda desc, path, options=None, *, stock=False: written.append((desc, path, stock))
     monkeypatch.setitem(sys.modules, "a5mi.converters.to_xml", fake)
     assert cli.run_a5mi(["convert", scene, "-o", str(tmp_path / "s.xml"), "--stock"]) == 0
     (model, path, stock), = written

@@ -493,11 +493,11 @@ def test_issue8_fuzz_converter_stage_raises_only_positioned_scene_errors_and_no_
 def test_internal_error_summary_names_the_innermost_cause() -> None:
     """Mitsuba wraps a plugin's Python exception (with traceback text) into its own message: the one-line
     summary keeps the first line and the innermost cause, never the traceback."""
-    from a5mi.cli import _exception_summary
+    from a5mi.cli import exception_summary
 
     wrapped = RuntimeError('[parser.cpp:1718] At dictionary node "l": failed to instantiate plugin: Traceback '
                            '(most recent call last):\n  File "x.py", line 5, in f\nValueError: bad falloff')
-    assert _exception_summary(wrapped) == ('[parser.cpp:1718] At dictionary node "l": failed to instantiate '
+    assert exception_summary(wrapped) == ('[parser.cpp:1718] At dictionary node "l": failed to instantiate '
                                            "plugin: (ValueError: bad falloff)")
-    assert _exception_summary(KeyError("k")) == "'k'"
-    assert _exception_summary(ValueError("")) == ""
+    assert exception_summary(KeyError("k")) == "'k'"
+    assert exception_summary(ValueError("")) == ""

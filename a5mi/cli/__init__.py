@@ -1,0 +1,92 @@
+"""The command layer: ``a5`` (the sample solution's command line) and ``a5mi`` (the toolbox).
+
+One flag table and parser (:mod:`.flags`), one dispatcher, error guard, console and scene prologue
+(:mod:`.app`), and one module per command. :data:`SUBCOMMANDS` maps each ``a5mi`` sub-command to the
+:class:`~a5mi.cli.app.Command` that implements it (imported on use, so ``a5mi compare`` never loads the
+renderer). Libraries return data; only this package prints.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Sequence
+
+from a5mi.cli.app import Command, Console, exception_summary, execute
+from a5mi.cli.flags import Args
+
+#: ``a5mi`` sub-command -> ("module:COMMAND", one-line summary for ``a5mi -h``).
+SUBCOMMANDS: dict[str, tuple[str, str]] = {
+    "render": ("a5mi.cli.render:RENDER", "render a scene (the a5 flags)"),
+    "convert": ("a5mi.cli.convert:CONVERT", "convert a scene to Mitsuba XML (+ PLY meshes)"),
+    "compare": ("a5mi.cli.compare:COMPARE", "PSNR, mean error, share of pixels > 2/255 of two images (+ diff)"),
+    "fidelity": ("a5mi.cli.fidelity:FIDELITY", "re-render the reference images and print the fidelity table"),
+    "crosscheck": ("a5mi.cli.crosscheck:CROSSCHECK", "a5 Whitted vs Mitsuba's path tracer on the same rays"),
+    "bench": ("a5mi.cli.bench:BENCH", "time the stages (cold/warm), optionally against a5soln"),
+}
+
+A5MI_USAGE = """\
+usage: a5mi COMMAND [ARGS]   (a5mi --version; a5mi COMMAND -h for a command's flags)
+
+The a5mi toolbox: the MIT 6.837 assignment-5 renderer on Mitsuba 3 and the tools around it.
+
+commands:
+{commands}"""
+
+
+def command(name: str) -> Command:
+    """The :class:`Command` of sub-command ``name`` (a KeyError for an unknown name)."""
+    module, attr = SUBCOMMANDS[name][0].split(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def parse_a5_args(argv: Sequence[str]) -> Args:
+    """The ``a5`` command line parsed and validated as ``a5`` does before it reads any file (raises
+    :class:`~a5mi.errors.UsageError`): for tests and tools that take a5 command lines."""
+    from a5mi.cli.render import A5
+
+    return A5.parse(argv)
+
+
+def run(argv: Sequence[str]) -> int:
+    """``a5 ARGS``: render a scene (SPEC B.1). Returns the exit status (0, 1 internal error, 2 user error)."""
+    from a5mi.cli.render import A5
+
+    return execute(A5, argv)
+
+
+def run_a5mi(argv: Sequence[str]) -> int:
+    """``a5mi COMMAND ARGS``: dispatch through :data:`SUBCOMMANDS`."""
+    console = Console("a5mi")
+    if argv and argv[0] == "--version":
+        from a5mi import __version__
+
+        console.result(f"a5mi {__version__}")
+        return 0
+    if not argv or argv[0] in ("-h", "--help", "-help", "help"):
+        commands = "\n".join(f"  {name:<12}{summary}" for name, (_, summary) in SUBCOMMANDS.items())
+        text = A5MI_USAGE.format(commands=commands)
+        if argv:
+            console.result(text)
+            return 0
+        console.note(text)
+        return 2
+    name, rest = argv[0], argv[1:]
+    if name not in SUBCOMMANDS:
+        console.error(f"unknown command '{name[:40]}' (expected one of {', '.join(SUBCOMMANDS)})")
+        return 2
+    return execute(command(name), rest)
+
+
+def main_a5() -> None:
+    """Console script ``a5``."""
+    sys.exit(run(sys.argv[1:]))
+
+
+def main_a5mi() -> None:
+    """Console script ``a5mi``."""
+    sys.exit(run_a5mi(sys.argv[1:]))
+
+
+__all__ = ["SUBCOMMANDS", "command", "exception_summary", "main_a5", "main_a5mi", "parse_a5_args", "run",
+           "run_a5mi"]

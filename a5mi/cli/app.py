@@ -1,0 +1,250 @@
+"""The command layer's spine: commands, the dispatcher, the error guard, the console and the scene prologue.
+
+Every command (``a5`` and each ``a5mi`` sub-command) is a :class:`Command`: its flag table
+(:mod:`a5mi.cli.flags`), its positionals and a ``run(args, console)`` function that calls libraries (which
+return data) and prints through the :class:`Console`, the only printer of the project. :func:`execute` parses,
+answers ``-h`` / ``--version``, checks required flags and runs the command under :func:`guarded`, the one
+error policy (issue 8):
+
+* a user error (:class:`~a5mi.errors.UserError`, a scene's :class:`~a5mi.converters.errors.SceneError`)
+  prints one line, ``FILE:LINE:COL: error: ...`` or ``PROG: error: ...``, and returns 2;
+* anything else is a bug: one line ``PROG: internal error: Type: message (re-run with --debug for the
+  traceback)`` and 1; ``--debug`` prints tracebacks;
+* Ctrl-C returns 130 with ``PROG: interrupted``; a closed output pipe (``a5mi compare A B | head``) ends
+  quietly with 141 (128 + SIGPIPE, as a shell reports for coreutils).
+
+:func:`load_scene` is the one scene prologue: parse, print the parser's warnings, build the scene
+description once (every file checked, images decoded) and print its warnings, all before Mitsuba is imported.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import sys
+import time
+import traceback
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal, TextIO
+
+from a5mi.cli.flags import COMMON, Args, Flag, Positional, format_help, parse
+from a5mi.errors import UsageError, UserError
+
+
+@dataclass(frozen=True)
+class Command:
+    """One command: ``name`` (``a5`` or the sub-command), its one-line ``summary``, ``flags`` (the common
+    ``-q --debug --version -h`` are added), ``positionals``, ``run(args, console) -> exit status``, the
+    ``grammar`` (:func:`a5mi.cli.flags.parse`), the dests that must be given (``required``), an ``epilog``
+    for ``-h`` and ``check(args)``: limits across several flags, raising :class:`UsageError`."""
+
+    name: str
+    summary: str
+    flags: tuple[Flag, ...]
+    run: Callable[[Args, Console], int]
+    positionals: tuple[Positional, ...] = ()
+    grammar: Literal["a5", "gnu"] = "gnu"
+    required: tuple[str, ...] = ()
+    epilog: str = ""
+    check: Callable[[Args], None] | None = None
+
+    @property
+    def prog(self) -> str:
+        return self.name if self.name == "a5" else f"a5mi {self.name}"
+
+    @property
+    def all_flags(self) -> tuple[Flag, ...]:
+        return (*self.flags, *COMMON)
+
+    def parse(self, argv: Sequence[str]) -> Args:
+        """Parse and validate ``argv``: flags, required flags, :attr:`check` (not for ``-h`` / ``--version``)."""
+        args = parse(argv, self.all_flags, self.positionals, grammar=self.grammar, see=f"{self.prog} -h")
+        if args.help or args.version:
+            return args
+        for dest in self.required:
+            if args.get(dest) is None:
+                f = next(f for f in self.flags if dest in f.dests)
+                raise UsageError(f"missing {f.names[0]}{' ' + f.metavar if f.metavar else ''}")
+        if self.check is not None:
+            self.check(args)
+        return args
+
+    def help(self) -> str:
+        return format_help(self.prog, self.summary, self.all_flags, self.positionals, grammar=self.grammar,
+                           required=self.required, epilog=self.epilog)
+
+
+class Console:
+    """The only printer: results on stdout, warnings / notes / errors on stderr (one line each).
+
+    ``quiet`` drops warnings (``-q``); errors and results are always printed."""
+
+    def __init__(self, prog: str, *, quiet: bool = False, out: TextIO | None = None,
+                 err: TextIO | None = None) -> None:
+        self.prog, self.quiet = prog, quiet
+        self._out, self._err = out, err
+
+    @property
+    def out(self) -> TextIO:
+        return self._out or sys.stdout
+
+    @property
+    def err(self) -> TextIO:
+        return self._err or sys.stderr
+
+    def result(self, text: str) -> None:
+        """A command's answer (a table, JSON, help): stdout."""
+        print(text, file=self.out)
+
+    def note(self, text: str) -> None:
+        """Progress and statistics (``-v``): stderr."""
+        print(text, file=self.err)
+
+    def warnings(self, items: Iterable[tuple[Any, str]]) -> None:
+        """``FILE:LINE:COL: warning: ...`` per (loc, message), unless quiet."""
+        for loc, msg in items:
+            if not self.quiet:
+                print(f"{loc}: warning: {msg}", file=self.err)
+
+    def error(self, msg: str) -> None:
+        """One error line: positioned messages as they are, others as ``PROG: error: msg``."""
+        line = msg if ": error: " in msg else f"{self.prog}: error: {msg}"
+        print((line.splitlines() or [""])[0], file=self.err)
+
+    def progress(self, enabled: bool) -> ProgressBar:
+        return ProgressBar(self.err, enabled=enabled)
+
+
+class ProgressBar:
+    """A one-line bar on a terminal's stderr, shown once a render has taken more than ``delay`` seconds; a
+    callback ``(done, total)`` for the driver."""
+
+    def __init__(self, stream: TextIO, enabled: bool, delay: float = 2.0, width: int = 30) -> None:
+        self.stream, self.enabled, self.delay, self.width = stream, enabled, delay, width
+        self.start = time.perf_counter()
+        self.shown = False
+
+    def __call__(self, done: int, total: int) -> None:
+        elapsed = time.perf_counter() - self.start
+        if not self.enabled or (elapsed < self.delay and done < total) or (not self.shown and done >= total):
+            return
+        frac = done / total if total else 1.0
+        fill = int(frac * self.width)
+        eta = elapsed / frac - elapsed if frac > 0 else 0.0
+        self.stream.write(f"\r[{'#' * fill}{'.' * (self.width - fill)}] {frac:4.0%}  {elapsed:6.1f} s  "
+                          f"eta {eta:5.1f} s")
+        self.stream.flush()
+        self.shown = True
+        if done >= total:
+            self.stream.write("\n")
+
+
+# ------------------------------------------------------------------------------------------ running commands
+def execute(command: Command, argv: Sequence[str], console: Console | None = None) -> int:
+    """Parse ``argv`` for ``command`` and run it under :func:`guarded`; returns the exit status."""
+    console = console or Console(command.prog)
+    debug = any(a in ("--debug", "-debug") for a in argv)
+
+    def body() -> int:
+        args = command.parse(argv)
+        if args.help:
+            console.result(command.help().rstrip("\n"))
+            return 0
+        if args.version:
+            from a5mi import __version__
+
+            console.result(f"{command.prog} {__version__}")
+            return 0
+        console.quiet = bool(args.quiet)
+        return command.run(args, console)
+
+    return guarded(console, debug, body)
+
+
+def guarded(console: Console, debug: bool, body: Callable[[], int]) -> int:
+    """Run ``body`` with the error policy of the module docstring; returns the exit status."""
+    from a5mi.converters.errors import SceneError
+
+    try:
+        return body()
+    except SceneError as exc:
+        if debug:
+            traceback.print_exc()
+        console.error(str(exc) if exc.loc is not None else exc.msg)
+        return 2
+    except UserError as exc:
+        if debug:
+            traceback.print_exc()
+        console.error(str(exc))
+        return 2
+    except KeyboardInterrupt:
+        console.error("interrupted")
+        return 130
+    except BrokenPipeError:
+        _silence_stdout()
+        return 141
+    except Exception as exc:  # noqa: BLE001 - the last line of defence: report a bug, not a traceback
+        if debug:
+            traceback.print_exc()
+        else:
+            detail = exception_summary(exc)
+            console.note(f"{console.prog}: internal error: {type(exc).__name__}{': ' + detail if detail else ''} "
+                         "(re-run with --debug for the traceback)")
+        return 1
+
+
+def _silence_stdout() -> None:
+    """After EPIPE: point stdout at /dev/null so the interpreter's final flush cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
+
+
+def exception_summary(exc: BaseException) -> str:
+    """One line for an unexpected exception: its first line, plus the innermost cause when Mitsuba's
+    ``load_dict`` has wrapped a plugin's Python exception (with its traceback text) into its message."""
+    head, *embedded = str(exc).split("Traceback")
+    first = (head.strip().splitlines() or [""])[0]
+    if embedded:
+        lines = [ln.strip() for ln in embedded[-1].strip().splitlines() if ln.strip()]
+        if lines and re.match(r"[A-Za-z_][\w.]*(Error|Exception|Exit|Interrupt)\b", lines[-1]):
+            return f"{first} ({lines[-1]})" if first else lines[-1]
+    return first
+
+
+# ------------------------------------------------------------------------------------------ the scene prologue
+def load_scene(path: str, console: Console, *, stock: bool = False) -> Any:
+    """Parse ``path`` (SPEC A), print the parser's warnings, build the scene description once (every mesh,
+    texture and cube-map face read and checked) and print its warnings; raises positioned scene errors.
+    Mitsuba is not imported. Returns the description that the renderers and writers take."""
+    from a5mi.converters.a5_parser import parse_file
+    from a5mi.converters.describe import describe
+
+    if path == "":
+        raise UserError("the scene file name is empty")
+    try:
+        model = parse_file(path)
+    except OSError as exc:
+        raise UserError(f"cannot read '{path}': {exc.strerror or exc}") from None
+    console.warnings(model.warnings)
+    desc = describe(model, stock=stock)
+    console.warnings(desc.warnings)
+    return desc
+
+
+def activate_variant(requested: str | None = None) -> str:
+    """:func:`a5mi.variant.activate` with its failures as user errors (the message names the fix)."""
+    from a5mi import variant
+
+    try:
+        return variant.activate(requested)
+    except variant.VariantError as exc:
+        raise UserError(str(exc)) from None
+
+
+__all__ = ["Command", "Console", "ProgressBar", "activate_variant", "exception_summary", "execute", "guarded",
+           "load_scene"]

@@ -1,0 +1,164 @@
+"""``a5`` / ``a5mi render``: flags -> scene description -> render -> images (SPEC B.1, B.5, B.6).
+
+The render flags are one table (:data:`RENDER_FLAGS`) used by ``a5`` in the sample solution's strict grammar
+and by ``a5mi render`` (and the sub-commands that render) in GNU style. Their dests are the field names of
+:class:`a5mi.options.RenderOptions`, so :func:`render_options` builds the one options object without copying
+fields by hand. Outputs are checked (extension, folder, distinct files) before the scene is parsed and
+written, each atomically and all or nothing, only after everything has rendered.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import sys
+import time
+from typing import Any
+
+from a5mi.cli.app import Command, Console, activate_variant, load_scene
+from a5mi.cli.flags import Args, Flag, choice, integer, number, text
+from a5mi.errors import UsageError
+from a5mi.options import AOV_MODES, KERNELS, RenderOptions
+from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR, MAX_SIZE
+
+#: Render-buffer samples (3W x 3H with -jitter) accepted before anything is allocated.
+MAX_SAMPLES = 1 << 28
+
+
+def _depth(flag: str, values: list[str]) -> tuple[tuple[float, float], str]:
+    return (number(flag, values[0]), number(flag, values[1])), text(flag, values[2:])
+
+
+#: SPEC B.1 flags, then the extras; dests are RenderOptions fields (plus the output paths).
+RENDER_FLAGS: tuple[Flag, ...] = (
+    Flag(("-input", "--input"), "input", "scene file (relative paths: its folder first, then the working "
+         "directory)", 1, text, metavar="SCENE.txt"),
+    Flag(("-output", "--output"), "output", "image to write: .png .bmp .tga .ppm .tif .tiff (8-bit) or .exr",
+         1, text, metavar="IMG"),
+    Flag(("-size", "--size"), ("width", "height"), "image size; non-square sizes work", 2, integer(1, MAX_SIZE),
+         DEFAULT_SIZE, "W H"),
+    Flag(("-shadows", "--shadows"), "shadows", "cast shadow rays", default=False, show_default=False),
+    Flag(("-bounces", "--bounces"), "bounces", "reflection/refraction depth (0: ambient + diffuse only)", 1,
+         integer(0, 64), DEFAULT_BOUNCES, "N"),
+    Flag(("-jitter", "-jittered", "--jitter"), "jitter", "3W x 3H samples with glibc rand() offsets (alone: saves "
+         "the 3W x 3H image)", default=False, show_default=False),
+    Flag(("-filter", "--filter"), "filter", "blur + 3x3 downsample (with -jitter: W x H; alone: W/3 x H/3)",
+         default=False, show_default=False),
+    Flag(("-normals", "--normals"), "normals_output", "also write |N| of the first hit (render size, unfiltered)",
+         1, text, metavar="IMG"),
+    Flag(("-depth", "--depth"), ("depth", "depth_output"), "also write the depth image (1 at DMIN, 0 at DMAX)", 3,
+         _depth, (None, None), "DMIN DMAX IMG"),
+    Flag(("-reflection_off", "--reflection-off"), "reflection", "no mirror rays", const=False, default=True,
+         show_default=False),
+    Flag(("-refraction_off", "--refraction-off"), "refraction", "no refracted rays", const=False, default=True,
+         show_default=False),
+    Flag(("-seed", "--seed"), "seed", "jitter from numpy's PCG64 with seed N instead of glibc rand() (seed 1)", 1,
+         integer(0, 2**63 - 1), metavar="N"),
+    Flag(("-variant", "--variant"), "variant", "llvm (default; or $A5MI_VARIANT), cuda or auto", 1,
+         choice(("llvm", "cuda", "auto")), metavar="V"),
+    Flag(("-threads", "--threads"), "threads", "Dr.Jit worker threads", 1, integer(1, 1024), metavar="N"),
+    Flag(("-phong", "--phong"), "phong", "add the handout's Phong highlight (a5soln has none)", default=False,
+         show_default=False),
+    Flag(("-fresnel", "--fresnel"), "fresnel", "a5 (the binary's R0), schlick or exact", 1, choice(FRESNEL_MODES),
+         "a5", "MODE"),
+    Flag(("-kernel", "--kernel"), "kernel", "blur kernel: binary (centre tap 0.2921) or handout (0.2931, a typo)",
+         1, choice(KERNELS), "binary", "K"),
+    Flag(("-normals_mode", "--normals-mode"), "aov_mode", "main (-normals/-depth use the image's rays) or "
+         "quadrant (a5soln's top-right-quadrant rays, SPEC B.6)", 1, choice(AOV_MODES), "main", "M"),
+    Flag(("-v", "--verbose"), "verbose", "print stage timings, ray counts and peak memory on stderr",
+         default=False, show_default=False),
+)
+
+
+def render_options(args: Args, **overrides: Any) -> RenderOptions:
+    """The one :class:`RenderOptions` of parsed render flags: every flag whose dest is a field, plus the AOV
+    images asked for by ``-normals`` / ``-depth`` and ``count_rays`` = ``-v``; ``overrides`` win."""
+    names = {f.name for f in dataclasses.fields(RenderOptions)}
+    values = {k: v for k, v in args.items() if k in names and v is not None}
+    values["normals"] = args.get("normals_output") is not None
+    values["count_rays"] = bool(args.get("verbose"))
+    values.update(overrides)
+    return RenderOptions(**values)
+
+
+def check_render_args(args: Args) -> None:
+    """Limits that depend on several flags (SPEC B.5): the sample budget and ``-filter``'s minimum size."""
+    k = JITTER_FACTOR if args.jitter else 1
+    samples = args.width * args.height * k * k
+    if samples > MAX_SAMPLES:
+        raise UsageError(f"-size {args.width} {args.height}{' with -jitter' if args.jitter else ''} is {samples} "
+                         f"samples; the limit is {MAX_SAMPLES}")
+    if args.filter and not args.jitter and (args.width < 3 or args.height < 3):
+        raise UsageError(f"-filter without -jitter saves a W/3 x H/3 image; -size {args.width} {args.height} is "
+                         "too small")
+
+
+def outputs_of(args: Args) -> list[tuple[str, str]]:
+    """(role, path) of every image the command writes, checked before rendering."""
+    from a5mi import imageio
+
+    outs = [("-output", args.output)]
+    if args.get("normals_output"):
+        outs.append(("-normals", args.normals_output))
+    if args.get("depth_output"):
+        outs.append(("-depth", args.depth_output))
+    for _, path in outs:
+        imageio.check_output_path(path)
+    if len({os.path.realpath(p) for _, p in outs}) != len(outs):
+        raise UsageError("-output, -normals and -depth must name different files")
+    return outs
+
+
+def run_render(args: Args, console: Console) -> int:
+    """Check outputs, load the scene once, activate the variant, render, then write every image atomically."""
+    from a5mi import driver, imageio
+
+    outputs = outputs_of(args)
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    desc = load_scene(args.input, console)
+    timings["parse"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    variant = activate_variant(args.variant)
+    timings["variant"] = time.perf_counter() - t0
+
+    options = render_options(args)
+    bar = console.progress(enabled=bool(args.verbose) or sys.stderr.isatty())
+    result = driver.render(desc, options, progress=bar)
+    timings.update(result.timings)
+
+    t0 = time.perf_counter()
+    images = {"-output": result.image, "-normals": result.normals, "-depth": result.depth}
+    imageio.write_images([(path, images[role]) for role, path in outputs])
+    timings["write"] = time.perf_counter() - t0
+    if args.verbose:
+        _report(console, variant, result, timings)
+    return 0
+
+
+def _report(console: Console, variant: str, result: Any, timings: dict[str, float]) -> None:
+    import resource
+
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    rw, rh = result.render_size
+    h, w = result.image.shape[:2]
+    p = console.prog
+    console.note(f"{p}: {variant}, render {rw}x{rh} ({result.camera_rays} camera rays, {result.tiles} tiles), "
+                 f"saved {w}x{h}")
+    if result.ray_counts:
+        console.note(f"{p}: secondary rays " + ", ".join(f"{k} {v}" for k, v in result.ray_counts.items()))
+    order = ("parse", "variant", "build", "compile", "execute", "render", "jitter", "filter", "write")
+    console.note(f"{p}: times " + ", ".join(f"{k} {timings[k]:.3f} s" for k in order if k in timings))
+    console.note(f"{p}: peak memory {peak_mb:.0f} MB")
+
+
+_SUMMARY = "Render a 6.837 assignment-5 scene as the course's sample solution a5soln does (SPEC B.1)."
+
+#: ``a5``: the sample solution's command line, strict single-dash grammar.
+A5 = Command("a5", _SUMMARY, RENDER_FLAGS, run_render, grammar="a5", required=("input", "output"),
+             check=check_render_args,
+             epilog="Flags in any order; a flag given twice keeps its last value. Exit status: 0 written, "
+                    "1 internal error, 2 user error.")
+#: ``a5mi render``: the same flags, GNU style (the a5 spellings are aliases).
+RENDER = Command("render", "render a scene (the a5 flags; see 'a5 -h')", RENDER_FLAGS, run_render,
+                 required=("input", "output"), epilog=A5.epilog, check=check_render_args)
