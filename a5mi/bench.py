@@ -58,6 +58,7 @@ import numpy as np
 import numpy.typing as npt
 
 from a5mi import data_dir, require_data_dir
+from a5mi.spec import TMIN
 
 #: The benchmark scenes, relative to the course data folder.
 SCENES: tuple[str, ...] = (
@@ -85,7 +86,6 @@ VERBOSE_STAGES: tuple[str, ...] = ("parse", "variant", "build", "render", "filte
 #: Stages measured in-process for the table (``render`` split into kernel compile and execution).
 STAGES: tuple[str, ...] = ("parse", "build", "compile", "execute", "filter", "write")
 RAY_KINDS: tuple[str, ...] = ("camera", "reflection", "refraction", "shadow")
-TMIN = 0.001  # SPEC B.3: tmin of secondary and shadow rays
 
 
 # --------------------------------------------------------------------------------------------------------

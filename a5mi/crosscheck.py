@@ -10,8 +10,9 @@ difference is light transport, never sampling:
 * ``path``: the ``stock=True`` conversion rendered by Mitsuba's own ``path`` integrator, ``spp`` samples
   through each pixel centre, ``max_depth = bounces + 2`` (camera segment + ``bounces`` secondary segments +
   the light connection of the last hit, the longest path ``a5_whitted`` forms) and no Russian roulette;
-* a class pass: a depth-first walk of the same Whitted ray tree (same push rules as SPEC B.3) that marks
-  each pixel as *background* (the camera ray misses), *opaque* (the tree never hits a material with
+* a class pass: ``a5_whitted``'s ``class`` AOV (computed inside the same SPEC B.3 ray-tree kernel, so the
+  push rules are the colour's), rendered by :func:`a5mi.driver.render_scene`, marks each pixel as
+  *background* (the camera ray misses), *opaque* (the tree never hits a material with
   ``refraction_index > 0``) or *glass* (some node of the tree hits one, the last level included).
 
 The three Fresnel modes can only differ where a refracted ray is pushed, so they agree **exactly** (bit for
@@ -44,9 +45,8 @@ import numpy as np
 import numpy.typing as npt
 
 from a5mi.compare import Metrics, compare_arrays, heatmap
+from a5mi.spec import FRESNEL_MODES, TMIN
 
-#: The Whitted Fresnel modes, in montage order.
-FRESNEL_MODES: tuple[str, ...] = ("a5", "schlick", "exact")
 #: Every rendering of a cross-check, in montage order.
 LABELS: tuple[str, ...] = (*FRESNEL_MODES, "path")
 #: Reported pairs (A, B); metrics are of B against A.
@@ -54,7 +54,7 @@ PAIRS: tuple[tuple[str, str], ...] = (
     ("a5", "schlick"), ("a5", "exact"), ("schlick", "exact"),
     ("a5", "path"), ("schlick", "path"), ("exact", "path"),
 )  # fmt: skip
-#: Pixel classes of :func:`pixel_classes`.
+#: Pixel classes of :func:`pixel_classes`: the values of ``a5_whitted``'s ``class`` AOV.
 BACKGROUND, OPAQUE, GLASS = 0, 1, 2
 #: Upper bound of path-traced lanes per kernel launch (memory); the kernel is compiled once.
 PATH_LANES = 1 << 20
@@ -129,102 +129,6 @@ class CrosscheckResult:
         return self.classes == GLASS
 
 
-# --------------------------------------------------------------------------------------------------------
-# The class pass: does the Whitted ray tree of a pixel touch a dielectric?
-# --------------------------------------------------------------------------------------------------------
-
-
-# Dr.Jit may only load after a5mi.variant's LLVM check, and @dr.syntax drops closures: the kernel is a plain
-# module-level function whose globals below are bound, and which is converted by dr.syntax, on first use.
-dr: Any = None  # drjit
-mi: Any = None  # mitsuba
-_snell: Any = None  # a5mi.plugins.common.snell
-_reflect: Any = None  # a5mi.plugins.common.reflect
-_MIRROR_THRESHOLD: Any = None  # a5mi.plugins.whitted.MIRROR_THRESHOLD (SPEC B.3 |specularColor| > 0.001)
-_touch_kernel: Any = None
-
-
-def _touch_trace_source(scene, ray_o, ray_d, max_depth, tmin, size, reflection, refraction):  # noqa: ANN001, ANN202
-    """Walk the SPEC B.3 ray tree of each camera ray; return ``(camera ray hit, some node hit glass)``.
-
-    The push rules are ``a5_whitted``'s: a mirror child when ``bounces > 0`` and ``|specularColor| > 0.001``,
-    a refracted child when ``bounces > 0``, ``refractionIndex > 0`` and Snell has a solution (medium index
-    tracked along the ray, ``nt = 1`` when leaving by the sign of d·N). A node "hits glass" when its material
-    has ``refraction_index > 0``; weights are irrelevant here, so the tree is the same for every Fresnel mode.
-    """
-    width = dr.width(ray_d)
-    stack_o = dr.alloc_local(mi.Point3f, size)
-    stack_d = dr.alloc_local(mi.Vector3f, size)
-    stack_b = dr.alloc_local(mi.UInt32, size)   # remaining bounces
-    stack_n = dr.alloc_local(mi.Float, size)    # index of the medium the ray travels in
-    stack_t = dr.alloc_local(mi.Float, size)    # the ray's tmin
-    zero_u = dr.zeros(mi.UInt32, width)
-    stack_o[zero_u] = mi.Point3f(ray_o)
-    stack_d[zero_u] = mi.Vector3f(ray_d)
-    stack_b[zero_u] = zero_u + max_depth
-    stack_n[zero_u] = dr.full(mi.Float, 1.0, width)
-    stack_t[zero_u] = dr.zeros(mi.Float, width)
-    top = zero_u + 1                                     # stack pointer, full width
-    first = dr.full(mi.Bool, True, width)               # the node is the camera ray
-    first_hit = dr.full(mi.Bool, False, width)          # the camera ray hit something
-    glass = dr.full(mi.Bool, False, width)              # some node hit a dielectric
-    while top > 0:
-        top -= 1
-        o = stack_o[top]
-        d = stack_d[top]
-        bounces = stack_b[top]
-        n_medium = stack_n[top]
-        t_min = stack_t[top]
-        si = scene.ray_intersect(mi.Ray3f(o + t_min * d, d))
-        hit = si.is_valid()
-        p = o + (si.t + t_min) * d
-        n = mi.Vector3f(si.sh_frame.n)
-        bsdf = si.bsdf()
-        a5 = bsdf.has_attribute("diffuse_color", hit) & hit
-        specular = bsdf.eval_attribute_3("specular_color", si, a5)
-        ior = bsdf.eval_attribute_1("refraction_index", si, a5)
-        glass |= a5 & (ior > 0.0)
-        first_hit = dr.select(first, hit, first_hit)
-        first = dr.full(mi.Bool, False, width)
-        go = hit & (bounces > 0)
-        if refraction:
-            leaving = dr.dot(d, n) > 0.0
-            n_facing = dr.select(leaving, -n, n)
-            nt = dr.select(leaving, 1.0, ior)
-            t_dir, exists = _snell(d, n_facing, n_medium, nt)
-            push_refr = go & a5 & (ior > 0.0) & exists
-            stack_o.write(p, top, push_refr)
-            stack_d.write(t_dir, top, push_refr)
-            stack_b.write(bounces - 1, top, push_refr)
-            stack_n.write(nt, top, push_refr)
-            stack_t.write(tmin, top, push_refr)
-            top += dr.select(push_refr, 1, 0)
-        if reflection:
-            push_refl = go & a5 & (dr.norm(specular) > _MIRROR_THRESHOLD)
-            stack_o.write(p, top, push_refl)
-            stack_d.write(_reflect(d, n), top, push_refl)
-            stack_b.write(bounces - 1, top, push_refl)
-            stack_n.write(n_medium, top, push_refl)
-            stack_t.write(tmin, top, push_refl)
-            top += dr.select(push_refl, 1, 0)
-    return first_hit, glass
-
-
-def _touch_trace(*args: Any) -> tuple[Any, Any]:
-    """:func:`_touch_trace_source` as a ``@dr.syntax`` kernel (bound on first call)."""
-    global dr, mi, _snell, _reflect, _MIRROR_THRESHOLD, _touch_kernel
-    if _touch_kernel is None:
-        import drjit
-        import mitsuba
-
-        from a5mi.plugins.common import reflect, snell
-        from a5mi.plugins.whitted import MIRROR_THRESHOLD
-
-        dr, mi, _snell, _reflect, _MIRROR_THRESHOLD = drjit, mitsuba, snell, reflect, MIRROR_THRESHOLD
-        _touch_kernel = drjit.syntax(_touch_trace_source)
-    return _touch_kernel(*args)
-
-
 def _pixel_rays(camera: Any, width: int, height: int, repeat: int = 1) -> Any:
     """SPEC B.2 camera rays through the pixel centres, row-major from the bottom row, each ``repeat`` times
     (sample-major: lane ``k·W·H + j·W + i``)."""
@@ -239,31 +143,30 @@ def _pixel_rays(camera: Any, width: int, height: int, repeat: int = 1) -> Any:
 
 
 def pixel_classes(
-    mi_scene: Any, camera: Any, width: int, height: int, bounces: int, *, tmin: float = 0.001,
+    mi_scene: Any, camera: Any, width: int, height: int, bounces: int, *, tmin: float = TMIN,
     reflection: bool = True, refraction: bool = True,
 ) -> npt.NDArray[np.uint8]:
     """Class of each pixel (HxW, row 0 = top): :data:`BACKGROUND`, :data:`OPAQUE` or :data:`GLASS`.
 
     Parameter ``mi_scene``: a loaded scene with a5 materials. ``camera``: ``center``, ``direction``, ``up``,
     ``angle`` (SPEC A.2). ``bounces``, ``tmin``, ``reflection``, ``refraction``: as ``a5_whitted``'s.
-    Output: ``GLASS`` where some node of the pixel's SPEC B.3 ray tree hits a material with
+    Output: the ``class`` AOV of ``a5_whitted`` (SPEC B.3 ray tree, pixel centres of SPEC B.2) rendered by
+    :func:`a5mi.driver.render_scene`: ``GLASS`` where some node of the pixel's ray tree hits a material with
     ``refraction_index > 0``; else ``BACKGROUND`` where the camera ray misses, else ``OPAQUE``.
     """
-    import drjit as dr
     import mitsuba as mi
 
-    from a5mi.plugins.whitted import stack_size
+    from a5mi.driver import render_scene
+    from a5mi.options import RenderOptions
 
-    ray = _pixel_rays(camera, width, height)
-    first_hit, glass = _touch_trace(
-        mi_scene, ray.o, ray.d, dr.opaque(mi.UInt32, bounces), dr.opaque(mi.Float, tmin), stack_size(bounces),
-        reflection, refraction,
-    )
-    dr.eval(first_hit, glass)
-    hit = np.asarray(first_hit, dtype=bool).reshape(height, width)
-    gl = np.asarray(glass, dtype=bool).reshape(height, width)
-    out = np.where(gl, GLASS, np.where(hit, OPAQUE, BACKGROUND)).astype(np.uint8)
-    return np.ascontiguousarray(out[::-1])
+    integ = mi.load_dict({"type": "a5_whitted", "max_depth": bounces, "tmin": float(tmin),
+                          "reflection": reflection, "refraction": refraction, "aovs": "class"})
+    ro = RenderOptions(width=width, height=height, bounces=bounces, reflection=reflection,
+                       refraction=refraction, classes=True)
+    classes = render_scene(mi_scene, camera, ro, integrator=integ).classes
+    if classes is None:
+        raise RuntimeError("render_scene returned no class image although RenderOptions.classes asked for one")
+    return classes
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -407,7 +310,7 @@ def crosscheck_dicts(
         timings[mode] = time.perf_counter() - t0
     t0 = time.perf_counter()
     classes = pixel_classes(a5_scene, camera, options.width, options.height, options.bounces,
-                            tmin=float(integrator.get("tmin", 0.001)))
+                            tmin=float(integrator.get("tmin", TMIN)))
     timings["classes"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     stock_scene = mi.load_dict(path_dict(stock_dict, options))
@@ -491,7 +394,7 @@ def explain(scene_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]:
     c, f = whitted(dimmed, no_ambient), whitted(no_lamps, no_ambient)
     d, e, g = path(a5d), path(no_lamps), path(stock)
     classes = pixel_classes(mi.load_dict(a5d), cam, options.width, options.height, options.bounces,
-                            tmin=float(integ.get("tmin", 0.001)))
+                            tmin=float(integ.get("tmin", TMIN)))
 
     def term(name: str, how: str, x: npt.NDArray[np.float64]) -> ExplainTerm:
         glass, other = classes == GLASS, classes == OPAQUE

@@ -18,7 +18,12 @@
 * ``-normals``: ``|N|`` per component; ``-depth dmin dmax``: gray ``1`` if ``t <= dmin``, ``0`` if
   ``t >= dmax`` or ``dmin >= dmax``, else ``1 - (t - dmin)/(dmax - dmin)`` (SPEC B.6), both at the render
   buffer's resolution, unfiltered, traced with the main image's rays (``aov_mode="quadrant"``: with the
-  binary's top-right-quadrant rays instead, a second pass).
+  binary's top-right-quadrant rays instead, a second pass);
+* ``classes`` (:attr:`RenderOptions.classes`): the ``class`` AOV of ``a5_whitted`` per sample of the main
+  pass (0 the camera ray misses, 1 opaque, 2 the SPEC B.3 ray tree touches a material with
+  ``refraction_index > 0``), uint8 at the render buffer's resolution, unfiltered.
+
+AOVs are read from the integrator **by name** (``dict(zip(integrator.aov_names(), aovs))``).
 
 Images in :class:`RenderResult` have row 0 = the **top** row (ready for :func:`a5mi.imageio.write_image`).
 This module never prints: progress goes through a callback.
@@ -39,14 +44,14 @@ from a5mi.filters import FilterStream, postprocess
 from a5mi.glibc_rand import glibc_stream, jitter_offsets
 from a5mi.options import TILE_RAYS, RenderOptions  # noqa: F401 - re-exported
 
-FRESNEL_MODES = ("a5", "schlick", "exact")  # moved to a5mi.spec; kept until the spine lands
 Progress = Callable[[int, int], None]  # (samples done, samples total)
 CameraRays = Callable[..., Any]  # a5mi.plugins.camera.camera_rays
 
 
 @dataclass
 class RenderResult:
-    """The saved image and the AOV images (float32 HxWx3, row 0 = top) plus statistics.
+    """The saved image and the AOV images (float32 HxWx3, row 0 = top) plus statistics; ``classes``
+    (uint8 RHxRW, row 0 = top) is the ``class`` AOV when :attr:`RenderOptions.classes` asked for it.
 
     ``timings`` (seconds): ``build`` (dict + ``mi.load_dict``), ``compile`` (Dr.Jit codegen + LLVM),
     ``execute`` (kernels), ``render`` (wall time of the tile loop, without the filter), ``jitter`` (offset
@@ -65,6 +70,8 @@ class RenderResult:
     #: kernel launches by where the kernel came from: ``memory`` (this process's cache), ``disk``
     #: (Dr.Jit's cache folder), ``compiled`` (LLVM ran); a repeated render should be all ``memory``
     kernels: dict[str, int] = field(default_factory=dict)
+    #: per-sample ray-tree class (0 miss, 1 opaque, 2 glass), when ``RenderOptions.classes`` asked for it
+    classes: npt.NDArray[np.uint8] | None = None
 
 
 def depth_gray(t: npt.ArrayLike, dmin: float, dmax: float) -> npt.NDArray[np.float32]:
@@ -198,12 +205,14 @@ def quadrant_coords(rw: int, rh: int, j0: int, j1: int) -> tuple[np.ndarray, np.
 @dataclass
 class _Pass:
     """Buffers and counters of one tile loop over the render buffer. ``trace_color``: the pass computes the
-    colour, stored in ``color`` (full render buffer) or pushed to ``stream`` (blur + downsample as it goes)."""
+    colour, stored in ``color`` (full render buffer) or pushed to ``stream`` (blur + downsample as it goes);
+    ``normal``, ``dist``, ``classes``: the AOV buffers the pass fills (None: not asked for)."""
 
     color: np.ndarray | None
     normal: np.ndarray | None
     dist: np.ndarray | None
     stream: FilterStream | None = None
+    classes: np.ndarray | None = None
     counts: dict[str, int] = field(default_factory=dict)
     kernels: dict[str, int] = field(default_factory=dict)  # launches by source: memory / disk / compiled
 
@@ -211,48 +220,63 @@ class _Pass:
     def trace_color(self) -> bool:
         return self.color is not None or self.stream is not None
 
+    @property
+    def aov_names(self) -> tuple[str, ...]:
+        """Names of the integrator AOVs this pass stores (``a5_whitted`` channel names)."""
+        return (("nx", "ny", "nz") if self.normal is not None else ()) + (
+            ("t",) if self.dist is not None else ()) + (("class",) if self.classes is not None else ())
+
+
+@dataclass(frozen=True)
+class _TraceContext:
+    """What every tile loop of one render shares: the loaded scene, the a5 camera (``center``,
+    ``direction``, ``up``, ``angle``), the integrator, the SPEC B.2 ray generator, the render buffer size
+    ``(RW, RH)``, the timings being filled, the progress callback and the total number of samples."""
+
+    scene: Any
+    camera: Any
+    integrator: Any
+    camera_rays: CameraRays
+    size: tuple[int, int]
+    timings: dict[str, float]
+    progress: Progress | None
+    total: int
+
 
 _COUNT_NAMES = ("reflection", "refraction", "shadow")
 
 
 def _trace_pass(
-    mi_scene: Any,
-    camera: Any,
-    integrator: Any,
-    camera_rays: CameraRays,
-    rw: int,
-    rh: int,
-    tiles: Iterator[tuple[int, int, np.ndarray, np.ndarray]],
-    buffers: _Pass,
-    timings: dict[str, float],
-    progress: Progress | None,
-    done: int,
-    total: int,
+    ctx: _TraceContext, tiles: Iterator[tuple[int, int, np.ndarray, np.ndarray]], buffers: _Pass, done: int
 ) -> int:
-    """Trace every tile ``(j0, j1, x_pix, y_pix)`` and fill ``buffers``; returns the updated ``done``."""
+    """Trace every tile ``(j0, j1, x_pix, y_pix)`` (SPEC B.2 rays through ``x_pix``, ``y_pix``) and fill
+    ``buffers``; ``done`` samples were traced before; returns the updated ``done``."""
     import drjit as dr
     import mitsuba as mi
 
+    camera, integrator, timings = ctx.camera, ctx.integrator, ctx.timings
+    rw, rh = ctx.size
     sampler = mi.load_dict({"type": "independent", "sample_count": 1})
     want_aov = buffers.normal is not None or buffers.dist is not None
     with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
         dr.kernel_history_clear()
         for j0, j1, x_pix, y_pix in tiles:
             n = (j1 - j0) * rw
-            ray = camera_rays(
+            ray = ctx.camera_rays(
                 camera.center, camera.direction, camera.up, camera.angle,
                 mi.Float(aligned_float32(x_pix)), mi.Float(aligned_float32(y_pix)), rw, rh,
             )  # fmt: skip
             sampler.seed(0, n)
-            rgb, _valid, aovs = integrator.sample(mi_scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
+            rgb, _valid, aovs = integrator.sample(ctx.scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
             named = dict(zip(integrator.aov_names(), aovs, strict=True))
-            missing = [k for k in (("nx", "ny", "nz") if buffers.normal is not None else ())
-                       + (("t",) if buffers.dist is not None else ()) if k not in named]
+            missing = [k for k in buffers.aov_names if k not in named]
             if missing:
                 raise RuntimeError(f"integrator has no AOV {', '.join(missing)} (a5_whitted 'aovs' parameter)")
             counted = [named[f"n_{k}"] for k in _COUNT_NAMES if f"n_{k}" in named] if buffers.trace_color else []
             outputs = ([rgb] if buffers.trace_color else []) + [named[k] for k in ("nx", "ny", "nz", "t")
                                                                  if k in named and want_aov]
+            if buffers.classes is not None:
+                outputs.append(named["class"])
             # one kernel for everything: a reduction of an unevaluated count would trace the scene again
             dr.eval(*outputs, *counted)
             dr.sync_thread()
@@ -270,6 +294,8 @@ def _trace_pass(
                 buffers.normal[j0:j1] = np.abs(nrm).reshape(j1 - j0, rw, 3)
             if buffers.dist is not None:
                 buffers.dist[j0:j1] = np.asarray(named["t"]).reshape(j1 - j0, rw)
+            if buffers.classes is not None:
+                buffers.classes[j0:j1] = np.asarray(named["class"]).reshape(j1 - j0, rw).astype(np.uint8)
             for name, a in zip(_COUNT_NAMES, counted, strict=False):
                 buffers.counts[name] = buffers.counts.get(name, 0) + int(np.rint(np.asarray(a, np.float64)).sum())
             for entry in dr.kernel_history():
@@ -279,8 +305,8 @@ def _trace_pass(
                 timings["execute"] += entry.get("execution_time", 0.0) / 1000.0
                 timings["compile"] += (entry.get("codegen_time", 0.0) + entry.get("backend_time", 0.0)) / 1000.0
             done += n
-            if progress is not None:
-                progress(done, total)
+            if ctx.progress is not None:
+                ctx.progress(done, ctx.total)
     return done
 
 
@@ -296,7 +322,9 @@ def render_scene(
     """Render a loaded Mitsuba scene with the a5 camera ``camera`` (``center``, ``direction``, ``up``,
     ``angle`` in degrees). ``integrator`` defaults to ``mi_scene.integrator()``; ``camera_rays`` to
     :func:`a5mi.plugins.camera.camera_rays`. With ``aov_mode="quadrant"`` the AOV images come from a second
-    pass with the sample solution's own AOV rays (:func:`quadrant_coords`)."""
+    pass with the sample solution's own AOV rays (:func:`quadrant_coords`). With ``options.classes`` the
+    integrator must list the ``class`` AOV (``a5_whitted`` ``aovs`` including ``class``); it is read from the
+    main pass into :attr:`RenderResult.classes`."""
     import drjit as dr
 
     if options.threads is not None:
@@ -318,6 +346,8 @@ def render_scene(
         main = _Pass(color=None, normal=None, dist=None, stream=FilterStream(rw, rh, options.kernel))
     else:
         main = _Pass(color=np.empty((rh, rw, 3), np.float32), normal=None, dist=None)
+    if options.classes:
+        main.classes = np.empty((rh, rw), np.uint8)
     if not separate:
         main.normal, main.dist = aov.normal, aov.dist
     timings: dict[str, float] = {"compile": 0.0, "execute": 0.0, "jitter": 0.0, "filter": 0.0}
@@ -331,11 +361,10 @@ def render_scene(
             yield (j0, j1, *quadrant_coords(rw, rh, j0, j1))
 
     t_start = time.perf_counter()
-    done = _trace_pass(mi_scene, camera, integrator, camera_rays, rw, rh, main_tiles(), main, timings, progress,
-                       0, total)
+    ctx = _TraceContext(mi_scene, camera, integrator, camera_rays, (rw, rh), timings, progress, total)
+    done = _trace_pass(ctx, main_tiles(), main, 0)
     if separate:
-        _trace_pass(mi_scene, camera, integrator, camera_rays, rw, rh, quadrant_tiles(), aov, timings, progress,
-                    done, total)
+        _trace_pass(ctx, quadrant_tiles(), aov, done)
     timings["render"] = time.perf_counter() - t_start - timings["filter"]  # the streamed filter is its own stage
 
     if main.stream is not None:
@@ -358,6 +387,7 @@ def render_scene(
         ray_counts=main.counts,
         kernels={k: main.kernels.get(k, 0) + (aov.kernels.get(k, 0) if separate else 0)
                  for k in ("memory", "disk", "compiled")},
+        classes=None if main.classes is None else np.ascontiguousarray(main.classes[::-1]),
     )
 
 

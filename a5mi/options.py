@@ -33,7 +33,8 @@ class RenderOptions:
     ``width`` x ``height`` is the saved image size as given to ``-size``; :attr:`render_size` is the render
     buffer (3W x 3H with ``jitter``, SPEC B.5). ``seed=None`` replays glibc ``rand()`` from seed 1 as the binary.
     ``normals`` / ``depth`` ask for the AOV images (``depth`` = (dmin, dmax)); ``count_rays`` for the
-    per-kind ray counts of ``-v``; ``aov_mode`` says which rays the AOV images use (SPEC B.6).
+    per-kind ray counts of ``-v``; ``classes`` for the per-pixel ray-tree class image (0 miss, 1 opaque,
+    2 glass, of the main image's rays); ``aov_mode`` says which rays the normal / depth images use (SPEC B.6).
     """
 
     width: int = DEFAULT_SIZE[0]
@@ -53,6 +54,7 @@ class RenderOptions:
     tile_rays: int = TILE_RAYS
     threads: int | None = None
     count_rays: bool = False
+    classes: bool = False
     aov_mode: str = "main"
 
     def __post_init__(self) -> None:
@@ -78,7 +80,7 @@ class RenderOptions:
     @property
     def aov_groups(self) -> tuple[str, ...]:
         """The AOV groups (:data:`AOV_GROUPS`) the integrator must compute for these options."""
-        wanted = {"normal": self.normals, "depth": self.depth is not None, "class": False,
+        wanted = {"normal": self.normals, "depth": self.depth is not None, "class": self.classes,
                   "counts": self.count_rays}
         return tuple(g for g in AOV_GROUPS if wanted[g])
 

@@ -54,12 +54,11 @@ from collections.abc import Sequence
 import drjit as dr
 import mitsuba as mi
 
+from a5mi.spec import MIRROR_THRESHOLD
+
 #: Attributes served through ``eval_attribute_3`` / ``eval_attribute_1`` (and ``has_attribute``).
 COLOR_ATTRIBUTES: tuple[str, ...] = ("diffuse_color", "specular_color")
 FLOAT_ATTRIBUTES: tuple[str, ...] = ("shininess", "refraction_index")
-
-#: SPEC B.3: a mirror ray is traced when the Euclidean length of specularColor exceeds this.
-MIRROR_THRESHOLD = 0.001
 
 
 def _rgb(props: mi.Properties, name: str, default: Sequence[float]) -> list[float]:

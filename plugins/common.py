@@ -10,8 +10,7 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-#: The three ``fresnel`` modes of ``a5_whitted`` (SPEC B.3 and its note on the binary's R0).
-FRESNEL_MODES: tuple[str, ...] = ("a5", "schlick", "exact")
+from a5mi.spec import FRESNEL_MODES
 
 
 def reflect(d: mi.Vector3f, n: mi.Vector3f) -> mi.Vector3f:

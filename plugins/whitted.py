@@ -12,17 +12,22 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from .common import FRESNEL_MODES, fresnel_weight, reflect, snell
+from a5mi.spec import FRESNEL_MODES, MIRROR_THRESHOLD, TMIN
+
+from .common import fresnel_weight, reflect, snell
 
 #: AOV groups of the ``aovs`` parameter (a5mi.options.AOV_GROUPS) and the channels each adds, in order:
-#: first-hit shading normal and distance (SPEC B.6), and rays traced per camera ray by kind.
+#: first-hit shading normal and distance (SPEC B.6), the ray-tree class (:data:`MISS`, :data:`OPAQUE`,
+#: :data:`GLASS`), and rays traced per camera ray by kind.
 AOV_CHANNELS: dict[str, tuple[str, ...]] = {
     "normal": ("nx", "ny", "nz"),
     "depth": ("t",),
+    "class": ("class",),
     "counts": ("n_reflection", "n_refraction", "n_shadow"),
 }
-#: SPEC B.3: mirror rays are traced when ``|specularColor| > 0.001`` (Euclidean length).
-MIRROR_THRESHOLD = 0.001
+#: Values of the ``class`` AOV: the camera ray misses; the SPEC B.3 ray tree never hits a material with
+#: ``refraction_index > 0``; some node of the tree (the last level included) hits one.
+MISS, OPAQUE, GLASS = 0, 1, 2
 
 
 def stack_size(max_depth: int) -> int:
@@ -50,11 +55,14 @@ def _trace(
     fresnel: str,
     reflection: bool,
     refraction: bool,
-) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float]:
+) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float, mi.Float]:
     """SPEC B.3 for a batch of camera rays (unit ``ray_d``, tmin 0, index 1.0, budget ``max_depth``).
 
-    Returns ``(colour, first-hit normal, first-hit t, n_reflection, n_refraction, n_shadow)``. Only ``size``
-    and the Python flags are baked into the kernel; scene values arrive as opaque variables or arrays.
+    Returns ``(colour, first-hit normal, first-hit t, class, n_reflection, n_refraction, n_shadow)``, with
+    ``class = GLASS`` if some node of the ray tree hits a material with ``refraction_index > 0``, else
+    ``OPAQUE`` if the camera ray hits, else ``MISS`` (the tree is the one the colour walks, so the push
+    rules are the same by construction). Only ``size`` and the Python flags are baked into the kernel;
+    scene values arrive as opaque variables or arrays.
     """
     width = dr.width(ray_d)
     env = scene.environment()
@@ -79,6 +87,7 @@ def _trace(
     color = dr.zeros(mi.Color3f, width)
     aov_n = dr.zeros(mi.Vector3f, width)
     aov_t = dr.full(mi.Float, dr.inf, width)
+    aov_class = dr.full(mi.Float, float(MISS), width)
     n_refl = dr.zeros(mi.Float, width)
     n_refr = dr.zeros(mi.Float, width)
     n_shadow = dr.zeros(mi.Float, width)
@@ -143,6 +152,8 @@ def _trace(
         color += weight * dr.select(hit, local, background)
         aov_n = dr.select(first & hit, n, aov_n)
         aov_t = dr.select(first & hit, t_hit, aov_t)
+        aov_class = dr.select(first & hit, float(OPAQUE), aov_class)   # only the camera ray sets OPAQUE
+        aov_class = dr.select(a5 & (ior > 0.0), float(GLASS), aov_class)
         first = dr.full(mi.Bool, False, width)
 
         # ---- children: mirror and refraction (SPEC B.3, "if bounces > 0")
@@ -178,7 +189,7 @@ def _trace(
             top += dr.select(push_refl, 1, 0)
             n_refl += dr.select(push_refl, 1.0, 0.0)
 
-    return color, aov_n, aov_t, n_refl, n_refr, n_shadow
+    return color, aov_n, aov_t, aov_class, n_refl, n_refr, n_shadow
 
 
 def _width(ray: mi.Ray3f, active: mi.Bool | bool) -> int:
@@ -199,9 +210,10 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     fresnel          string  a5      ``a5`` (binary's R0), ``schlick`` (textbook R0), ``exact``
     reflection       bool    true    trace mirror rays (``-reflection_off`` = false)
     refraction       bool    true    trace refracted rays (``-refraction_off`` = false)
-    tmin             float   0.001   tmin of secondary and shadow rays
+    tmin             float   0.001   tmin of secondary and shadow rays (``a5mi.spec.TMIN``)
     aovs             string  ""      comma-separated AOV groups: ``normal`` (nx, ny, nz), ``depth``
-                                     (t), ``counts`` (n_reflection, n_refraction, n_shadow)
+                                     (t), ``class`` (class), ``counts`` (n_reflection, n_refraction,
+                                     n_shadow)
     ================ ======= ======= ==========================================================
 
     Per hit (``p = o + t d``, ``N`` the shading normal, never flipped toward the viewer)::
@@ -221,7 +233,9 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
 
     ``sample()`` treats its ray as a camera ray (unit direction, tmin 0, index 1) and returns the colour,
     the ``active`` mask, and the AOVs asked for by ``aovs`` (none by default, so ``mi.render`` gives RGB):
-    ``nx, ny, nz, t`` of the first hit (0 and +inf on a miss), the ray counts.
+    ``nx, ny, nz, t`` of the first hit (0 and +inf on a miss); ``class`` = 0 (the camera ray misses),
+    1 (opaque: no node of the ray tree hits a material with ``refraction_index > 0``) or 2 (glass: some
+    node does, the last level included); the ray counts.
 
     Dict form: ``{'type': 'a5_whitted', 'max_depth': 4, 'shadows': True, 'ambient': {'type': 'rgb',
     'value': [0.1, 0.1, 0.1]}}``.
@@ -235,7 +249,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         fresnel = props.get("fresnel", "a5")
         if fresnel not in FRESNEL_MODES:
             raise ValueError(f"a5_whitted: 'fresnel' must be one of {', '.join(FRESNEL_MODES)}, got {fresnel!r}")
-        tmin = props.get("tmin", 0.001)
+        tmin = props.get("tmin", TMIN)
         if isinstance(tmin, bool) or not isinstance(tmin, (int, float)) or not 0.0 <= tmin < float("inf"):
             raise ValueError(f"a5_whitted: 'tmin' must be a finite number >= 0, got {tmin!r}")
         ambient = props.get("ambient", mi.ScalarColor3d(0.0))
@@ -284,8 +298,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
 
     def trace(
         self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True
-    ) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float]:
-        """SPEC B.3 for camera rays: ``(colour, normal, t, n_reflection, n_refraction, n_shadow)``."""
+    ) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float, mi.Float]:
+        """SPEC B.3 for camera rays: ``(colour, normal, t, class, n_reflection, n_refraction, n_shadow)``."""
         lights, n_lights = self._lights(scene)
         width = _width(ray, active)
         # Every loop variable must be full width (a width-1 stack pointer makes lanes loop forever).
@@ -304,8 +318,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         active: mi.Bool | bool = True,
     ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
         """Colour of one camera ray per lane, the ``active`` mask, and the AOVs of :meth:`aov_names`."""
-        color, n, t, n_refl, n_refr, n_shadow = self.trace(scene, ray, active)
-        channels = {"normal": [n.x, n.y, n.z], "depth": [t], "counts": [n_refl, n_refr, n_shadow]}
+        color, n, t, cls, n_refl, n_refr, n_shadow = self.trace(scene, ray, active)
+        channels = {"normal": [n.x, n.y, n.z], "depth": [t], "class": [cls], "counts": [n_refl, n_refr, n_shadow]}
         aovs = [a for g in self.aovs for a in channels[g]]
         width = _width(ray, active)
         return color, dr.full(mi.Bool, True, width) & active, aovs

@@ -62,6 +62,38 @@ def test_ray_counts_summed_over_tiles(variant) -> None:
     assert _render(width=2, height=2).ray_counts == {}
 
 
+class _ClassProbe(_Probe):
+    """Also the a5_whitted ``class`` AOV, by name: class = y_pix mod 3 (0 miss, 1 opaque, 2 glass)."""
+
+    def aov_names(self):
+        return ["class", *super().aov_names()]
+
+    def sample(self, scene, sampler, ray, medium, active):
+        import drjit as dr
+
+        rgb, valid, aovs = super().sample(scene, sampler, ray, medium, active)
+        return rgb, valid, [ray.o.y - 3 * dr.floor(ray.o.y / 3), *aovs]
+
+
+def test_class_image_read_by_name_with_row_0_at_the_top(variant) -> None:
+    res = render_scene(None, CAMERA, RenderOptions(width=3, height=4, tile_rays=5, classes=True),
+                       integrator=_ClassProbe(), camera_rays=_probe_rays)
+    assert res.classes is not None and res.classes.dtype == np.uint8 and res.classes.shape == (4, 3)
+    np.testing.assert_array_equal(res.classes[::-1, 0], [0, 1, 2, 0])  # bottom-up rows j = 0..3
+    np.testing.assert_array_equal(res.image[::-1, 0, 1], [0, 1, 2, 3])  # the colour is the probe's, as before
+    assert render_scene(None, CAMERA, RenderOptions(width=3, height=4), integrator=_ClassProbe(),
+                        camera_rays=_probe_rays).classes is None
+    with pytest.raises(RuntimeError, match="no AOV class"):
+        render_scene(None, CAMERA, RenderOptions(width=3, height=4, classes=True), integrator=_Probe(),
+                     camera_rays=_probe_rays)
+
+
+def test_class_aov_only_on_request() -> None:
+    assert "class" not in RenderOptions(normals=True, depth=(0.0, 1.0), count_rays=True).aov_groups
+    assert RenderOptions(classes=True).aov_groups == ("class",)
+    assert RenderOptions(classes=True, normals=True).integrator_params()["aovs"] == "normal,class"
+
+
 def test_progress_callback(variant) -> None:
     seen = []
     render_scene(None, CAMERA, RenderOptions(width=4, height=3, tile_rays=4), integrator=_Probe(),

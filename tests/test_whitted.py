@@ -273,6 +273,58 @@ def test_b3_total_internal_reflection(mi):
     assert aovs["n_reflection"][0] == 2        # front-face mirror ray + the internal reflection
 
 
+# ---------------------------------------------------------------------------------------- class AOV
+
+MIRROR = {"diffuse_color": (0, 0, 0), "specular_color": (1, 1, 1)}
+
+
+def _classes(mi, scene, integrator: dict | None = None, **ray) -> tuple[np.ndarray, np.ndarray]:
+    """The ``class`` AOV of hand-built rays, and the colour (which asking for the AOV must not change)."""
+    color, aovs = _render(mi, scene, {"aovs": "class", **(integrator or {})}, **ray)
+    plain, _ = _render(mi, scene, {"aovs": "", **(integrator or {})}, **ray)
+    np.testing.assert_array_equal(color, plain)
+    return aovs["class"], color
+
+
+def test_b3_class_miss_is_0_and_diffuse_is_1(mi):
+    """The camera ray misses (a background does not count as a hit) -> 0; a diffuse sphere -> 1."""
+    scene = _scene(mi, s=_sphere(diffuse_color=(0.5, 0.5, 0.5)),
+                   bg={"type": "constant", "radiance": _rgb(0.2, 0.4, 0.6)})
+    cls, _ = _classes(mi, scene, o=[(0, 0, -5), (5, 0, -5)], d=[(0, 0, 1), (0, 0, 1)])
+    np.testing.assert_array_equal(cls, [1, 0])
+
+
+def test_b3_class_glass_sphere_is_2_at_every_budget(mi):
+    """A sphere with refraction_index > 0 hit by the camera ray is glass, with or without secondary rays."""
+    scene = _scene(mi, s=_sphere(**GLASS))
+    for budget in (0, 4):
+        for refraction in (True, False):
+            cls, _ = _classes(mi, scene, {"max_depth": budget, "refraction": refraction})
+            assert cls[0] == 2
+
+
+def test_b3_class_mirror_seeing_glass_is_2_within_the_budget_else_1(mi):
+    """A mirror sphere at the origin reflects the camera ray (from z = -5 along +z) back along -z onto a glass
+    sphere at z = -10, behind the camera. The mirror ray is the last level with max_depth 1 (still counted:
+    2); with max_depth 0 the glass sphere lies beyond the bounce budget (1); with reflection off too (1)."""
+    scene = _scene(mi, m=_sphere(**MIRROR), g=_sphere(center=(0, 0, -10), **GLASS))
+    expected = [({"max_depth": 1}, 2), ({"max_depth": 4}, 2), ({"max_depth": 0}, 1),
+                ({"max_depth": 4, "reflection": False}, 1)]
+    for integrator, want in expected:
+        cls, _ = _classes(mi, scene, integrator)
+        assert cls[0] == want, integrator
+    # the same mirror without the glass sphere behind the camera is opaque
+    cls, _ = _classes(mi, _scene(mi, m=_sphere(**MIRROR)))
+    assert cls[0] == 1
+
+
+def test_b3_class_aov_names_and_order(mi):
+    assert mi.load_dict({"type": "a5_whitted", "aovs": "class"}).aov_names() == ["class"]
+    integ = mi.load_dict({"type": "a5_whitted", "aovs": "counts,class,depth,normal"})
+    assert integ.aov_names() == ["nx", "ny", "nz", "t", "class", "n_reflection", "n_refraction", "n_shadow"]
+    assert "class" in str(integ)
+
+
 # ---------------------------------------------------------------------------------------- plugin surface
 
 
