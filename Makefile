@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.a5mi-installed
 DEMO_FLAGS := -size 300 300 -shadows -bounces 4 -jitter -filter
 
-.PHONY: setup llvm demo test lint bench clean
+.PHONY: setup llvm demo test fuzz lint bench clean
 
 setup: llvm $(STAMP)
 
@@ -33,6 +33,10 @@ lint: setup
 
 test: setup lint
 	$(BIN)/python -m pytest -q
+
+# The thorough hypothesis profile (tests/conftest.py): ten times the examples of `make test`, random seeds.
+fuzz: setup
+	HYPOTHESIS_PROFILE=thorough $(BIN)/python -m pytest -q -k fuzz
 
 bench: setup
 	$(BIN)/a5mi bench

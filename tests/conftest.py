@@ -1,12 +1,41 @@
-"""Shared fixtures: the active Mitsuba variant and the course data folder (``$A5_DATA`` or ../shared/a5)."""
+"""Shared fixtures and settings of the whole suite (the only conftest).
+
+* ``a5_data`` / ``scenes_dir``: the course data (``$A5_DATA`` or ../shared/a5). Every test that uses them is
+  marked ``course_data`` automatically (``pytest -m "not course_data"`` runs the rest); a missing folder is a
+  failure, never a skip: CI always has it.
+* ``variant`` / ``mi``: the JIT variant activated once per session (llvm_ad_rgb unless ``A5MI_VARIANT`` says
+  otherwise) with the a5mi plugins registered; ``mi`` is the ``mitsuba`` module.
+* hypothesis profiles: ``fast`` (the default: ``make test``; derandomised, fixed example counts) and
+  ``thorough`` (``make fuzz``, ``HYPOTHESIS_PROFILE=thorough``: ten times the examples, random seeds).
+  Tests scale their own counts with :func:`examples`.
+* ``A5MI_CACHE_DIR`` points at a temporary folder for the session (the glibc rand() prefix cache).
+"""
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
 from pathlib import Path
+from typing import Any
 
 import pytest
+from hypothesis import HealthCheck, settings
 
 from a5mi import data_dir
+
+COURSE_DATA_FIXTURES = frozenset({"a5_data", "scenes_dir"})
+
+settings.register_profile("fast", deadline=None, derandomize=True, database=None,
+                          suppress_health_check=list(HealthCheck))
+settings.register_profile("thorough", max_examples=1000, deadline=None, database=None,
+                          suppress_health_check=list(HealthCheck))
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "fast"))
+
+
+def examples(n: int) -> int:
+    """``n`` examples under the ``fast`` profile, ten times as many under ``thorough``."""
+    return n * (10 if settings().max_examples >= 1000 else 1)
 
 
 @pytest.fixture(scope="session")
@@ -25,10 +54,25 @@ def scenes_dir(a5_data: Path) -> Path:
 
 @pytest.fixture(scope="session")
 def variant() -> str:
-    """Activate the JIT variant once per session (llvm_ad_rgb unless A5MI_VARIANT says otherwise)."""
+    """Activate the JIT variant once per session and register the a5mi plugins."""
     from a5mi.variant import activate
 
     return activate()
+
+
+@pytest.fixture(scope="session")
+def mi(variant: str) -> Any:
+    """The ``mitsuba`` module with the session's variant active."""
+    import mitsuba
+
+    return mitsuba
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Mark every test that reads the course data ``course_data``."""
+    for item in items:
+        if COURSE_DATA_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.course_data)
 
 
 _SESSION_CACHE: str | None = None
@@ -36,9 +80,6 @@ _SESSION_CACHE: str | None = None
 
 def pytest_configure(config: pytest.Config) -> None:
     """Keep the glibc rand() prefix cache (a5mi.glibc_rand) of this test session out of the user's home."""
-    import os
-    import tempfile
-
     global _SESSION_CACHE
     if "A5MI_CACHE_DIR" not in os.environ:
         _SESSION_CACHE = tempfile.mkdtemp(prefix="a5mi-test-cache-")
@@ -46,9 +87,6 @@ def pytest_configure(config: pytest.Config) -> None:
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
-    import os
-    import shutil
-
     if _SESSION_CACHE is not None:
         shutil.rmtree(_SESSION_CACHE, ignore_errors=True)
         os.environ.pop("A5MI_CACHE_DIR", None)

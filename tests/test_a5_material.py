@@ -17,13 +17,6 @@ def _np(v) -> np.ndarray:
     return np.array(v, dtype=np.float64)
 
 
-@pytest.fixture(scope="module")
-def mi(variant):
-    import mitsuba
-
-    return mitsuba
-
-
 @dr.syntax
 def _attributes_in_loop(scene, o, d):
     """Read every a5 attribute through ``si.bsdf()`` (a BSDFPtr vcall) inside a symbolic loop, twice."""

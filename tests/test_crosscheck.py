@@ -40,13 +40,6 @@ ENV = (0.8, 0.6, 0.4)
 HEAD_ON = SimpleNamespace(center=(0.0, 0.0, 8.0), direction=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0), angle=15.0)
 
 
-@pytest.fixture(scope="module")
-def mi(variant):
-    import mitsuba
-
-    return mitsuba
-
-
 def _scene(**objects) -> dict:
     return {"type": "scene", "integrator": {"type": "a5_whitted"}, **objects}
 

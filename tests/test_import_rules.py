@@ -1,20 +1,49 @@
-"""ARCHITECTURE.md import rules: plugins take SPEC constants from the leaf modules of ``a5mi`` and nothing else."""
+"""ARCHITECTURE.md's import rules, enforced on the source: data flows one way and only the command layer prints.
+
+* ``converters/`` (``a5mi.converters``) and ``plugins/`` (``a5mi.plugins``) never import each other, the
+  command layer (``a5mi.cli``) or the renderer's driver; from ``a5mi`` they take only the leaf modules.
+* the leaf modules (SPEC constants, options, image I/O, errors) import no other ``a5mi`` module but leaves;
+* the libraries of ``a5mi/`` never import the command layer;
+* nothing outside ``a5mi/cli/`` calls ``print`` or writes to ``sys.stdout`` / ``sys.stderr``.
+"""
 
 from __future__ import annotations
 
 import ast
 from pathlib import Path
 
-PLUGINS = Path(__file__).resolve().parent.parent / "plugins"
-#: The only ``a5mi`` modules a plugin may import (leaf modules: standard library and a5mi.spec only).
-LEAVES = {"a5mi.spec", "a5mi.options"}
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+#: folder -> its package name
+PACKAGES = {"a5mi": "a5mi", "converters": "a5mi.converters", "plugins": "a5mi.plugins"}
+#: The ``a5mi`` modules every layer may import (standard library, numpy and OpenImageIO only, and each other).
+LEAVES = frozenset({"a5mi", "a5mi.spec", "a5mi.options", "a5mi.imageio", "a5mi.errors"})
 
 
-def _a5mi_imports(path: Path) -> set[str]:
+def _sources(folder: str) -> list[Path]:
+    return sorted((ROOT / folder).rglob("*.py"))
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT)
+    parts = [PACKAGES[rel.parts[0]], *rel.parts[1:]]
+    name = ".".join(parts)[: -len(".py")]
+    return name[: -len(".__init__")] if name.endswith(".__init__") else name
+
+
+def _imports(path: Path) -> set[str]:
+    """Every ``a5mi...`` module ``path`` imports (absolute and relative), at any depth of the code."""
+    package = _module_name(path) if path.name == "__init__.py" else _module_name(path).rpartition(".")[0]
     out: set[str] = set()
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                module = ".".join(base + ([node.module] if node.module else []))
+            else:
+                module = node.module or ""
+            names = [module] + [f"{module}.{a.name}" for a in node.names]
         elif isinstance(node, ast.Import):
             names = [a.name for a in node.names]
         else:
@@ -23,22 +52,66 @@ def _a5mi_imports(path: Path) -> set[str]:
     return out
 
 
-def test_plugins_import_only_the_leaf_modules_of_a5mi() -> None:
-    for path in sorted(PLUGINS.glob("*.py")):
-        bad = {m for m in _a5mi_imports(path)
-               if not any(m == leaf or m.startswith(f"{leaf}.") for leaf in LEAVES)
-               and not m.startswith("a5mi.plugins")}
-        assert not bad, f"{path.name} imports {sorted(bad)}"
+def _is(module: str, package: str) -> bool:
+    return module == package or module.startswith(package + ".")
+
+
+def _allowed_from(module: str, own: str) -> bool:
+    """For converters/plugins: own package, or a leaf module (``from a5mi.spec import TMIN`` counts as
+    ``a5mi.spec`` and ``a5mi.spec.TMIN``)."""
+    return _is(module, own) or module in LEAVES or module.rpartition(".")[0] in LEAVES - {"a5mi"}
+
+
+@pytest.mark.parametrize(("folder", "own"), [("converters", "a5mi.converters"), ("plugins", "a5mi.plugins")])
+def test_converters_and_plugins_import_only_themselves_and_the_leaves(folder: str, own: str) -> None:
+    for path in _sources(folder):
+        bad = {m for m in _imports(path) if not _allowed_from(m, own)}
+        bad -= {"a5mi.__version__", "a5mi.data_dir"}  # a5mi/__init__ is a leaf too
+        assert not bad, f"{path.relative_to(ROOT)} imports {sorted(bad)}"
+
+
+def test_leaf_modules_import_only_leaves() -> None:
+    for name in sorted(LEAVES):
+        path = ROOT / ("a5mi/__init__.py" if name == "a5mi" else name.replace(".", "/") + ".py")
+        bad = {m for m in _imports(path) if m not in LEAVES and m.rpartition(".")[0] not in LEAVES}
+        assert not bad, f"{path.relative_to(ROOT)} imports {sorted(bad)}"
+
+
+def test_libraries_never_import_the_command_layer() -> None:
+    for path in [*_sources("a5mi"), *_sources("converters"), *_sources("plugins")]:
+        if _is(_module_name(path), "a5mi.cli") or _module_name(path) == "a5mi.__main__":
+            continue
+        bad = {m for m in _imports(path) if _is(m, "a5mi.cli")}
+        assert not bad, f"{path.relative_to(ROOT)} imports the command layer {sorted(bad)}"
+
+
+def test_only_the_command_layer_prints() -> None:
+    for path in [*_sources("a5mi"), *_sources("converters"), *_sources("plugins")]:
+        if _is(_module_name(path), "a5mi.cli"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "print":
+                pytest.fail(f"{path.relative_to(ROOT)}:{node.lineno} calls print")
+            if (isinstance(node, ast.Attribute) and node.attr in ("stdout", "stderr")
+                    and isinstance(node.value, ast.Name) and node.value.id == "sys"):
+                pytest.fail(f"{path.relative_to(ROOT)}:{node.lineno} uses sys.{node.attr}")
+
+
+def test_the_rules_see_real_imports() -> None:
+    """The checker itself: relative and absolute imports are resolved (a broken checker passes everything)."""
+    assert "a5mi.cli.app" in _imports(ROOT / "a5mi/cli/__init__.py")
+    assert any(_is(m, "a5mi.plugins") for m in _imports(ROOT / "plugins/whitted.py"))
+    assert any(_is(m, "a5mi.converters") for m in _imports(ROOT / "converters/a5_parser.py"))
 
 
 def test_spec_constants_have_one_home() -> None:
-    """TMIN, MIRROR_THRESHOLD and FRESNEL_MODES are assigned only in a5mi/spec.py among plugins and a5mi."""
-    root = PLUGINS.parent
-    for path in sorted([*PLUGINS.glob("*.py"), *(root / "a5mi").glob("*.py")]):
-        if path.name == "spec.py":
+    """TMIN, MIRROR_THRESHOLD, FRESNEL_MODES, CUBE_FACES and IMAGE_EXTENSIONS are assigned only in a5mi/spec.py."""
+    names = {"TMIN", "MIRROR_THRESHOLD", "FRESNEL_MODES", "CUBE_FACES", "IMAGE_EXTENSIONS"}
+    for path in [*_sources("a5mi"), *_sources("converters"), *_sources("plugins")]:
+        if path == ROOT / "a5mi" / "spec.py":
             continue
         for node in ast.parse(path.read_text(encoding="utf-8")).body:
             targets = node.targets if isinstance(node, ast.Assign) else [node.target] if isinstance(
                 node, ast.AnnAssign) else []
-            names = {t.id for t in targets if isinstance(t, ast.Name)}
-            assert not names & {"TMIN", "MIRROR_THRESHOLD", "FRESNEL_MODES"}, f"{path.name} defines {names}"
+            defined = {t.id for t in targets if isinstance(t, ast.Name)}
+            assert not defined & names, f"{path.relative_to(ROOT)} defines {sorted(defined & names)}"

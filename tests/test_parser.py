@@ -237,7 +237,8 @@ FUZZ_WORDS = ["{", "}", "0", "-1", "1e999", "nan", "inf", "abc", "#", "1}", "{x"
 def test_issue8_fuzz_mutated_scenes_raise_only_scene_errors_with_positions() -> None:
     """2,000+ mutations (delete, duplicate, swap, replace, truncate tokens) of the real scenes: the parser
     either succeeds or raises SceneError with a position inside the text; never any other exception."""
-    from hypothesis import HealthCheck, given, settings
+    from conftest import examples
+    from hypothesis import given, settings
     from hypothesis import strategies as st
 
     @st.composite
@@ -264,8 +265,7 @@ def test_issue8_fuzz_mutated_scenes_raise_only_scene_errors_with_positions() -> 
 
     count = 0
 
-    @settings(max_examples=2000, deadline=None, derandomize=True, database=None,
-              suppress_health_check=list(HealthCheck))
+    @settings(max_examples=examples(2000))
     @given(mutated())
     def check(text: str) -> None:
         nonlocal count
@@ -278,7 +278,7 @@ def test_issue8_fuzz_mutated_scenes_raise_only_scene_errors_with_positions() -> 
             assert str(e).startswith(f"{e.loc}: error: ")
 
     check()
-    assert count >= 2000
+    assert count >= examples(2000)
 
 
 _CAMERA = "PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"

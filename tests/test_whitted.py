@@ -16,13 +16,6 @@ def _rgb(*v: float) -> dict:
     return {"type": "rgb", "value": list(v)}
 
 
-@pytest.fixture(scope="module")
-def mi(variant):
-    import mitsuba
-
-    return mitsuba
-
-
 def _material(**kw) -> dict:
     out = {"type": "a5_material"}
     for key, value in kw.items():
