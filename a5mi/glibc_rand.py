@@ -29,7 +29,6 @@ never touch the cache.
 from __future__ import annotations
 
 import os
-import tempfile
 import zlib
 from pathlib import Path
 
@@ -229,14 +228,10 @@ def _load_prefix(folder: Path, seed: int) -> CachedStream | None:
 
 
 def _atomic_save(path: Path, array: np.ndarray) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npy", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.save(f, array)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    from a5mi.imageio import atomic_file
+
+    with atomic_file(path, "wb") as f:
+        np.save(f, array)
 
 
 def glibc_stream(seed: int = 1, folder: Path | None = None, need: int | None = None) -> CachedStream | GlibcRand:
