@@ -28,7 +28,7 @@ import time
 import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TextIO
+from typing import Any, TextIO
 
 from a5mi.errors import UsageError, UserError
 
@@ -289,7 +289,7 @@ def _render_command(args: A5Args) -> int:
         raise UserError(f"cannot read '{args.input}': {exc.strerror or exc}") from None
     for loc, msg in getattr(scene, "warnings", ()):
         _note(f"{loc}: warning: {msg}")
-    _check_files(scene, stock=False)
+    desc = _describe(scene, stock=False)
     timings["parse"] = time.perf_counter() - t0
 
     from a5mi import driver
@@ -322,7 +322,7 @@ def _render_command(args: A5Args) -> int:
         count_rays=args.verbose,
     )
     bar = _ProgressBar(enabled=args.verbose or sys.stderr.isatty())
-    result = driver.render(scene, options, progress=bar)
+    result = driver.render(desc, options, progress=bar)
     timings.update(result.timings)
 
     t0 = time.perf_counter()
@@ -350,13 +350,15 @@ def _render_command(args: A5Args) -> int:
     return 0
 
 
-def _check_files(scene: object, stock: bool) -> None:
-    """Validate the meshes, textures and cube-map faces the scene names before Mitsuba is imported (a bad
-    file is a ``FILE:LINE:COL`` error in a fraction of a second) and print the conversion warnings."""
-    from a5mi.converters.to_mitsuba import check_files
+def _describe(scene: object, stock: bool) -> Any:
+    """The scene description (every mesh, texture and cube-map face read once, before Mitsuba is imported: a
+    bad file is a ``FILE:LINE:COL`` error in a fraction of a second); prints the conversion warnings."""
+    from a5mi.converters.describe import describe
 
-    for loc, msg in check_files(scene, stock=stock):  # type: ignore[arg-type]
+    desc = describe(scene, stock=stock)  # type: ignore[arg-type]
+    for loc, msg in desc.warnings:
         _note(f"{loc}: warning: {msg}")
+    return desc
 
 
 def _guarded(debug: bool, body: Callable[[], int]) -> int:
@@ -486,7 +488,7 @@ def run_convert(argv: Sequence[str]) -> int:
             raise UserError(f"cannot read '{scene_path}': {exc.strerror or exc}") from None
         for loc, msg in getattr(scene, "warnings", ()):
             _note(f"{loc}: warning: {msg}")
-        _check_files(scene, stock=stock)
+        desc = _describe(scene, stock=stock)
         from a5mi.variant import VariantError, activate
 
         try:
@@ -495,7 +497,7 @@ def run_convert(argv: Sequence[str]) -> int:
             raise UserError(str(exc)) from None
         from a5mi.converters.to_xml import write_xml
 
-        write_xml(scene, out, stock=stock)
+        write_xml(desc, out, stock=stock)
         return 0
 
     return _guarded(debug, body)

@@ -3,28 +3,10 @@ plugins are independent; a5mi avoids importing Mitsuba before parsing)."""
 
 from __future__ import annotations
 
-import pytest
-
-
 def test_mirror_threshold_and_fresnel_modes_agree(variant) -> None:
     from a5mi import crosscheck, driver
-    from a5mi.converters import to_mitsuba
+    from a5mi.converters import materials
     from a5mi.plugins import a5_material, common, whitted
 
-    assert whitted.MIRROR_THRESHOLD == a5_material.MIRROR_THRESHOLD == to_mitsuba.MIRROR_THRESHOLD == 0.001
+    assert whitted.MIRROR_THRESHOLD == a5_material.MIRROR_THRESHOLD == materials.MIRROR_THRESHOLD == 0.001
     assert tuple(driver.FRESNEL_MODES) == tuple(crosscheck.FRESNEL_MODES) == tuple(common.FRESNEL_MODES)
-
-
-def test_cube_face_search_agrees_between_converter_check_and_plugin(variant, tmp_path) -> None:
-    """check_files promises to find cube faces exactly as a5_cubemap does."""
-    from a5mi.converters import to_mitsuba
-    from a5mi.plugins import cubemap
-
-    assert tuple(to_mitsuba.IMAGE_EXTENSIONS) == tuple(cubemap.EXTENSIONS)
-    (tmp_path / "left.PNG").write_bytes(b"x")
-    (tmp_path / "right.bmp").write_bytes(b"x")
-    for face in ("left", "right"):
-        assert to_mitsuba.find_cube_face(tmp_path, face) == cubemap.find_face(tmp_path, face)
-    assert to_mitsuba.find_cube_face(tmp_path, "up") is None
-    with pytest.raises(ValueError, match="face 'up' not found"):
-        cubemap.find_face(tmp_path, "up")
