@@ -176,10 +176,11 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
             warnings.extend(meshes[prim.obj_file].warnings)
     centre = geometry_centre(placed, meshes)
 
+    decoded: files.Decoded = {}  # each image file decoded once, even when several materials name it
     bg = scene.background
     background: Background
     if bg.cube_map is not None:
-        folder, faces = files.cube_map(scene, warnings)
+        folder, faces = files.cube_map(scene, warnings, decoded)
         background = CubeMapBackground(folder, faces, bg.cube_map_loc or bg.loc)
     else:
         background = ColorBackground(bg.color, bg.loc)
@@ -196,7 +197,7 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
                 warnings.append((mat.noise.loc or mat.loc,  # type: ignore[arg-type]
                                  "stock conversion: Noise (marble) replaced by its mean colour"))
         if with_uv and mat.noise is None and mat.texture is not None and index not in textures:
-            textures[index] = files.texture_image(scene, mat)
+            textures[index] = files.texture_image(scene, mat, decoded)
 
     cam_c = np.asarray(scene.camera.center, dtype=np.float64)
     shapes: list[Shape] = []

@@ -42,16 +42,27 @@ class Image:
         return int(self.pixels.shape[1]), int(self.pixels.shape[0])
 
 
-def read_image(path: Path, loc: FileLoc, what: str) -> Image:
-    """Decode the whole image at ``path`` (SPEC A.4: 8 bits per channel) with :func:`a5mi.imageio.read_uint8`.
-    Raises :class:`SceneSemanticError` at ``loc``: ``{what} '{path}' is not a readable image: {reason}``
-    (empty, unreadable, not an image, truncated)."""
+#: Images already decoded during one description, by absolute path (several materials may share a file).
+Decoded = dict[Path, Image]
+
+
+def read_image(path: Path, loc: FileLoc, what: str, decoded: Decoded | None = None) -> Image:
+    """Decode the whole image at ``path`` (SPEC A.4: 8 bits per channel) with :func:`a5mi.imageio.read_uint8`,
+    unless ``decoded`` holds it already (then that :class:`Image`; a new one is added to it). Raises
+    :class:`SceneSemanticError` at ``loc``: ``{what} '{path}' is not a readable image: {reason}`` (empty,
+    unreadable, not an image, truncated)."""
+    key = path.resolve()
+    if decoded is not None and key in decoded:
+        return decoded[key]
     try:
         pixels = imageio.read_uint8(path)
     except ImageReadError as exc:
         raise SceneSemanticError(f"{what} '{path}' is not a readable image: {exc.reason}", loc) from None
     pixels.flags.writeable = False
-    return Image(path.resolve(), pixels)
+    image = Image(key, pixels)
+    if decoded is not None:
+        decoded[key] = image
+    return image
 
 
 def load_mesh(scene: Scene, name: str, loc: FileLoc) -> tuple[Path, objfile.ObjMesh]:
@@ -62,13 +73,13 @@ def load_mesh(scene: Scene, name: str, loc: FileLoc) -> tuple[Path, objfile.ObjM
     return path.resolve(), objfile.load_obj(path, loc)
 
 
-def texture_image(scene: Scene, mat: Material) -> Image:
-    """The material's ``texture`` file (SPEC A.5), resolved and decoded; missing, unreadable or not an image ->
-    :class:`SceneSemanticError` at its loc."""
+def texture_image(scene: Scene, mat: Material, decoded: Decoded | None = None) -> Image:
+    """The material's ``texture`` file (SPEC A.5), resolved and decoded (:func:`read_image`); missing,
+    unreadable or not an image -> :class:`SceneSemanticError` at its loc."""
     assert mat.texture is not None
     loc = mat.texture_loc or mat.loc
     assert loc is not None
-    return read_image(resolve_path(mat.texture, scene.base_dir, loc, "texture"), loc, "texture")
+    return read_image(resolve_path(mat.texture, scene.base_dir, loc, "texture"), loc, "texture", decoded)
 
 
 def cube_map_folder(scene: Scene, warnings: list[tuple[FileLoc, str]]) -> Path:
@@ -97,7 +108,8 @@ def cube_map_folder(scene: Scene, warnings: list[tuple[FileLoc, str]]) -> Path:
         raise
 
 
-def cube_map(scene: Scene, warnings: list[tuple[FileLoc, str]]) -> tuple[Path, tuple[Image, ...]]:
+def cube_map(scene: Scene, warnings: list[tuple[FileLoc, str]],
+             decoded: Decoded | None = None) -> tuple[Path, tuple[Image, ...]]:
     """The cube-map folder (:func:`cube_map_folder`, resolved) and its six faces in
     :data:`a5mi.spec.CUBE_FACES` order, each found by :func:`a5mi.spec.find_cube_face` (as the ``a5_cubemap``
     plugin finds it) and decoded. A missing or unreadable face is a :class:`SceneSemanticError` at the
@@ -112,5 +124,5 @@ def cube_map(scene: Scene, warnings: list[tuple[FileLoc, str]]) -> tuple[Path, t
         if path is None:
             raise SceneSemanticError(f"cubeMap folder '{folder}' has no '{face}' face (expected {face}.bmp or "
                                      f"{face}.png)", loc)
-        faces.append(read_image(path, loc, "cubeMap face"))
+        faces.append(read_image(path, loc, "cubeMap face", decoded))
     return folder.resolve(), tuple(faces)

@@ -52,6 +52,7 @@ from a5mi.spec import CUBE_FACES
 from . import materials
 from . import transforms as tf
 from .describe import (
+    ColorBackground,
     CubeMapBackground,
     Light,
     MeshShape,
@@ -107,6 +108,11 @@ def light_dict(light: Light, centre: np.ndarray | None, *, stock: bool) -> dict[
     return {"type": "point", "position": list(light.position), "intensity": rgb(np.asarray(light.color) * scale)}
 
 
+def background_dict(bg: ColorBackground) -> dict[str, Any]:
+    """SPEC A.4 without a cube map: the stock ``constant`` emitter with ``radiance`` = the colour."""
+    return {"type": "constant", "radiance": rgb(bg.color)}
+
+
 class Backend:
     """What differs between the ``mi.load_dict`` dict and the XML: how BSDFs, meshes and cube maps become
     values. ``entries`` is the scene dict being built (a back end may add entries to it, in order)."""
@@ -146,7 +152,7 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
     if isinstance(bg, CubeMapBackground):
         d["background"] = backend.envmap(bg) if stock else backend.cubemap(bg)
     else:
-        d["background"] = {"type": "constant", "radiance": rgb(bg.color)}
+        d["background"] = background_dict(bg)
     for i, shape in enumerate(desc.shapes):
         bsdf = backend.bsdf(d, shape.material, shape.has_uv)
         if isinstance(shape, SphereShape):

@@ -3,6 +3,7 @@ plugins are independent; a5mi avoids importing Mitsuba before parsing)."""
 
 from __future__ import annotations
 
+
 def test_mirror_threshold_and_fresnel_modes_agree(variant) -> None:
     from a5mi import crosscheck, driver
     from a5mi.converters import materials
