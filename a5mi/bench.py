@@ -491,16 +491,19 @@ def measure_in_process(scene_file: Path, options: Any, repeat: int = 3) -> InPro
     rw, rh = options.render_size
 
     # 1. stages of one a5 run (what the child process does after its imports), then the warm kernel time
+    from a5mi.converters.describe import describe
+
     t0 = time.perf_counter()
     model = parse_file(scene_file)
     stages = {"parse": time.perf_counter() - t0}
     t0 = time.perf_counter()
-    scene = driver.build_scene(model, options)
+    desc = describe(model)  # the files are read here, once (the a5 command does the same)
+    scene = driver.build_scene(desc, options)
     stages["build"] = time.perf_counter() - t0
     recompiles = 0
     best = float("inf")
     for k in range(repeat + 1):
-        res = driver.render_scene(scene, model.camera, options)
+        res = driver.render_scene(scene, desc.camera, options)
         if k == 0:
             stages.update({key: res.timings[key] for key in ("compile", "execute", "render", "filter")})
             with tempfile.TemporaryDirectory(prefix="a5bench-") as tmp:
@@ -514,8 +517,8 @@ def measure_in_process(scene_file: Path, options: Any, repeat: int = 3) -> InPro
     _free()
 
     # 2. per-lane ray counts and first hits with the counting integrator, then the floor passes
-    scene = driver.build_scene(model, replace(options, count_rays=True))
-    rays, floor, n_lights = _floor_passes(scene, model, rw, rh, repeat)
+    scene = driver.build_scene(desc, replace(options, count_rays=True))
+    rays, floor, n_lights = _floor_passes(scene, desc, rw, rh, repeat)
     del scene
     _free()
     return InProcess(kernel_execute=best, rays=rays, floor=floor, lights=n_lights, stages=stages,
@@ -524,15 +527,17 @@ def measure_in_process(scene_file: Path, options: Any, repeat: int = 3) -> InPro
 
 def measure_stock(model: Any, options: Any, repeat: int = 3) -> dict[str, float]:
     """Wall time (best of ``repeat`` after a warm-up) of ``mi.render`` with the stock ``direct`` and ``path``
-    integrators on the ``stock=True`` conversion, at the render resolution and 1 spp (see module docstring)."""
+    integrators on the ``stock=True`` conversion, at the render resolution and 1 spp (see module docstring).
+    ``model``: a parsed scene or its description."""
     import drjit as dr
     import mitsuba as mi
 
-    from a5mi.converters.to_mitsuba import RenderSettings, to_dict
+    from a5mi.converters.describe import SceneDescription, describe
+    from a5mi.converters.to_mitsuba import to_dict
 
     rw, rh = options.render_size
-    settings = RenderSettings(width=rw, height=rh, bounces=options.bounces, shadows=options.shadows)
-    base = to_dict(model, settings, stock=True)
+    desc = model if isinstance(model, SceneDescription) else describe(model, stock=True)
+    base = to_dict(desc, options, stock=True)
     n_lights = sum(1 for v in base.values() if isinstance(v, dict) and v.get("type") in ("point", "directional",
                                                                                           "spot", "a5_point"))
     integrators = {

@@ -320,17 +320,31 @@ def crosscheck_dicts(
     return CrosscheckResult(images, classes, pair_reports(images, classes == GLASS), options, stderr, timings)
 
 
-def crosscheck(scene_model: Any, options: CrosscheckOptions) -> CrosscheckResult:
-    """The cross-check of a parsed scene (``a5mi.converters.a5_parser.parse_file``): converted with
-    ``to_dict(scene, settings)`` and ``to_dict(scene, settings, stock=True)``. Needs an active JIT variant
-    with the a5mi plugins registered (:func:`a5mi.variant.activate`)."""
-    from a5mi.converters.to_mitsuba import RenderSettings, to_dict
+def _render_options(options: CrosscheckOptions) -> Any:
+    """The converter's :class:`a5mi.options.RenderOptions` for the cross-check's size, bounces and shadows
+    (the a5 defaults otherwise: no Phong, the binary's Fresnel, reflection and refraction on)."""
+    from a5mi.options import RenderOptions
 
-    settings = RenderSettings(width=options.width, height=options.height, bounces=options.bounces,
-                              shadows=options.shadows, phong=False, fresnel="a5", reflection=True,
-                              refraction=True)
-    return crosscheck_dicts(to_dict(scene_model, settings), to_dict(scene_model, settings, stock=True),
-                            scene_model.camera, options)
+    return RenderOptions(width=options.width, height=options.height, bounces=options.bounces,
+                         shadows=options.shadows)
+
+
+def _description(desc_or_model: Any) -> Any:
+    from a5mi.converters.describe import SceneDescription, describe
+
+    return desc_or_model if isinstance(desc_or_model, SceneDescription) else describe(desc_or_model)
+
+
+def crosscheck(desc_or_model: Any, options: CrosscheckOptions) -> CrosscheckResult:
+    """The cross-check of a scene description (or a parsed scene, ``a5mi.converters.a5_parser.parse_file``,
+    described here): converted with ``to_dict(desc, render_options)`` and ``to_dict(desc, render_options,
+    stock=True)``. Needs an active JIT variant with the a5mi plugins registered
+    (:func:`a5mi.variant.activate`)."""
+    from a5mi.converters.to_mitsuba import to_dict
+
+    desc = _description(desc_or_model)
+    ro = _render_options(options)
+    return crosscheck_dicts(to_dict(desc, ro), to_dict(desc, ro, stock=True), desc.camera, options)
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -348,7 +362,7 @@ class ExplainTerm:
     other: float
 
 
-def explain(scene_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]:
+def explain(desc_or_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]:
     """Split ``stock path − exact Whitted`` into terms that add up exactly, each isolated by a render.
 
     With A = exact Whitted, B = A without ambient, C = B with light colours ÷ π, F = C without lamps,
@@ -360,19 +374,19 @@ def explain(scene_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]:
     surfaces, and indirect light from the lamps (plus what remains). Means over the glass and the other
     surface pixels of :func:`pixel_classes` (background excluded), in 8-bit levels (unquantised).
     """
+    import dataclasses
     import math
 
     import mitsuba as mi
 
-    from a5mi.converters.to_mitsuba import RenderSettings, to_dict
+    from a5mi.converters.to_mitsuba import to_dict
 
-    settings = RenderSettings(width=options.width, height=options.height, bounces=options.bounces,
-                              shadows=options.shadows)
-    a5d = to_dict(scene_model, settings)
-    stock = to_dict(scene_model, settings, stock=True)
-    cam = scene_model.camera
+    desc = _description(desc_or_model)
+    ro = _render_options(options)
+    a5d = to_dict(desc, ro)
+    stock = to_dict(desc, ro, stock=True)
+    cam = desc.camera
     integ = dict(a5d["integrator"])
-    lights = [k for k, v in a5d.items() if isinstance(v, dict) and k.startswith("light_")]
 
     def whitted(d: Mapping[str, Any], integrator: Mapping[str, Any]) -> npt.NDArray[np.float64]:
         return render_whitted(mi.load_dict(dict(d)), cam, integrator, options, "exact").astype(np.float64) * 255
@@ -383,13 +397,10 @@ def explain(scene_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]:
         return img.astype(np.float64) * 255
 
     no_ambient = dict(integ, ambient={"type": "rgb", "value": [0.0, 0.0, 0.0]})
-    dimmed = dict(a5d)
-    for k in lights:
-        e = dict(a5d[k])
-        key = "irradiance" if e["type"] == "directional" else "color"
-        e[key] = {"type": "rgb", "value": [v / math.pi for v in e[key]["value"]]}
-        dimmed[k] = e
-    no_lamps = {k: v for k, v in a5d.items() if k not in lights}
+    # The lights' colours divided by pi (C), and no lights at all (E, F); the ambient term stays as described.
+    dimmed = to_dict(dataclasses.replace(desc, lights=tuple(
+        dataclasses.replace(light, color=tuple(v / math.pi for v in light.color)) for light in desc.lights)), ro)
+    no_lamps = to_dict(dataclasses.replace(desc, lights=()), ro)
     a, b = whitted(a5d, integ), whitted(a5d, no_ambient)
     c, f = whitted(dimmed, no_ambient), whitted(no_lamps, no_ambient)
     d, e, g = path(a5d), path(no_lamps), path(stock)

@@ -391,37 +391,33 @@ def render_scene(
     )
 
 
-def build_scene(scene_model: Any, options: RenderOptions) -> Any:
-    """``mi.load_dict(to_dict(scene_model, RenderSettings(...)))``: the Mitsuba scene with ``a5_whitted``."""
+def build_scene(desc: Any, options: RenderOptions) -> Any:
+    """``mi.load_dict(to_dict(desc, options))``: the Mitsuba scene with ``a5_whitted`` of a scene description
+    (:func:`a5mi.converters.describe.describe`); no file is read here."""
     import mitsuba as mi
 
-    from a5mi.converters.to_mitsuba import RenderSettings, to_dict
+    from a5mi.converters.to_mitsuba import to_dict
 
-    rw, rh = options.render_size
-    settings = RenderSettings(
-        width=rw,
-        height=rh,
-        bounces=options.bounces,
-        shadows=options.shadows,
-        phong=options.phong,
-        fresnel=options.fresnel,
-        reflection=options.reflection,
-        refraction=options.refraction,
-    )
-    scene_dict = to_dict(scene_model, settings)
-    if isinstance(scene_dict.get("integrator"), dict) and options.aov_groups:
-        scene_dict["integrator"]["aovs"] = ",".join(options.aov_groups)  # a5_whitted parameter (ARCHITECTURE.md)
-    return mi.load_dict(scene_dict)
+    return mi.load_dict(to_dict(desc, options))
 
 
-def render(scene_model: Any, options: RenderOptions, *, progress: Progress | None = None) -> RenderResult:
-    """Render a parsed scene (``a5mi.converters.a5_parser.parse_file``) as ``a5soln`` would (SPEC B.2, B.5).
+def describe_if_needed(desc_or_model: Any) -> Any:
+    """A scene description: ``desc_or_model`` itself, or :func:`~a5mi.converters.describe.describe` of a parsed
+    scene (``a5mi.converters.a5_parser.parse_file``)."""
+    from a5mi.converters.describe import SceneDescription, describe
+
+    return desc_or_model if isinstance(desc_or_model, SceneDescription) else describe(desc_or_model)
+
+
+def render(desc_or_model: Any, options: RenderOptions, *, progress: Progress | None = None) -> RenderResult:
+    """Render a scene description (or a parsed scene, described here) as ``a5soln`` would (SPEC B.2, B.5).
 
     Needs an active JIT variant with the a5mi plugins registered (:func:`a5mi.variant.activate`).
     """
     t0 = time.perf_counter()
-    mi_scene = build_scene(scene_model, options)
+    desc = describe_if_needed(desc_or_model)
+    mi_scene = build_scene(desc, options)
     t_build = time.perf_counter() - t0
-    result = render_scene(mi_scene, scene_model.camera, options, progress=progress)
+    result = render_scene(mi_scene, desc.camera, options, progress=progress)
     result.timings["build"] = t_build
     return result

@@ -50,9 +50,7 @@ def resolve(requested: str | None = None) -> str:
 
 
 def activate(requested: str | None = None) -> str:
-    """Check prerequisites, ``mi.set_variant``, register the a5mi plugins and give them the converter's
-    decoded-image cache (``imagedata.set_pixel_source(to_mitsuba.decoded_image)``). Returns the variant
-    name."""
+    """Check prerequisites, ``mi.set_variant`` and register the a5mi plugins. Returns the variant name."""
     name = resolve(requested)
     if name.startswith("llvm"):
         try:
@@ -69,11 +67,7 @@ def activate(requested: str | None = None) -> str:
             mi.set_variant(name)
         except Exception as exc:  # noqa: BLE001 - Mitsuba raises plain exceptions here
             raise VariantError(f"cannot load Mitsuba variant {name}: {exc}") from None
-    from a5mi.converters.to_mitsuba import decoded_image
-    from a5mi.plugins import imagedata, register_all
+    from a5mi.plugins import register_all
 
     register_all()
-    # Textures and cube-map faces were decoded once by the converter's file check (before Mitsuba was
-    # imported); the plugins take those pixels instead of decoding the files again.
-    imagedata.set_pixel_source(decoded_image)
     return name

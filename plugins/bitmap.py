@@ -5,7 +5,7 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.plugins.imagedata import ImageAtlas, load_rgb8
+from a5mi.plugins.imagedata import ImageAtlas, bitmap_rgb8, load_rgb8
 
 
 class A5Bitmap(mi.Texture):
@@ -19,8 +19,12 @@ class A5Bitmap(mi.Texture):
          - Description
        * - ``filename``
          - string
-         - An 8-bit image (the course ships 24-bit BMP; PNG and anything OpenImageIO reads work too).
-           Required.
+         - An 8-bit image (the course ships 24-bit BMP; PNG and anything OpenImageIO reads work too),
+           decoded with ``a5mi.imageio.read_uint8``.
+       * - ``bitmap``
+         - ``mi.Bitmap``
+         - Instead of ``filename``: the already decoded 8-bit pixels (row 0 = top), as stock ``bitmap``
+           takes them. Exactly one of the two is required.
 
     Lookup at ``si.uv`` = (u, v), with W×H the image size and P the file's bytes, row 0 = top row::
 
@@ -35,17 +39,24 @@ class A5Bitmap(mi.Texture):
     .. code-block:: python
 
         'kd': {'type': 'a5_bitmap', 'filename': 'tex/head.bmp'}
+        'kd': {'type': 'a5_bitmap', 'bitmap': mi.Bitmap(pixels)}   # pixels: (H, W, 3) uint8
     """
 
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)
-        if "filename" not in props:
-            raise ValueError("a5_bitmap: parameter 'filename' is required")
-        self.filename = str(props["filename"])
-        try:
-            pixels = load_rgb8(self.filename)
-        except ValueError as exc:
-            raise ValueError(f"a5_bitmap: parameter 'filename' ({self.filename!r}): {exc}") from None
+        has_file, has_bitmap = "filename" in props, "bitmap" in props
+        if has_file == has_bitmap:
+            raise ValueError("a5_bitmap: exactly one of the parameters 'filename' and 'bitmap' is required")
+        self.filename: str | None
+        if has_bitmap:
+            self.filename = None
+            pixels = bitmap_rgb8(props["bitmap"], "a5_bitmap: parameter 'bitmap'")
+        else:
+            self.filename = str(props["filename"])
+            try:
+                pixels = load_rgb8(self.filename)
+            except ValueError as exc:
+                raise ValueError(f"a5_bitmap: parameter 'filename' ({self.filename!r}): {exc}") from None
         self.height, self.width = pixels.shape[:2]
         self.atlas = ImageAtlas([pixels])
         self._mean = float(pixels.mean() / 255.0)

@@ -7,34 +7,30 @@ from pathlib import Path
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.plugins.imagedata import ImageAtlas, load_rgb8
+from a5mi.plugins.imagedata import ImageAtlas, bitmap_rgb8, load_rgb8
+from a5mi.spec import CUBE_FACES, IMAGE_EXTENSIONS, find_cube_face
 
-#: Face order of the atlas (image index used by :meth:`A5CubeMap.lookup`).
-FACES: tuple[str, ...] = ("left", "right", "up", "down", "front", "back")
+#: Face order of the atlas (image index used by :meth:`A5CubeMap.lookup`): SPEC A.4's six faces.
+FACES: tuple[str, ...] = CUBE_FACES
 LEFT, RIGHT, UP, DOWN, FRONT, BACK = range(6)
-#: Extensions tried for each face, in this order (the first that exists wins).
-EXTENSIONS: tuple[str, ...] = (".bmp", ".png", ".jpg", ".jpeg", ".tga", ".ppm", ".tif", ".tiff", ".exr", ".hdr")
 
 #: Distance used for ``ds.dist`` by ``sample_direction`` (the emitter does not know the scene's size).
 FAR = 1.0e6
 
 
 def find_face(folder: Path, face: str) -> Path:
-    """The file holding ``face`` in ``folder`` (``face`` + the first extension of EXTENSIONS that exists).
+    """The file holding ``face`` in ``folder``: :func:`a5mi.spec.find_cube_face` (``face`` + the first of
+    ``IMAGE_EXTENSIONS`` that exists, else the first other ``face.*`` file).
 
     Raises ``ValueError`` naming the face and the names tried.
     """
-    for ext in EXTENSIONS:
-        path = folder / f"{face}{ext}"
-        if path.is_file():
-            return path
-    for path in sorted(folder.glob(f"{face}.*")):  # any other extension OpenImageIO may read
-        if path.is_file():
-            return path
-    raise ValueError(
-        f"a5_cubemap: parameter 'filename' ({str(folder)!r}): face '{face}' not found "
-        f"(looked for {face}{{{','.join(EXTENSIONS)}}})"
-    )
+    path = find_cube_face(folder, face)
+    if path is None:
+        raise ValueError(
+            f"a5_cubemap: parameter 'filename' ({str(folder)!r}): face '{face}' not found "
+            f"(looked for {face}{{{','.join(IMAGE_EXTENSIONS)}}})"
+        )
+    return path
 
 
 def face_uv(d: mi.Vector3f) -> tuple[mi.UInt32, mi.Float, mi.Float, mi.Bool]:
@@ -89,7 +85,12 @@ class A5CubeMap(mi.Emitter):
        * - ``filename``
          - string
          - Folder holding the six faces ``left right up down front back``, each any 8-bit image
-           (``.bmp`` in 2012, ``.png`` in 2015; the first of .bmp, .png, .jpg, ... that exists). Required.
+           (``.bmp`` in 2012, ``.png`` in 2015; the first of .bmp, .png, .jpg, ... that exists), decoded
+           with ``a5mi.imageio.read_uint8``.
+       * - ``left``, ``right``, ``up``, ``down``, ``front``, ``back``
+         - ``mi.Bitmap``
+         - Instead of ``filename``: the six faces' already decoded 8-bit pixels (row 0 = top). Either
+           ``filename`` or all six are required.
 
     A ray that misses sees the colour ``lookup(d)`` for its direction d (``eval(si)`` uses d = −si.wi):
     d is normalised (float32, d / sqrt((x²+y²)+z²)), its major axis picks a face (ties go to x, then y),
@@ -103,25 +104,37 @@ class A5CubeMap(mi.Emitter):
     .. code-block:: python
 
         'background': {'type': 'a5_cubemap', 'filename': 'tex/church'}
+        'background': {'type': 'a5_cubemap', 'left': mi.Bitmap(left_pixels), ..., 'back': mi.Bitmap(...)}
     """
 
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)
-        if "filename" not in props:
-            raise ValueError("a5_cubemap: parameter 'filename' is required (a folder with the six faces)")
-        self.filename = str(props["filename"])
-        folder = Path(self.filename)
-        if not folder.is_dir():
-            raise ValueError(f"a5_cubemap: parameter 'filename' ({self.filename!r}) is not a folder")
-        images = []
+        given = [face for face in FACES if face in props]
+        if "filename" in props and given:
+            raise ValueError(f"a5_cubemap: give either 'filename' or the six faces, not both (found {given})")
         self.face_files: dict[str, Path] = {}
-        for face in FACES:
-            path = find_face(folder, face)
-            try:
-                images.append(load_rgb8(path))
-            except ValueError as exc:
-                raise ValueError(f"a5_cubemap: parameter 'filename', face '{face}': {exc}") from None
-            self.face_files[face] = path
+        images = []
+        if given:
+            missing = [face for face in FACES if face not in given]
+            if missing:
+                raise ValueError(f"a5_cubemap: faces {missing} are missing (all six bitmaps are required)")
+            self.filename: str | None = None
+            images = [bitmap_rgb8(props[face], f"a5_cubemap: parameter '{face}'") for face in FACES]
+        else:
+            if "filename" not in props:
+                raise ValueError("a5_cubemap: parameter 'filename' (a folder with the six faces) or the six "
+                                 "face bitmaps are required")
+            self.filename = str(props["filename"])
+            folder = Path(self.filename)
+            if not folder.is_dir():
+                raise ValueError(f"a5_cubemap: parameter 'filename' ({self.filename!r}) is not a folder")
+            for face in FACES:
+                path = find_face(folder, face)
+                try:
+                    images.append(load_rgb8(path))
+                except ValueError as exc:
+                    raise ValueError(f"a5_cubemap: parameter 'filename', face '{face}': {exc}") from None
+                self.face_files[face] = path
         self.atlas = ImageAtlas(images)
         self.m_flags = mi.EmitterFlags.Infinite | mi.EmitterFlags.SpatiallyVarying
 

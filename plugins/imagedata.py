@@ -11,77 +11,64 @@ The lookup is the sample solution's, for material textures and cube-map faces al
 with every pixel index clamped to the image, no wrapping, no half-texel offset and no gamma: the bytes of
 the file are used as they are. ``(int)`` truncates toward zero, as the C cast does.
 
-Decoding: :func:`load_rgb8` first asks the pixel sources registered with :func:`set_pixel_source` (the
-a5mi front end registers the converter's cache of the images it already decoded while checking the scene,
-``to_mitsuba.decoded_image``), so an image is decoded once per process; OpenImageIO is imported only when
-a file really has to be read.
+Decoding: :func:`load_rgb8` reads a file with the project's one OpenImageIO reader
+(:func:`a5mi.imageio.read_uint8`; the XML path, where plugins get file names); on the ``mi.load_dict`` path
+the converter hands over the pixels it decoded once, as ``mi.Bitmap`` parameters, and :func:`bitmap_rgb8`
+takes them without reading the file again.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from a5mi import imageio
+from a5mi.errors import ImageReadError
+
+
+def rgb8(pixels: np.ndarray, what: str = "image") -> np.ndarray:
+    """(H, W, C) ``uint8`` pixels as OpenImageIO reads them -> (H, W, 3) ``uint8``: grey images (1 or 2
+    channels) are replicated to three channels, a fourth (alpha) channel is dropped. Raises ``ValueError``
+    for any other shape or type."""
+    if pixels.ndim != 3 or pixels.dtype != np.uint8 or pixels.shape[2] < 1 or 0 in pixels.shape[:2]:
+        raise ValueError(f"cannot use {what}: expected (H, W, C) uint8 pixels, got {pixels.dtype} {pixels.shape}")
+    if pixels.shape[2] in (1, 2):
+        pixels = np.repeat(pixels[:, :, :1], 3, axis=2)
+    return np.ascontiguousarray(pixels[:, :, :3])
+
 
 def load_rgb8(path: str | Path) -> np.ndarray:
-    """Read an image file as an (H, W, 3) ``uint8`` array, row 0 = the top row of the picture.
+    """Read an image file as an (H, W, 3) ``uint8`` array, row 0 = the top row of the picture (:func:`rgb8`).
 
-    Parameter ``path``: any format OpenImageIO reads (the course uses 24-bit BMP and PNG). Grey images are
-    replicated to three channels, a fourth (alpha) channel is dropped, and a file stored with more than
-    8 bits per channel is converted to 8 bits by OpenImageIO.
+    Parameter ``path``: any format OpenImageIO reads (the course uses 24-bit BMP and PNG); a file stored with
+    more than 8 bits per channel is converted to 8 bits by OpenImageIO.
 
     Raises ``ValueError`` naming the path when the file is missing, unreadable or not an image.
     """
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"image file not found: {path}")
-    pixels = _PIXEL_SOURCE(path) if _PIXEL_SOURCE is not None else None
-    if pixels is None:
-        pixels = _read_uint8(path)
-    if pixels.ndim != 3 or pixels.dtype != np.uint8 or pixels.shape[2] < 1:
-        raise ValueError(f"cannot read image {path}: expected (H, W, C) uint8 pixels, got {pixels.dtype} "
-                         f"{pixels.shape}")
-    if pixels.shape[2] in (1, 2):
-        pixels = np.repeat(pixels[:, :, :1], 3, axis=2)
-    return np.ascontiguousarray(pixels[:, :, :3])
-
-
-#: ``(path) -> (H, W, C) uint8 pixels as OpenImageIO reads them, or None``; see :func:`set_pixel_source`.
-PixelSource = Callable[[Path], "np.ndarray | None"]
-_PIXEL_SOURCE: PixelSource | None = None
-
-
-def set_pixel_source(source: PixelSource | None) -> None:
-    """Let :func:`load_rgb8` take already-decoded pixels from ``source`` (None: always decode).
-
-    Parameter ``source``: called with the image's path; returns the file's pixels exactly as
-    ``ImageInput.read_image(0, 0, 0, nchannels, "uint8")`` gives them, shaped (H, W, C), or None when it
-    does not hold that file (it must key its entries by the file's identity, e.g. path + mtime + size,
-    so a changed file is read again)."""
-    global _PIXEL_SOURCE
-    _PIXEL_SOURCE = source
-
-
-def _read_uint8(path: Path) -> np.ndarray:
-    """(H, W, C) uint8 pixels of ``path`` through OpenImageIO (imported here: only when a file is read)."""
-    import OpenImageIO as oiio
-
-    inp = oiio.ImageInput.open(str(path))
-    if inp is None:
-        raise ValueError(f"cannot read image {path}: {oiio.geterror() or 'unknown format'}")
     try:
-        spec = inp.spec()
-        pixels = inp.read_image(0, 0, 0, spec.nchannels, "uint8")
-        reason = inp.geterror() if pixels is None else ""  # e.g. a truncated file
-    finally:
-        inp.close()
-    if pixels is None or spec.width <= 0 or spec.height <= 0:
-        raise ValueError(f"cannot read image {path}: {reason or oiio.geterror() or 'no pixel data'}")
-    return np.asarray(pixels, dtype=np.uint8).reshape(spec.height, spec.width, spec.nchannels)
+        pixels = imageio.read_uint8(path)
+    except ImageReadError as exc:
+        raise ValueError(f"cannot read image {path}: {exc.reason}") from None
+    return rgb8(pixels, f"image {path}")
+
+
+def bitmap_rgb8(bitmap: Any, what: str = "bitmap") -> np.ndarray:
+    """An 8-bit ``mi.Bitmap`` (the converter's decoded pixels) as (H, W, 3) ``uint8`` (:func:`rgb8`); raises
+    ``ValueError`` for anything else (another object, float pixels)."""
+    if not isinstance(bitmap, mi.Bitmap):
+        raise ValueError(f"{what}: expected an mi.Bitmap, got {type(bitmap).__name__}")
+    pixels = np.array(bitmap, copy=True)
+    if pixels.ndim == 2:
+        pixels = pixels[:, :, None]
+    return rgb8(pixels, what)
 
 
 class ImageAtlas:

@@ -429,7 +429,7 @@ def test_issue8_internal_error_exit_1_short_message_and_debug_traceback(tmp_path
 # ------------------------------------------------------------------------------- fuzz past the parser
 def test_issue8_fuzz_converter_stage_raises_only_positioned_scene_errors_and_no_warnings(scenes_dir: Path) -> None:
     """500 mutated course scenes (delete, duplicate, swap tokens; numbers replaced by extremes such as 0, -0,
-    1e-45, 3.4e38; file names swapped) through the parser *and* :func:`check_files` (OBJ loading, image
+    1e-45, 3.4e38; file names swapped) through the parser *and* :func:`describe` (OBJ loading, image
     validation, world-space geometry of every primitive): each either passes or raises SceneError with a
     position, and no Python/numpy warning is emitted (it would be a second stderr line in the CLI). The
     parser-only fuzz with 2,000 scenes is in tests/test_parser.py."""
@@ -439,8 +439,8 @@ def test_issue8_fuzz_converter_stage_raises_only_positioned_scene_errors_and_no_
     from hypothesis import strategies as st
 
     from a5mi.converters.a5_parser import parse_text
+    from a5mi.converters.describe import describe
     from a5mi.converters.errors import SceneError
-    from a5mi.converters.to_mitsuba import check_files
 
     sources = [p.read_text().split() for p in sorted(scenes_dir.glob("*.txt"))]
     numbers = ["0", "-0", "1e-45", "1e-30", "3.4e38", "-3.4e38", "1e30", "-1", "0.5", "2"]
@@ -479,7 +479,7 @@ def test_issue8_fuzz_converter_stage_raises_only_positioned_scene_errors_and_no_
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             try:
-                check_files(parse_text(text, fuzz_path))
+                describe(parse_text(text, fuzz_path))
                 count["converted"] += 1
             except SceneError as e:
                 assert e.loc is not None and e.loc.line >= 1 and e.loc.col >= 1

@@ -1,4 +1,5 @@
-"""Model -> Mitsuba dict (SPEC A.3-A.6, B.2, B.3): structure, geometry facts, loading, and the plane horizon."""
+"""Model -> scene description -> Mitsuba dict (SPEC A.3-A.6, B.2, B.3): structure, geometry facts, loading, and the
+plane horizon."""
 
 from __future__ import annotations
 
@@ -12,19 +13,24 @@ import pytest
 from a5mi import data_dir
 from a5mi.converters import transforms as tf
 from a5mi.converters.a5_parser import parse_file, parse_text
-from a5mi.converters.errors import SceneSemanticError
-from a5mi.converters.to_mitsuba import (
-    PLANE_HALF_SIZE,
-    MeshData,
-    RenderSettings,
-    build,
-    plane_rectangle_to_world,
-    resolve_cube_map,
-    to_dict,
-    world_plane,
+from a5mi.converters.describe import (
+    ColorBackground,
+    CubeMapBackground,
+    MeshShape,
+    PlaneShape,
+    SceneDescription,
+    SphereShape,
+    describe,
 )
+from a5mi.converters.errors import SceneSemanticError
+from a5mi.converters.files import Image, cube_map_folder
+from a5mi.converters.geometry import PLANE_HALF_SIZE, MeshData, plane_rectangle_to_world, world_plane
+from a5mi.converters.materials import a5_bsdf, without_texture
+from a5mi.converters.model import Noise
+from a5mi.converters.to_mitsuba import background_dict, integrator_dict, light_dict, sensor_dict, to_dict
+from a5mi.imageio import read_uint8
+from a5mi.options import RenderOptions
 
-A5_PLUGINS = ("a5_whitted", "a5_material", "a5_marble", "a5_bitmap", "a5_point", "a5_cubemap", "a5_camera")
 CAM = "PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
 
 
@@ -37,91 +43,112 @@ SCENE_FILES = _scene_files()
 SCENE_IDS = [p.stem if p.stem != "s" else "sibenik" for p in SCENE_FILES]
 
 
-def _load_or_skip_unknown_plugin(d: dict):
-    """``mi.load_dict``; skips only while an a5 plugin is not registered yet (any other error fails)."""
+def _load(d: dict):
+    """``mi.load_dict``: every a5 plugin is registered by the ``variant`` fixture, so an unknown plugin (a
+    regression in ``register_all``) fails here like any other error."""
     import mitsuba as mi
 
-    try:
-        return mi.load_dict(d)
-    except RuntimeError as exc:
-        msg = str(exc)
-        missing = [p for p in A5_PLUGINS if f'"{p}"' in msg or f"'{p}'" in msg]
-        if "unknown" in msg.lower() and "plugin" in msg.lower() and missing:
-            pytest.skip(f"a5 plugin not registered yet: {missing}")
-        raise
+    return mi.load_dict(d)
+
+
+def _mesh(desc: SceneDescription, i: int) -> MeshData:
+    shape = desc.shapes[i]
+    assert isinstance(shape, MeshShape)
+    return shape.mesh
 
 
 # --------------------------------------------------------------------------------- structure (no Mitsuba)
 def test_b3_integrator_and_a1_ambient(scenes_dir: Path) -> None:
-    scene = parse_file(scenes_dir / "scene11_cube.txt")
-    d = build(scene, RenderSettings(width=30, height=20, bounces=2, shadows=True, fresnel="exact")).scene
-    assert d["integrator"] == {"type": "a5_whitted", "max_depth": 2, "shadows": True,
-                               "ambient": {"type": "rgb", "value": [0.1, 0.1, 0.1]}, "phong": False,
-                               "fresnel": "exact", "reflection": True, "refraction": True}
-    s = d["sensor"]
+    desc = describe(parse_file(scenes_dir / "scene11_cube.txt"))
+    options = RenderOptions(width=30, height=20, bounces=2, shadows=True, fresnel="exact")
+    assert integrator_dict(desc, options, stock=False) == {
+        "type": "a5_whitted", "max_depth": 2, "shadows": True, "ambient": {"type": "rgb", "value": [0.1, 0.1, 0.1]},
+        "phong": False, "fresnel": "exact", "reflection": True, "refraction": True, "aovs": ""}
+    s = sensor_dict(desc, options, stock=False)
     assert (s["type"], s["center"], s["direction"], s["up"], s["angle"]) == (
         "a5_camera", [-5.3, 7.0, 8.3], [0.4, -0.5, -0.75], [0.0, 1.0, 0.0], 25.0)
     assert (s["film"]["width"], s["film"]["height"]) == (30, 20)
     text = CAM + "Materials { numMaterials 1 Material { } } Background { ambientLight 0.3 0.3 0.3 }\n" \
                  "Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }"
-    no_lights = build(parse_text(text, "n.txt")).scene
-    assert no_lights["integrator"]["ambient"]["value"] == [1.0, 1.0, 1.0]
-    assert not any(k.startswith("light_") for k in no_lights)
+    no_lights = describe(parse_text(text, "n.txt"))
+    assert integrator_dict(no_lights, RenderOptions(), stock=False)["ambient"]["value"] == [1.0, 1.0, 1.0]
+    assert no_lights.lights == ()
 
 
 def test_a3_a4_lights_and_background(scenes_dir: Path) -> None:
-    d = build(parse_file(scenes_dir / "scene11_cube.txt")).scene
-    assert d["light_000"] == {"type": "directional", "direction": [-0.3, -0.5, -0.5],
-                              "irradiance": {"type": "rgb", "value": [0.3, 0.3, 0.3]}}
-    assert d["light_001"] == {"type": "a5_point", "position": [-2.0, 0.8, -2.0],
-                              "color": {"type": "rgb", "value": [0.9, 0.9, 0.9]}, "falloff": 0.1}
-    assert d["background"]["type"] == "a5_cubemap"
-    assert Path(d["background"]["filename"]) == (scenes_dir / "tex" / "church2").resolve()
-    d = build(parse_file(scenes_dir / "scene02_cube.txt")).scene
-    assert d["background"] == {"type": "constant", "radiance": {"type": "rgb", "value": [0.2, 0.0, 0.6]}}
+    desc = describe(parse_file(scenes_dir / "scene11_cube.txt"))
+    assert light_dict(desc.lights[0], desc.centre, stock=False) == {
+        "type": "directional", "direction": [-0.3, -0.5, -0.5], "irradiance": {"type": "rgb", "value": [0.3, 0.3, 0.3]}}
+    assert light_dict(desc.lights[1], desc.centre, stock=False) == {
+        "type": "a5_point", "position": [-2.0, 0.8, -2.0], "color": {"type": "rgb", "value": [0.9, 0.9, 0.9]},
+        "falloff": 0.1}
+    bg = desc.background
+    assert isinstance(bg, CubeMapBackground)
+    assert bg.folder == (scenes_dir / "tex" / "church2").resolve()
+    assert [f.path for f in bg.faces] == [(scenes_dir / "tex" / "church2" / f"{face}.bmp").resolve()
+                                          for face in ("left", "right", "up", "down", "front", "back")]
+    bg = describe(parse_file(scenes_dir / "scene02_cube.txt")).background
+    assert isinstance(bg, ColorBackground)
+    assert background_dict(bg) == {"type": "constant", "radiance": {"type": "rgb", "value": [0.2, 0.0, 0.6]}}
 
 
 def test_b3_texture_only_where_the_shape_has_uv(scenes_dir: Path) -> None:
     """scene08: textured materials on OBJ meshes with vt; a textured material on the Plane (no uv)
-    gets the '_nouv' variant whose kd is the diffuse colour."""
+    gets a second, untextured BSDF whose kd is the diffuse colour."""
     text = (scenes_dir / "scene08_c.txt").read_text()
     text = text.replace("MaterialIndex 3\n    Plane", "MaterialIndex 0\n    Plane")
-    d = build(parse_text(text, str(scenes_dir / "scene08_x.txt"))).scene
-    assert d["mat_000"]["kd"]["type"] == "a5_bitmap"
-    assert Path(d["mat_000"]["kd"]["filename"]) == (scenes_dir / "tex" / "head.bmp").resolve()
-    assert "kd" not in d["mat_000_nouv"]
-    assert d["mat_000_nouv"]["diffuse_color"]["value"] == [0.2, 0.8, 0.2]
-    assert d["plane_003"]["bsdf"] == {"type": "ref", "id": "mat_000_nouv"}
-    assert d["mesh_000"]["bsdf"] == {"type": "ref", "id": "mat_000"}
+    desc = describe(parse_text(text, str(scenes_dir / "scene08_x.txt")))
+    mat = desc.materials[0]
+    head = (scenes_dir / "tex" / "head.bmp").resolve()
+    assert isinstance(mat.kd, Image) and mat.kd.path == head
+    np.testing.assert_array_equal(mat.kd.pixels, read_uint8(head))
+    assert a5_bsdf(mat, True)["kd"] == {"type": "a5_bitmap", "filename": str(head)}
+    nouv = a5_bsdf(mat, False)
+    assert "kd" not in nouv and nouv["diffuse_color"]["value"] == [0.2, 0.8, 0.2]
+    assert without_texture(mat, False) and not without_texture(mat, True)
+    plane, mesh = desc.shapes[3], desc.shapes[0]
+    assert isinstance(plane, PlaneShape) and plane.material == 0 and not plane.has_uv
+    assert isinstance(mesh, MeshShape) and mesh.material == 0 and mesh.has_uv
 
 
 def test_b4_noise_is_the_kd_texture(scenes_dir: Path) -> None:
-    d = build(parse_file(scenes_dir / "scene10_sphere.txt")).scene
-    assert d["mat_002"]["kd"] == {"type": "a5_marble", "color1": {"type": "rgb", "value": [0.1, 0.2, 0.3]},
-                                  "color2": {"type": "rgb", "value": [0.3, 0.4, 0.5]}, "octaves": 4,
-                                  "frequency": 2.0, "amplitude": 4.0}
-    assert d["mat_000"]["refraction_index"] == 1.3 and d["mat_000"]["specular_color"]["value"] == [1, 1, 1]
+    desc = describe(parse_file(scenes_dir / "scene10_sphere.txt"))
+    assert isinstance(desc.materials[2].kd, Noise)
+    for with_uv in (False, True):  # Noise overrides any texture, with or without uv (B.3)
+        assert a5_bsdf(desc.materials[2], with_uv)["kd"] == {
+            "type": "a5_marble", "color1": {"type": "rgb", "value": [0.1, 0.2, 0.3]},
+            "color2": {"type": "rgb", "value": [0.3, 0.4, 0.5]}, "octaves": 4, "frequency": 2.0, "amplitude": 4.0}
+    glass = a5_bsdf(desc.materials[0], False)
+    assert glass["refraction_index"] == 1.3 and glass["specular_color"]["value"] == [1, 1, 1]
 
 
-def test_a6_sphere_similarity_vs_shapegroup(scenes_dir: Path) -> None:
-    d = build(parse_file(scenes_dir / "scene10_sphere.txt")).scene
+def test_a6_sphere_similarity_vs_shapegroup(variant: str, scenes_dir: Path) -> None:
+    desc = describe(parse_file(scenes_dir / "scene10_sphere.txt"))
+    sph = desc.shapes[0]
+    assert isinstance(sph, SphereShape) and sph.to_world is None and list(sph.center) == [0.3, 0.0, -1.0]
+    d = to_dict(desc)
     assert d["sphere_000"]["type"] == "sphere" and d["sphere_000"]["center"] == [0.3, 0.0, -1.0]
-    d = build(parse_file(scenes_dir / "scene03_sphere.txt")).scene  # ZRotate 45 * Scale 1 .2 1
+    desc = describe(parse_file(scenes_dir / "scene03_sphere.txt"))  # ZRotate 45 * Scale 1 .2 1
+    sph = desc.shapes[0]
+    assert isinstance(sph, SphereShape) and sph.to_world is not None
+    assert np.allclose(sph.to_world, tf.z_rotate(45) @ tf.scale(1, 0.2, 1))
+    d = to_dict(desc)
     assert d["sphere_000"]["type"] == "instance"
     assert d["sphere_000"]["shapegroup"] == {"type": "ref", "id": "sphere_000_group"}
-    assert np.allclose(d["sphere_000"]["to_world"], tf.z_rotate(45) @ tf.scale(1, 0.2, 1))
+    assert d["sphere_000_group"]["type"] == "shapegroup" and d["sphere_000_group"]["shape"]["type"] == "sphere"
+    assert np.allclose(np.array(d["sphere_000"]["to_world"].matrix), tf.z_rotate(45) @ tf.scale(1, 0.2, 1))
     text = CAM + "Materials { numMaterials 1 Material { } }\nGroup { numObjects 1 MaterialIndex 0 Transform {" \
                  " Translate 1 2 3 ZRotate 30 UniformScale 2 Sphere { center 1 0 0 radius 0.5 } } }"
-    sph = build(parse_text(text, "s.txt")).scene["sphere_000"]
+    sph = describe(parse_text(text, "s.txt")).shapes[0]
     c = [1 + 2 * math.cos(math.radians(30)), 2 + 2 * math.sin(math.radians(30)), 3]
-    assert sph["type"] == "sphere" and np.allclose(sph["center"], c) and sph["radius"] == pytest.approx(1.0)
+    assert isinstance(sph, SphereShape) and sph.to_world is None
+    assert np.allclose(sph.center, c) and sph.radius == pytest.approx(1.0)
 
 
 def test_a6_mesh_vertices_are_baked_into_world_space(scenes_dir: Path) -> None:
     """scene11 red post: Translate(-.8,0,-2) Scale(.25,1,.25) YRotate(45) Translate(0,1,0); corner (1,1,1)
     -> (-0.8 + 0.25*sqrt2, 2, -2)."""
-    d = build(parse_file(scenes_dir / "scene11_cube.txt")).scene
-    mesh: MeshData = d["mesh_001"]["data"]
+    mesh = _mesh(describe(parse_file(scenes_dir / "scene11_cube.txt")), 1)
     corner = np.array([-0.8 + 0.25 * math.sqrt(2), 2.0, -2.0])
     assert np.min(np.linalg.norm(mesh.positions - corner, axis=1)) < 1e-12
     assert mesh.normals is None and mesh.texcoords is None and mesh.faces.shape == (12, 3)
@@ -130,9 +157,9 @@ def test_a6_mesh_vertices_are_baked_into_world_space(scenes_dir: Path) -> None:
 def test_a6_smooth_normals_are_transformed_by_inverse_transpose_without_renormalising(scenes_dir: Path) -> None:
     text = CAM + "Materials { numMaterials 1 Material { } }\nGroup { numObjects 1 MaterialIndex 0 Transform {" \
                  f" Scale 2 1 1 TriangleMesh {{ obj_file {scenes_dir / 'bunny_1k.obj'} }} }} }}"
-    mesh: MeshData = build(parse_text(text, "b.txt")).scene["mesh_000"]["data"]
+    mesh = _mesh(describe(parse_text(text, "b.txt")), 0)
     assert mesh.normals is not None and len(mesh.normals) == 502
-    plain: MeshData = build(parse_text(text.replace("Scale 2 1 1", "Scale 1 1 1"), "b.txt")).scene["mesh_000"]["data"]
+    plain = _mesh(describe(parse_text(text.replace("Scale 2 1 1", "Scale 1 1 1"), "b.txt")), 0)
     assert plain.normals is not None
     assert np.allclose(np.linalg.norm(plain.normals, axis=1), 1.0)
     assert np.allclose(mesh.normals, plain.normals * [0.5, 1, 1])
@@ -144,7 +171,7 @@ def test_a6_flat_winding_reversed_under_a_mirror() -> None:
     (M⁻¹)ᵀ(0,0,1) = (0,0,1): the world winding must keep +z."""
     text = CAM + "Materials { numMaterials 1 Material { } }\nGroup { numObjects 1 MaterialIndex 0 Transform {" \
                  " Scale -1 1 1 Triangle { vertex0 0 0 0 vertex1 1 0 0 vertex2 0 1 0 } } }"
-    mesh: MeshData = build(parse_text(text, "t.txt")).scene["triangle_000"]["data"]
+    mesh = _mesh(describe(parse_text(text, "t.txt")), 0)
     p = mesh.positions[mesh.faces[0]]
     assert np.cross(p[1] - p[0], p[2] - p[0]).tolist() == [0.0, 0.0, 1.0]
 
@@ -153,9 +180,10 @@ def test_a6_plane_rectangle(scenes_dir: Path) -> None:
     """``normal 0 2 0 offset -1`` is y = -0.5 (normal not normalised); the rectangle's z axis is +y."""
     text = CAM + "Materials { numMaterials 1 Material { } }\nGroup { numObjects 1 MaterialIndex 0 " \
                  "Plane { normal 0 2 0 offset -1 } }"
-    rect = build(parse_text(text, "p.txt")).scene["plane_000"]
-    m = rect["to_world"]
-    assert rect["type"] == "rectangle"
+    plane = describe(parse_text(text, "p.txt")).shapes[0]
+    assert isinstance(plane, PlaneShape)
+    assert np.allclose(plane.n_w, [0, 2, 0]) and plane.offset_w == pytest.approx(-1.0)
+    m = plane.rectangle
     assert np.allclose(m[:3, 3], [0, -0.5, 10]) and np.allclose(m[:3, 2], [0, 1, 0])
     assert np.isclose(np.linalg.norm(m[:3, 0]), PLANE_HALF_SIZE)
     # Under a Transform the plane maps by M^-T: Translate 0 3 0 lifts y = -0.5 to y = 2.5.
@@ -169,34 +197,69 @@ def test_paths_resolve_against_the_scene_folder_and_missing_files_are_errors(sce
     src = (scenes_dir / "scene02_cube.txt").read_text()
     (tmp_path / "s.txt").write_text(src)
     with pytest.raises(SceneSemanticError) as e:
-        build(parse_file(tmp_path / "s.txt"))
+        describe(parse_file(tmp_path / "s.txt"))
     assert str(e.value).startswith(f"{tmp_path / 's.txt'}:31:18: error: obj_file file 'cube.obj' not found")
     shutil.copy(scenes_dir / "cube.obj", tmp_path / "cube.obj")
-    assert build(parse_file(tmp_path / "s.txt")).scene["mesh_000"]["data"].faces.shape == (12, 3)
+    assert _mesh(describe(parse_file(tmp_path / "s.txt")), 0).faces.shape == (12, 3)
     (tmp_path / "t.txt").write_text(src.replace("Material { diffuseColor 1 0 0 }",
                                                 "Material { diffuseColor 1 0 0 texture nope.bmp }")
                                     .replace("Background {", "Background {\n    cubeMap cm"))
     with pytest.raises(SceneSemanticError, match=r"t.txt:18:13: error: cubeMap folder 'cm' not found"):
-        build(parse_file(tmp_path / "t.txt"))
+        describe(parse_file(tmp_path / "t.txt"))
     (tmp_path / "cm").mkdir()
     with pytest.raises(SceneSemanticError, match=r"t.txt:18:13: error: cubeMap folder '.*cm' has no 'left' face"):
-        build(parse_file(tmp_path / "t.txt"))
+        describe(parse_file(tmp_path / "t.txt"))
     for face in ("left", "right", "up", "down", "front", "back"):
         (tmp_path / "cm" / f"{face}.bmp").write_bytes(b"BM")
     with pytest.raises(SceneSemanticError, match=r"t.txt:18:13: error: cubeMap face '.*left.bmp' is not a readable"):
-        build(parse_file(tmp_path / "t.txt"))  # faces are read whole when resolved (issue 8)
+        describe(parse_file(tmp_path / "t.txt"))  # faces are read whole when resolved (issue 8)
     for face in ("left", "right", "up", "down", "front", "back"):
         shutil.copy(scenes_dir / "tex" / "head.bmp", tmp_path / "cm" / f"{face}.bmp")
     # The texture is only needed on shapes with uv: cube.obj has none, so this converts.
-    build(parse_file(tmp_path / "t.txt"))
+    desc = describe(parse_file(tmp_path / "t.txt"))
+    assert desc.materials[0].kd is None  # the texture is never read (no shape with uv uses it)
 
 
-def test_a4_cubemap_link_file_is_followed_with_a_warning(a5_data: Path) -> None:
+def _cube_scene(folder: Path) -> Path:
+    """``folder/s.txt``: one sphere in front of the cube map ``tex/church`` (its name on line 3, column 34)."""
+    (folder / "s.txt").write_text(CAM + "Lights { numLights 0 }\nBackground { color 0 0 0 cubeMap tex/church }\n"
+                                  "Materials { numMaterials 1 Material { } }\n"
+                                  "Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }\n")
+    (folder / "tex").mkdir()
+    return folder / "s.txt"
+
+
+def test_a4_cubemap_link_file_is_followed_with_a_warning(tmp_path: Path) -> None:
+    """A cube-map folder reached through a real symlink needs nothing; a small text file holding a relative
+    path to a folder (a git symlink checked out as text, like the course's extras/sibenik/tex/church) is
+    followed with a warning at the cubeMap keyword."""
+    from a5mi import imageio
+
+    faces = tmp_path / "faces"
+    faces.mkdir()
+    for k, face in enumerate(("left", "right", "up", "down", "front", "back")):
+        imageio.write_image(faces / f"{face}.png", np.full((2, 2, 3), (10 * k + 0.5) / 255.0))
+
+    (tmp_path / "a").mkdir()
+    linked = _cube_scene(tmp_path / "a")
+    (linked.parent / "tex" / "church").symlink_to(Path("..") / ".." / "faces", target_is_directory=True)
     warnings: list = []
-    folder = resolve_cube_map(parse_file(a5_data / "extras" / "sibenik" / "s.txt"), warnings)
-    assert folder == (a5_data / "scenes" / "tex" / "church").resolve()
+    assert cube_map_folder(parse_file(linked), warnings).resolve() == faces.resolve() and warnings == []
+    desc = describe(parse_file(linked))
+    assert isinstance(desc.background, CubeMapBackground) and desc.background.folder == faces.resolve()
+    assert desc.warnings == ()
+    assert [int(f.pixels[0, 0, 0]) for f in desc.background.faces] == [0, 10, 20, 30, 40, 50]
+
+    (tmp_path / "b").mkdir()
+    text = _cube_scene(tmp_path / "b")
+    (text.parent / "tex" / "church").write_text("../../faces\n")
+    warnings = []
+    assert cube_map_folder(parse_file(text), warnings).resolve() == faces.resolve()
     assert len(warnings) == 1 and "symlink checked out as a file" in warnings[0][1]
-    assert warnings[0][0].line == 26
+    assert (warnings[0][0].line, warnings[0][0].col) == (3, 34)  # the folder name
+    desc = describe(parse_file(text))
+    assert isinstance(desc.background, CubeMapBackground) and desc.background.folder == faces.resolve()
+    assert [msg for _, msg in desc.warnings] == [warnings[0][1]]
 
 
 # --------------------------------------------------------------------------------- loading
@@ -205,7 +268,7 @@ def test_shipped_scene_loads_stock(variant: str, path: Path) -> None:
     import mitsuba as mi
 
     model = parse_file(path)
-    scene = mi.load_dict(to_dict(model, RenderSettings(8, 8), stock=True))
+    scene = mi.load_dict(to_dict(describe(model), RenderOptions(8, 8), stock=True))
     assert len(scene.shapes()) == len(model.objects)
     assert len(scene.emitters()) == len(model.lights) + 1  # + the background
 
@@ -213,7 +276,7 @@ def test_shipped_scene_loads_stock(variant: str, path: Path) -> None:
 @pytest.mark.parametrize("path", SCENE_FILES, ids=SCENE_IDS)
 def test_shipped_scene_loads_with_a5_plugins(variant: str, path: Path) -> None:
     model = parse_file(path)
-    scene = _load_or_skip_unknown_plugin(to_dict(model, RenderSettings(8, 8)))
+    scene = _load(to_dict(describe(model), RenderOptions(8, 8)))
     assert len(scene.shapes()) == len(model.objects)
     assert len(scene.emitters()) == len(model.lights) + 1  # + the background
 
@@ -226,7 +289,7 @@ def test_stock_sensor_puts_pixel_centres_where_b2_does(variant: str, scenes_dir:
 
     model = parse_file(scenes_dir / "scene11_cube.txt")
     w = 9
-    sensor = mi.load_dict(to_dict(model, RenderSettings(w, w), stock=True)["sensor"])
+    sensor = mi.load_dict(to_dict(describe(model), RenderOptions(w, w), stock=True)["sensor"])
     c = model.camera
     for i, j in [(0, 0), (4, 4), (8, 2), (3, 8)]:
         ray, _ = sensor.sample_ray(0.0, 0.0, mi.Point2f((i + 0.5) / w, 1 - (j + 0.5) / w), mi.Point2f(0.5))
@@ -238,10 +301,10 @@ def test_stock_envmap_bakes_the_cube_map(variant: str, scenes_dir: Path) -> None
     import drjit as dr
     import mitsuba as mi
 
-    model = parse_file(scenes_dir / "scene11_cube.txt")
-    _load_or_skip_unknown_plugin({"type": "a5_cubemap", "filename": str(scenes_dir / "tex" / "church2")})
-    env = mi.load_dict(to_dict(model, stock=True)["background"])
-    cube = mi.load_dict(to_dict(model)["background"])
+    desc = describe(parse_file(scenes_dir / "scene11_cube.txt"))
+    env = mi.load_dict(to_dict(desc, stock=True)["background"])
+    cube = mi.load_dict(to_dict(desc)["background"])
+    from_folder = _load({"type": "a5_cubemap", "filename": str(scenes_dir / "tex" / "church2")})
     rng = np.random.default_rng(1)
     d = rng.normal(size=(2000, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
@@ -250,6 +313,7 @@ def test_stock_envmap_bakes_the_cube_map(variant: str, scenes_dir: Path) -> None
     a = np.array(env.eval(si))
     b = np.array(cube.eval(si))
     assert np.mean(np.abs(a - b)) < 0.03
+    np.testing.assert_array_equal(b, np.array(from_folder.eval(si)))  # decoded faces == the files
 
 
 # --------------------------------------------------------------------------------- the plane horizon
@@ -263,11 +327,10 @@ def test_a6_plane_rectangle_reaches_the_horizon(variant: str, scenes_dir: Path, 
     from a5mi.plugins.camera import camera_rays
 
     model = parse_file(scenes_dir / f"{name}.txt")
-    built = build(model, stock=True)
-    plane_keys = [k for k in built.scene if k.startswith("plane_")]
-    rect = mi.load_dict({"type": "scene", **{k: {**built.scene[k], "bsdf": {"type": "diffuse"},
-                                                  "to_world": mi.ScalarTransform4f(built.scene[k]["to_world"].tolist())}
-                                             for k in plane_keys}})
+    planes = [s for s in describe(model, stock=True).shapes if isinstance(s, PlaneShape)]
+    rect = mi.load_dict({"type": "scene", **{f"plane_{k}": {"type": "rectangle", "bsdf": {"type": "diffuse"},
+                                                            "to_world": mi.ScalarTransform4f(s.rectangle.tolist())}
+                                             for k, s in enumerate(planes)}})
     n = 300
     jj, ii = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
     c = model.camera
@@ -304,7 +367,7 @@ def test_a6_horizon_row_matches_the_reference_image(variant: str, a5_data: Path,
     from a5mi.plugins.camera import camera_rays
 
     model = parse_file(a5_data / "scenes" / f"{name}.txt")
-    scene = _load_or_skip_unknown_plugin(to_dict(model, RenderSettings(300, 300)))
+    scene = _load(to_dict(describe(model), RenderOptions(300, 300)))
     n = 300
     jj, ii = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
     c = model.camera

@@ -1,0 +1,241 @@
+"""The scene description: a parsed scene with every file read and every world-space quantity computed, once.
+
+:func:`describe` turns the typed model (:mod:`.model`, SPEC A.1-A.6) into a :class:`SceneDescription`:
+paths resolved and files checked (:mod:`.files`: OBJ meshes, textures of materials used on shapes with uv,
+the six cube-map faces), each image decoded once (its pixels travel in the description), geometry in world
+space (:mod:`.geometry`), and the conversion warnings. It never imports Mitsuba, so the command line reports
+a bad file as ``FILE:LINE:COL: error`` before the JIT starts; :func:`.to_mitsuba.to_dict` and
+:func:`.to_xml.write_xml` build the Mitsuba scene from the description without reading any file again.
+
+Materials (A.5, B.3): the Lambert colour ``kd`` is the ``Noise`` (marble, B.4), else the ``texture`` on
+shapes with uv, else the diffuse colour: SPEC B.3's "texture(uv) only if the hit has uv". A textured
+material's image is read only when a shape with uv uses it (the others never look it up). ``bump`` is parsed
+and ignored. The ambient term is ``Background.ambientLight``, (1,1,1) without lights (A.1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import files
+from . import transforms as tf
+from .errors import FileLoc, SceneSemanticError
+from .files import Image
+from .geometry import (
+    MeshData,
+    check_float32,
+    check_placement,
+    geometry_centre,
+    mesh_from_obj,
+    mesh_from_triangle,
+    plane_rectangle_to_world,
+    world_plane,
+)
+from .model import Camera, DirectionalLight, Noise, Plane, PointLight, Scene, Sphere, Triangle, TriangleMesh, Vec3
+from .obj import NormalMode, ObjMesh
+
+Light = DirectionalLight | PointLight
+SceneWarning = tuple[FileLoc, str]
+
+
+@dataclass(frozen=True)
+class ColorBackground:
+    """A constant background ``color`` (SPEC A.4)."""
+
+    color: Vec3
+    loc: FileLoc | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class CubeMapBackground:
+    """A cube-map background (SPEC A.4): the resolved ``folder`` and its six decoded ``faces`` in
+    :data:`a5mi.spec.CUBE_FACES` order (left right up down front back)."""
+
+    folder: Path
+    faces: tuple[Image, ...]
+    loc: FileLoc | None = None
+
+
+Background = ColorBackground | CubeMapBackground
+
+
+@dataclass(frozen=True)
+class MaterialDescription:
+    """One ``Material`` (SPEC A.5) with its Lambert colour source ``kd`` on shapes with uv: the ``Noise``
+    (marble, B.4), the decoded ``texture`` :class:`~.files.Image`, or None for ``diffuse_color``. On shapes
+    without uv a texture is not looked up (B.3): see :meth:`kd_on`."""
+
+    diffuse_color: Vec3
+    specular_color: Vec3
+    shininess: float
+    refraction_index: float
+    kd: Noise | Image | None
+    loc: FileLoc | None = None
+
+    def kd_on(self, with_uv: bool) -> Noise | Image | None:
+        """The kd source on a shape with (``with_uv``) or without texture coordinates."""
+        return None if isinstance(self.kd, Image) and not with_uv else self.kd
+
+
+@dataclass(frozen=True, eq=False)
+class MeshShape:
+    """A triangle mesh in world space (an OBJ ``TriangleMesh``, or a ``Triangle`` as a one-face mesh; SPEC
+    A.6). ``obj_file``: the resolved OBJ path, None for a ``Triangle``."""
+
+    mesh: MeshData
+    material: int
+    loc: FileLoc
+    obj_file: Path | None = None
+
+    @property
+    def has_uv(self) -> bool:
+        return self.mesh.has_uv
+
+
+@dataclass(frozen=True, eq=False)
+class SphereShape:
+    """A sphere (SPEC A.6): with ``to_world`` None, ``center`` / ``radius`` are in world space (the placing
+    matrix is a similarity); otherwise they are in object space and ``to_world`` (4, 4) places it."""
+
+    center: Vec3
+    radius: float
+    material: int
+    loc: FileLoc
+    to_world: np.ndarray | None = None
+    has_uv: bool = False
+
+
+@dataclass(frozen=True, eq=False)
+class PlaneShape:
+    """An infinite plane ``P·n_w = offset_w`` in world space (SPEC A.6; ``n_w`` not normalised) and the
+    ``rectangle`` standing in for it: the (4, 4) ``to_world`` of Mitsuba's ``rectangle`` (:mod:`.geometry`)."""
+
+    n_w: np.ndarray
+    offset_w: float
+    rectangle: np.ndarray
+    material: int
+    loc: FileLoc
+    has_uv: bool = False
+
+
+Shape = MeshShape | SphereShape | PlaneShape
+
+
+@dataclass(frozen=True, eq=False)
+class SceneDescription:
+    """Everything a renderer needs from a scene, files already read (module docstring).
+
+    ``shapes`` are in the scene's object order, each with the index of its material in ``materials`` (the
+    scene's ``MaterialIndex``); ``ambient`` is the ambient term the integrator uses (A.1); ``centre`` is
+    the centre of the finite geometry's world bounding box (None without finite geometry; used by the stock
+    point-light approximation); ``warnings`` are ``(loc, message)`` pairs (OBJ quirks, zero-area faces,
+    followed cube-map links, stock approximations when described with ``stock=True``)."""
+
+    path: str
+    camera: Camera
+    ambient: Vec3
+    background: Background
+    materials: tuple[MaterialDescription, ...]
+    shapes: tuple[Shape, ...]
+    lights: tuple[Light, ...]
+    centre: np.ndarray | None = None
+    warnings: tuple[SceneWarning, ...] = ()
+
+
+def describe(scene: Scene, *, stock: bool = False, normals: NormalMode = "auto") -> SceneDescription:
+    """The :class:`SceneDescription` of ``scene``: every file read once, geometry in world space.
+
+    Raises :class:`SceneSemanticError` for missing or unreadable meshes, textures or cube-map faces, at the
+    keyword that named them (or at the OBJ line at fault), and for geometry that nested ``Transform`` s push
+    out of float32 range or make singular, at the primitive. ``stock=True`` adds the warnings of the stock
+    conversion's approximations (:mod:`.to_mitsuba`). ``normals``: :func:`.obj.vertex_normals`' rule. numpy's
+    floating-point warnings are silenced here: such overflows are checked and reported as errors instead."""
+    with np.errstate(all="ignore"):
+        return _describe(scene, stock=stock, normals=normals)
+
+
+def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescription:
+    warnings: list[SceneWarning] = []
+    if stock and any(scene.ambient):
+        warnings.append((scene.background.loc or scene.camera.loc,  # type: ignore[arg-type]
+                         "stock conversion: the ambient term has no equivalent in 'path' and is dropped"))
+
+    placed = scene.objects
+    for p in placed:
+        check_placement(p)
+    meshes: dict[str, ObjMesh] = {}  # each OBJ file read once, in order of first use
+    obj_paths: dict[str, Path] = {}
+    for p in placed:
+        prim = p.primitive
+        if isinstance(prim, TriangleMesh) and prim.obj_file not in meshes:
+            obj_paths[prim.obj_file], meshes[prim.obj_file] = files.load_mesh(scene, prim.obj_file,
+                                                                               prim.obj_file_loc)
+            warnings.extend(meshes[prim.obj_file].warnings)
+    centre = geometry_centre(placed, meshes)
+
+    decoded: files.Decoded = {}  # each image file decoded once, even when several materials name it
+    bg = scene.background
+    background: Background
+    if bg.cube_map is not None:
+        folder, faces = files.cube_map(scene, warnings, decoded)
+        background = CubeMapBackground(folder, faces, bg.cube_map_loc or bg.loc)
+    else:
+        background = ColorBackground(bg.color, bg.loc)
+
+    # Materials on first use, in shape order (so errors and warnings come in the order of the objects).
+    used: set[int] = set()
+    textures: dict[int, Image] = {}
+
+    def use_material(index: int, with_uv: bool) -> None:
+        mat = scene.materials[index]
+        if index not in used:
+            used.add(index)
+            if stock and mat.noise is not None:
+                warnings.append((mat.noise.loc or mat.loc,  # type: ignore[arg-type]
+                                 "stock conversion: Noise (marble) replaced by its mean colour"))
+        if with_uv and mat.noise is None and mat.texture is not None and index not in textures:
+            textures[index] = files.texture_image(scene, mat, decoded)
+
+    cam_c = np.asarray(scene.camera.center, dtype=np.float64)
+    shapes: list[Shape] = []
+    for p in placed:
+        prim, m = p.primitive, p.to_world
+        if isinstance(prim, TriangleMesh):
+            data = mesh_from_obj(meshes[prim.obj_file], m, normals)
+            use_material(prim.material, data.has_uv)
+            check_float32(prim, data.positions, 0.0 if data.normals is None else data.normals)
+            shapes.append(MeshShape(data, prim.material, prim.loc, obj_paths[prim.obj_file]))
+            continue
+        use_material(prim.material, False)
+        if isinstance(prim, Sphere):
+            scale = tf.similarity_scale(m)
+            if scale is not None:
+                center = tf.transform_points(m, np.asarray(prim.center))
+                check_float32(prim, center, prim.radius * scale)
+                shapes.append(SphereShape(tuple(float(x) for x in center), float(prim.radius * scale),  # type: ignore[arg-type]
+                                          prim.material, prim.loc))
+            else:
+                check_float32(prim, m)
+                shapes.append(SphereShape(prim.center, float(prim.radius), prim.material, prim.loc, m.copy()))
+        elif isinstance(prim, Plane):
+            n_w, off_w = world_plane(prim, m)
+            rect = plane_rectangle_to_world(n_w, off_w, cam_c)
+            check_float32(prim, rect)
+            shapes.append(PlaneShape(n_w, off_w, rect, prim.material, prim.loc))
+        elif isinstance(prim, Triangle):
+            data = mesh_from_triangle(prim, m)
+            check_float32(prim, data.positions)
+            shapes.append(MeshShape(data, prim.material, prim.loc))
+        else:  # pragma: no cover - the model has no other primitive
+            raise SceneSemanticError(f"unknown primitive {type(prim).__name__}", prim.loc)
+
+    materials = tuple(
+        MaterialDescription(mat.diffuse_color, mat.specular_color, float(mat.shininess),
+                            float(mat.refraction_index), mat.noise if mat.noise is not None else textures.get(i),
+                            mat.loc)
+        for i, mat in enumerate(scene.materials))
+    return SceneDescription(scene.path, scene.camera, scene.ambient, background, materials, tuple(shapes),
+                            tuple(scene.lights), centre, tuple(warnings))

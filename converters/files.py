@@ -1,0 +1,128 @@
+"""The files a scene names (SPEC A.0 paths, A.4 images and cube maps, A.6 OBJ meshes), resolved and read once.
+
+Every file name of the scene (``obj_file``, ``texture``, ``cubeMap``) is resolved with
+:func:`.model.resolve_path` (scene folder first, then the working directory; SPEC A.0 used only the
+working directory) and checked here, so a bad file is a :class:`SceneSemanticError` at the keyword that named
+it, before Mitsuba is imported. Images are decoded whole, once, with the project's one OpenImageIO reader
+(:func:`a5mi.imageio.read_uint8`, 8 bits per channel, row 0 = the top row: SPEC A.4 uses the file's bytes as
+they are); the pixels travel in the scene description (:class:`Image`) to the plugins, which never read the
+file again on the ``mi.load_dict`` path.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from a5mi import imageio
+from a5mi.errors import ImageReadError
+from a5mi.spec import CUBE_FACES, find_cube_face
+
+from . import obj as objfile
+from .errors import FileLoc, SceneSemanticError
+from .model import Material, Scene, resolve_path
+
+#: Largest file followed as a text "link" (a git symlink checked out as a file) for ``cubeMap``.
+LINK_FILE_MAX_BYTES = 4096
+
+
+@dataclass(frozen=True, eq=False)
+class Image:
+    """A decoded image file: ``path`` (absolute) and its ``pixels`` as OpenImageIO's
+    ``read_image(..., "uint8")`` gives them, (H, W, C) ``uint8``, row 0 = the top row, read-only."""
+
+    path: Path
+    pixels: np.ndarray
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """``(W, H)``."""
+        return int(self.pixels.shape[1]), int(self.pixels.shape[0])
+
+
+#: Images already decoded during one description, by absolute path (several materials may share a file).
+Decoded = dict[Path, Image]
+
+
+def read_image(path: Path, loc: FileLoc, what: str, decoded: Decoded | None = None) -> Image:
+    """Decode the whole image at ``path`` (SPEC A.4: 8 bits per channel) with :func:`a5mi.imageio.read_uint8`,
+    unless ``decoded`` holds it already (then that :class:`Image`; a new one is added to it). Raises
+    :class:`SceneSemanticError` at ``loc``: ``{what} '{path}' is not a readable image: {reason}`` (empty,
+    unreadable, not an image, truncated)."""
+    key = path.resolve()
+    if decoded is not None and key in decoded:
+        return decoded[key]
+    try:
+        pixels = imageio.read_uint8(path)
+    except ImageReadError as exc:
+        raise SceneSemanticError(f"{what} '{path}' is not a readable image: {exc.reason}", loc) from None
+    pixels.flags.writeable = False
+    image = Image(key, pixels)
+    if decoded is not None:
+        decoded[key] = image
+    return image
+
+
+def load_mesh(scene: Scene, name: str, loc: FileLoc) -> tuple[Path, objfile.ObjMesh]:
+    """The OBJ file ``name`` of a ``TriangleMesh`` (SPEC A.6): its resolved absolute path and the mesh parsed by
+    :func:`.obj.load_obj` (which reports errors at the OBJ line at fault; a missing file is an error at
+    ``loc``)."""
+    path = resolve_path(name, scene.base_dir, loc, "obj_file")
+    return path.resolve(), objfile.load_obj(path, loc)
+
+
+def texture_image(scene: Scene, mat: Material, decoded: Decoded | None = None) -> Image:
+    """The material's ``texture`` file (SPEC A.5), resolved and decoded (:func:`read_image`); missing,
+    unreadable or not an image -> :class:`SceneSemanticError` at its loc."""
+    assert mat.texture is not None
+    loc = mat.texture_loc or mat.loc
+    assert loc is not None
+    return read_image(resolve_path(mat.texture, scene.base_dir, loc, "texture"), loc, "texture", decoded)
+
+
+def cube_map_folder(scene: Scene, warnings: list[tuple[FileLoc, str]]) -> Path:
+    """The ``cubeMap`` folder (SPEC A.4; scene folder first, then cwd). A small regular file whose content is a
+    relative path to an existing folder (a git symlink checked out as text, like extras/sibenik/tex/church) is
+    followed, with a warning appended to ``warnings``; a real symlink is followed by the file system."""
+    bg = scene.background
+    assert bg.cube_map is not None
+    loc = bg.cube_map_loc or bg.loc
+    assert loc is not None
+    try:
+        return resolve_path(bg.cube_map, scene.base_dir, loc, "cubeMap", directory=True)
+    except SceneSemanticError:
+        p = Path(bg.cube_map)
+        for cand in ([p] if p.is_absolute() else [scene.base_dir / p, Path.cwd() / p]):
+            if cand.is_file() and cand.stat().st_size < LINK_FILE_MAX_BYTES:
+                try:
+                    target = cand.read_text().strip()
+                except (OSError, UnicodeDecodeError):
+                    continue
+                dest = cand.parent / target
+                if target and "\n" not in target and dest.is_dir():
+                    warnings.append((loc, f"cubeMap '{bg.cube_map}' is a text file holding the path '{target}' "
+                                          "(a symlink checked out as a file): following it"))
+                    return dest
+        raise
+
+
+def cube_map(scene: Scene, warnings: list[tuple[FileLoc, str]],
+             decoded: Decoded | None = None) -> tuple[Path, tuple[Image, ...]]:
+    """The cube-map folder (:func:`cube_map_folder`, resolved) and its six faces in
+    :data:`a5mi.spec.CUBE_FACES` order, each found by :func:`a5mi.spec.find_cube_face` (as the ``a5_cubemap``
+    plugin finds it) and decoded. A missing or unreadable face is a :class:`SceneSemanticError` at the
+    ``cubeMap`` keyword."""
+    bg = scene.background
+    loc = bg.cube_map_loc or bg.loc
+    assert loc is not None
+    folder = cube_map_folder(scene, warnings)
+    faces = []
+    for face in CUBE_FACES:
+        path = find_cube_face(folder, face)
+        if path is None:
+            raise SceneSemanticError(f"cubeMap folder '{folder}' has no '{face}' face (expected {face}.bmp or "
+                                     f"{face}.png)", loc)
+        faces.append(read_image(path, loc, "cubeMap face", decoded))
+    return folder.resolve(), tuple(faces)

@@ -1,0 +1,169 @@
+"""World-space geometry of the scene's primitives (SPEC A.6), as Mitsuba needs it (float32, exact unless stated).
+
+* **Meshes** (``TriangleMesh``, A.6) get their vertices baked into world space, ``p_w = M p``. Smooth meshes
+  (:func:`.obj.vertex_normals`: more than 120 vertices by default) carry vertex normals ``A n`` with
+  ``A = (M⁻¹)ᵀ`` (upper 3x3) and *no* renormalisation: interpolating then normalising commutes with the linear
+  map, which is exactly the binary's interpolate / transform / normalise. Flat meshes carry no normals
+  (Mitsuba shades with the face normal); as ``(Mp1−Mp0)×(Mp2−Mp0) = det(M)·A n``, the winding is reversed
+  when ``det M < 0`` so the face normal keeps the binary's direction ``A n``. Texture coordinates only when
+  the OBJ has ``vt`` (vertices are split per distinct (v, vt) pair).
+* **Spheres**: a world sphere with centre ``M c`` and radius ``s r`` when ``M`` is a similarity
+  (``AᵀA = s² I``, :func:`.transforms.similarity_scale`); otherwise the object-space sphere placed by
+  ``to_world = M`` (a sphere with a non-uniform ``to_world`` gives wrong hits in Mitsuba 3.9.1, so the back
+  ends instance it).
+* **Triangles**: a one-face mesh, as flat meshes above.
+* **Planes** (infinite in the assignment: ``P·n = offset``, n not normalised): the world plane is
+  ``π_w = M⁻ᵀ (n, −offset)`` (:func:`world_plane`); it becomes a rectangle of half-size
+  :data:`PLANE_HALF_SIZE` = 1e7 scene units (:func:`plane_rectangle_to_world`), centred on the foot of the
+  perpendicular from the camera centre, with its frame's z axis along the plane's unit normal (the a5 shading
+  normal). A camera ray misses it only when it would hit the infinite plane at t > 1e7, i.e. within
+  ``h/1e7`` radians of the horizon for a camera at height h, far below one pixel (scene10's last plane row is
+  hit at t ≈ 16,000: tests/test_to_mitsuba.py checks that every B.2 pixel ray hits the rectangle exactly when
+  it hits the plane, for every shipped scene with a plane). The plane keeps only its z extent in float32, so
+  the hit distance is as precise as an analytic plane.
+
+Every world-space number handed to Mitsuba (float32) must be finite there (:func:`check_float32`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from . import transforms as tf
+from .errors import SceneSemanticError
+from .model import Placed, Plane, Sphere, Triangle
+from .obj import FLOAT32_MAX, NormalMode, ObjMesh, vertex_normals
+
+#: Half-size of the rectangle standing in for an infinite plane (scene units); see the module docstring.
+PLANE_HALF_SIZE = 1.0e7
+
+
+def _frozen(a: np.ndarray | None) -> Any:
+    if a is not None:
+        a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class MeshData:
+    """A triangle mesh in world space: ``positions`` (N, 3) float64, ``faces`` (F, 3) uint32, optional
+    ``normals`` (N, 3) and ``texcoords`` (N, 2); the arrays are read-only."""
+
+    positions: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray | None = None
+    texcoords: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        for a in (self.positions, self.faces, self.normals, self.texcoords):
+            _frozen(a)
+
+    @property
+    def has_uv(self) -> bool:
+        """True when the mesh carries texture coordinates (SPEC B.3: only such hits are textured)."""
+        return self.texcoords is not None
+
+
+def _face_normals_flip(faces: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """Reverse the winding when det(M) < 0 so the world face normal is ``(M⁻¹)ᵀ n`` (see module doc)."""
+    return faces[:, ::-1].copy() if np.linalg.det(m[:3, :3]) < 0 else faces
+
+
+def mesh_from_obj(obj: ObjMesh, m: np.ndarray, normals: NormalMode = "auto") -> MeshData:
+    """World-space :class:`MeshData` for an OBJ placed with ``M`` (module docstring: normals, winding, uv)."""
+    vn = vertex_normals(obj.vertices, obj.faces, normals)
+    faces = obj.faces
+    positions = obj.vertices
+    texcoords = None
+    if obj.texcoords is not None and obj.face_texcoords is not None:
+        # Split vertices per distinct (v, vt) pair: Mitsuba stores one uv per vertex. The pairs, in
+        # lexicographic order, are the sorted keys v·T + vt (0 <= vt < T, checked by load_obj).
+        nt = len(obj.texcoords)
+        pair_key = faces.ravel().astype(np.int64) * nt + obj.face_texcoords.ravel()
+        uniq, inverse = np.unique(pair_key, return_inverse=True)
+        faces = inverse.reshape(-1, 3)
+        uniq_v, uniq_t = uniq // nt, uniq % nt
+        positions = obj.vertices[uniq_v]
+        texcoords = obj.texcoords[uniq_t]
+        if vn is not None:
+            vn = vn[uniq_v]
+    world = tf.transform_points(m, positions)
+    world_n = None
+    if vn is not None:
+        world_n = vn @ tf.normal_matrix(m).T  # A n, deliberately not renormalised
+    else:
+        faces = _face_normals_flip(faces, m)
+    return MeshData(world, faces.astype(np.uint32), world_n, texcoords)
+
+
+def mesh_from_triangle(tri: Triangle, m: np.ndarray) -> MeshData:
+    """One-face world-space mesh with a flat normal (winding reversed when det M < 0)."""
+    v = tf.transform_points(m, np.array([tri.vertex0, tri.vertex1, tri.vertex2], dtype=np.float64))
+    faces = _face_normals_flip(np.array([[0, 1, 2]]), m)
+    return MeshData(v, faces.astype(np.uint32))
+
+
+def world_plane(plane: Plane, m: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(n_w, offset_w)`` with ``P·n_w = offset_w`` the image of ``P·n = offset`` under ``M``
+    (planes map by ``M⁻ᵀ``: ``(n_w, −offset_w) = M⁻ᵀ (n, −offset)``)."""
+    pi = np.linalg.inv(m).T @ np.array([*plane.normal, -plane.offset], dtype=np.float64)
+    return pi[:3], float(-pi[3])
+
+
+def plane_rectangle_to_world(n: np.ndarray, offset: float, near: np.ndarray,
+                             half_size: float = PLANE_HALF_SIZE) -> np.ndarray:
+    """``to_world`` of a ``rectangle`` ([-1,1]², z = 0, normal +z) covering the plane ``P·n = offset`` within
+    ``half_size`` of the foot of the perpendicular from ``near``; its z axis is ``n/|n|``."""
+    nn = float(np.dot(n, n))
+    z = n / math.sqrt(nn)
+    foot = near - (float(np.dot(n, near)) - offset) / nn * n
+    helper = np.array([1.0, 0, 0]) if abs(z[0]) < 0.9 else np.array([0, 1.0, 0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    out = np.eye(4)
+    out[:3, 0], out[:3, 1], out[:3, 2], out[:3, 3] = x * half_size, y * half_size, z, foot
+    return out
+
+
+def check_placement(p: Placed) -> None:
+    """The object-to-world matrix of ``p`` in float32 must be finite and invertible: nested ``Transform`` s
+    whose product is singular or out of float32 range are a :class:`SceneSemanticError` at the primitive."""
+    m32 = p.to_world.astype(np.float32)
+    det = float(np.linalg.det(m32[:3, :3].astype(np.float64)))
+    if not (np.all(np.isfinite(m32)) and math.isfinite(det) and det != 0.0):
+        raise SceneSemanticError(f"{type(p.primitive).__name__} is placed by nested Transforms whose product is "
+                                 f"{'singular' if det == 0.0 else 'out of float32 range'}", p.primitive.loc)
+
+
+def check_float32(prim: Any, *values: Any) -> None:
+    """Every world-space number handed to Mitsuba (float32) must be finite there: ``|x| <= 3.4028235e38``.
+    The parser bounds each number as written; an enclosing ``Transform`` can still scale them past float32
+    (``Scale 1e30`` on a vertex at 1e10), which is a :class:`SceneSemanticError` at the primitive."""
+    for v in values:
+        a = np.asarray(v, dtype=np.float64)
+        if not (np.all(np.isfinite(a)) and np.all(np.abs(a) <= FLOAT32_MAX)):
+            raise SceneSemanticError(f"{type(prim).__name__} is out of float32 range in world space (the enclosing "
+                                     "Transforms scale it beyond 3.4e38)", prim.loc)
+
+
+def geometry_centre(placed: tuple[Placed, ...], meshes: dict[str, ObjMesh]) -> np.ndarray | None:
+    """Centre ``(min + max)/2`` of the world bounding box of the finite geometry (spheres' centres, triangles,
+    mesh vertices; planes are infinite), or None when there is none. ``meshes``: OBJ file name -> mesh."""
+    pts = []
+    for p in placed:
+        prim = p.primitive
+        if isinstance(prim, Sphere):
+            pts.append(tf.transform_points(p.to_world, np.asarray(prim.center))[None])
+        elif isinstance(prim, Triangle):
+            pts.append(tf.transform_points(p.to_world, np.array([prim.vertex0, prim.vertex1, prim.vertex2])))
+        elif not isinstance(prim, Plane):
+            pts.append(tf.transform_points(p.to_world, meshes[prim.obj_file].vertices))
+    if not pts:
+        return None
+    allp = np.concatenate(pts)
+    return (allp.min(0) + allp.max(0)) / 2

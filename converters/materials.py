@@ -1,0 +1,109 @@
+"""Material descriptions -> Mitsuba BSDF dicts (SPEC A.5, B.3, B.4): the a5 plugins, or stock approximations.
+
+a5 (:func:`a5_bsdf`): ``a5_material`` (contract in ARCHITECTURE.md) with ``kd`` = ``a5_marble`` (Noise), else
+``a5_bitmap`` (texture) on shapes with uv, else the diffuse colour. A textured material used on a shape
+without uv (sphere, plane, triangle, OBJ without ``vt``) gets a second BSDF without the texture: SPEC B.3's
+"texture(uv) only if the hit has uv" (:meth:`.describe.MaterialDescription.kd_on`).
+
+Stock (:func:`stock_bsdf`, for use outside a5mi; none is needed for a5 renders):
+
+* ``diffuse`` (reflectance = kd) when ``|specularColor| ≤ 0.001`` (:data:`a5mi.spec.MIRROR_THRESHOLD`) and
+  ``refractionIndex = 0``; otherwise a ``blendbsdf`` with weight ``w = clamp(max specularColor, 0, 1)``
+  between that ``diffuse`` and a perfect mirror (``conductor``, ``material='none'``) or, for
+  ``refractionIndex n > 0``, a ``dielectric`` with ``int_ior = n``, ``ext_ior = 1.0`` (its defaults are BK7
+  and air), both with specular reflectance/transmittance ``specularColor / w``. a5soln *adds* the mirror
+  term to the full diffuse one; a physically based blend cannot, so stock renders are darker or brighter
+  there;
+* textures: stock ``bitmap`` with ``raw=True``, ``filter_type='bilinear'``, ``wrap_mode='clamp'``: it has
+  Mitsuba's half-texel offset, unlike A.4; Noise (3D marble): the mean colour ``(color1 + color2)/2`` (the
+  mean of ``t`` over a period of the sine; :func:`.describe.describe` warns with ``stock=True``).
+
+Images enter the dicts through an ``image`` callback (:data:`ImageParams`): the XML names the file
+(:func:`file_params`), ``to_dict`` hands the decoded pixels over as an ``mi.Bitmap``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from a5mi.spec import MIRROR_THRESHOLD
+
+from .describe import MaterialDescription
+from .files import Image
+from .model import Noise
+
+#: ``(image) -> the image parameters of a bitmap texture`` (``{'filename': ...}`` or ``{'bitmap': ...}``).
+ImageParams = Callable[[Image], dict[str, Any]]
+
+
+def rgb(c: Any) -> dict[str, Any]:
+    """``{'type': 'rgb', 'value': [r, g, b]}``."""
+    return {"type": "rgb", "value": [float(x) for x in c]}
+
+
+def file_params(image: Image) -> dict[str, Any]:
+    """``{'filename': absolute path}``: the image named by its file (XML)."""
+    return {"filename": str(image.path)}
+
+
+def textured(mat: MaterialDescription, with_uv: bool) -> bool:
+    """True when the material's texture is looked up on this shape (it has one and the shape has uv)."""
+    return isinstance(mat.kd_on(with_uv), Image)
+
+
+def without_texture(mat: MaterialDescription, with_uv: bool) -> bool:
+    """True for the second, untextured BSDF of a textured material on a shape without uv (SPEC B.3)."""
+    return isinstance(mat.kd, Image) and not with_uv
+
+
+def a5_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_params) -> dict[str, Any]:
+    """``a5_material`` (contract in ARCHITECTURE.md); ``kd`` = marble, else bitmap (only ``with_uv``)."""
+    d: dict[str, Any] = {
+        "type": "a5_material",
+        "diffuse_color": rgb(mat.diffuse_color),
+        "specular_color": rgb(mat.specular_color),
+        "shininess": float(mat.shininess),
+        "refraction_index": float(mat.refraction_index),
+    }
+    kd = mat.kd_on(with_uv)
+    if isinstance(kd, Noise):
+        d["kd"] = {"type": "a5_marble", "color1": rgb(kd.color1), "color2": rgb(kd.color2),
+                   "octaves": int(kd.octaves), "frequency": float(kd.frequency), "amplitude": float(kd.amplitude)}
+    elif isinstance(kd, Image):
+        d["kd"] = {"type": "a5_bitmap", **image(kd)}
+    return d
+
+
+def stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_params) -> dict[str, Any]:
+    """Stock approximation (module docstring): diffuse, blended with a mirror or a dielectric."""
+    kd_src = mat.kd_on(with_uv)
+    kd: dict[str, Any]
+    if isinstance(kd_src, Noise):
+        kd = rgb((np.asarray(kd_src.color1) + np.asarray(kd_src.color2)) / 2)
+    elif isinstance(kd_src, Image):
+        kd = {"type": "bitmap", **image(kd_src), "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp"}
+    else:
+        kd = rgb(mat.diffuse_color)
+    diffuse = {"type": "diffuse", "reflectance": kd}
+    spec = np.asarray(mat.specular_color, dtype=np.float64)
+    w = float(np.clip(spec.max(), 0.0, 1.0))
+    if mat.refraction_index > 0.0:
+        other: dict[str, Any] = {"type": "dielectric", "int_ior": float(mat.refraction_index), "ext_ior": 1.0}
+        if w > 0:
+            other["specular_reflectance"] = rgb(spec / w)
+            other["specular_transmittance"] = rgb(spec / w)
+    elif float(np.linalg.norm(spec)) > MIRROR_THRESHOLD:
+        other = {"type": "conductor", "material": "none", "specular_reflectance": rgb(spec / w)}
+    else:
+        return diffuse
+    if w == 0.0:
+        return diffuse
+    return {"type": "blendbsdf", "weight": w, "bsdf_0": diffuse, "bsdf_1": other}
+
+
+def bsdf(mat: MaterialDescription, with_uv: bool, *, stock: bool, image: ImageParams = file_params) -> dict[str, Any]:
+    """:func:`stock_bsdf` or :func:`a5_bsdf`."""
+    return stock_bsdf(mat, with_uv, image) if stock else a5_bsdf(mat, with_uv, image)
