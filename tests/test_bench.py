@@ -12,6 +12,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from a5mi import bench
+from a5mi.cli import run_a5mi
 
 VERBOSE = """\
 a5: llvm_ad_rgb, render 900x900 (810000 camera rays, 1 tiles), saved 300x300
@@ -121,9 +122,9 @@ def test11_cpu_busy_is_a_fraction(tmp_path: Path) -> None:
 
 
 def test12_bad_arguments_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
-    assert bench.run(["--size", "0", "10"]) == 2
-    assert bench.run(["no_such_scene"]) == 2
-    assert bench.run(["--a5soln", "/no/such/binary", "scene10"]) == 2
+    assert run_a5mi(["bench", "--size", "0", "10"]) == 2
+    assert run_a5mi(["bench", "no_such_scene"]) == 2
+    assert run_a5mi(["bench", "--a5soln", "/no/such/binary", "scene10"]) == 2
     err = capsys.readouterr().err
     assert err.count("a5mi bench: error:") == 3
 
@@ -166,5 +167,5 @@ def test14_report_has_the_process_stage_table() -> None:
 
 
 def test15_negative_verbose_runs_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
-    assert bench.run(["--verbose-runs", "-1", "scene10"]) == 2
+    assert run_a5mi(["bench", "--verbose-runs", "-1", "scene10"]) == 2
     assert "a5mi bench: error:" in capsys.readouterr().err

@@ -1,0 +1,256 @@
+"""``a5mi bench``: how fast the real ``a5`` command is, and how far it is from what Mitsuba can do (issue 7).
+
+For each benchmark scene (the four assignment test scenes, ``scene13_diamond`` and ``extras/sibenik/s.txt``)
+at the assignment's test command ``-size 300 300 -shadows -bounces 4 -jitter -filter`` (SPEC B.1, B.5):
+
+* **process**: the real ``a5`` command as a child process, run from the scene's folder (as the reference
+  images were made), once with an empty Dr.Jit kernel cache (``DRJIT_CACHE_DIR`` set to a fresh folder:
+  *cold*) and once more with the same cache (*warm*). Wall time is measured around ``fork`` .. ``wait4``;
+  peak memory is the child's own ``ru_maxrss`` from ``os.wait4``. No ``-v`` in these runs: its ray counting
+  adds three AOVs to the render kernel (a different kernel; the counts themselves come from the same launch).
+* **process stages**: ``--verbose-runs`` more warm runs with ``-v`` (the first also compiles the ``-v``
+  kernel into the scene's cache; the best is kept): the command's own stage times, where ``parse`` includes
+  the file checks (meshes read, images decoded) and ``startup`` = wall minus the reported stages
+  (interpreter start, imports before the parse, exit).
+* **stages**: in this process, the first render of the scene (warm disk cache): parse, build, kernel compile
+  and execution (``dr.kernel_history()`` via the driver), filter, write; ``startup`` = warm process wall
+  minus those (interpreter start, imports, variant activation, exit). Ray counts come from ``a5_whitted``'s
+  ``counts`` AOVs.
+* **floor**: in this process, the same Mitsuba scene and the render's exact camera rays (glibc jitter,
+  SPEC B.2/B.5) replayed through ``scene.ray_intersect`` (evaluating ``t`` and the shading normal), plus
+  secondary and shadow rays in the render's counts per camera ray, re-cast from that camera ray's first hit
+  (reflection: ``reflect(d, N)``; refraction: straight on, ``d``; shadow: ``ray_test`` towards each light in
+  turn, ``tmax = dist - tmin``) -- a pure traversal pass, timed by ``dr.kernel_history()`` execution time
+  (best of ``repeat``). ``kernel / floor`` = the render's kernel execution time (same process, warm) over
+  the floor.
+* **stock**: the same scene converted with ``stock=True`` and rendered by Mitsuba's C++ integrators at the
+  render resolution (``3W x 3H``), 1 sample per pixel, so the camera-ray count is identical: ``direct``
+  with one emitter sample per light (the camera rays + one shadow ray per light per first hit: a lower
+  bound of the a5 ray budget) and ``path`` with ``max_depth = bounces + 2`` and no Russian roulette (every
+  vertex continues and samples a light: an upper bound). Time = best of ``repeat`` after a warm-up render.
+* **a5soln**: with ``--a5soln PATH`` the sample-solution binary is timed the same way; otherwise the
+  published single-core figures of ``reference/README.md`` are printed with ``a5soln / warm``.
+
+``--4k`` adds one ``-size 3840 2160 -jitter -filter`` process run (peak memory is bounded by the tiles: the
+driver streams the blur + downsample per tile and keeps only the W x H output). Output: markdown tables on
+stdout, or JSON with ``--json``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import shutil
+import tempfile
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from a5mi.bench.floor import InProcess, _chdir, lane_repeat, measure_in_process, measure_stock, rank_within_lane
+from a5mi.bench.process import (
+    ProcessRun,
+    a5_command,
+    cache_env,
+    cpu_busy,
+    parse_verbose,
+    render_flags,
+    run_process,
+    wait_for_idle,
+)
+from a5mi.bench.report import format_table, machine_info, report
+from a5mi.bench.scenes import (
+    PUBLISHED_A5SOLN,
+    RAY_KINDS,
+    SCENES,
+    STAGES,
+    TARGET_COLD_S,
+    TARGET_FLOOR_RATIO,
+    TARGET_PEAK_MB,
+    TARGET_WARM_S,
+    TEST_SCENES,
+    VERBOSE_STAGES,
+    load_published,
+    published_key,
+    published_times,
+    resolve_scenes,
+    scene_name,
+)
+
+# --------------------------------------------------------------------------------------------------------
+# The benchmark
+# --------------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class SceneResult:
+    name: str
+    path: str
+    cold: ProcessRun | None = None
+    warm: ProcessRun | None = None
+    verbose: ProcessRun | None = None  # best warm ``a5 -v`` run: the process's own stage times
+    inproc: InProcess | None = None
+    stock: dict[str, float] = field(default_factory=dict)
+    a5soln: float | None = None  # measured here
+    a5soln_published: float | None = None
+    busy_before: float | None = None  # CPU fraction used by others just before this scene's runs
+    errors: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        for key in ("cold", "warm", "verbose"):
+            if d[key] is not None:
+                d[key].pop("stderr")
+                d[key]["startup"] = getattr(self, key).startup
+        if self.inproc is not None:
+            d["inproc"]["floor_total"] = self.inproc.floor_total
+        return d
+
+
+def bench_scene(path: Path, args: BenchSettings, published: dict[str, float], log: Any) -> SceneResult:
+    """All measurements of one scene (each part records its error instead of aborting the run)."""
+    name = scene_name(path)
+    res = SceneResult(name=name, path=str(path))
+    key = published_key(name)
+    res.a5soln_published = published.get(key) if key else None
+    w, h = args.size
+    flags = render_flags(w, h, args.bounces)
+    if args.wait_idle > 0:
+        log(f"{name}: waiting for idle CPUs (up to {args.wait_idle:.0f} s) ...")
+        res.busy_before = wait_for_idle(args.wait_idle)
+    with tempfile.TemporaryDirectory(prefix="a5bench-") as tmp:
+        out = str(Path(tmp) / "out.png")
+        if not args.no_process:
+            cache = Path(tmp) / "drjit-cache"
+            cache.mkdir()
+            cmd = a5_command() + ["-input", path.name, "-output", out, *flags]
+            for k in range(1 + args.warm_runs):
+                label = "cold" if k == 0 else "warm"
+                log(f"{name}: {label} process ...")
+                run = run_process(cmd, cwd=path.parent, env=cache_env(cache), timeout=args.timeout)
+                if run.returncode != 0:
+                    res.errors.append(f"{label} a5 exited {run.returncode}: {run.stderr.strip()[-300:]}")
+                if k == 0:
+                    res.cold = run
+                elif res.warm is None or run.wall < res.warm.wall:
+                    res.warm = run  # best of the warm runs
+            for _ in range(args.verbose_runs):
+                log(f"{name}: warm process -v ...")
+                run = run_process(cmd + ["-v"], cwd=path.parent, env=cache_env(cache), timeout=args.timeout)
+                if run.returncode != 0:
+                    res.errors.append(f"a5 -v exited {run.returncode}: {run.stderr.strip()[-300:]}")
+                elif res.verbose is None or run.wall < res.verbose.wall:
+                    res.verbose = run
+        if args.a5soln:
+            log(f"{name}: a5soln ...")
+            run = run_process([args.a5soln, "-input", path.name, "-output", str(Path(tmp) / "soln.bmp"), *flags],
+                              cwd=path.parent, timeout=args.timeout)
+            if run.returncode == 0:
+                res.a5soln = run.wall
+            else:
+                res.errors.append(f"a5soln exited {run.returncode}: {run.stderr.strip()[-300:]}")
+    if args.no_inprocess:
+        return res
+    from a5mi import driver
+    from a5mi.converters.a5_parser import parse_file
+
+    options = driver.RenderOptions(width=w, height=h, bounces=args.bounces, shadows=True, jitter=True, filter=True)
+    with _chdir(path.parent):
+        log(f"{name}: stages and floor ...")
+        try:
+            res.inproc = measure_in_process(Path(path.name), options, repeat=args.repeat)
+        except Exception as exc:  # noqa: BLE001 - a benchmark reports what failed and goes on
+            res.errors.append(f"floor: {type(exc).__name__}: {exc}")
+        if not args.no_stock:
+            log(f"{name}: stock ...")
+            try:
+                res.stock = measure_stock(parse_file(path.name), options, repeat=args.repeat)
+            except Exception as exc:  # noqa: BLE001
+                res.errors.append(f"stock: {type(exc).__name__}: {exc}")
+    return res
+
+
+@dataclass(frozen=True)
+class BenchSettings:
+    """What ``a5mi bench`` measures (its flags): image size and bounces of the test command, repetitions,
+    which parts run, the optional a5soln binary and the 4K run, idle wait and child timeout (s)."""
+
+    size: tuple[int, int] = (300, 300)
+    bounces: int = 4
+    repeat: int = 3
+    a5soln: str | None = None
+    k4: bool = False
+    k4_scene: str = "scene10"
+    no_process: bool = False
+    no_inprocess: bool = False
+    no_stock: bool = False
+    warm_runs: int = 2
+    verbose_runs: int = 2
+    wait_idle: float = 30.0
+    timeout: float = 600.0
+
+    def __post_init__(self) -> None:
+        if min(self.size) <= 0 or self.bounces < 0 or self.repeat < 1 or self.warm_runs < 1 or self.verbose_runs < 0:
+            raise ValueError("--size, --repeat and --warm-runs must be positive, --bounces and --verbose-runs >= 0")
+
+
+@dataclass
+class BenchRun:
+    """A whole run: per-scene results, the machine, the command's flags, the 4K run, this process's peak."""
+
+    results: list[SceneResult]
+    info: dict[str, Any]
+    extra: dict[str, Any]
+    self_peak_mb: float
+
+    @property
+    def failed(self) -> bool:
+        return any(r.errors for r in self.results) or ("4k" in self.extra and self.extra["4k"].returncode != 0)
+
+    def report(self) -> str:
+        return report(self.results, self.info, self.extra)
+
+    def to_json(self) -> str:
+        doc: dict[str, Any] = {"machine": self.info, "flags": self.extra["flags"], "bench_peak_mb": self.self_peak_mb,
+                               "scenes": [r.to_json() for r in self.results]}
+        if "4k" in self.extra:
+            k4 = asdict(self.extra["4k"])
+            k4.pop("stderr")
+            doc["4k"] = {"cmd": self.extra["4k_cmd"], **k4}
+        return json.dumps(doc, indent=2)
+
+
+def find_executable(path: str) -> str:
+    """The absolute path of an executable given by name or path; ``ValueError`` if there is none."""
+    found = shutil.which(path) or (path if os.access(path, os.X_OK) and os.path.isfile(path) else None)
+    if found is None:
+        raise ValueError(f"'{path}' is not an executable")
+    return os.path.abspath(found)
+
+
+def run_benchmark(paths: Sequence[Path], settings: BenchSettings, log: Any) -> BenchRun:
+    """Measure every scene of ``paths`` (and the 4K run) as the module docstring says; ``log(msg)`` receives
+    progress lines. Needs the variant active unless ``no_inprocess``."""
+    published = load_published()
+    results = [bench_scene(p, settings, published, log) for p in paths]
+    extra: dict[str, Any] = {"flags": render_flags(*settings.size, settings.bounces)}
+    if settings.k4:
+        (p4,) = resolve_scenes([settings.k4_scene])
+        with tempfile.TemporaryDirectory(prefix="a5bench-4k-") as tmp:
+            cmd = a5_command() + ["-input", p4.name, "-output", str(Path(tmp) / "4k.png"),
+                                  *render_flags(3840, 2160, settings.bounces)]
+            log(f"4K: {scene_name(p4)} ...")
+            extra["4k"] = run_process(cmd, cwd=p4.parent, timeout=settings.timeout)
+            extra["4k_cmd"] = " ".join(["a5", *cmd[len(a5_command()):]]).replace(str(Path(tmp)) + "/", "")
+    return BenchRun(results, machine_info(), extra, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
+
+
+__all__ = [
+    "PUBLISHED_A5SOLN", "RAY_KINDS", "SCENES", "STAGES", "TARGET_COLD_S", "TARGET_FLOOR_RATIO", "TARGET_PEAK_MB",
+    "TARGET_WARM_S", "TEST_SCENES", "VERBOSE_STAGES", "BenchRun", "BenchSettings", "InProcess", "ProcessRun",
+    "SceneResult", "a5_command", "bench_scene", "cache_env", "cpu_busy", "find_executable", "format_table",
+    "lane_repeat", "load_published", "machine_info", "measure_in_process", "measure_stock", "parse_verbose",
+    "published_key", "published_times", "rank_within_lane", "render_flags", "report", "resolve_scenes",
+    "run_benchmark", "run_process", "scene_name", "wait_for_idle",
+]
