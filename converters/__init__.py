@@ -1,7 +1,8 @@
 """Scene converters: 6.837 scene text -> tokens -> typed scene model -> Mitsuba scene dict / XML (SPEC A).
 
-Only :mod:`a5mi.converters.to_mitsuba` (and the XML writer built on it) import Mitsuba; lexing, parsing and
-the model are pure Python, so syntax errors never wait for a JIT backend.
+Only :mod:`a5mi.converters.to_mitsuba` (and the XML writer built on it) import Mitsuba, inside their functions;
+lexing, parsing, the model and the scene description (:func:`a5mi.converters.describe.describe`: every file
+read once) are pure Python, so scene and file errors never wait for a JIT backend.
 """
 
 from .a5_parser import parse_file, parse_text

@@ -49,11 +49,6 @@ def file_params(image: Image) -> dict[str, Any]:
     return {"filename": str(image.path)}
 
 
-def textured(mat: MaterialDescription, with_uv: bool) -> bool:
-    """True when the material's texture is looked up on this shape (it has one and the shape has uv)."""
-    return isinstance(mat.kd_on(with_uv), Image)
-
-
 def without_texture(mat: MaterialDescription, with_uv: bool) -> bool:
     """True for the second, untextured BSDF of a textured material on a shape without uv (SPEC B.3)."""
     return isinstance(mat.kd, Image) and not with_uv

@@ -42,6 +42,8 @@ Camera, integrator, lights and background:
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -113,7 +115,7 @@ def background_dict(bg: ColorBackground) -> dict[str, Any]:
     return {"type": "constant", "radiance": rgb(bg.color)}
 
 
-class Backend:
+class Backend(ABC):
     """What differs between the ``mi.load_dict`` dict and the XML: how BSDFs, meshes and cube maps become
     values. ``entries`` is the scene dict being built (a back end may add entries to it, in order)."""
 
@@ -121,21 +123,21 @@ class Backend:
         self.desc = desc
         self.stock = stock
 
+    @abstractmethod
     def bsdf(self, entries: dict[str, Any], material: int, with_uv: bool) -> Any:
         """The value of a shape's ``bsdf`` for material number ``material`` on a shape with/without uv."""
-        raise NotImplementedError
 
+    @abstractmethod
     def mesh(self, key: str, shape: MeshShape, bsdf: Any) -> Any:
         """The entry of a world-space mesh."""
-        raise NotImplementedError
 
+    @abstractmethod
     def cubemap(self, bg: CubeMapBackground) -> Any:
         """The ``a5_cubemap`` emitter entry (a5 plugins)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def envmap(self, bg: CubeMapBackground) -> Any:
         """The stock ``envmap`` entry baked from the cube map."""
-        raise NotImplementedError
 
 
 def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backend) -> dict[str, Any]:
@@ -201,7 +203,7 @@ def bitmap(image: Image) -> Any:
     return mi.Bitmap(np.array(image.pixels, dtype=np.uint8, order="C", copy=True))
 
 
-def cubemap_faces(bg: CubeMapBackground, make: Any = bitmap) -> dict[str, Any]:
+def cubemap_faces(bg: CubeMapBackground, make: Callable[[Image], Any] = bitmap) -> dict[str, Any]:
     """``{'left': mi.Bitmap, ..., 'back': mi.Bitmap}``: the ``a5_cubemap`` parameters for its decoded faces."""
     return {face: make(img) for face, img in zip(CUBE_FACES, bg.faces, strict=True)}
 
