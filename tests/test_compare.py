@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from a5mi.compare import CompareError, compare_arrays, compare_files, read_levels, write_diff
+from a5mi.errors import ImageReadError
 
 
 def _img(h: int = 4, w: int = 5, value: float = 100.0) -> np.ndarray:
@@ -71,7 +72,7 @@ def test_files_round_trip_and_diff_montage(tmp_path) -> None:
 def test_unreadable_image_is_a_user_error(tmp_path) -> None:
     bad = tmp_path / "bad.png"
     bad.write_bytes(b"not a png")
-    with pytest.raises(CompareError, match="cannot read image"):
+    with pytest.raises(ImageReadError, match="cannot read image"):
         read_levels(bad)
 
 
@@ -95,10 +96,10 @@ def test_cli_compare_prints_metrics_json_and_writes_diff(tmp_path, capsys) -> No
 
 @pytest.mark.parametrize(
     ("args", "message"),
-    [(["compare", "x.png"], "compare takes two images, found 1"),
-     (["compare", "a.png", "b.png", "--bogus"], "unknown flag '--bogus' (see a5mi compare -h)"),
-     (["compare", "a.png", "b.png", "--diff"], "--diff expects a value, found end of arguments"),
-     (["fidelity", "extra"], "unknown argument 'extra' (see a5mi fidelity -h)")],
+    [(["compare", "x.png"], "a5mi compare: error: missing A B (2 expected, found 1) (see a5mi compare -h)"),
+     (["compare", "a.png", "b.png", "--bogus"], "a5mi compare: error: unknown flag '--bogus' (see a5mi compare -h)"),
+     (["compare", "a.png", "b.png", "--diff"], "a5mi compare: error: --diff expects a value, found end of arguments"),
+     (["fidelity", "extra"], "a5mi fidelity: error: unexpected argument 'extra' (see a5mi fidelity -h)")],
 )
 def test_cli_subcommand_misuse_is_one_line_exit_2(args, message, tmp_path, capsys, monkeypatch) -> None:
     from a5mi.cli import run_a5mi
@@ -106,4 +107,4 @@ def test_cli_subcommand_misuse_is_one_line_exit_2(args, message, tmp_path, capsy
     monkeypatch.chdir(tmp_path)
     assert run_a5mi(args) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [f"a5: error: {message}"]
+    assert err == [message]  # each sub-command's errors carry its own name

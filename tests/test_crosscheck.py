@@ -332,21 +332,28 @@ def test12_crosscheck_dicts_table_and_montage(mi, tmp_path):
     assert np.array_equal(np.round(img[:40, :40] * 255).astype(int), xc.levels(r.images["a5"]).astype(int))
 
 
+def _run(argv: list[str]) -> int:
+    from a5mi.cli import run_a5mi
+
+    return run_a5mi(["crosscheck", *argv])
+
+
 def test13_cli_usage_errors(capsys):
-    assert xc.run(["-h"]) == 0
+    assert _run(["-h"]) == 0
     assert "usage: a5mi crosscheck" in capsys.readouterr().out
-    assert xc.run([]) == 2
-    assert "missing SCENE.txt" in capsys.readouterr().err
-    assert xc.run(["x.txt", "--bogus"]) == 2
+    assert _run([]) == 2
+    assert "a5mi crosscheck: error: missing SCENE.txt" in capsys.readouterr().err
+    assert _run(["x.txt", "--bogus"]) == 2
     assert "unknown flag '--bogus'" in capsys.readouterr().err
-    assert xc.run(["x.txt", "--spp", "zero"]) == 2
+    assert _run(["x.txt", "--spp", "zero"]) == 2
     assert "--spp expects an integer" in capsys.readouterr().err
-    assert xc.run(["x.txt", "-size", "4"]) == 2
+    assert _run(["x.txt", "-size", "4"]) == 2
+    assert "-size expects 2 values" in capsys.readouterr().err
 
 
 def test14_scene10_end_to_end(variant, scenes_dir, tmp_path, capsys):
     out = tmp_path / "m.png"
-    rc = xc.run([str(scenes_dir / "scene10_sphere.txt"), "-size", "48", "48", "--spp", "8", "-o", str(out),
+    rc = _run([str(scenes_dir / "scene10_sphere.txt"), "-size", "48", "48", "--spp", "8", "-o", str(out),
                  "--json"])
     assert rc == 0, capsys.readouterr().err
     js = json.loads(capsys.readouterr().out)

@@ -10,6 +10,8 @@
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -115,3 +117,15 @@ def test_spec_constants_have_one_home() -> None:
                 node, ast.AnnAssign) else []
             defined = {t.id for t in targets if isinstance(t, ast.Name)}
             assert not defined & names, f"{path.relative_to(ROOT)} defines {sorted(defined & names)}"
+
+
+def test_describe_reads_every_file_without_importing_mitsuba(scenes_dir: Path) -> None:
+    """The scene prologue (parse, describe: every file read and checked) runs before the JIT starts."""
+    code = ("import sys\nfrom a5mi.converters.a5_parser import parse_file\n"
+            "from a5mi.converters.describe import describe\n"
+            "from a5mi.converters import materials, to_mitsuba, to_xml\n"
+            f"d = describe(parse_file({str(scenes_dir / 'scene11_cube.txt')!r}), stock=True)\n"
+            "assert d.background.faces and d.shapes, d\n"
+            "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('mitsuba', 'drjit'))\n"
+            "assert not bad, bad\n")
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)

@@ -185,7 +185,8 @@ def parse(argv: Sequence[str], flags: Sequence[Flag], positionals: Sequence[Posi
         if not eq:
             k += f.nargs
         if len(values) < f.nargs:
-            raise UsageError(f"{name} expects {f.nargs} value{'s' if f.nargs > 1 else ''}, found end of arguments")
+            raise UsageError(f"{name} expects {f'{f.nargs} values' if f.nargs > 1 else 'a value'}, found end of "
+                             "arguments")
         value = f.convert(name, values) if f.convert is not None else (values[0] if f.nargs == 1 else tuple(values))
         if isinstance(f.dest, tuple):
             args.update(zip(f.dest, value, strict=True))
