@@ -24,8 +24,9 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable
 from pathlib import Path
-from typing import Final
+from typing import Final, TypeVar
 
 import numpy as np
 
@@ -59,6 +60,8 @@ INT_LIMIT: Final = 2**31 - 1
 TOP_LEVEL: Final = ("PerspectiveCamera", "Lights", "Background", "Materials", "Group")
 OBJECTS: Final = ("Group", "Sphere", "Plane", "Triangle", "TriangleMesh", "Transform")
 TRANSFORMS: Final = ("Translate", "Scale", "UniformScale", "XRotate", "YRotate", "ZRotate", "Rotate", "Matrix4f")
+
+_T = TypeVar("_T")
 
 
 def _quoted(tok: Token | None) -> str:
@@ -179,16 +182,24 @@ def parse_camera(ts: TokenStream, start: Token) -> Camera:
     return Camera(fields["center"], fields["direction"], fields["up"], angle, start.loc)
 
 
+def _vector_then(ts: TokenStream, block: str, fields: tuple[str, str], what: str,
+                 read: Callable[[str], _T]) -> tuple[Vec3, _T]:
+    """``BLOCK { FIELD0 V3 FIELD1 X }`` in this order, the vector non-zero (``what`` names it in the error)."""
+    ts.expect("{", f"after '{block}'")
+    where = f"in {block} (fields: {', '.join(fields)})"
+    tok = ts.expect(fields[0], where)
+    vector = ts.vec3(fields[0])
+    _nonzero(ts, vector, what, tok.loc)
+    ts.expect(fields[1], where)
+    value = read(fields[1])
+    ts.expect("}", f"to close {block}")
+    return vector, value
+
+
 # -- A.3 ------------------------------------------------------------------------------------------------
 def parse_directional_light(ts: TokenStream, start: Token) -> DirectionalLight:
     """``DirectionalLight { direction V3 color V3 }`` in this order (A.3)."""
-    ts.expect("{", "after 'DirectionalLight'")
-    tok = ts.expect("direction", "in DirectionalLight (fields: direction, color)")
-    direction = ts.vec3("direction")
-    _nonzero(ts, direction, "light direction", tok.loc)
-    ts.expect("color", "in DirectionalLight (fields: direction, color)")
-    color = ts.vec3("color")
-    ts.expect("}", "to close DirectionalLight")
+    direction, color = _vector_then(ts, "DirectionalLight", ("direction", "color"), "light direction", ts.vec3)
     return DirectionalLight(direction, color, start.loc)
 
 
@@ -220,29 +231,40 @@ def parse_point_light(ts: TokenStream, start: Token) -> PointLight:
     )
 
 
-def parse_lights(ts: TokenStream, start: Token) -> tuple[Light, ...]:
-    """``Lights { numLights I <light>* }`` with exactly ``numLights`` lights (A.3)."""
-    ts.expect("{", "after 'Lights'")
-    ts.expect("numLights", "after 'Lights {'")
-    count, count_tok = ts.integer("numLights")
+def _block_count(ts: TokenStream, block: str, count_key: str) -> int:
+    """``BLOCK { COUNT_KEY I``: the declared count, never negative (A.3, A.5, A.6)."""
+    ts.expect("{", f"after '{block}'")
+    ts.expect(count_key, f"after '{block} {{'")
+    count, count_tok = ts.integer(count_key)
     if count < 0:
-        raise ts.semantic_error(f"numLights must not be negative, found {count}", count_tok.loc)
-    lights: list[Light] = []
+        raise ts.semantic_error(f"{count_key} must not be negative, found {count}", count_tok.loc)
+    return count
+
+
+def _counted_block(ts: TokenStream, block: str, count_key: str, noun: str,
+                   items: dict[str, Callable[[TokenStream, Token], _T]]) -> tuple[_T, ...]:
+    """``BLOCK { COUNT_KEY I <item>* }`` with exactly ``I`` items, each one of ``items`` (A.3, A.5)."""
+    count = _block_count(ts, block, count_key)
+    out: list[_T] = []
     while True:
         tok = ts.next()
         if tok is not None and tok.text == "}":
-            if len(lights) != count:
+            if len(out) != count:
                 raise ts.syntax_error(
-                    f"Lights declares numLights {count} but has {_count(len(lights), 'light')}, found '}}'", tok
-                )
-            return tuple(lights)
-        if tok is None or tok.text not in ("DirectionalLight", "PointLight"):
-            raise ts.syntax_error(f"expected DirectionalLight, PointLight or '}}' in Lights, found {_quoted(tok)}", tok)
-        if len(lights) == count:
-            raise ts.syntax_error(f"Lights declares numLights {count} but a light follows: expected '}}', "
+                    f"{block} declares {count_key} {count} but has {_count(len(out), noun)}, found '}}'", tok)
+            return tuple(out)
+        if tok is None or tok.text not in items:
+            raise ts.syntax_error(f"expected {', '.join(items)} or '}}' in {block}, found {_quoted(tok)}", tok)
+        if len(out) == count:
+            raise ts.syntax_error(f"{block} declares {count_key} {count} but a {noun} follows: expected '}}', "
                                   f"found '{tok.text}'", tok)
-        parse = parse_directional_light if tok.text == "DirectionalLight" else parse_point_light
-        lights.append(parse(ts, tok))
+        out.append(items[tok.text](ts, tok))
+
+
+def parse_lights(ts: TokenStream, start: Token) -> tuple[Light, ...]:
+    """``Lights { numLights I <light>* }`` with exactly ``numLights`` lights (A.3)."""
+    return _counted_block(ts, "Lights", "numLights", "light",
+                          {"DirectionalLight": parse_directional_light, "PointLight": parse_point_light})
 
 
 # -- A.4 ------------------------------------------------------------------------------------------------
@@ -343,27 +365,8 @@ def parse_material(ts: TokenStream, start: Token) -> Material:
 
 def parse_materials(ts: TokenStream, start: Token) -> tuple[Material, ...]:
     """``Materials { numMaterials I Material{...}* }`` with exactly ``numMaterials`` entries (A.5)."""
-    ts.expect("{", "after 'Materials'")
-    ts.expect("numMaterials", "after 'Materials {'")
-    count, count_tok = ts.integer("numMaterials")
-    if count < 0:
-        raise ts.semantic_error(f"numMaterials must not be negative, found {count}", count_tok.loc)
-    materials: list[Material] = []
-    while True:
-        tok = ts.next()
-        if tok is not None and tok.text == "}":
-            if len(materials) != count:
-                raise ts.syntax_error(
-                    f"Materials declares numMaterials {count} but has {_count(len(materials), 'material')}, "
-                    "found '}'", tok
-                )
-            return tuple(materials)
-        if tok is None or tok.text not in ("Material", "PhongMaterial"):
-            raise ts.syntax_error(f"expected Material, PhongMaterial or '}}' in Materials, found {_quoted(tok)}", tok)
-        if len(materials) == count:
-            raise ts.syntax_error(f"Materials declares numMaterials {count} but a material follows: expected "
-                                  f"'}}', found '{tok.text}'", tok)
-        materials.append(parse_material(ts, tok))
+    return _counted_block(ts, "Materials", "numMaterials", "material",
+                          {"Material": parse_material, "PhongMaterial": parse_material})
 
 
 # -- A.6 ------------------------------------------------------------------------------------------------
@@ -401,13 +404,7 @@ def parse_sphere(ts: TokenStream, start: Token, state: _GroupState) -> Sphere:
 
 def parse_plane(ts: TokenStream, start: Token, state: _GroupState) -> Plane:
     """``Plane { normal V3 offset F }``: the plane ``P . normal = offset``, normal not normalised."""
-    ts.expect("{", "after 'Plane'")
-    n_tok = ts.expect("normal", "in Plane (fields: normal, offset)")
-    normal = ts.vec3("normal")
-    _nonzero(ts, normal, "Plane normal", n_tok.loc)
-    ts.expect("offset", "in Plane (fields: normal, offset)")
-    offset = ts.number("offset")
-    ts.expect("}", "to close Plane")
+    normal, offset = _vector_then(ts, "Plane", ("normal", "offset"), "Plane normal", ts.number)
     return Plane(normal, offset, _material_for(ts, state, start), start.loc)
 
 
@@ -490,11 +487,7 @@ def parse_object(ts: TokenStream, tok: Token, state: _GroupState) -> Node:
 
 def parse_group(ts: TokenStream, start: Token, state: _GroupState) -> Group:
     """``Group { numObjects I (MaterialIndex I | <object>)* }``: exactly ``numObjects`` objects (A.6)."""
-    ts.expect("{", "after 'Group'")
-    ts.expect("numObjects", "after 'Group {'")
-    count, count_tok = ts.integer("numObjects")
-    if count < 0:
-        raise ts.semantic_error(f"numObjects must not be negative, found {count}", count_tok.loc)
+    count = _block_count(ts, "Group", "numObjects")
     children: list[Node] = []
     while True:
         tok = ts.next()

@@ -121,6 +121,13 @@ def _floats(words: list[str], cols: int) -> np.ndarray | None:
     return a
 
 
+def _float_records(lines: list[str], kind: str, cols: int) -> np.ndarray | None:
+    """The first ``cols`` numbers of every ``kind`` line as an (N, cols) array (:func:`_record_words`,
+    :func:`_floats`); None when the slow reader must decide."""
+    words = _record_words(lines, kind, cols + 1)
+    return None if words is None else _floats(words[0], cols)
+
+
 def _ints(words: list[str]) -> np.ndarray | None:
     """``int(word)`` for every word as int64, None if one is not an integer within ``INDEX_LIMIT``."""
     try:
@@ -168,18 +175,12 @@ def _parse_fast(text: str, spath: str) -> ObjMesh | None:
     if not f_lines:
         return None
 
-    vw = _record_words(v_lines, "v", 4)
-    if vw is None:
-        return None
-    v = _floats(vw[0], 3)
+    v = _float_records(v_lines, "v", 3)
     if v is None:
         return None
     t: np.ndarray | None = None
     if vt_lines:
-        tw = _record_words(vt_lines, "vt", 3)
-        if tw is None:
-            return None
-        t = _floats(tw[0], 2)
+        t = _float_records(vt_lines, "vt", 2)
         if t is None:
             return None
 

@@ -127,19 +127,13 @@ class A5Material(mi.BSDF):
 
     def eval_attribute_3(self, name: str, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
         """``diffuse_color`` or ``specular_color`` (raw, untextured); zero for any other name."""
-        if name == "diffuse_color":
-            return mi.Color3f(self.diffuse_color)
-        if name == "specular_color":
-            return mi.Color3f(self.specular_color)
-        return mi.Color3f(0.0)
+        value = {"diffuse_color": self.diffuse_color, "specular_color": self.specular_color}.get(name)
+        return mi.Color3f(0.0) if value is None else mi.Color3f(value)
 
     def eval_attribute_1(self, name: str, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Float:
         """``refraction_index`` or ``shininess``; zero for any other name."""
-        if name == "refraction_index":
-            return mi.Float(self.refraction_index)
-        if name == "shininess":
-            return mi.Float(self.shininess)
-        return mi.Float(0.0)
+        value = {"refraction_index": self.refraction_index, "shininess": self.shininess}.get(name)
+        return mi.Float(0.0) if value is None else mi.Float(value)
 
     def eval_diffuse_reflectance(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
         """``kd`` at the hit (SPEC B.3: marble colour, else texture at uv, else diffuseColor)."""
@@ -218,11 +212,8 @@ class A5Material(mi.BSDF):
         """Lambert ``kd/π cosθ_o`` on the front side; the delta lobe evaluates to 0."""
         if not ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0):
             return mi.Color3f(0.0)
-        cos_i = mi.Frame3f.cos_theta(si.wi)
-        cos_o = mi.Frame3f.cos_theta(wo)
-        kd = self.eval_diffuse_reflectance(si, active)
-        value = kd * (dr.inv_pi * cos_o)
-        return dr.select(active & (cos_i > 0.0) & (cos_o > 0.0), value, 0.0)
+        kd, front = self._diffuse_lobe(si, wo, active)
+        return dr.select(front, kd * (dr.inv_pi * mi.Frame3f.cos_theta(wo)), 0.0)
 
     def pdf(
         self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, wo: mi.Vector3f, active: mi.Bool = True
@@ -230,12 +221,16 @@ class A5Material(mi.BSDF):
         """``(1 - p_s) cosθ_o/π`` for the diffuse lobe (delta lobes have no density)."""
         if not ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0):
             return mi.Float(0.0)
-        cos_i = mi.Frame3f.cos_theta(si.wi)
-        cos_o = mi.Frame3f.cos_theta(wo)
-        kd = self.eval_diffuse_reflectance(si, active)
-        p_s = self._spec_probability(ctx, kd)
-        value = (1.0 - p_s) * mi.warp.square_to_cosine_hemisphere_pdf(wo)
-        return dr.select(active & (cos_i > 0.0) & (cos_o > 0.0), value, 0.0)
+        kd, front = self._diffuse_lobe(si, wo, active)
+        value = (1.0 - self._spec_probability(ctx, kd)) * mi.warp.square_to_cosine_hemisphere_pdf(wo)
+        return dr.select(front, value, 0.0)
+
+    def _diffuse_lobe(
+        self, si: mi.SurfaceInteraction3f, wo: mi.Vector3f, active: mi.Bool
+    ) -> tuple[mi.Color3f, mi.Bool]:
+        """``(kd, mask)``: the Lambert colour and where the diffuse lobe exists (both directions in front)."""
+        front = active & (mi.Frame3f.cos_theta(si.wi) > 0.0) & (mi.Frame3f.cos_theta(wo) > 0.0)
+        return self.eval_diffuse_reflectance(si, active), front
 
     # ------------------------------------------------------------------ plumbing
 

@@ -225,14 +225,8 @@ class A5Camera(mi.Sensor):
         ray.time = mi.Float(time)
         return ray, dr.full(mi.Color3f, 1.0, dr.width(x_pix))
 
-    def sample_ray_differential(
-        self,
-        time: mi.Float,
-        sample1: mi.Float,
-        sample2: mi.Point2f,
-        sample3: mi.Point2f,
-        active: mi.Bool = True,
-    ) -> tuple[mi.RayDifferential3f, mi.Color3f]:
+    def sample_ray_differential(self, time: mi.Float, sample1: mi.Float, sample2: mi.Point2f, sample3: mi.Point2f,
+                                active: mi.Bool = True) -> tuple[mi.RayDifferential3f, mi.Color3f]:
         """As :meth:`sample_ray`, without differentials."""
         ray, weight = self.sample_ray(time, sample1, sample2, sample3, active)
         return mi.RayDifferential3f(ray), weight

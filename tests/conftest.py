@@ -33,6 +33,19 @@ settings.register_profile("thorough", max_examples=1000, deadline=None, database
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "fast"))
 
 
+def rgb(*v: float) -> dict[str, Any]:
+    """A Mitsuba dict colour ``{'type': 'rgb', 'value': [r, g, b]}``."""
+    return {"type": "rgb", "value": list(v)}
+
+
+def a5_material(**kw: Any) -> dict[str, Any]:
+    """An ``a5_material`` dict; tuple values become rgb colours (``diffuse_color=(1, 0, 0)``)."""
+    out: dict[str, Any] = {"type": "a5_material"}
+    for key, value in kw.items():
+        out[key] = rgb(*value) if isinstance(value, tuple) else value
+    return out
+
+
 def examples(n: int) -> int:
     """``n`` examples under the ``fast`` profile, ten times as many under ``thorough``."""
     return n * (10 if settings().max_examples >= 1000 else 1)

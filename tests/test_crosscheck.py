@@ -20,20 +20,10 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from conftest import a5_material as _a5
+from conftest import rgb as _rgb
 
 from a5mi import crosscheck as xc
-
-
-def _rgb(*v: float) -> dict:
-    return {"type": "rgb", "value": list(v)}
-
-
-def _a5(**kw) -> dict:
-    out = {"type": "a5_material"}
-    for key, value in kw.items():
-        out[key] = _rgb(*value) if isinstance(value, tuple) else value
-    return out
-
 
 CLEAR_GLASS = {"diffuse_color": (0.0, 0.0, 0.0), "specular_color": (1.0, 1.0, 1.0), "refraction_index": 1.5}
 ENV = (0.8, 0.6, 0.4)

@@ -8,19 +8,12 @@ import math
 import drjit as dr
 import numpy as np
 import pytest
+from conftest import a5_material as _material
+from conftest import rgb as _rgb
 
 INV_SQRT2 = 1.0 / math.sqrt(2.0)
 
 
-def _rgb(*v: float) -> dict:
-    return {"type": "rgb", "value": list(v)}
-
-
-def _material(**kw) -> dict:
-    out = {"type": "a5_material"}
-    for key, value in kw.items():
-        out[key] = _rgb(*value) if isinstance(value, tuple) else value
-    return out
 
 
 def _sphere(center=(0, 0, 0), radius=1.0, **material) -> dict:

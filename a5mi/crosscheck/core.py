@@ -1,35 +1,5 @@
-"""``a5mi crosscheck``: the a5 dielectric against textbook Schlick, exact Fresnel and Mitsuba's ``path``.
-
-One scene, five passes, all through the **same camera rays** (SPEC B.2, pixel centres, no jitter), so every
-difference is light transport, never sampling:
-
-* ``a5``, ``schlick``, ``exact``: ``a5_whitted`` (SPEC B.3) with its three Fresnel modes
-  (:func:`a5mi.plugins.common.fresnel_weight`): ``R = R0 + (1 − R0)(1 − c)⁵`` with the binary's
-  ``R0 = ((nt − 1)/(nt + 1))²`` or the textbook ``R0 = ((nt − n)/(nt + n))²``, or the unpolarised exact
-  ``R = ½(r_s² + r_p²)`` of ``mi.fresnel`` (stock ``dielectric``);
-* ``path``: the ``stock=True`` conversion rendered by Mitsuba's own ``path`` integrator, ``spp`` samples
-  through each pixel centre, ``max_depth = bounces + 2`` (camera segment + ``bounces`` secondary segments +
-  the light connection of the last hit, the longest path ``a5_whitted`` forms) and no Russian roulette;
-* a class pass: ``a5_whitted``'s ``class`` AOV (computed inside the same SPEC B.3 ray-tree kernel, so the
-  push rules are the colour's), rendered by :func:`a5mi.driver.render_scene`, marks each pixel as
-  *background* (the camera ray misses), *opaque* (the tree never hits a material with
-  ``refraction_index > 0``) or *glass* (some node of the tree hits one, the last level included).
-
-The three Fresnel modes can only differ where a refracted ray is pushed, so they agree **exactly** (bit for
-bit) on every non-glass pixel; :func:`crosscheck` reports per pair the metrics of :mod:`a5mi.compare` over
-the glass pixels and over all other pixels, in 8-bit levels as the images would be saved
-(``byte = clamp(int(c·255))``, SPEC B.1), plus the signed ``bias = mean(B − A)``.
-:func:`write_montage` draws ``a5 | schlick | exact | path`` with their error maps.
-
-What separates ``path`` from Whitted (measured on scene10 in the README section "Cross-check against
-physically based rendering"): the ``stock=True`` conversion's approximations (``converters/to_mitsuba.py``:
-Noise -> mean colour, ``blendbsdf`` instead of a5's diffuse + mirror sum, inverse-square point lights); the
-a5 ``ambient ⊙ diffuseColor`` term, which ``path`` drops; Lambert's ``kd/π`` against a5's ``kd`` for the same
-light colour; environment light on diffuse surfaces (Whitted only shows the environment to rays that miss);
-indirect diffuse light; and Mitsuba's dielectric scaling radiance by ``1/η²`` into glass and ``η²`` out of
-it, which cancels on every path from an outside camera to an outside light. Shadows are always on here, as
-``path`` cannot do otherwise.
-"""
+"""The cross-check's renders and metrics: three Fresnel modes of ``a5_whitted``, Mitsuba's ``path`` and the
+pixel classes, all through the same camera rays (see the package docstring, :mod:`a5mi.crosscheck`)."""
 
 from __future__ import annotations
 
