@@ -210,26 +210,24 @@ class A5Material(mi.BSDF):
         self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, wo: mi.Vector3f, active: mi.Bool = True
     ) -> mi.Color3f:
         """Lambert ``kd/π cosθ_o`` on the front side; the delta lobe evaluates to 0."""
-        if not ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0):
-            return mi.Color3f(0.0)
-        kd, front = self._diffuse_lobe(si, wo, active)
+        kd, front = self._diffuse_lobe(ctx, si, wo, active)
         return dr.select(front, kd * (dr.inv_pi * mi.Frame3f.cos_theta(wo)), 0.0)
 
     def pdf(
         self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, wo: mi.Vector3f, active: mi.Bool = True
     ) -> mi.Float:
         """``(1 - p_s) cosθ_o/π`` for the diffuse lobe (delta lobes have no density)."""
-        if not ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0):
-            return mi.Float(0.0)
-        kd, front = self._diffuse_lobe(si, wo, active)
+        kd, front = self._diffuse_lobe(ctx, si, wo, active)
         value = (1.0 - self._spec_probability(ctx, kd)) * mi.warp.square_to_cosine_hemisphere_pdf(wo)
         return dr.select(front, value, 0.0)
 
     def _diffuse_lobe(
-        self, si: mi.SurfaceInteraction3f, wo: mi.Vector3f, active: mi.Bool
+        self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, wo: mi.Vector3f, active: mi.Bool
     ) -> tuple[mi.Color3f, mi.Bool]:
-        """``(kd, mask)``: the Lambert colour and where the diffuse lobe exists (both directions in front)."""
-        front = active & (mi.Frame3f.cos_theta(si.wi) > 0.0) & (mi.Frame3f.cos_theta(wo) > 0.0)
+        """``(kd, mask)``: the Lambert colour and where the diffuse lobe exists (enabled in ``ctx``, both
+        directions in front)."""
+        enabled = ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0)
+        front = active & enabled & (mi.Frame3f.cos_theta(si.wi) > 0.0) & (mi.Frame3f.cos_theta(wo) > 0.0)
         return self.eval_diffuse_reflectance(si, active), front
 
     # ------------------------------------------------------------------ plumbing
