@@ -263,3 +263,76 @@ def test_a5mi_convert_real(tmp_path, scenes_dir, monkeypatch, variant) -> None:
     assert cli.run_a5mi(["convert", "scene11_cube.txt", "-o", str(out)]) == 0
     text = out.read_text()
     assert text.lstrip().startswith("<") and "a5_whitted" in text
+
+
+# ---------------------------------------------------------------- the command layer (issue 11)
+
+
+@pytest.mark.parametrize("name", ["a5", *cli.SUBCOMMANDS])
+def test_every_command_has_help_with_one_line_per_flag(name: str, capsys) -> None:
+    command = cli.command(name) if name != "a5" else __import__("a5mi.cli.render", fromlist=["A5"]).A5
+    rc = cli.run(["-h"]) if name == "a5" else cli.run_a5mi([name, "--help"])
+    out = capsys.readouterr().out
+    assert rc == 0 and out.startswith(f"usage: {command.prog}")
+    lines = out.splitlines()
+    for flag in command.all_flags:
+        spelled = [ln for ln in lines if ln.strip() and ln.split()[0].rstrip(",") == flag.names[0]]
+        assert len(spelled) == 1, f"{name}: {flag.names[0]} should have exactly one help line"
+        default = flag.default if not isinstance(flag.default, tuple) else flag.default[0]
+        if flag.show_default and flag.nargs and default is not None:
+            assert "(default: " in spelled[0], spelled[0]
+
+
+def test_version_from_the_one_version_source(capsys) -> None:
+    from importlib.metadata import version
+
+    from a5mi import __version__
+
+    assert version("a5mi") == __version__  # pyproject reads a5mi.__version__
+    assert cli.run(["--version"]) == 0 and cli.run_a5mi(["--version"]) == 0
+    assert cli.run_a5mi(["compare", "--version"]) == 0
+    assert capsys.readouterr().out.split() == ["a5", __version__, "a5mi", __version__, "a5mi", "compare",
+                                               __version__]
+
+
+def test_gnu_flags_with_a5_aliases_and_errors_named_by_sub_command(capsys) -> None:
+    from a5mi.cli.render import RENDER
+
+    a = RENDER.parse(["--input=s.txt", "-output", "o.png", "--size", "7", "5", "--bounces=2", "-jitter"])
+    assert (a.input, a.output, a.width, a.height, a.bounces, a.jitter) == ("s.txt", "o.png", 7, 5, 2, True)
+    assert cli.run_a5mi(["render", "--input", "s.txt"]) == 2
+    assert _one_error_line(capsys.readouterr().err) == "a5mi render: error: missing -output IMG"
+    assert cli.run_a5mi(["render", "--shadows=yes", "--input", "s.txt", "--output", "o.png"]) == 2
+    assert "a5mi render: error: --shadows takes no value" in _one_error_line(capsys.readouterr().err)
+    assert cli.run(["-size", "1_0", "10", "-input", "s.txt", "-output", "o.png"]) == 2
+    assert "-size expects an integer, found '1_0'" in _one_error_line(capsys.readouterr().err)
+
+
+def test_render_options_come_from_the_flag_table_without_hand_copying() -> None:
+    """Every RenderOptions field a flag can set is set by the flag of that name (one options object)."""
+    import dataclasses
+
+    from a5mi.cli.render import RENDER_FLAGS, render_options
+
+    args = cli.parse_a5_args(["-input", "s.txt", "-output", "o.png", "-size", "6", "3", "-shadows", "-bounces", "7",
+                              "-jitter", "-filter", "-seed", "5", "-phong", "-fresnel", "exact", "-kernel", "handout",
+                              "-normals", "n.png", "-depth", "1", "2", "d.png", "-reflection_off", "-threads", "3",
+                              "-normals_mode", "quadrant", "-v"])
+    o = render_options(args)
+    assert (o.width, o.height, o.bounces, o.seed, o.fresnel, o.kernel, o.threads, o.aov_mode) == (
+        6, 3, 7, 5, "exact", "handout", 3, "quadrant")
+    assert o.shadows and o.jitter and o.filter and o.phong and o.normals and o.count_rays and not o.reflection
+    assert o.depth == (1.0, 2.0) and o.refraction
+    fields = {f.name for f in dataclasses.fields(type(o))}
+    dests = {d for f in RENDER_FLAGS for d in f.dests}
+    assert fields - dests == {"normals", "count_rays", "tile_rays", "classes"}  # derived, or not a flag
+
+
+@pytest.mark.parametrize("argv", [["-h"], ["--help"]])
+def test_closed_pipe_is_quiet(argv) -> None:
+    """``a5 -h | head -c 0``: the reader is gone before the help is written; no traceback, status 141."""
+    p = subprocess.Popen([sys.executable, "-m", "a5mi", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert p.stdout is not None and p.stderr is not None
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=60) == 141 and err == ""

@@ -256,7 +256,7 @@ def format_help(prog: str, summary: str, flags: Sequence[Flag], positionals: Seq
                      + default))
     width = min(28, max((len(a) for a, _ in rows), default=0) + 2)
     for a, b in rows:
-        lines.append(f"  {a:<{width}}{b}" if len(a) < width else f"  {a}\n  {'':<{width}}{b}")
+        lines.append(f"  {a:<{width}}{b}" if len(a) < width else f"  {a}  {b}")  # one line per flag
     if epilog:
         lines += ["", epilog]
     return "\n".join(lines) + "\n"
