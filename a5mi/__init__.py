@@ -15,12 +15,24 @@ __version__ = "0.1.0"
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
 
 
-def data_dir() -> Path:
-    """The course data (SPEC, scenes, references): ``$A5_DATA``, else ``../shared/a5`` beside the project."""
+def data_candidates() -> list[Path]:
+    """Where the course data (SPEC.md, scenes/, reference/) is looked for, in order: ``$A5_DATA`` alone when
+    it is set; else ``../shared/a5`` beside the project checkout (when a5mi runs from one), then
+    ``./shared/a5`` and ``../shared/a5`` from the working directory."""
     env = os.environ.get("A5_DATA")
     if env:
-        return Path(env).resolve()
-    return (PROJECT_ROOT.parent / "shared" / "a5").resolve()
+        return [Path(env).expanduser().resolve()]
+    out = []
+    if (PROJECT_ROOT / "pyproject.toml").is_file():
+        out.append((PROJECT_ROOT.parent / "shared" / "a5").resolve())
+    out += [(Path.cwd() / "shared" / "a5").resolve(), (Path.cwd().parent / "shared" / "a5").resolve()]
+    return list(dict.fromkeys(out))
+
+
+def data_dir() -> Path:
+    """The course data folder: the first of :func:`data_candidates` holding ``SPEC.md`` (else the first)."""
+    candidates = data_candidates()
+    return next((c for c in candidates if (c / "SPEC.md").is_file()), candidates[0])
 
 
 def require_data_dir() -> Path:
@@ -30,6 +42,6 @@ def require_data_dir() -> Path:
 
     root = data_dir()
     if not (root / "SPEC.md").is_file():
-        how = "$A5_DATA" if os.environ.get("A5_DATA") else "../shared/a5 beside the project"
-        raise UserError(f"course data not found at {root} ({how}); set A5_DATA to the folder holding SPEC.md")
+        looked = ", ".join(str(c) for c in data_candidates())
+        raise UserError(f"course data not found (looked in {looked}); set A5_DATA to the folder holding SPEC.md")
     return root

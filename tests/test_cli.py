@@ -336,3 +336,21 @@ def test_closed_pipe_is_quiet(argv) -> None:
     p.stdout.close()
     err = p.stderr.read().decode()
     assert p.wait(timeout=60) == 141 and err == ""
+
+
+def test_course_data_is_found_by_a5_data_then_the_documented_places(tmp_path, monkeypatch, capsys) -> None:
+    import a5mi
+
+    monkeypatch.setenv("A5_DATA", str(tmp_path / "nowhere"))
+    assert a5mi.data_candidates() == [tmp_path / "nowhere"]
+    for argv in (["fidelity"], ["bench", "--no-process", "--no-inprocess"]):
+        assert cli.run_a5mi(argv) == 2
+        line = _one_error_line(capsys.readouterr().err)
+        assert "course data not found (looked in" in line and "set A5_DATA" in line, line
+    (tmp_path / "shared" / "a5").mkdir(parents=True)
+    (tmp_path / "shared" / "a5" / "SPEC.md").write_text("x")
+    monkeypatch.delenv("A5_DATA")
+    monkeypatch.chdir(tmp_path)
+    assert (tmp_path / "shared" / "a5").resolve() in a5mi.data_candidates()
+    if not (a5mi.PROJECT_ROOT.parent / "shared" / "a5" / "SPEC.md").is_file():
+        assert a5mi.data_dir() == (tmp_path / "shared" / "a5").resolve()
