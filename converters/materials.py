@@ -8,12 +8,15 @@ without uv (sphere, plane, triangle, OBJ without ``vt``) gets a second BSDF with
 Stock (:func:`stock_bsdf`, for use outside a5mi; none is needed for a5 renders):
 
 * ``diffuse`` (reflectance = kd) when ``|specularColor| ≤ 0.001`` (:data:`a5mi.spec.MIRROR_THRESHOLD`) and
-  ``refractionIndex = 0``; otherwise a ``blendbsdf`` with weight ``w = clamp(max specularColor, 0, 1)``
-  between that ``diffuse`` and a perfect mirror (``conductor``, ``material='none'``) or, for
-  ``refractionIndex n > 0``, a ``dielectric`` with ``int_ior = n``, ``ext_ior = 1.0`` (its defaults are BK7
-  and air), both with specular reflectance/transmittance ``specularColor / w``. a5soln *adds* the mirror
-  term to the full diffuse one; a physically based blend cannot, so stock renders are darker or brighter
-  there;
+  ``refractionIndex = 0``; otherwise the a5 sum ``kd·D + ks·M`` (D: the diffuse response, M: the mirror or
+  the dielectric, SPEC B.3) as a ``blendbsdf`` of a ``diffuse`` and a perfect mirror (``conductor``,
+  ``material='none'``) or, for ``refractionIndex n > 0``, a ``dielectric`` (``int_ior = n``, ``ext_ior = 1``).
+  With ``d = max kd`` and ``m = max ks``: weight ``w = m/(d + m)``, diffuse reflectance ``kd·s/d``, specular
+  reflectance (and transmittance) ``ks·s/m``, ``s = min(d + m, 1)``. So ``(1 − w)·kd·s/d = kd·s/(d + m)`` and
+  ``w·ks·s/m = ks·s/(d + m)``: exactly the a5 sum when ``d + m ≤ 1``, else the a5 sum divided by ``d + m``
+  (energy conservation); both colours survive (a coloured diffuse under a white mirror keeps its hue).
+  ``d = 0`` (clear glass, black mirrors) gives the mirror/dielectric alone. A texture (``d`` = its largest
+  texel) is kept unscaled, so its diffuse part is ``kd·d/(d + m)`` instead;
 * textures: stock ``bitmap`` with ``raw=True``, ``filter_type='bilinear'``, ``wrap_mode='clamp'``: it has
   Mitsuba's half-texel offset, unlike A.4; Noise (3D marble): the mean colour ``(color1 + color2)/2`` (the
   mean of ``t`` over a period of the sine; :func:`.describe.describe` warns with ``stock=True``).
@@ -82,21 +85,35 @@ def stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = fil
         kd = {"type": "bitmap", **image(kd_src), "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp"}
     else:
         kd = rgb(mat.diffuse_color)
-    diffuse = {"type": "diffuse", "reflectance": kd}
     spec = np.asarray(mat.specular_color, dtype=np.float64)
-    w = float(np.clip(spec.max(), 0.0, 1.0))
+    m = float(max(spec.max(), 0.0))
+    if mat.refraction_index <= 0.0 and float(np.linalg.norm(spec)) <= MIRROR_THRESHOLD or m == 0.0:
+        return {"type": "diffuse", "reflectance": kd}
+    d = _max_diffuse(kd_src, mat)
+    w = m / (d + m)                       # the mirror's share of the a5 sum kd·D + ks·M
+    scale = min(d + m, 1.0)               # 1 when the sum fits in energy, else divide it by d + m
+    if d > 0.0 and not isinstance(kd_src, Image):
+        kd = rgb(np.asarray(kd["value"]) * scale / d)  # a texture cannot be scaled in stock Mitsuba: kept as is
+    spec_rgb = rgb(spec * scale / m)
+    other: dict[str, Any]
     if mat.refraction_index > 0.0:
-        other: dict[str, Any] = {"type": "dielectric", "int_ior": float(mat.refraction_index), "ext_ior": 1.0}
-        if w > 0:
-            other["specular_reflectance"] = rgb(spec / w)
-            other["specular_transmittance"] = rgb(spec / w)
-    elif float(np.linalg.norm(spec)) > MIRROR_THRESHOLD:
-        other = {"type": "conductor", "material": "none", "specular_reflectance": rgb(spec / w)}
+        other = {"type": "dielectric", "int_ior": float(mat.refraction_index), "ext_ior": 1.0,
+                 "specular_reflectance": spec_rgb, "specular_transmittance": spec_rgb}
     else:
-        return diffuse
-    if w == 0.0:
-        return diffuse
-    return {"type": "blendbsdf", "weight": w, "bsdf_0": diffuse, "bsdf_1": other}
+        other = {"type": "conductor", "material": "none", "specular_reflectance": spec_rgb}
+    if d == 0.0:
+        return other
+    return {"type": "blendbsdf", "weight": w, "bsdf_0": {"type": "diffuse", "reflectance": kd}, "bsdf_1": other}
+
+
+def _max_diffuse(kd_src: Noise | Image | None, mat: MaterialDescription) -> float:
+    """``d = max kd``: the largest channel of the diffuse colour, of the texture's pixels (/255) or of the
+    marble's mean colour."""
+    if isinstance(kd_src, Image):
+        return float(kd_src.pixels[..., :3].max()) / 255.0
+    if isinstance(kd_src, Noise):
+        return float(max(0.0, ((np.asarray(kd_src.color1) + np.asarray(kd_src.color2)) / 2).max()))
+    return float(max(0.0, max(mat.diffuse_color)))
 
 
 def bsdf(mat: MaterialDescription, with_uv: bool, *, stock: bool, image: ImageParams = file_params) -> dict[str, Any]:
