@@ -31,7 +31,8 @@ class Flag:
     """One command-line flag.
 
     ``names``: every spelling, the preferred one first (``("--size", "-size")``). ``nargs``: values taken
-    (0 = a switch, which stores ``const``). ``dest``: the key it sets (a tuple when ``convert`` returns one
+    (0 = a switch, which stores ``const``); ``append``: repeatable, the values collect in a list (default
+    empty). ``dest``: the key it sets (a tuple when ``convert`` returns one
     value per key, e.g. ``("width", "height")``). ``default``: the value when absent (None is printed as no
     default). ``metavar``: the values' names in help. ``show_default``: print the default in help.
     """
@@ -45,12 +46,15 @@ class Flag:
     metavar: str = ""
     const: Any = True
     show_default: bool = True
+    append: bool = False
 
     @property
     def dests(self) -> tuple[str, ...]:
         return self.dest if isinstance(self.dest, tuple) else (self.dest,)
 
     def defaults(self) -> dict[str, Any]:
+        if self.append:
+            return {self.dests[0]: []}
         if isinstance(self.dest, tuple):
             values = self.default if isinstance(self.default, tuple) else (self.default,) * len(self.dest)
             return dict(zip(self.dest, values, strict=True))
@@ -188,7 +192,9 @@ def parse(argv: Sequence[str], flags: Sequence[Flag], positionals: Sequence[Posi
             raise UsageError(f"{name} expects {f'{f.nargs} values' if f.nargs > 1 else 'a value'}, found end of "
                              "arguments")
         value = f.convert(name, values) if f.convert is not None else (values[0] if f.nargs == 1 else tuple(values))
-        if isinstance(f.dest, tuple):
+        if f.append:
+            args[f.dests[0]].append(value)
+        elif isinstance(f.dest, tuple):
             args.update(zip(f.dest, value, strict=True))
         else:
             args[f.dest] = value
