@@ -367,3 +367,11 @@ def test_explain_terms_add_up_to_the_total(variant, a5_data) -> None:
     assert sum(t.other for t in parts) == pytest.approx(total.other, abs=1e-6)
     ambient = next(t for t in parts if "ambient" in t.term)
     assert ambient.glass < 0 and ambient.other < 0  # removing ambient can only darken
+
+
+def test_montage_error_scale_follows_what_the_row_shows() -> None:
+    """The path row is scaled to its 99th-percentile error (a power of two), not a fixed 64/255 that saturates."""
+    errs = [np.full(1000, 40.0), np.full(1000, 3.0)]
+    assert xc.error_scale(errs) == 64.0  # p99 = 40 -> 64
+    assert xc.error_scale([np.full(100, 0.0)]) == 4.0 and xc.error_scale([np.full(100, 900.0)]) == 256.0
+    assert xc.error_scale([np.r_[np.zeros(990), np.full(10, 200.0)]]) == 4.0  # 1% outliers do not set it

@@ -43,7 +43,6 @@ from a5mi.crosscheck.core import (
     OPAQUE,
     PAIRS,
     PATH_LANES,
-    PATH_SCALE,
     CrosscheckOptions,
     CrosscheckResult,
     PairReport,
@@ -59,11 +58,11 @@ from a5mi.crosscheck.core import (
     render_whitted,
 )
 from a5mi.crosscheck.explain import ExplainTerm, explain, explain_table
-from a5mi.crosscheck.report import montage_image, table, to_json, write_montage
+from a5mi.crosscheck.report import error_scale, montage_image, table, to_json, write_montage
 
 __all__ = [
     "BACKGROUND", "GLASS", "OPAQUE", "FRESNEL_MODES", "FRESNEL_SCALE", "LABELS", "NO_RR_DEPTH", "PAIRS",
-    "PATH_LANES", "PATH_SCALE", "levels", "_pixel_rays",
+    "PATH_LANES", "error_scale", "levels", "_pixel_rays",
     "CrosscheckOptions", "CrosscheckResult", "ExplainTerm", "PairReport",
     "crosscheck", "crosscheck_dicts", "explain", "explain_table", "masked_metrics", "montage_image",
     "pair_reports", "path_dict",

@@ -29,7 +29,7 @@ PATH_LANES = 1 << 20
 #: ``rr_depth`` of the path integrator: far beyond any ``max_depth``, so Russian roulette never starts.
 NO_RR_DEPTH = 1 << 16
 #: Full scale of the montage's heatmaps, in levels: Fresnel-mode pairs and pairs against ``path``.
-FRESNEL_SCALE, PATH_SCALE = 16.0, 64.0
+FRESNEL_SCALE = 16.0
 
 
 @dataclass(frozen=True)

@@ -6,13 +6,15 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Sequence
 from dataclasses import asdict
 
 import numpy as np
 import numpy.typing as npt
 
 from a5mi.compare import heatmap
-from a5mi.crosscheck.core import BACKGROUND, FRESNEL_SCALE, LABELS, PATH_SCALE, CrosscheckResult, levels
+from a5mi.crosscheck.core import BACKGROUND, FRESNEL_SCALE, LABELS, CrosscheckResult, levels
+from a5mi.spec import FRESNEL_MODES
 
 # --------------------------------------------------------------------------------------------------------
 # Output: table, JSON, montage
@@ -63,18 +65,29 @@ def _signed_map(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64], full_sca
     return out
 
 
+def error_scale(errors: Sequence[npt.NDArray[np.float64]], percentile: float = 99.0) -> float:
+    """Full scale (levels) of a heatmap row: the ``percentile`` of the errors, rounded up to a power of two, in
+    [4, 256] (so the typical error is a colour, not a saturated red, and 1-level specks stay visible)."""
+    values = np.concatenate([np.ravel(e) for e in errors]) if errors else np.zeros(1)
+    p = float(np.percentile(values, percentile)) if values.size else 0.0
+    return float(min(256.0, max(4.0, 2.0 ** math.ceil(math.log2(max(p, 1.0))))))
+
+
 def montage_image(result: CrosscheckResult) -> npt.NDArray[np.uint8]:
     """Three rows of four tiles, each labelled underneath (levels, uint8):
 
     1. ``a5 | schlick | exact | path``;
     2. ``|a5−schlick|``, ``|a5−exact|``, ``|schlick−exact|`` (full scale 16/255), and the pixel classes
        (glass white, other grey, background black);
-    3. ``|a5−path|``, ``|schlick−path|``, ``|exact−path|`` (full scale 64/255), and ``path − exact``
-       signed (red: path brighter, blue: darker, full scale 64/255).
+    3. ``|a5−path|``, ``|schlick−path|``, ``|exact−path|`` and ``path − exact`` signed (red: path brighter,
+       blue: darker), all at the full scale :func:`error_scale` picks from what the row shows (the 99th
+       percentile of the errors against ``path``, rounded up to a power of two), printed in the labels.
     """
     import OpenImageIO as oiio
 
     lv = {k: levels(v) for k, v in result.images.items()}
+    path_scale = error_scale([np.abs(lv[k] - lv["path"]).max(axis=2)[result.classes != BACKGROUND]
+                              for k in FRESNEL_MODES])
     cls = np.choose(result.classes, [0.0, 96.0, 255.0])[..., None].repeat(3, axis=2)
     tiles = [
         [(lv[k], k) for k in LABELS],
@@ -82,10 +95,8 @@ def montage_image(result: CrosscheckResult) -> npt.NDArray[np.uint8]:
          (heatmap(lv["a5"], lv["exact"], FRESNEL_SCALE), "|a5-exact| x16"),
          (heatmap(lv["schlick"], lv["exact"], FRESNEL_SCALE), "|schlick-exact| x16"),
          (cls, "glass / other / bg")],
-        [(heatmap(lv["a5"], lv["path"], PATH_SCALE), "|a5-path| x4"),
-         (heatmap(lv["schlick"], lv["path"], PATH_SCALE), "|schlick-path| x4"),
-         (heatmap(lv["exact"], lv["path"], PATH_SCALE), "|exact-path| x4"),
-         (_signed_map(lv["exact"], lv["path"], PATH_SCALE), "path-exact (red +)")],
+        [(heatmap(lv[k], lv["path"], path_scale), f"|{k}-path| 0..{path_scale:g}") for k in FRESNEL_MODES]
+        + [(_signed_map(lv["exact"], lv["path"], path_scale), f"path-exact +-{path_scale:g}")],
     ]
     h, w = result.classes.shape
     gap, label_h = 4, 18
