@@ -354,3 +354,23 @@ def test_course_data_is_found_by_a5_data_then_the_documented_places(tmp_path, mo
     assert (tmp_path / "shared" / "a5").resolve() in a5mi.data_candidates()
     if not (a5mi.PROJECT_ROOT.parent / "shared" / "a5" / "SPEC.md").is_file():
         assert a5mi.data_dir() == (tmp_path / "shared" / "a5").resolve()
+
+
+def test_bash_completion_is_generated_from_the_flag_tables(tmp_path) -> None:
+    script = tmp_path / "a5mi.bash"
+    code = "from a5mi.cli import run_a5mi; raise SystemExit(run_a5mi(['completion', 'bash']))"
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    script.write_text(p.stdout)
+
+    def complete(*words: str) -> list[str]:
+        words_sh = " ".join(f"'{w}'" for w in words)
+        out = subprocess.run(["bash", "-c", f"source {script}; COMP_WORDS=({words_sh}); COMP_CWORD={len(words) - 1}; "
+                              "_a5mi_complete; printf '%s\\n' \"${COMPREPLY[@]}\""],
+                             capture_output=True, text=True, check=True, cwd=tmp_path)
+        return out.stdout.split()
+
+    assert complete("a5mi", "comp") == ["compare", "completion"]
+    assert complete("a5mi", "compare", "--th") == ["--threshold"]
+    assert complete("a5", "-sha") == ["-shadows"]
+    assert complete("a5", "--si") == []           # the a5 grammar has no GNU spellings
+    assert complete("a5mi", "render", "--si") == ["--size"]

@@ -28,7 +28,7 @@ BACKGROUND, OPAQUE, GLASS = 0, 1, 2
 PATH_LANES = 1 << 20
 #: ``rr_depth`` of the path integrator: far beyond any ``max_depth``, so Russian roulette never starts.
 NO_RR_DEPTH = 1 << 16
-#: Full scale of the montage's heatmaps, in levels: Fresnel-mode pairs and pairs against ``path``.
+#: Full scale of the montage's Fresnel-mode heatmaps, in levels (the path row is scaled to its errors).
 FRESNEL_SCALE = 16.0
 
 
