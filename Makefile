@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.a5mi-installed
 DEMO_FLAGS := -size 300 300 -shadows -bounces 4 -jitter -filter
 
-.PHONY: setup llvm demo test fuzz lint bench clean
+.PHONY: setup llvm demo test fuzz lint bench gpu-check clean
 
 setup: llvm $(STAMP)
 
@@ -37,6 +37,10 @@ test: setup lint
 # The thorough hypothesis profile (tests/conftest.py): ten times the examples of `make test`, random seeds.
 fuzz: setup
 	HYPOTHESIS_PROFILE=thorough $(BIN)/python -m pytest -q -k fuzz
+
+# The cuda variant against the llvm one (needs an NVIDIA GPU; exit 2 without one): benchmarks/gpu_check.py.
+gpu-check: setup
+	$(BIN)/python benchmarks/gpu_check.py
 
 bench: setup
 	$(BIN)/a5mi bench

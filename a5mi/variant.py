@@ -22,7 +22,7 @@ class VariantError(RuntimeError):
     """The requested variant cannot run on this machine (user-fixable; the message names the fix)."""
 
 
-def _cuda_available() -> bool:
+def cuda_available() -> bool:
     """True when an NVIDIA driver is visible, without initialising Dr.Jit's CUDA backend."""
     import ctypes
 
@@ -41,7 +41,7 @@ def resolve(requested: str | None = None) -> str:
     """Map ``llvm`` / ``cuda`` / ``auto`` / a full variant name (or ``$A5MI_VARIANT``) to a variant name."""
     choice = (requested or os.environ.get(ENV_VAR) or "llvm").strip()
     if choice == "auto":
-        choice = "cuda" if _cuda_available() else "llvm"
+        choice = "cuda" if cuda_available() else "llvm"
     if choice in VARIANTS:
         return VARIANTS[choice]
     if choice in VARIANTS.values():
@@ -57,7 +57,7 @@ def activate(requested: str | None = None) -> str:
             llvm.check()
         except llvm.LLVMError as exc:
             raise VariantError(str(exc)) from None
-    elif name.startswith("cuda") and not _cuda_available():
+    elif name.startswith("cuda") and not cuda_available():
         raise VariantError("the cuda variant needs an NVIDIA GPU and driver; none was found (use -variant llvm)")
 
     import mitsuba as mi
