@@ -69,3 +69,20 @@ def test_documented_python_example_runs(tmp_path: Path) -> None:
     subprocess.run([sys.executable, "-c", code.group(1)], cwd=tmp_path, check=True, timeout=300)
     img = read_levels(tmp_path / "mixed.png")
     assert img.shape == (96, 96, 3) and img.std() > 10  # a picture, not a constant
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o077])
+def test_converted_xml_and_diff_images_honour_the_umask(scene10, tmp_path: Path, umask: int) -> None:
+    """Issue 18: the XML and compare's --diff were written 0600 whatever the umask (mkstemp's mode)."""
+    import os
+
+    a5_png, _ = scene10
+    old = os.umask(umask)
+    try:
+        assert run_a5mi(["compare", str(a5_png), str(a5_png), "--diff", str(tmp_path / "d.png")]) == 0
+        xml = tmp_path / "s.xml"
+        assert run_a5mi(["convert", str(ROOT / "scenes" / "demo.txt"), "-o", str(xml)]) == 0
+    finally:
+        os.umask(old)
+    for path in (tmp_path / "d.png", xml):
+        assert path.stat().st_mode & 0o777 == 0o666 & ~umask, path
