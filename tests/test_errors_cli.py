@@ -249,8 +249,8 @@ def _usage_cases() -> list[Case]:
           setup=lambda root: (root / "img.png").mkdir()),
         c("output_unknown_extension", ["-input", "s.txt", "-output", "out.jpg"], "a5: error: out.jpg: unknown image "
           "extension '.jpg' (expected one of .bmp .exr .png .ppm .tga .tif .tiff)"),
-        c("output_no_extension", ["-input", "s.txt", "-output", "out"], "a5: error: out: unknown image extension "
-          "no extension (expected one of .bmp .exr .png .ppm .tga .tif .tiff)"),
+        c("output_no_extension", ["-input", "s.txt", "-output", "out"], "a5: error: out: no image extension "
+          "(expected one of .bmp .exr .png .ppm .tga .tif .tiff)"),
         c("normals_unknown_extension", ["-input", "s.txt", "-output", "out.png", "-normals", "n.gif"],
           "a5: error: n.gif: unknown image extension '.gif' (expected one of .bmp .exr .png .ppm .tga .tif .tiff)",
           aovs=False),
