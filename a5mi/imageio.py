@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from a5mi import interrupts
-from a5mi.errors import ImageReadError, ImageWriteError, UserError
+from a5mi.errors import FileReadError, ImageReadError, ImageWriteError
 
 #: Extensions written as 8-bit (quantised) images.
 BYTE_FORMATS: frozenset[str] = frozenset({".png", ".bmp", ".tga", ".ppm", ".tif", ".tiff"})
@@ -249,28 +249,34 @@ def remove_stale(folder: str | os.PathLike[str], name: str) -> list[Path]:
 def read_regular(path: str | os.PathLike[str], limit: int, what: str = "file") -> bytes:
     """The bytes of the regular file ``path``, at most ``limit`` of them. Opened with ``O_NONBLOCK`` (a FIFO
     does not block) and checked with ``fstat`` after opening: a FIFO, device, socket or folder is refused,
-    as is a file larger than ``limit``. Raises :class:`~a5mi.errors.UserError` (``OSError`` reasons as text)."""
+    as is a file larger than ``limit``. Raises :class:`~a5mi.errors.FileReadError` (``OSError`` reasons as
+    text in its ``reason``)."""
+
+    def fail(reason: str) -> FileReadError:
+        return FileReadError(f"cannot read {what} '{path}': {reason}", reason)
+
+    if str(path) == "":
+        raise fail("the file name is empty")
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     except OSError as exc:
-        raise UserError(f"cannot read {what} '{path}': {exc.strerror or exc}") from None
+        raise fail(str(exc.strerror or exc)) from None
     try:
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
-            raise UserError(f"cannot read {what} '{path}': not a regular file ({file_kind(path)})")
+            raise fail(f"not a regular file ({file_kind(path)})")
         if st.st_size > limit:
-            raise UserError(f"cannot read {what} '{path}': {st.st_size} bytes is more than the limit of "
-                            f"{limit} bytes")
+            raise fail(f"{st.st_size} bytes is more than the limit of {limit} bytes")
         chunks: list[bytes] = []
         total = 0
         while chunk := os.read(fd, min(1 << 20, limit + 1 - total)):
             chunks.append(chunk)
             total += len(chunk)
             if total > limit:
-                raise UserError(f"cannot read {what} '{path}': more than the limit of {limit} bytes")
+                raise fail(f"more than the limit of {limit} bytes")
         return b"".join(chunks)
     except OSError as exc:
-        raise UserError(f"cannot read {what} '{path}': {exc.strerror or exc}") from None
+        raise fail(str(exc.strerror or exc)) from None
     finally:
         os.close(fd)
 

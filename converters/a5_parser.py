@@ -30,8 +30,8 @@ from typing import Final
 import numpy as np
 
 from . import transforms
-from .errors import FileLoc, SceneSemanticError, SceneSyntaxError
-from .lexer import Token, read_source, tokenize
+from .errors import FileLoc, SceneSemanticError, SceneSyntaxError, shown
+from .lexer import NUMBER, Token, read_source, tokenize
 from .model import (
     Background,
     Camera,
@@ -53,8 +53,8 @@ from .model import (
 )
 
 # %f accepts more (hex floats, "nan", "inf"); we accept plain decimal numbers only.
-FLOAT_RE: Final = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
-INT_RE: Final = re.compile(r"[+-]?\d+")
+FLOAT_RE: Final = re.compile(NUMBER)  # ASCII digits, linear (converters/lexer.py)
+INT_RE: Final = re.compile(r"[+-]?[0-9]+")
 INT_LIMIT: Final = 2**31 - 1
 TOP_LEVEL: Final = ("PerspectiveCamera", "Lights", "Background", "Materials", "Group")
 OBJECTS: Final = ("Group", "Sphere", "Plane", "Triangle", "TriangleMesh", "Transform")
@@ -62,7 +62,7 @@ TRANSFORMS: Final = ("Translate", "Scale", "UniformScale", "XRotate", "YRotate",
 
 
 def _quoted(tok: Token | None) -> str:
-    return "end of file" if tok is None else f"'{tok.text}'"
+    return "end of file" if tok is None else f"'{shown(tok.text)}'"
 
 
 def _one_of(words: tuple[str, ...]) -> str:
@@ -127,7 +127,7 @@ class TokenStream:
             raise self.syntax_error(f"expected a number after '{after}', found {_quoted(tok)}", tok)
         value = float(tok.text)
         if not math.isfinite(value) or abs(value) > 3.4028234663852886e38:
-            raise self.syntax_error(f"number out of range after '{after}': '{tok.text}'", tok)
+            raise self.syntax_error(f"number out of range after '{after}': '{shown(tok.text)}'", tok)
         return value
 
     def integer(self, after: str) -> tuple[int, Token]:
@@ -137,7 +137,7 @@ class TokenStream:
             raise self.syntax_error(f"expected an integer after '{after}', found {_quoted(tok)}", tok)
         value = int(tok.text)
         if abs(value) > INT_LIMIT:
-            raise self.syntax_error(f"integer out of range after '{after}': '{tok.text}'", tok)
+            raise self.syntax_error(f"integer out of range after '{after}': '{shown(tok.text)}'", tok)
         return value, tok
 
     def vec3(self, after: str) -> Vec3:
@@ -240,7 +240,7 @@ def parse_lights(ts: TokenStream, start: Token) -> tuple[Light, ...]:
             raise ts.syntax_error(f"expected DirectionalLight, PointLight or '}}' in Lights, found {_quoted(tok)}", tok)
         if len(lights) == count:
             raise ts.syntax_error(f"Lights declares numLights {count} but a light follows: expected '}}', "
-                                  f"found '{tok.text}'", tok)
+                                  f"found '{shown(tok.text)}'", tok)
         parse = parse_directional_light if tok.text == "DirectionalLight" else parse_point_light
         lights.append(parse(ts, tok))
 
@@ -266,7 +266,7 @@ def parse_background(ts: TokenStream, start: Token) -> Background:
             name = ts.name("cubeMap")
             cube_map, cube_loc = name.text, name.loc
         else:
-            raise ts.syntax_error(f"unknown Background keyword '{tok.text}' (expected color, ambientLight, "
+            raise ts.syntax_error(f"unknown Background keyword '{shown(tok.text)}' (expected color, ambientLight, "
                                   "cubeMap or '}')", tok)
 
 
@@ -296,7 +296,7 @@ def parse_noise(ts: TokenStream, start: Token) -> Noise:
         elif tok.text == "amplitude":
             amplitude = ts.number("amplitude")
         else:
-            raise ts.syntax_error(f"unknown Noise keyword '{tok.text}' (expected color, octaves, frequency, "
+            raise ts.syntax_error(f"unknown Noise keyword '{shown(tok.text)}' (expected color, octaves, frequency, "
                                   "amplitude or '}')", tok)
     if len(colors) < 2:
         ts.warn(start.loc, f"Noise has {len(colors)} of its 2 colors; the missing ones are 0 0 0")
@@ -337,7 +337,7 @@ def parse_material(ts: TokenStream, start: Token) -> Material:
         elif tok.text == "Noise":
             values["noise"] = parse_noise(ts, tok)
         else:
-            raise ts.syntax_error(f"unknown Material keyword '{tok.text}' (expected "
+            raise ts.syntax_error(f"unknown Material keyword '{shown(tok.text)}' (expected "
                                   f"{_one_of(MATERIAL_KEYS)})", tok)
 
 
@@ -362,7 +362,7 @@ def parse_materials(ts: TokenStream, start: Token) -> tuple[Material, ...]:
             raise ts.syntax_error(f"expected Material, PhongMaterial or '}}' in Materials, found {_quoted(tok)}", tok)
         if len(materials) == count:
             raise ts.syntax_error(f"Materials declares numMaterials {count} but a material follows: expected "
-                                  f"'}}', found '{tok.text}'", tok)
+                                  f"'}}', found '{shown(tok.text)}'", tok)
         materials.append(parse_material(ts, tok))
 
 
@@ -374,6 +374,7 @@ class _GroupState:
         self.num_materials = num_materials
         self.current: int | None = None
         self.materials_line: int | None = None  # line of the Materials block in effect
+        self.depth = 0  # Group / Transform nesting of the object being parsed
 
 
 def _material_for(ts: TokenStream, state: _GroupState, tok: Token) -> int:
@@ -431,7 +432,8 @@ def parse_triangle_mesh(ts: TokenStream, start: Token, state: _GroupState) -> Tr
     ts.expect("obj_file", "in TriangleMesh")
     name = ts.name("obj_file")
     if not name.text.endswith(".obj"):
-        raise ts.syntax_error(f"expected a file name ending in '.obj' after 'obj_file', found '{name.text}'", name)
+        raise ts.syntax_error(f"expected a file name ending in '.obj' after 'obj_file', found "
+                              f"'{shown(name.text)}'", name)
     ts.expect("}", "to close TriangleMesh")
     return TriangleMesh(name.text, _material_for(ts, state, start), start.loc, name.loc)
 
@@ -473,8 +475,25 @@ def parse_transform(ts: TokenStream, start: Token, state: _GroupState) -> Transf
     return Transform(tuple(ops), transforms.as_tuple(m), child, start.loc)
 
 
+#: Deepest Group / Transform nesting accepted: every later stage walks the tree recursively, and the course
+#: scenes nest 3 deep; a positioned error instead of Python's RecursionError (issue 19).
+MAX_NESTING: Final = 100
+
+
 def parse_object(ts: TokenStream, tok: Token, state: _GroupState) -> Node:
-    """One ``<object>`` of A.6, its keyword ``tok`` already consumed."""
+    """One ``<object>`` of A.6, its keyword ``tok`` already consumed; at most :data:`MAX_NESTING` deep."""
+    if tok.text in ("Group", "Transform"):
+        if state.depth >= MAX_NESTING:
+            raise ts.semantic_error(f"{tok.text} nested more than {MAX_NESTING} deep (the limit of a5mi)", tok.loc)
+        state.depth += 1
+        try:
+            return _parse_object(ts, tok, state)
+        finally:
+            state.depth -= 1
+    return _parse_object(ts, tok, state)
+
+
+def _parse_object(ts: TokenStream, tok: Token, state: _GroupState) -> Node:
     if tok.text == "Group":
         return parse_group(ts, tok, state)
     if tok.text == "Sphere":
@@ -520,7 +539,7 @@ def parse_group(ts: TokenStream, start: Token, state: _GroupState) -> Group:
                                   f"found {_quoted(tok)}", tok)
         if len(children) == count:
             raise ts.syntax_error(f"Group declares numObjects {count} but an object follows: expected '}}', "
-                                  f"found '{tok.text}'", tok)
+                                  f"found '{shown(tok.text)}'", tok)
         children.append(parse_object(ts, tok, state))
 
 
@@ -534,7 +553,7 @@ def parse_tokens(ts: TokenStream) -> Scene:
     group_materials: object = None  # the Materials list the (last) Group was parsed with
     while (tok := ts.next()) is not None:
         if tok.text not in TOP_LEVEL:
-            raise ts.syntax_error(f"expected {_one_of(TOP_LEVEL)}, found '{tok.text}'", tok)
+            raise ts.syntax_error(f"expected {_one_of(TOP_LEVEL)}, found '{shown(tok.text)}'", tok)
         if tok.text in seen and not (tok.text == "Materials" and "Group" in seen):
             ts.warn(tok.loc, f"second {tok.text} block replaces the one at line {seen[tok.text].loc.line}")
         seen[tok.text] = tok
