@@ -299,11 +299,13 @@ def write_images(outputs: Sequence[tuple[str | os.PathLike[str], npt.ArrayLike]]
     paths = [check_output_path(path) for path, _ in outputs]
     temps: list[str] = []
     renamed = 0
+    interrupts.check()  # a signal that arrived before the write: nothing is written
     try:
         for p, (_, img) in zip(paths, outputs, strict=True):
-            with interrupts.deferred():
+            with interrupts.protected():
                 temps.append(_write_temp(p, img))
-        with interrupts.deferred():  # the renames are one step: a signal waits until all are done
+        interrupts.check()
+        with interrupts.protected():  # the renames are one step: a signal waits until all are done
             for tmp, p in zip(temps, paths, strict=True):
                 os.replace(tmp, p)  # same folder: fails only if the target became a directory meanwhile
                 renamed += 1
@@ -386,10 +388,10 @@ def atomic_file(path: str | os.PathLike[str], mode: str = "wb") -> Iterator[IO[A
     try:
         with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": "utf-8"})) as f:
             yield f
-            with interrupts.deferred():
+            with interrupts.protected():
                 f.flush()
                 os.fsync(f.fileno())
-        with interrupts.deferred():
+        with interrupts.protected():
             os.chmod(tmp, _target_mode(p))
             os.replace(tmp, p)
     except BaseException:

@@ -9,21 +9,34 @@ image being written. A deferred signal is raised when the outermost block ends; 
 into short steps (the driver's tiles) with :func:`check` between them, so a render stops within about one
 tile of the signal. Exit status: ``128 + signal number`` (130 for SIGINT, 143 SIGTERM, 129 SIGHUP).
 
+A kernel can run for minutes (a glass ray tree at ``-bounces 64``) and the Python-level handler only runs
+when it returns, so :func:`install` also starts a watchdog thread woken by ``signal.set_wakeup_fd`` (the C
+handler writes the signal number at once; Dr.Jit releases the GIL while kernels run): if the program has not
+finished :data:`GRACE` seconds after a signal, the watchdog reports it (the ``report`` callback of
+:func:`install`, once) and ends the process with ``os._exit(128 + signum)``. It never does so inside a
+:func:`protected` block (an atomic write or rename: the clean-up must run); it waits for the block to end.
+A temporary that a hard exit leaves (a cache file being written in another thread) has this process's pid in
+its name and is removed by the next run (:func:`a5mi.imageio.remove_stale`).
+
 A leaf module: standard library only.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import FrameType
 
 #: The signals turned into :class:`Interrupted`.
 SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+#: Seconds after a signal before the watchdog ends a process that has not stopped by itself.
+GRACE = 1.0
 
-_state = {"depth": 0, "pending": 0, "installed": False}
+_state: dict[str, int] = {"depth": 0, "pending": 0, "installed": False, "protect": 0, "reported": 0}
 
 
 class Interrupted(KeyboardInterrupt):
@@ -42,17 +55,54 @@ class Interrupted(KeyboardInterrupt):
         return signal.Signals(self.signum).name
 
 
+def _importing(frame: FrameType | None) -> bool:
+    """True while a module is being imported (an exception there can break a native extension for good)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
+
+
 def _handler(signum: int, frame: FrameType | None) -> None:
-    if _state["depth"] > 0:
+    if _state["depth"] > 0 or _importing(frame):
         _state["pending"] = _state["pending"] or signum
         return
     raise Interrupted(signum)
 
 
-def install() -> None:
-    """Route :data:`SIGNALS` to :class:`Interrupted` (main thread only; a no-op elsewhere or twice)."""
+def _watchdog(fd: int, report: Callable[[int], None]) -> None:
+    while True:
+        try:
+            data = os.read(fd, 64)
+        except InterruptedError:
+            continue
+        except OSError:
+            return
+        signums = [b for b in data if b in {int(s) for s in SIGNALS}]
+        if not signums:
+            continue
+        deadline = time.monotonic() + GRACE
+        while time.monotonic() < deadline or _state["protect"] > 0:
+            if _state["protect"] > 0:
+                deadline = time.monotonic() + GRACE
+            time.sleep(0.02)
+        if not _state["reported"]:
+            _state["reported"] = 1
+            report(signums[0])
+        os._exit(128 + signums[0])
+
+
+def install(report: Callable[[int], None] | None = None) -> None:
+    """Route :data:`SIGNALS` to :class:`Interrupted` and start the watchdog (module docstring); ``report``
+    prints the one line of a hard exit. Main thread only; a no-op elsewhere or twice."""
     if _state["installed"] or threading.current_thread() is not threading.main_thread():
         return
+    if report is not None:
+        r, w = os.pipe()
+        os.set_blocking(w, False)
+        signal.set_wakeup_fd(w, warn_on_full_buffer=False)
+        threading.Thread(target=_watchdog, args=(r, report), name="a5mi-signal-watchdog", daemon=True).start()
     for sig in SIGNALS:
         try:
             if sig != signal.SIGINT and signal.getsignal(sig) == signal.SIG_IGN:
@@ -61,6 +111,11 @@ def install() -> None:
         except (OSError, ValueError):  # pragma: no cover - platforms without the signal
             pass
     _state["installed"] = True
+
+
+def reported() -> None:
+    """The command layer has printed the interruption: the watchdog ends the process without a second line."""
+    _state["reported"] = 1
 
 
 def pending() -> int:
@@ -91,4 +146,15 @@ def deferred() -> Iterator[None]:
         check()
 
 
-__all__ = ["SIGNALS", "Interrupted", "check", "deferred", "install", "pending"]
+@contextmanager
+def protected() -> Iterator[None]:
+    """:func:`deferred`, and the watchdog waits for the block to end (atomic writes and renames)."""
+    _state["protect"] += 1
+    try:
+        with deferred():
+            yield
+    finally:
+        _state["protect"] -= 1
+
+
+__all__ = ["GRACE", "SIGNALS", "Interrupted", "check", "deferred", "install", "pending", "protected", "reported"]

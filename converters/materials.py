@@ -44,6 +44,16 @@ def rgb(c: Any) -> dict[str, Any]:
     return {"type": "rgb", "value": [float(x) for x in c]}
 
 
+def reflectance(c: Any) -> dict[str, Any]:
+    """A stock reflectance parameter of colour ``c``: :func:`rgb` inside [0, 1]; outside (SPEC A.5 sets no
+    range, a5soln renders 1.5 as it is) an ``srgb`` texture with ``unbounded=True``, which Mitsuba accepts
+    for any finite value (a plain rgb reflectance outside [0, 1] is a load error)."""
+    value = rgb(c)
+    if all(0.0 <= x <= 1.0 for x in value["value"]):
+        return value
+    return {"type": "srgb", "color": value, "unbounded": True}
+
+
 def file_params(image: Image) -> dict[str, Any]:
     """``{'filename': absolute path}``: the image named by its file (XML)."""
     return {"filename": str(image.path)}
@@ -82,21 +92,21 @@ def stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = fil
     kd_src = mat.kd_on(with_uv)
     kd: dict[str, Any]
     if isinstance(kd_src, Noise):
-        kd = rgb((np.asarray(kd_src.color1) + np.asarray(kd_src.color2)) / 2)
+        kd = reflectance((np.asarray(kd_src.color1) + np.asarray(kd_src.color2)) / 2)
     elif isinstance(kd_src, Image):
         kd = {"type": "bitmap", **image(kd_src), "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp"}
     else:
-        kd = rgb(mat.diffuse_color)
+        kd = reflectance(mat.diffuse_color)
     diffuse = {"type": "diffuse", "reflectance": kd}
     spec = np.asarray(mat.specular_color, dtype=np.float64)
     w = float(np.clip(spec.max(), 0.0, 1.0))
     if mat.refraction_index > 0.0:
         other: dict[str, Any] = {"type": "dielectric", "int_ior": float(mat.refraction_index), "ext_ior": 1.0}
         if w > 0:
-            other["specular_reflectance"] = rgb(spec / w)
-            other["specular_transmittance"] = rgb(spec / w)
+            other["specular_reflectance"] = reflectance(spec / w)
+            other["specular_transmittance"] = reflectance(spec / w)
     elif float(np.linalg.norm(spec)) > MIRROR_THRESHOLD:
-        other = {"type": "conductor", "material": "none", "specular_reflectance": rgb(spec / w)}
+        other = {"type": "conductor", "material": "none", "specular_reflectance": reflectance(spec / w)}
     else:
         return diffuse
     if w == 0.0:

@@ -40,7 +40,7 @@ PLUGIN_TAGS: dict[str, str] = {
     **dict.fromkeys(("box", "gaussian"), "rfilter"),
     **dict.fromkeys(("directional", "a5_point", "point", "a5_cubemap", "constant", "envmap"), "emitter"),
     **dict.fromkeys(("a5_material", "diffuse", "conductor", "dielectric", "blendbsdf"), "bsdf"),
-    **dict.fromkeys(("a5_marble", "a5_bitmap", "bitmap"), "texture"),
+    **dict.fromkeys(("a5_marble", "a5_bitmap", "bitmap", "srgb"), "texture"),
     **dict.fromkeys(("sphere", "rectangle", "instance", "shapegroup", "ply"), "shape"),
 }
 VECTOR_NAMES = frozenset(("direction", "up"))

@@ -199,7 +199,7 @@ def test_b1_python_m_entry(tmp_path) -> None:
 def test_a5mi_dispatch(tmp_path, scene, fake_render, capsys) -> None:
     assert cli.run_a5mi(["frob"]) == 2
     assert "unknown command 'frob'" in _one_error_line(capsys.readouterr().err)
-    assert cli.run_a5mi([]) == 2 and "render" in capsys.readouterr().out
+    assert cli.run_a5mi([]) == 2 and "render" in capsys.readouterr().err  # usage after a mistake: stderr
     assert cli.run_a5mi(["-h"]) == 0
     listed = capsys.readouterr().out
     for name in cli.SUBCOMMANDS:

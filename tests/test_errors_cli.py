@@ -261,7 +261,8 @@ def _usage_cases() -> list[Case]:
         Case("input_missing", {}, ["-input", "nope.txt", "-output", "out.png"],
              "nope.txt:1:1: error: cannot read scene file: No such file or directory"),
         Case("input_is_a_folder", {}, ["-input", "sub", "-output", "out.png"],
-             "sub:1:1: error: cannot read scene file: Is a directory", lambda root: (root / "sub").mkdir()),
+             "sub:1:1: error: cannot read scene file: not a regular file (folder)",
+             lambda root: (root / "sub").mkdir()),
     ]
 
 
