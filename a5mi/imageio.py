@@ -27,7 +27,7 @@ from typing import IO, Any
 import numpy as np
 import numpy.typing as npt
 
-from a5mi import interrupts
+from a5mi import interrupts, resources
 from a5mi.errors import FileReadError, ImageReadError, ImageWriteError
 
 #: Extensions written as 8-bit (quantised) images.
@@ -336,6 +336,11 @@ def _decode(p: Path, dtype: str | None) -> tuple[np.ndarray, bool]:
         raise fail(oiio.geterror() or "unknown format")
     try:
         spec = inp.spec()
+        need = resources.image_bytes(spec.width, spec.height, spec.nchannels)
+        enough, have = resources.fits(need)
+        if not enough:
+            raise fail(f"{spec.width}x{spec.height} pixels need about {resources.gb(need)} of memory to decode; "
+                       f"{resources.gb(have or 0)} is available")
         native = spec.format.basetype == oiio.UINT8
         want = dtype or ("uint8" if native else "float")
         data = inp.read_image(0, 0, 0, spec.nchannels, want) if spec.width > 0 and spec.height > 0 else None

@@ -121,3 +121,32 @@ def test_output_that_is_a_fifo_or_device_is_refused(tmp_path: Path) -> None:
         imageio.check_output_path(fifo)
     with pytest.raises(ImageWriteError, match="no image extension"):
         imageio.check_output_path("/dev/null")
+
+
+def test_texture_too_large_for_memory_is_refused_before_decoding(tmp_path: Path, monkeypatch) -> None:
+    """Item 9: the header is read first; an image whose decoded pixels would not fit is refused by size."""
+    from a5mi import resources
+
+    img = np.zeros((2000, 3000, 3), np.uint8)
+    imageio.write_image(tmp_path / "t.png", img)
+    need = resources.image_bytes(3000, 2000, 3)
+    monkeypatch.setenv("A5MI_MEMORY_LIMIT", str(need - 1))
+    with pytest.raises(imageio.ImageReadError, match=r"3000x2000 pixels need about 0.1 GB of memory to decode"):
+        imageio.read_uint8(tmp_path / "t.png")
+    monkeypatch.setenv("A5MI_MEMORY_LIMIT", str(need))
+    assert imageio.read_uint8(tmp_path / "t.png").shape == (2000, 3000, 3)
+
+
+def test_render_memory_model() -> None:
+    """Item 9: the model of a5mi.resources (figures measured with a5 -v, BENCHMARKS.md): 16384^2 is ~16 GB,
+    -jitter -filter keeps only the W x H result."""
+    from a5mi import resources
+
+    big = resources.render_bytes(16384, 16384, width=16384, height=16384, aovs=False, jitter=False,
+                                 filtered=False, tile_rays=1 << 20)
+    assert 16e9 < big < 17e9
+    plain = resources.render_bytes(2100, 2100, width=700, height=700, aovs=False, jitter=True, filtered=False,
+                                   tile_rays=1 << 20)
+    streamed = resources.render_bytes(2100, 2100, width=700, height=700, aovs=False, jitter=True, filtered=True,
+                                      tile_rays=1 << 20)
+    assert plain - streamed == (2100 * 2100 - 700 * 700) * resources.SAMPLE_BYTES
