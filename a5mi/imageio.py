@@ -42,7 +42,8 @@ PNG_COMPRESSION = 1
 
 def quantize(img: npt.ArrayLike) -> npt.NDArray[np.uint8]:
     """``byte = clamp(int(c * 255), 0, 255)``: float32 product, truncation toward zero (SPEC B.1)."""
-    scaled = np.asarray(img, dtype=np.float32) * np.float32(255.0)
+    with np.errstate(over="ignore", invalid="ignore"):  # c near FLT_MAX: c·255 = inf -> 255, no warning
+        scaled = np.asarray(img, dtype=np.float32) * np.float32(255.0)
     scaled = np.nan_to_num(scaled, nan=0.0, posinf=255.0, neginf=0.0)
     return np.clip(np.trunc(scaled), 0.0, 255.0).astype(np.uint8)
 
@@ -227,7 +228,8 @@ def _alive(pid: int) -> bool:
 
 def remove_stale(folder: str | os.PathLike[str], name: str) -> list[Path]:
     """Remove the temporaries of target ``name`` in ``folder`` left by processes that no longer run (regular
-    files only, never through a symlink); returns what was removed. Never raises."""
+    files, and staging folders of :func:`a5mi.converters.to_xml.write_xml`, never through a symlink); returns
+    what was removed. Never raises."""
     removed: list[Path] = []
     try:
         entries = list(os.scandir(folder))
@@ -240,6 +242,11 @@ def remove_stale(folder: str | os.PathLike[str], name: str) -> list[Path]:
         try:
             if e.is_file(follow_symlinks=False):
                 os.unlink(e.path)
+                removed.append(Path(e.path))
+            elif e.is_dir(follow_symlinks=False):
+                import shutil
+
+                shutil.rmtree(e.path)  # rmtree never follows symlinks inside
                 removed.append(Path(e.path))
         except OSError:
             pass

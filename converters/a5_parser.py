@@ -29,6 +29,8 @@ from typing import Final
 
 import numpy as np
 
+from a5mi.vecmath32 import camera_basis
+
 from . import transforms
 from .errors import FileLoc, SceneSemanticError, SceneSyntaxError, shown
 from .lexer import NUMBER, Token, read_source, tokenize
@@ -175,6 +177,12 @@ def parse_camera(ts: TokenStream, start: Token) -> Camera:
     w = np.asarray(fields["direction"])
     if np.linalg.norm(np.cross(w, np.asarray(fields["up"]))) == 0.0:
         raise ts.semantic_error("camera up must not be parallel to direction", tok.loc)
+    try:  # the renderer's float32 basis (SPEC B.2): tiny, huge or nearly parallel vectors fail only there
+        camera_basis(fields["direction"], fields["up"])
+    except ValueError:
+        raise ts.semantic_error("camera direction and up do not define a basis in float32 (the sample solution's "
+                                "precision): too small, too large (|x|·|x| > 3.4e38) or nearly parallel",
+                                tok.loc) from None
     ts.expect("}", "to close PerspectiveCamera")
     return Camera(fields["center"], fields["direction"], fields["up"], angle, start.loc)
 

@@ -28,6 +28,7 @@ import time
 import traceback
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Literal, TextIO
 
 from a5mi.cli.flags import COMMON, Args, Flag, Positional, format_help, parse
@@ -232,10 +233,12 @@ def exception_summary(exc: BaseException) -> str:
 
 
 # ------------------------------------------------------------------------------------------ the scene prologue
-def load_scene(path: str, console: Console, *, stock: bool = False) -> Any:
+def load_scene(path: str, console: Console, *, stock: bool = False, inputs: list[Any] | None = None) -> Any:
     """Parse ``path`` (SPEC A), print the parser's warnings, build the scene description once (every mesh,
     texture and cube-map face read and checked) and print its warnings; raises positioned scene errors.
-    Mitsuba is not imported. Returns the description that the renderers and writers take."""
+    Mitsuba is not imported. Returns the description that the renderers and writers take. ``inputs``, when
+    given, receives every file the scene reads or names (:func:`a5mi.clobber.input_files`, plus textures
+    the renderer does not look up), for the output checks."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
 
@@ -248,6 +251,13 @@ def load_scene(path: str, console: Console, *, stock: bool = False) -> Any:
     console.warnings(model.warnings)
     desc = describe(model, stock=stock)
     console.warnings(desc.warnings)
+    if inputs is not None:
+        from a5mi.clobber import input_files
+
+        inputs.extend(input_files(desc))
+        for mat in model.materials or ():
+            if getattr(mat, "texture", None):
+                inputs.extend([model.base_dir / mat.texture, Path.cwd() / mat.texture])
     return desc
 
 

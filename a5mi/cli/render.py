@@ -10,11 +10,11 @@ written, each atomically and all or nothing, only after everything has rendered.
 from __future__ import annotations
 
 import dataclasses
-import os
 import sys
 import time
 from typing import Any
 
+from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, choice, integer, number, text
 from a5mi.errors import UsageError
@@ -124,8 +124,7 @@ def outputs_of(args: Args) -> list[tuple[str, str]]:
         outs.append(("-depth", args.depth_output))
     for _, path in outs:
         imageio.check_output_path(path)
-    if len({os.path.realpath(p) for _, p in outs}) != len(outs):
-        raise UsageError("-output, -normals and -depth must name different files")
+    clobber.check_outputs(outs, [args.input])  # the same file twice, or the scene itself
     return outs
 
 
@@ -136,7 +135,9 @@ def run_render(args: Args, console: Console) -> int:
     outputs = outputs_of(args)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
-    desc = load_scene(args.input, console)
+    inputs: list[Any] = []
+    desc = load_scene(args.input, console, inputs=inputs)
+    clobber.check_outputs(outputs, inputs)  # no output may overwrite a mesh, texture or cube-map face
     timings["parse"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     variant = activate_variant(args.variant)
