@@ -172,8 +172,13 @@ def parse_camera(ts: TokenStream, start: Token) -> Camera:
             _nonzero(ts, fields[key], f"camera {key}", tok.loc)
     angle_tok = ts.expect("angle", "in PerspectiveCamera (fields: center, direction, up, angle, in this order)")
     angle = ts.number("angle")
-    if not 0.0 < angle < 180.0:
-        raise ts.semantic_error(f"camera angle must be between 0 and 180 degrees, found {angle:g}", angle_tok.loc)
+    rad = np.float32(math.pi * float(np.float32(angle)) / 180.0)  # as the camera stores it (B.2)
+    tiny = float(np.finfo(np.float32).tiny)  # Mitsuba flushes float32 subnormals to 0
+    with np.errstate(over="ignore"):
+        focal = np.float32(1.0 / math.tan(float(rad) * 0.5)) if 0.0 < float(rad) < math.pi else np.float32(np.inf)
+    if not (0.0 < angle < 180.0 and abs(np.float32(angle)) >= tiny and float(rad) >= tiny and np.isfinite(focal)):
+        raise ts.semantic_error(f"camera angle must be between 0 and 180 degrees (in float32), found {angle:g}",
+                                angle_tok.loc)
     w = np.asarray(fields["direction"])
     if np.linalg.norm(np.cross(w, np.asarray(fields["up"]))) == 0.0:
         raise ts.semantic_error("camera up must not be parallel to direction", tok.loc)

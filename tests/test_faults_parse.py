@@ -104,3 +104,12 @@ def test_special_scene_files(tmp_path: Path) -> None:
         f.truncate(lexer.MAX_SCENE_BYTES + 1)
     with pytest.raises(SceneSyntaxError, match="more than the limit"):
         parse_file(big)
+
+
+@pytest.mark.parametrize("angle", ["1e-40", "1e-37", "179.999999999"])
+def test_camera_angle_checked_in_float32(angle: str) -> None:
+    """Item 4 (found by the campaign): an angle that is 0 or 180 only in float32 is a positioned error, not an
+    internal error of the camera plugin."""
+    with pytest.raises(SceneError, match=r"camera angle must be between 0 and 180 degrees \(in float32\)") as info:
+        parse_text(_scene("Sphere { center 0 0 0 radius 1 }").replace("angle 20", f"angle {angle}"), "s.txt")
+    assert info.value.loc is not None and info.value.loc.line == 1

@@ -112,3 +112,15 @@ def test_signal_during_the_atomic_write_leaves_no_temporary(tmp_path: Path, name
             from a5mi import imageio
 
             assert imageio.read_image(path).shape == (3000, 3000, 3)
+
+
+def test_closed_pipe_is_quiet(tmp_path: Path) -> None:
+    """Item 11: ``a5 -h | true`` (the reader gone before the help is written) ends quietly with 141
+    (128 + SIGPIPE), no BrokenPipeError. The pipe's read end is closed before the command starts."""
+    r, w = os.pipe()
+    os.close(r)
+    try:
+        p = subprocess.run([*A5, "-h"], stdout=w, stderr=subprocess.PIPE, cwd=tmp_path, timeout=60)
+    finally:
+        os.close(w)
+    assert p.returncode == 141 and p.stderr == b""
