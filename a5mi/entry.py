@@ -33,11 +33,13 @@ def _run(prog: str) -> int:
         from a5mi import cli
 
         interrupts.check()  # a signal that arrived during the imports
-        return cli.run(sys.argv[1:]) if prog == "a5" else cli.run_a5mi(sys.argv[1:])
+        status = cli.run(sys.argv[1:]) if prog == "a5" else cli.run_a5mi(sys.argv[1:])
     except interrupts.Interrupted as exc:  # before the guard runs
-        interrupts.reported()
-        os.write(2, f"{prog}: error: interrupted ({exc.name})\n".encode())
-        return exc.status
+        line = f"{prog}: error: interrupted ({exc.name})\n".encode()
+        interrupts.report_once(lambda: os.write(2, line) and None)
+        status = exc.status
+    interrupts.ignore()  # the outcome is decided: shutdown is not interrupted
+    return status
 
 
 def a5() -> None:

@@ -37,6 +37,7 @@ SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM, signal.SIG
 GRACE = 1.0
 
 _state: dict[str, int] = {"depth": 0, "pending": 0, "installed": False, "protect": 0, "reported": 0}
+_report_lock = threading.Lock()
 
 
 class Interrupted(KeyboardInterrupt):
@@ -87,10 +88,9 @@ def _watchdog(fd: int, report: Callable[[int], None]) -> None:
             if _state["protect"] > 0:
                 deadline = time.monotonic() + GRACE
             time.sleep(0.02)
-        if not _state["reported"]:
-            _state["reported"] = 1
-            report(signums[0])
-        os._exit(128 + signums[0])
+        first = signums[0]
+        report_once(lambda s=first: report(s))
+        os._exit(128 + first)
 
 
 def install(report: Callable[[int], None] | None = None) -> None:
@@ -113,9 +113,25 @@ def install(report: Callable[[int], None] | None = None) -> None:
     _state["installed"] = True
 
 
-def reported() -> None:
-    """The command layer has printed the interruption: the watchdog ends the process without a second line."""
-    _state["reported"] = 1
+def report_once(emit: Callable[[], None]) -> None:
+    """Print the interruption's one line with ``emit`` unless it was printed already (by the command layer's
+    guard or by the watchdog: a lock makes the two exclusive, so there is exactly one line)."""
+    with _report_lock:
+        if not _state["reported"]:
+            _state["reported"] = 1
+            emit()
+
+
+def ignore() -> None:
+    """The command has finished (its status is decided, its files are written): from now on the signals are
+    ignored, so interpreter shutdown (Dr.Jit's atexit clean-up) is never interrupted halfway."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for sig in SIGNALS:
+        try:
+            signal.signal(sig, signal.SIG_IGN)
+        except (OSError, ValueError):  # pragma: no cover
+            pass
 
 
 def pending() -> int:
@@ -157,4 +173,5 @@ def protected() -> Iterator[None]:
         _state["protect"] -= 1
 
 
-__all__ = ["GRACE", "SIGNALS", "Interrupted", "check", "deferred", "install", "pending", "protected", "reported"]
+__all__ = ["GRACE", "SIGNALS", "Interrupted", "check", "deferred", "ignore", "install", "pending", "protected",
+           "report_once"]

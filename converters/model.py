@@ -258,7 +258,7 @@ def resolve_path(name: str, base_dir: Path, loc: FileLoc, what: str, *, director
             continue
         if stat.S_ISDIR(mode) if directory else stat.S_ISREG(mode):
             return c
-        found.append((c, "a folder" if stat.S_ISDIR(mode) else "a regular file" if stat.S_ISREG(mode) else
+        found.append((c, "a folder" if stat.S_ISDIR(mode) else "a file" if stat.S_ISREG(mode) else
                       "a FIFO" if stat.S_ISFIFO(mode) else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
                       else "a special file"))
     if found:

@@ -257,7 +257,7 @@ def _usage_cases() -> list[Case]:
         c("depth_folder_missing", ["-input", "s.txt", "-output", "out.png", "-depth", "1", "2", "no/d.png"],
           "a5: error: no/d.png: output folder 'no' does not exist", aovs=False),
         c("same_output_twice", ["-input", "s.txt", "-output", "out.png", "-normals", "./out.png"],
-          "a5: error: -output, -normals and -depth must name different files", aovs=False),
+          "a5: error: -output 'out.png' and -normals './out.png' are the same file", aovs=False),
         Case("input_missing", {}, ["-input", "nope.txt", "-output", "out.png"],
              "nope.txt:1:1: error: cannot read scene file: No such file or directory"),
         Case("input_is_a_folder", {}, ["-input", "sub", "-output", "out.png"],

@@ -185,8 +185,7 @@ def guarded(console: Console, debug: bool, body: Callable[[], int]) -> int:
         from a5mi import interrupts
 
         signum = exc.signum if isinstance(exc, interrupts.Interrupted) else 2
-        interrupts.reported()
-        console.error(f"interrupted ({signal_name(signum)})")
+        interrupts.report_once(lambda: console.error(f"interrupted ({signal_name(signum)})"))
         return 128 + signum
     except BrokenPipeError:
         _silence_stdout()
