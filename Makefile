@@ -34,9 +34,15 @@ lint: setup
 test: setup lint
 	$(BIN)/python -m pytest -q
 
-# The thorough hypothesis profile (tests/conftest.py): ten times the examples of `make test`, random seeds.
+# The thorough hypothesis profile (tests/conftest.py): ten times the examples of `make test`, random seeds;
+# plus the issue-19 mutation campaign (tests/fuzzing.py) through real renders, bounded in time and seeded:
+# `make fuzz FUZZ_SECONDS=300 FUZZ_SEED=7`; counts in out/fuzz-report.json.
+FUZZ_SECONDS ?= 1800
+FUZZ_SEED ?= 1
 fuzz: setup
-	HYPOTHESIS_PROFILE=thorough $(BIN)/python -m pytest -q -k fuzz
+	@mkdir -p out
+	HYPOTHESIS_PROFILE=thorough A5MI_FUZZ_SECONDS=$(FUZZ_SECONDS) A5MI_FUZZ_SEED=$(FUZZ_SEED) \
+	  A5MI_FUZZ_REPORT=out/fuzz-report.json $(BIN)/python -m pytest -q -s -k fuzz
 
 # The cuda variant against the llvm one (needs an NVIDIA GPU; exit 2 without one): benchmarks/gpu_check.py.
 gpu-check: setup

@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from a5mi import interrupts
 from a5mi.filters import FilterStream, postprocess
 from a5mi.glibc_rand import glibc_stream, jitter_offsets
 from a5mi.options import TILE_RAYS, RenderOptions  # noqa: F401 - re-exported
@@ -261,52 +262,55 @@ def _trace_pass(
     with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
         dr.kernel_history_clear()
         for j0, j1, x_pix, y_pix in tiles:
-            n = (j1 - j0) * rw
-            ray = ctx.camera_rays(
-                camera.center, camera.direction, camera.up, camera.angle,
-                mi.Float(aligned_float32(x_pix)), mi.Float(aligned_float32(y_pix)), rw, rh,
-            )  # fmt: skip
-            sampler.seed(0, n)
-            rgb, _valid, aovs = integrator.sample(ctx.scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
-            named = dict(zip(integrator.aov_names(), aovs, strict=True))
-            missing = [k for k in buffers.aov_names if k not in named]
-            if missing:
-                raise RuntimeError(f"integrator has no AOV {', '.join(missing)} (a5_whitted 'aovs' parameter)")
-            counted = [named[f"n_{k}"] for k in _COUNT_NAMES if f"n_{k}" in named] if buffers.trace_color else []
-            outputs = ([rgb] if buffers.trace_color else []) + [named[k] for k in ("nx", "ny", "nz", "t")
-                                                                 if k in named and want_aov]
-            if buffers.classes is not None:
-                outputs.append(named["class"])
-            # one kernel for everything: a reduction of an unevaluated count would trace the scene again
-            dr.eval(*outputs, *counted)
-            dr.sync_thread()
-            if buffers.trace_color:
-                rows = np.asarray(rgb).T.reshape(j1 - j0, rw, 3)
-                if buffers.stream is not None:
-                    t0 = time.perf_counter()
-                    buffers.stream.push(rows)
-                    timings["filter"] = timings.get("filter", 0.0) + time.perf_counter() - t0
-                else:
-                    assert buffers.color is not None
-                    buffers.color[j0:j1] = rows
-            if buffers.normal is not None:
-                nrm = np.stack([np.asarray(named[k]) for k in ("nx", "ny", "nz")], axis=-1)
-                buffers.normal[j0:j1] = np.abs(nrm).reshape(j1 - j0, rw, 3)
-            if buffers.dist is not None:
-                buffers.dist[j0:j1] = np.asarray(named["t"]).reshape(j1 - j0, rw)
-            if buffers.classes is not None:
-                buffers.classes[j0:j1] = np.asarray(named["class"]).reshape(j1 - j0, rw).astype(np.uint8)
-            for name, a in zip(_COUNT_NAMES, counted, strict=False):
-                buffers.counts[name] = buffers.counts.get(name, 0) + int(np.rint(np.asarray(a, np.float64)).sum())
-            for entry in dr.kernel_history():
-                if entry.get("type") == dr.KernelType.JIT:  # not memsets, host functions, aggregates
-                    kind = "disk" if entry.get("cache_disk") else "memory" if entry.get("cache_hit") else "compiled"
-                    buffers.kernels[kind] = buffers.kernels.get(kind, 0) + 1
-                timings["execute"] += entry.get("execution_time", 0.0) / 1000.0
-                timings["compile"] += (entry.get("codegen_time", 0.0) + entry.get("backend_time", 0.0)) / 1000.0
-            done += n
-            if ctx.progress is not None:
-                ctx.progress(done, ctx.total)
+            # one tile is one step: a signal waits for its end (a5mi.interrupts), then stops the render
+            with interrupts.deferred():
+                n = (j1 - j0) * rw
+                ray = ctx.camera_rays(
+                    camera.center, camera.direction, camera.up, camera.angle,
+                    mi.Float(aligned_float32(x_pix)), mi.Float(aligned_float32(y_pix)), rw, rh,
+                )  # fmt: skip
+                sampler.seed(0, n)
+                ray_d = mi.RayDifferential3f(ray)
+                rgb, _valid, aovs = integrator.sample(ctx.scene, sampler, ray_d, None, mi.Bool(True))
+                named = dict(zip(integrator.aov_names(), aovs, strict=True))
+                missing = [k for k in buffers.aov_names if k not in named]
+                if missing:
+                    raise RuntimeError(f"integrator has no AOV {', '.join(missing)} (a5_whitted 'aovs' parameter)")
+                counted = [named[f"n_{k}"] for k in _COUNT_NAMES if f"n_{k}" in named] if buffers.trace_color else []
+                outputs = ([rgb] if buffers.trace_color else []) + [named[k] for k in ("nx", "ny", "nz", "t")
+                                                                     if k in named and want_aov]
+                if buffers.classes is not None:
+                    outputs.append(named["class"])
+                # one kernel for everything: a reduction of an unevaluated count would trace the scene again
+                dr.eval(*outputs, *counted)
+                dr.sync_thread()
+                if buffers.trace_color:
+                    rows = np.asarray(rgb).T.reshape(j1 - j0, rw, 3)
+                    if buffers.stream is not None:
+                        t0 = time.perf_counter()
+                        buffers.stream.push(rows)
+                        timings["filter"] = timings.get("filter", 0.0) + time.perf_counter() - t0
+                    else:
+                        assert buffers.color is not None
+                        buffers.color[j0:j1] = rows
+                if buffers.normal is not None:
+                    nrm = np.stack([np.asarray(named[k]) for k in ("nx", "ny", "nz")], axis=-1)
+                    buffers.normal[j0:j1] = np.abs(nrm).reshape(j1 - j0, rw, 3)
+                if buffers.dist is not None:
+                    buffers.dist[j0:j1] = np.asarray(named["t"]).reshape(j1 - j0, rw)
+                if buffers.classes is not None:
+                    buffers.classes[j0:j1] = np.asarray(named["class"]).reshape(j1 - j0, rw).astype(np.uint8)
+                for name, a in zip(_COUNT_NAMES, counted, strict=False):
+                    buffers.counts[name] = buffers.counts.get(name, 0) + int(np.rint(np.asarray(a, np.float64)).sum())
+                for entry in dr.kernel_history():
+                    if entry.get("type") == dr.KernelType.JIT:  # not memsets, host functions, aggregates
+                        kind = "disk" if entry.get("cache_disk") else "memory" if entry.get("cache_hit") else "compiled"
+                        buffers.kernels[kind] = buffers.kernels.get(kind, 0) + 1
+                    timings["execute"] += entry.get("execution_time", 0.0) / 1000.0
+                    timings["compile"] += (entry.get("codegen_time", 0.0) + entry.get("backend_time", 0.0)) / 1000.0
+                done += n
+                if ctx.progress is not None:
+                    ctx.progress(done, ctx.total)
     return done
 
 
@@ -398,7 +402,9 @@ def build_scene(desc: Any, options: RenderOptions) -> Any:
 
     from a5mi.converters.to_mitsuba import to_dict
 
-    return mi.load_dict(to_dict(desc, options))
+    scene_dict = to_dict(desc, options)
+    with interrupts.deferred():  # plugin constructors run inside Mitsuba's C++ loader
+        return mi.load_dict(scene_dict)
 
 
 def describe_if_needed(desc_or_model: Any) -> Any:

@@ -26,3 +26,12 @@ class ImageReadError(UserError):
     def __init__(self, msg: str, reason: str | None = None) -> None:
         super().__init__(msg)
         self.reason = reason if reason is not None else msg
+
+
+class FileReadError(UserError):
+    """An input file is not a readable regular file within its size limit; ``reason`` is the cause without
+    the path (``not a regular file (FIFO)``, ``... bytes is more than the limit of ... bytes``)."""
+
+    def __init__(self, msg: str, reason: str | None = None) -> None:
+        super().__init__(msg)
+        self.reason = reason if reason is not None else msg

@@ -29,6 +29,7 @@ never touch the cache.
 from __future__ import annotations
 
 import os
+import stat
 import zlib
 from pathlib import Path
 
@@ -213,6 +214,9 @@ def _load_prefix(folder: Path, seed: int) -> CachedStream | None:
     """The cached prefix, or None when it is missing or fails any check (never raises)."""
     values_path, state_path = _prefix_paths(folder, seed)
     try:
+        # regular files only: np.load of a FIFO blocks forever, of a device reads without end (issue 19)
+        if not all(stat.S_ISREG(os.stat(p).st_mode) for p in (values_path, state_path)):
+            return None
         values = np.load(values_path, mmap_mode="r")
         meta = np.load(state_path)
         if values.dtype != np.uint32 or values.shape != (PREFIX_VALUES,) or meta.shape != (_LAG + 2,):

@@ -16,6 +16,8 @@
 from __future__ import annotations
 
 import os
+import re
+import stat
 import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -25,7 +27,8 @@ from typing import IO, Any
 import numpy as np
 import numpy.typing as npt
 
-from a5mi.errors import ImageReadError, ImageWriteError
+from a5mi import interrupts, resources
+from a5mi.errors import FileReadError, ImageReadError, ImageWriteError
 
 #: Extensions written as 8-bit (quantised) images.
 BYTE_FORMATS: frozenset[str] = frozenset({".png", ".bmp", ".tga", ".ppm", ".tif", ".tiff"})
@@ -39,7 +42,8 @@ PNG_COMPRESSION = 1
 
 def quantize(img: npt.ArrayLike) -> npt.NDArray[np.uint8]:
     """``byte = clamp(int(c * 255), 0, 255)``: float32 product, truncation toward zero (SPEC B.1)."""
-    scaled = np.asarray(img, dtype=np.float32) * np.float32(255.0)
+    with np.errstate(over="ignore", invalid="ignore"):  # c near FLT_MAX: c·255 = inf -> 255, no warning
+        scaled = np.asarray(img, dtype=np.float32) * np.float32(255.0)
     scaled = np.nan_to_num(scaled, nan=0.0, posinf=255.0, neginf=0.0)
     return np.clip(np.trunc(scaled), 0.0, 255.0).astype(np.uint8)
 
@@ -54,8 +58,8 @@ def check_output_path(path: str | os.PathLike[str]) -> Path:
     p = Path(path)
     ext = _extension(p)
     if ext not in BYTE_FORMATS and ext not in FLOAT_FORMATS:
-        found = f"'{ext}'" if ext else "no extension"
-        raise ImageWriteError(f"{p}: unknown image extension {found} (expected one of {' '.join(EXTENSIONS)})")
+        found = f"unknown image extension '{ext}'" if ext else "no image extension"
+        raise ImageWriteError(f"{p}: {found} (expected one of {' '.join(EXTENSIONS)})")
     folder = p.parent if str(p.parent) else Path(".")
     if not folder.is_dir():
         above = next((q for q in (folder, *folder.parents) if q.exists()), None)
@@ -66,7 +70,40 @@ def check_output_path(path: str | os.PathLike[str]) -> Path:
         raise ImageWriteError(f"{p}: output folder '{folder}' is not writable")
     if p.is_dir():
         raise ImageWriteError(f"{p}: is a directory")
+    if p.exists() and not p.is_file():
+        raise ImageWriteError(f"{p}: exists and is not a regular file ({file_kind(p)})")
+    if p.is_symlink() or p.exists():
+        _check_replaceable(p, folder)
     return p
+
+
+def file_kind(p: str | os.PathLike[str]) -> str:
+    """``regular file``, ``folder``, ``FIFO``, ``socket``, ``character device``, ``block device`` (or
+    ``missing``), for messages."""
+    try:
+        mode = os.stat(p).st_mode
+    except OSError:
+        return "missing"
+    for test, name in ((stat.S_ISREG, "regular file"), (stat.S_ISDIR, "folder"), (stat.S_ISFIFO, "FIFO"),
+                       (stat.S_ISSOCK, "socket"), (stat.S_ISCHR, "character device"),
+                       (stat.S_ISBLK, "block device")):
+        if test(mode):
+            return name
+    return "special file"
+
+
+def _check_replaceable(p: Path, folder: Path) -> None:
+    """``os.replace`` over an existing entry of a sticky folder (``/tmp``) needs the caller to own the entry
+    or the folder (or CAP_FOWNER: root); refuse before rendering instead of failing after it."""
+    try:
+        fst = folder.stat()
+        est = p.lstat()
+    except OSError:
+        return
+    uid = os.geteuid()
+    if fst.st_mode & stat.S_ISVTX and uid != 0 and uid not in (fst.st_uid, est.st_uid):
+        raise ImageWriteError(f"{p}: cannot replace it: it belongs to another user in the sticky folder "
+                              f"'{folder}'")
 
 
 def _as_hwc(img: npt.ArrayLike) -> np.ndarray:
@@ -111,7 +148,9 @@ def _write_temp(p: Path, img: npt.ArrayLike) -> str:
     else:
         pixels, fmt = np.ascontiguousarray(quantize(a)), oiio.UINT8
     h, w, c = pixels.shape
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.stem}.", suffix=p.suffix, dir=p.parent if str(p.parent) else ".")
+    folder = p.parent if str(p.parent) else Path(".")
+    remove_stale(folder, p.name)
+    fd, tmp = tempfile.mkstemp(prefix=temp_prefix(p.name), suffix=p.suffix, dir=folder)
     os.close(fd)
     try:
         out = oiio.ImageOutput.create(tmp)
@@ -125,11 +164,128 @@ def _write_temp(p: Path, img: npt.ArrayLike) -> str:
         ok = out.close() and ok
         if not ok:
             raise ImageWriteError(f"{p}: write failed: {err or out.geterror() or 'unknown OpenImageIO error'}")
+        _verify(p, tmp, pixels)
         os.chmod(tmp, _target_mode(p))
     except BaseException:
         _remove(tmp)
         raise
     return tmp
+
+
+def _no_space(folder: Path) -> str:
+    try:
+        st = os.statvfs(folder)
+    except OSError:
+        return ""
+    return " (no space left on device)" if st.f_bavail * st.f_frsize < (1 << 20) else ""
+
+
+def _verify(p: Path, tmp: str, pixels: np.ndarray) -> None:
+    """The written temporary is on disk and decodes to ``pixels``: fsync it (ENOSPC shows here on delayed
+    allocation), require a non-empty file, read it back and compare exactly (every format written is
+    lossless). Raises :class:`ImageWriteError` naming the target."""
+    folder = Path(tmp).parent
+    try:
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+            size = os.fstat(fd).st_size
+        finally:
+            os.close(fd)
+    except OSError as exc:
+        raise ImageWriteError(f"{p}: write failed: {exc.strerror or exc}") from None
+    if size == 0:
+        raise ImageWriteError(f"{p}: write failed: the image file is empty{_no_space(folder)}")
+    try:
+        back, _ = _decode(Path(tmp), "float" if pixels.dtype == np.float32 else "uint8")
+    except ImageReadError as exc:
+        raise ImageWriteError(f"{p}: write failed: the written file does not read back ({exc.reason})"
+                              f"{_no_space(folder)}") from None
+    same = back.shape == pixels.shape and np.array_equal(back, pixels, equal_nan=pixels.dtype == np.float32)
+    if not same:
+        raise ImageWriteError(f"{p}: write failed: the written file does not hold the image"
+                              f"{_no_space(folder)}")
+
+
+#: Our temporaries: ``.{target name}.a5mi-{pid}-{random}...``.
+_TEMP_RE = re.compile(r"\.(?P<name>.+)\.a5mi-(?P<pid>[0-9]+)-[A-Za-z0-9_]+(?:\.[A-Za-z0-9]+)?")
+
+
+def temp_prefix(name: str) -> str:
+    """The prefix of this process's temporaries for a target called ``name``."""
+    return f".{name}.a5mi-{os.getpid()}-"
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True
+    return True
+
+
+def remove_stale(folder: str | os.PathLike[str], name: str) -> list[Path]:
+    """Remove the temporaries of target ``name`` in ``folder`` left by processes that no longer run (regular
+    files, and staging folders of :func:`a5mi.converters.to_xml.write_xml`, never through a symlink); returns
+    what was removed. Never raises."""
+    removed: list[Path] = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for e in entries:
+        m = _TEMP_RE.fullmatch(e.name)
+        if m is None or m["name"] != name or int(m["pid"]) == os.getpid() or _alive(int(m["pid"])):
+            continue
+        try:
+            if e.is_file(follow_symlinks=False):
+                os.unlink(e.path)
+                removed.append(Path(e.path))
+            elif e.is_dir(follow_symlinks=False):
+                import shutil
+
+                shutil.rmtree(e.path)  # rmtree never follows symlinks inside
+                removed.append(Path(e.path))
+        except OSError:
+            pass
+    return removed
+
+
+def read_regular(path: str | os.PathLike[str], limit: int, what: str = "file") -> bytes:
+    """The bytes of the regular file ``path``, at most ``limit`` of them. Opened with ``O_NONBLOCK`` (a FIFO
+    does not block) and checked with ``fstat`` after opening: a FIFO, device, socket or folder is refused,
+    as is a file larger than ``limit``. Raises :class:`~a5mi.errors.FileReadError` (``OSError`` reasons as
+    text in its ``reason``)."""
+
+    def fail(reason: str) -> FileReadError:
+        return FileReadError(f"cannot read {what} '{path}': {reason}", reason)
+
+    if str(path) == "":
+        raise fail("the file name is empty")
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except OSError as exc:
+        raise fail(str(exc.strerror or exc)) from None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise fail(f"not a regular file ({file_kind(path)})")
+        if st.st_size > limit:
+            raise fail(f"{st.st_size} bytes is more than the limit of {limit} bytes")
+        chunks: list[bytes] = []
+        total = 0
+        while chunk := os.read(fd, min(1 << 20, limit + 1 - total)):
+            chunks.append(chunk)
+            total += len(chunk)
+            if total > limit:
+                raise fail(f"more than the limit of {limit} bytes")
+        return b"".join(chunks)
+    except OSError as exc:
+        raise fail(str(exc.strerror or exc)) from None
+    finally:
+        os.close(fd)
 
 
 def _remove(tmp: str) -> None:
@@ -150,12 +306,16 @@ def write_images(outputs: Sequence[tuple[str | os.PathLike[str], npt.ArrayLike]]
     paths = [check_output_path(path) for path, _ in outputs]
     temps: list[str] = []
     renamed = 0
+    interrupts.check()  # a signal that arrived before the write: nothing is written
     try:
         for p, (_, img) in zip(paths, outputs, strict=True):
-            temps.append(_write_temp(p, img))
-        for tmp, p in zip(temps, paths, strict=True):
-            os.replace(tmp, p)  # same folder: fails only if the target became a directory meanwhile
-            renamed += 1
+            with interrupts.protected():
+                temps.append(_write_temp(p, img))
+        interrupts.check()
+        with interrupts.protected():  # the renames are one step: a signal waits until all are done
+            for tmp, p in zip(temps, paths, strict=True):
+                os.replace(tmp, p)  # same folder: fails only if the target became a directory meanwhile
+                renamed += 1
     except BaseException:
         for tmp in temps[renamed:]:
             _remove(tmp)
@@ -183,6 +343,11 @@ def _decode(p: Path, dtype: str | None) -> tuple[np.ndarray, bool]:
         raise fail(oiio.geterror() or "unknown format")
     try:
         spec = inp.spec()
+        need = resources.image_bytes(spec.width, spec.height, spec.nchannels)
+        enough, have = resources.fits(need)
+        if not enough:
+            raise fail(f"{spec.width}x{spec.height} pixels need about {resources.gb(need)} of memory to decode; "
+                       f"{resources.gb(have or 0)} is available")
         native = spec.format.basetype == oiio.UINT8
         want = dtype or ("uint8" if native else "float")
         data = inp.read_image(0, 0, 0, spec.nchannels, want) if spec.width > 0 and spec.height > 0 else None
@@ -229,14 +394,18 @@ def atomic_file(path: str | os.PathLike[str], mode: str = "wb") -> Iterator[IO[A
     the mode a plain ``open`` would give ``path`` and moved over it with ``os.replace``; on any exception it
     is removed and ``path`` is untouched. The one atomic text/binary writer (XML, caches)."""
     p = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent if str(p.parent) else ".")
+    folder = p.parent if str(p.parent) else Path(".")
+    remove_stale(folder, p.name)
+    fd, tmp = tempfile.mkstemp(prefix=temp_prefix(p.name), suffix=".tmp", dir=folder)
     try:
         with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": "utf-8"})) as f:
             yield f
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, _target_mode(p))
-        os.replace(tmp, p)
+            with interrupts.protected():
+                f.flush()
+                os.fsync(f.fileno())
+        with interrupts.protected():
+            os.chmod(tmp, _target_mode(p))
+            os.replace(tmp, p)
     except BaseException:
         _remove(tmp)
         raise

@@ -133,6 +133,29 @@ def check() -> LLVMLibrary:
     return lib
 
 
+def loaded(maps: str = "/proc/self/maps") -> list[LLVMLibrary]:
+    """The libLLVM files mapped into this process (Linux ``/proc/self/maps``), each probed for its version."""
+    try:
+        with open(maps, encoding="utf-8", errors="replace") as f:
+            paths = [ln.split(None, 5)[5].strip() for ln in f if "libLLVM" in ln and len(ln.split(None, 5)) == 6]
+    except OSError:
+        return []
+    names = [p for p in dict.fromkeys(paths) if re.search(r"libLLVM[^/]*\.(so|dylib)", os.path.basename(p))]
+    return [probe(p) for p in names]
+
+
+def check_loaded(maps: str = "/proc/self/maps") -> None:
+    """After Dr.Jit has initialised its LLVM backend, and before the first kernel is compiled: the library it
+    *actually* loaded (``LD_LIBRARY_PATH`` or ``ld.so`` may pick another than :func:`find`) must be LLVM >= 16;
+    raise :class:`LLVMError` naming it otherwise (LLVM 15 would abort the process at the first kernel)."""
+    for lib in loaded(maps):
+        if lib.major is not None and lib.major < MIN_MAJOR:
+            env = os.environ.get("LD_LIBRARY_PATH", "")
+            hint = f" (LD_LIBRARY_PATH={env} is searched first: remove its LLVM folder)" if env else ""
+            raise LLVMError(f"Dr.Jit loaded LLVM {lib.major} ({lib.path}){hint}, but the llvm variant needs "
+                            f"LLVM >= {MIN_MAJOR}: run '{INSTALL_HINT}'")
+
+
 def ensure(log: Callable[[str], None]) -> LLVMLibrary:
     """``make setup``: check, and on Debian/Ubuntu as root install :data:`DEBIAN_PACKAGE` if needed.
 

@@ -67,6 +67,14 @@ def activate(requested: str | None = None) -> str:
             mi.set_variant(name)
         except Exception as exc:  # noqa: BLE001 - Mitsuba raises plain exceptions here
             raise VariantError(f"cannot load Mitsuba variant {name}: {exc}") from None
+    if name.startswith("llvm"):
+        import drjit as dr
+
+        dr.llvm.Float(0.0)  # initialises the LLVM backend (loads libLLVM) without compiling a kernel
+        try:
+            llvm.check_loaded()
+        except llvm.LLVMError as exc:
+            raise VariantError(str(exc)) from None
     from a5mi.plugins import register_all
 
     register_all()

@@ -30,9 +30,11 @@ from typing import Final, TypeVar
 
 import numpy as np
 
+from a5mi.vecmath32 import camera_basis
+
 from . import transforms
-from .errors import FileLoc, SceneSemanticError, SceneSyntaxError
-from .lexer import Token, read_source, tokenize
+from .errors import FileLoc, SceneSemanticError, SceneSyntaxError, shown
+from .lexer import NUMBER, Token, read_source, tokenize
 from .model import (
     Background,
     Camera,
@@ -54,8 +56,8 @@ from .model import (
 )
 
 # %f accepts more (hex floats, "nan", "inf"); we accept plain decimal numbers only.
-FLOAT_RE: Final = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
-INT_RE: Final = re.compile(r"[+-]?\d+")
+FLOAT_RE: Final = re.compile(NUMBER)  # ASCII digits, linear (converters/lexer.py)
+INT_RE: Final = re.compile(r"[+-]?[0-9]+")
 INT_LIMIT: Final = 2**31 - 1
 TOP_LEVEL: Final = ("PerspectiveCamera", "Lights", "Background", "Materials", "Group")
 OBJECTS: Final = ("Group", "Sphere", "Plane", "Triangle", "TriangleMesh", "Transform")
@@ -65,7 +67,7 @@ _T = TypeVar("_T")
 
 
 def _quoted(tok: Token | None) -> str:
-    return "end of file" if tok is None else f"'{tok.text}'"
+    return "end of file" if tok is None else f"'{shown(tok.text)}'"
 
 
 def _one_of(words: tuple[str, ...]) -> str:
@@ -130,7 +132,7 @@ class TokenStream:
             raise self.syntax_error(f"expected a number after '{after}', found {_quoted(tok)}", tok)
         value = float(tok.text)
         if not math.isfinite(value) or abs(value) > 3.4028234663852886e38:
-            raise self.syntax_error(f"number out of range after '{after}': '{tok.text}'", tok)
+            raise self.syntax_error(f"number out of range after '{after}': '{shown(tok.text)}'", tok)
         return value
 
     def integer(self, after: str) -> tuple[int, Token]:
@@ -140,7 +142,7 @@ class TokenStream:
             raise self.syntax_error(f"expected an integer after '{after}', found {_quoted(tok)}", tok)
         value = int(tok.text)
         if abs(value) > INT_LIMIT:
-            raise self.syntax_error(f"integer out of range after '{after}': '{tok.text}'", tok)
+            raise self.syntax_error(f"integer out of range after '{after}': '{shown(tok.text)}'", tok)
         return value, tok
 
     def vec3(self, after: str) -> Vec3:
@@ -173,11 +175,22 @@ def parse_camera(ts: TokenStream, start: Token) -> Camera:
             _nonzero(ts, fields[key], f"camera {key}", tok.loc)
     angle_tok = ts.expect("angle", "in PerspectiveCamera (fields: center, direction, up, angle, in this order)")
     angle = ts.number("angle")
-    if not 0.0 < angle < 180.0:
-        raise ts.semantic_error(f"camera angle must be between 0 and 180 degrees, found {angle:g}", angle_tok.loc)
+    rad = np.float32(math.pi * float(np.float32(angle)) / 180.0)  # as the camera stores it (B.2)
+    tiny = float(np.finfo(np.float32).tiny)  # Mitsuba flushes float32 subnormals to 0
+    with np.errstate(over="ignore"):
+        focal = np.float32(1.0 / math.tan(float(rad) * 0.5)) if 0.0 < float(rad) < math.pi else np.float32(np.inf)
+    if not (0.0 < angle < 180.0 and abs(np.float32(angle)) >= tiny and float(rad) >= tiny and np.isfinite(focal)):
+        raise ts.semantic_error(f"camera angle must be between 0 and 180 degrees (in float32), found {angle:g}",
+                                angle_tok.loc)
     w = np.asarray(fields["direction"])
     if np.linalg.norm(np.cross(w, np.asarray(fields["up"]))) == 0.0:
         raise ts.semantic_error("camera up must not be parallel to direction", tok.loc)
+    try:  # the renderer's float32 basis (SPEC B.2): tiny, huge or nearly parallel vectors fail only there
+        camera_basis(fields["direction"], fields["up"])
+    except ValueError:
+        raise ts.semantic_error("camera direction and up do not define a basis in float32 (the sample solution's "
+                                "precision): too small, too large (|x|·|x| > 3.4e38) or nearly parallel",
+                                tok.loc) from None
     ts.expect("}", "to close PerspectiveCamera")
     return Camera(fields["center"], fields["direction"], fields["up"], angle, start.loc)
 
@@ -257,7 +270,7 @@ def _counted_block(ts: TokenStream, block: str, count_key: str, noun: str,
             raise ts.syntax_error(f"expected {', '.join(items)} or '}}' in {block}, found {_quoted(tok)}", tok)
         if len(out) == count:
             raise ts.syntax_error(f"{block} declares {count_key} {count} but a {noun} follows: expected '}}', "
-                                  f"found '{tok.text}'", tok)
+                                  f"found '{shown(tok.text)}'", tok)
         out.append(items[tok.text](ts, tok))
 
 
@@ -288,7 +301,7 @@ def parse_background(ts: TokenStream, start: Token) -> Background:
             name = ts.name("cubeMap")
             cube_map, cube_loc = name.text, name.loc
         else:
-            raise ts.syntax_error(f"unknown Background keyword '{tok.text}' (expected color, ambientLight, "
+            raise ts.syntax_error(f"unknown Background keyword '{shown(tok.text)}' (expected color, ambientLight, "
                                   "cubeMap or '}')", tok)
 
 
@@ -318,7 +331,7 @@ def parse_noise(ts: TokenStream, start: Token) -> Noise:
         elif tok.text == "amplitude":
             amplitude = ts.number("amplitude")
         else:
-            raise ts.syntax_error(f"unknown Noise keyword '{tok.text}' (expected color, octaves, frequency, "
+            raise ts.syntax_error(f"unknown Noise keyword '{shown(tok.text)}' (expected color, octaves, frequency, "
                                   "amplitude or '}')", tok)
     if len(colors) < 2:
         ts.warn(start.loc, f"Noise has {len(colors)} of its 2 colors; the missing ones are 0 0 0")
@@ -359,7 +372,7 @@ def parse_material(ts: TokenStream, start: Token) -> Material:
         elif tok.text == "Noise":
             values["noise"] = parse_noise(ts, tok)
         else:
-            raise ts.syntax_error(f"unknown Material keyword '{tok.text}' (expected "
+            raise ts.syntax_error(f"unknown Material keyword '{shown(tok.text)}' (expected "
                                   f"{_one_of(MATERIAL_KEYS)})", tok)
 
 
@@ -377,6 +390,7 @@ class _GroupState:
         self.num_materials = num_materials
         self.current: int | None = None
         self.materials_line: int | None = None  # line of the Materials block in effect
+        self.depth = 0  # Group / Transform nesting of the object being parsed
 
 
 def _material_for(ts: TokenStream, state: _GroupState, tok: Token) -> int:
@@ -428,7 +442,8 @@ def parse_triangle_mesh(ts: TokenStream, start: Token, state: _GroupState) -> Tr
     ts.expect("obj_file", "in TriangleMesh")
     name = ts.name("obj_file")
     if not name.text.endswith(".obj"):
-        raise ts.syntax_error(f"expected a file name ending in '.obj' after 'obj_file', found '{name.text}'", name)
+        raise ts.syntax_error(f"expected a file name ending in '.obj' after 'obj_file', found "
+                              f"'{shown(name.text)}'", name)
     ts.expect("}", "to close TriangleMesh")
     return TriangleMesh(name.text, _material_for(ts, state, start), start.loc, name.loc)
 
@@ -470,8 +485,25 @@ def parse_transform(ts: TokenStream, start: Token, state: _GroupState) -> Transf
     return Transform(tuple(ops), transforms.as_tuple(m), child, start.loc)
 
 
+#: Deepest Group / Transform nesting accepted: every later stage walks the tree recursively, and the course
+#: scenes nest 3 deep; a positioned error instead of Python's RecursionError (issue 19).
+MAX_NESTING: Final = 100
+
+
 def parse_object(ts: TokenStream, tok: Token, state: _GroupState) -> Node:
-    """One ``<object>`` of A.6, its keyword ``tok`` already consumed."""
+    """One ``<object>`` of A.6, its keyword ``tok`` already consumed; at most :data:`MAX_NESTING` deep."""
+    if tok.text in ("Group", "Transform"):
+        if state.depth >= MAX_NESTING:
+            raise ts.semantic_error(f"{tok.text} nested more than {MAX_NESTING} deep (the limit of a5mi)", tok.loc)
+        state.depth += 1
+        try:
+            return _parse_object(ts, tok, state)
+        finally:
+            state.depth -= 1
+    return _parse_object(ts, tok, state)
+
+
+def _parse_object(ts: TokenStream, tok: Token, state: _GroupState) -> Node:
     if tok.text == "Group":
         return parse_group(ts, tok, state)
     if tok.text == "Sphere":
@@ -513,7 +545,7 @@ def parse_group(ts: TokenStream, start: Token, state: _GroupState) -> Group:
                                   f"found {_quoted(tok)}", tok)
         if len(children) == count:
             raise ts.syntax_error(f"Group declares numObjects {count} but an object follows: expected '}}', "
-                                  f"found '{tok.text}'", tok)
+                                  f"found '{shown(tok.text)}'", tok)
         children.append(parse_object(ts, tok, state))
 
 
@@ -527,7 +559,7 @@ def parse_tokens(ts: TokenStream) -> Scene:
     group_materials: object = None  # the Materials list the (last) Group was parsed with
     while (tok := ts.next()) is not None:
         if tok.text not in TOP_LEVEL:
-            raise ts.syntax_error(f"expected {_one_of(TOP_LEVEL)}, found '{tok.text}'", tok)
+            raise ts.syntax_error(f"expected {_one_of(TOP_LEVEL)}, found '{shown(tok.text)}'", tok)
         if tok.text in seen and not (tok.text == "Materials" and "Group" in seen):
             ts.warn(tok.loc, f"second {tok.text} block replaces the one at line {seen[tok.text].loc.line}")
         seen[tok.text] = tok

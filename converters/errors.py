@@ -15,6 +15,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+#: Characters of a token quoted in a message (the rest is elided with its length).
+EXCERPT_CHARS = 60
+
+
+def shown(text: str, limit: int = EXCERPT_CHARS) -> str:
+    """``text`` as a message quotes it: non-printable characters escaped (``\\x1c``, ``\\u2028``: a
+    terminal or ``splitlines`` would break the one-line message there), at most ``limit`` characters, longer
+    text elided as ``abc... (N characters)``."""
+    cut = text[:limit]
+    out = "".join(ch if ch.isprintable() else ascii(ch)[1:-1] for ch in cut)
+    return out if len(text) <= limit else f"{out}... ({len(text)} characters)"
+
 
 @dataclass(frozen=True)
 class FileLoc:
@@ -52,7 +64,11 @@ class SceneError(ValueError):
         if self.loc is None or self.source_line is None:
             return str(self)
         line = self.source_line.rstrip("\r\n").expandtabs(1)
-        return f"{self}\n    {line}\n    {' ' * (self.loc.col - 1)}^"
+        col = self.loc.col - 1
+        if len(line) > 2 * EXCERPT_CHARS:  # a window around the column of a long line
+            start = max(0, col - EXCERPT_CHARS // 2)
+            line, col = line[start:start + EXCERPT_CHARS], col - start
+        return f"{self}\n    {line}\n    {' ' * col}^"
 
 
 class SceneSyntaxError(SceneError):

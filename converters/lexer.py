@@ -9,6 +9,12 @@ A.0 calls ``1}`` broken; the shipped scene01 relies on it). Such tokens have ``g
 warn. Input must be non-empty UTF-8 text without NUL bytes; anything else is a
 :class:`~a5mi.converters.errors.SceneSyntaxError` at the first offending byte (a leading
 byte-order mark included).
+
+Limits (issue 19): a token has at most :data:`MAX_TOKEN` characters (SPEC A.0: the sample solution's token
+buffer, 1024 bytes in later versions) and a scene file at most :data:`MAX_SCENE_BYTES`; the scene is read only
+if it is a regular file (:func:`a5mi.imageio.read_regular`: a FIFO or ``/dev/zero`` is refused). Tokens are
+found with one C-level regular expression per line and every pattern is linear in the token length, so
+hostile input costs time proportional to its size.
 """
 
 from __future__ import annotations
@@ -18,11 +24,21 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Final
 
-from .errors import FileLoc, SceneSyntaxError
+from a5mi.errors import FileReadError
+from a5mi.imageio import read_regular
+
+from .errors import FileLoc, SceneSyntaxError, shown
 
 WHITESPACE: Final = frozenset(" \t\r\n\v\f")
 BRACES: Final = frozenset("{}")
-NUMBER_THEN_BRACES: Final = re.compile(r"([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)(\}+)")
+#: ASCII digits only; each alternative starts differently, so matching is linear (no nested ambiguity).
+NUMBER: Final = r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
+NUMBER_THEN_BRACES: Final = re.compile(rf"({NUMBER})(\}}+)")
+WORD: Final = re.compile(r"[^ \t\r\n\v\f]+")
+#: The longest token (SPEC A.0: the sample solution's token buffer holds 1023 characters and a NUL).
+MAX_TOKEN: Final = 1023
+#: The largest scene file read (the course scenes are under 10 KB; meshes live in OBJ files).
+MAX_SCENE_BYTES: Final = 16 << 20
 
 
 @dataclass(frozen=True)
@@ -65,9 +81,9 @@ def decode(data: bytes, path: str) -> str:
 def read_source(path: str | Path) -> str:
     """Read a scene file as text (see :func:`decode`); an unreadable file is an error at ``path:1:1``."""
     try:
-        data = Path(path).read_bytes()
-    except OSError as exc:
-        raise SceneSyntaxError(f"cannot read scene file: {exc.strerror or exc}", FileLoc(str(path), 1, 1)) from None
+        data = read_regular(Path(path), MAX_SCENE_BYTES, "scene file")
+    except FileReadError as exc:
+        raise SceneSyntaxError(f"cannot read scene file: {exc.reason}", FileLoc(str(path), 1, 1)) from None
     return decode(data, str(path))
 
 
@@ -75,15 +91,12 @@ def tokenize(text: str, path: str = "<string>") -> list[Token]:
     """Split ``text`` into :class:`Token` s (SPEC A.0); a brace glued to another character is an error."""
     tokens: list[Token] = []
     for line_no, line in enumerate(text.split("\n"), start=1):
-        i, n = 0, len(line)
-        while i < n:
-            if line[i] in WHITESPACE:
-                i += 1
-                continue
-            start = i
-            while i < n and line[i] not in WHITESPACE:
-                i += 1
-            word = line[start:i]
+        for m in WORD.finditer(line):
+            start, word = m.start(), m.group()
+            if len(word) > MAX_TOKEN:
+                raise SceneSyntaxError(f"token of {len(word)} characters is longer than the limit of {MAX_TOKEN} "
+                                       f"(SPEC A.0: the sample solution's token buffer): '{shown(word)}'",
+                                       FileLoc(path, line_no, start + 1))
             glued = NUMBER_THEN_BRACES.fullmatch(word)
             if glued:
                 tokens.append(Token(glued.group(1), FileLoc(path, line_no, start + 1)))
@@ -93,9 +106,8 @@ def tokenize(text: str, path: str = "<string>") -> list[Token]:
             if len(word) > 1 and (BRACES & set(word)):
                 brace_at = next(k for k, ch in enumerate(word) if ch in BRACES)
                 raise SceneSyntaxError(
-                    f"a brace must be separated from its neighbours by whitespace, found '{word}'",
+                    f"a brace must be separated from its neighbours by whitespace, found '{shown(word)}'",
                     FileLoc(path, line_no, start + brace_at + 1),
-                    line,
                 )
             tokens.append(Token(word, FileLoc(path, line_no, start + 1)))
     return tokens

@@ -47,6 +47,16 @@ def rgb(c: Any) -> dict[str, Any]:
     return {"type": "rgb", "value": [float(x) for x in c]}
 
 
+def reflectance(c: Any) -> dict[str, Any]:
+    """A stock reflectance parameter of colour ``c``: :func:`rgb` inside [0, 1]; outside (SPEC A.5 sets no
+    range, a5soln renders 1.5 as it is) an ``srgb`` texture with ``unbounded=True``, which Mitsuba accepts
+    for any finite value (a plain rgb reflectance outside [0, 1] is a load error)."""
+    value = rgb(c)
+    if all(0.0 <= x <= 1.0 for x in value["value"]):
+        return value
+    return {"type": "srgb", "color": value, "unbounded": True}
+
+
 def file_params(image: Image) -> dict[str, Any]:
     """``{'filename': absolute path}``: the image named by its file (XML)."""
     return {"filename": str(image.path)}
@@ -78,32 +88,33 @@ def a5_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_p
 def stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_params) -> dict[str, Any]:
     """Stock approximation (module docstring): diffuse, blended with a mirror or a dielectric."""
     kd_src = mat.kd_on(with_uv)
-    kd: dict[str, Any]
+    texture: dict[str, Any] | None = None
     if isinstance(kd_src, Noise):
-        kd = rgb((np.asarray(kd_src.color1) + np.asarray(kd_src.color2)) / 2)
+        kd = (np.asarray(kd_src.color1, dtype=np.float64) + np.asarray(kd_src.color2, dtype=np.float64)) / 2
     elif isinstance(kd_src, Image):
-        kd = {"type": "bitmap", **image(kd_src), "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp"}
+        kd = np.ones(3)
+        texture = {"type": "bitmap", **image(kd_src), "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp"}
     else:
-        kd = rgb(mat.diffuse_color)
+        kd = np.asarray(mat.diffuse_color, dtype=np.float64)
     spec = np.asarray(mat.specular_color, dtype=np.float64)
     m = float(max(spec.max(), 0.0))
     if mat.refraction_index <= 0.0 and float(np.linalg.norm(spec)) <= MIRROR_THRESHOLD or m == 0.0:
-        return {"type": "diffuse", "reflectance": kd}
+        return {"type": "diffuse", "reflectance": texture or reflectance(kd)}
     d = _max_diffuse(kd_src, mat)
     w = m / (d + m)                       # the mirror's share of the a5 sum kd·D + ks·M
     scale = min(d + m, 1.0)               # 1 when the sum fits in energy, else divide it by d + m
-    if d > 0.0 and not isinstance(kd_src, Image):
-        kd = rgb(np.asarray(kd["value"]) * scale / d)  # a texture cannot be scaled in stock Mitsuba: kept as is
-    spec_rgb = rgb(spec * scale / m)
+    # a texture cannot be scaled in stock Mitsuba: it is kept as it is
+    diffuse = {"type": "diffuse", "reflectance": texture or reflectance(kd * scale / d if d > 0.0 else kd)}
+    spec_refl = reflectance(spec * scale / m)
     other: dict[str, Any]
     if mat.refraction_index > 0.0:
         other = {"type": "dielectric", "int_ior": float(mat.refraction_index), "ext_ior": 1.0,
-                 "specular_reflectance": spec_rgb, "specular_transmittance": spec_rgb}
+                 "specular_reflectance": spec_refl, "specular_transmittance": spec_refl}
     else:
-        other = {"type": "conductor", "material": "none", "specular_reflectance": spec_rgb}
+        other = {"type": "conductor", "material": "none", "specular_reflectance": spec_refl}
     if d == 0.0:
         return other
-    return {"type": "blendbsdf", "weight": w, "bsdf_0": {"type": "diffuse", "reflectance": kd}, "bsdf_1": other}
+    return {"type": "blendbsdf", "weight": w, "bsdf_0": diffuse, "bsdf_1": other}
 
 
 def _max_diffuse(kd_src: Noise | Image | None, mat: MaterialDescription) -> float:

@@ -12,13 +12,16 @@ Pure Python plus numpy: no Mitsuba import.
 
 from __future__ import annotations
 
+import errno
+import os
+import stat
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .errors import FileLoc, SceneSemanticError
+from .errors import FileLoc, SceneSemanticError, shown
 
 Vec3 = tuple[float, float, float]
 #: A 4x4 matrix as hashable row-major tuples (``m[row][col]``); :func:`.transforms.as_array` gives numpy.
@@ -244,13 +247,22 @@ def resolve_path(name: str, base_dir: Path, loc: FileLoc, what: str, *, director
     (or the reverse)."""
     p = Path(name)
     candidates = [p] if p.is_absolute() else [base_dir / p, Path.cwd() / p]
-    for c in candidates:
-        if (c.is_dir() if directory else c.is_file()):
-            return c
     kind = "folder" if directory else "file"
+    found: list[tuple[Path, str]] = []  # (candidate, what is there) for entries of the wrong kind
     for c in candidates:
-        if c.exists():
-            found = "a file" if directory else "a folder"
-            raise SceneSemanticError(f"{what} '{name}' is {found}, not a {kind} ('{c}')", loc)
-    tried = " or ".join(f"'{c}'" for c in dict.fromkeys(candidates))
-    raise SceneSemanticError(f"{what} {kind} '{name}' not found (looked for {tried})", loc)
+        try:
+            mode = os.stat(c).st_mode
+        except OSError as exc:  # missing, a name longer than the filesystem allows, a loop of links...
+            if exc.errno not in (errno.ENOENT, errno.ENOTDIR):
+                raise SceneSemanticError(f"{what} '{shown(name)}': {exc.strerror or exc}", loc) from None
+            continue
+        if stat.S_ISDIR(mode) if directory else stat.S_ISREG(mode):
+            return c
+        found.append((c, "a folder" if stat.S_ISDIR(mode) else "a file" if stat.S_ISREG(mode) else
+                      "a FIFO" if stat.S_ISFIFO(mode) else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+                      else "a special file"))
+    if found:
+        c, there = found[0]
+        raise SceneSemanticError(f"{what} '{shown(name)}' is {there}, not a {kind} ('{shown(str(c), 200)}')", loc)
+    tried = " or ".join(f"'{shown(str(c), 200)}'" for c in dict.fromkeys(candidates))
+    raise SceneSemanticError(f"{what} {kind} '{shown(name)}' not found (looked for {tried})", loc)

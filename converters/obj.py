@@ -32,8 +32,13 @@ from typing import Literal
 
 import numpy as np
 
+from a5mi.errors import FileReadError
+from a5mi.imageio import read_regular
+
 from .errors import FileLoc, SceneSemanticError
 
+#: The largest OBJ file read (1 GiB: ~15 M triangles; the course meshes are under 100 KB).
+MAX_OBJ_BYTES = 1 << 30
 SMOOTH_THRESHOLD = 120
 FLOAT32_MAX = 3.4028234663852886e38
 INDEX_LIMIT = 2**31 - 1  # the starter reads indices with %d
@@ -81,10 +86,10 @@ def load_obj(path: str | Path, loc: FileLoc | None = None) -> ObjMesh:
     (tests/test_obj_fast.py compares them on every course OBJ and on generated odd files)."""
     path = Path(path)
     spath = str(path)
-    try:
-        text = path.read_bytes().decode("utf-8", errors="replace")
-    except OSError as exc:
-        raise SceneSemanticError(f"cannot read mesh file '{path}': {exc.strerror or exc}", loc) from None
+    try:  # a regular file within MAX_OBJ_BYTES (a FIFO would block, /dev/zero never ends)
+        text = read_regular(path, MAX_OBJ_BYTES, "mesh file").decode("utf-8", errors="replace")
+    except FileReadError as exc:
+        raise SceneSemanticError(f"cannot read mesh file '{path}': {exc.reason}", loc) from None
     mesh = _parse_fast(text, spath)
     return mesh if mesh is not None else _parse_slow(text, spath, loc)
 

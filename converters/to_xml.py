@@ -15,17 +15,29 @@ Serialisation of the scene entries: a dict with ``type`` becomes an element whos
 elements (``mat_NNN``, ``mat_NNN_nouv`` for a textured material's untextured variant on shapes without uv),
 written before the first shape that references them. Flat meshes get ``face_normals=true`` (the PLY has no
 normals; without the flag Mitsuba would compute smooth ones).
+
+Writing is all or nothing and never outside the set (issue 19): the XML, ``{stem}_meshes/`` and
+``{stem}_envmap.exr`` are written into a fresh hidden staging folder beside the XML
+(``.{name}.a5mi-{pid}-...``) and then moved into place entry by entry with ``rename``, which replaces a
+symlink already there instead of writing through it; an earlier ``{stem}_meshes/`` is replaced whole (no stale
+PLY stays) and an earlier ``{stem}_envmap.exr`` that this conversion does not write is removed. The XML is
+renamed last. Any failure before the moves leaves every existing file as it was and removes the staging
+folder; signals wait for the moves (:func:`a5mi.interrupts.protected`).
 """
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from a5mi.imageio import atomic_file
+from a5mi import interrupts
+from a5mi.imageio import remove_stale, temp_prefix
 from a5mi.options import RenderOptions
 
 from . import materials
@@ -40,7 +52,7 @@ PLUGIN_TAGS: dict[str, str] = {
     **dict.fromkeys(("box", "gaussian"), "rfilter"),
     **dict.fromkeys(("directional", "a5_point", "point", "a5_cubemap", "constant", "envmap"), "emitter"),
     **dict.fromkeys(("a5_material", "diffuse", "conductor", "dielectric", "blendbsdf"), "bsdf"),
-    **dict.fromkeys(("a5_marble", "a5_bitmap", "bitmap"), "texture"),
+    **dict.fromkeys(("a5_marble", "a5_bitmap", "bitmap", "srgb"), "texture"),
     **dict.fromkeys(("sphere", "rectangle", "instance", "shapegroup", "ply"), "shape"),
 }
 VECTOR_NAMES = frozenset(("direction", "up"))
@@ -57,7 +69,7 @@ class _XmlBackend(Backend):
     def __init__(self, desc: SceneDescription, xml_path: Path, *, stock: bool) -> None:
         super().__init__(desc, stock=stock)
         self.xml_path = xml_path
-        self.mesh_dir = xml_path.parent / f"{xml_path.stem}_meshes"
+        self.mesh_dir = xml_path.parent / set_names(xml_path)[1]
 
     def bsdf(self, entries: dict[str, Any], material: int, with_uv: bool) -> Any:
         mat = self.desc.materials[material]
@@ -82,7 +94,7 @@ class _XmlBackend(Backend):
     def envmap(self, bg: CubeMapBackground) -> Any:
         import mitsuba as mi
 
-        exr = self.xml_path.parent / f"{self.xml_path.stem}_envmap.exr"
+        exr = self.xml_path.parent / set_names(self.xml_path)[2]
         mi.Bitmap(np.ascontiguousarray(bake_cubemap_envmap(bg), dtype=np.float32)).write(str(exr))
         return {"type": "envmap", "filename": exr.name}
 
@@ -129,14 +141,50 @@ def write_xml(desc: SceneDescription, path: str | Path, options: RenderOptions |
     cube-map bake also needs the a5 plugins registered)."""
     xml_path = Path(path)
     options = options if options is not None else RenderOptions()
-    entries = scene_entries(desc, options, _XmlBackend(desc, xml_path, stock=stock))
-    root = ET.Element("scene", version="3.0.0")
-    for key, value in entries.items():
-        if key != "type":
-            _element(root, key, value, top=True)
-    ET.indent(root, space="    ")
-    # The XML last and atomically: it is the file that refers to the meshes, so a reader never sees an XML
-    # whose PLY files are not written yet.
-    with atomic_file(xml_path, "w") as f:
-        ET.ElementTree(root).write(f, encoding="unicode", xml_declaration=True)
+    folder = xml_path.parent if str(xml_path.parent) else Path(".")
+    remove_stale(folder, xml_path.name)
+    staging = Path(tempfile.mkdtemp(prefix=temp_prefix(xml_path.name), dir=folder))
+    try:
+        staged_xml = staging / xml_path.name
+        entries = scene_entries(desc, options, _XmlBackend(desc, staged_xml, stock=stock))
+        root = ET.Element("scene", version="3.0.0")
+        for key, value in entries.items():
+            if key != "type":
+                _element(root, key, value, top=True)
+        ET.indent(root, space="    ")
+        with open(staged_xml, "w", encoding="utf-8") as f:
+            ET.ElementTree(root).write(f, encoding="unicode", xml_declaration=True)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(staged_xml, 0o666 & ~_umask())
+        with interrupts.protected():
+            _commit(staging, folder, xml_path)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     return xml_path
+
+
+def set_names(xml_path: Path) -> tuple[str, str, str]:
+    """The entries a conversion to ``xml_path`` owns beside it: the XML, ``{stem}_meshes``, ``{stem}_envmap.exr``."""
+    return xml_path.name, f"{xml_path.stem}_meshes", f"{xml_path.stem}_envmap.exr"
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def _commit(staging: Path, folder: Path, xml_path: Path) -> None:
+    """Move the staged set into ``folder`` (module docstring): the meshes folder and the envmap first, each old
+    entry moved aside into ``staging`` (so it is removed with it, without following links), the XML last."""
+    xml_name, mesh_name, env_name = set_names(xml_path)
+    aside = staging / ".replaced"
+    aside.mkdir()
+    for name in (mesh_name, env_name):
+        new, old = staging / name, folder / name
+        if os.path.lexists(old):
+            os.rename(old, aside / name)  # renames the entry itself: a symlink is moved, its target untouched
+        if os.path.lexists(new):
+            os.rename(new, old)
+    os.replace(staging / xml_name, folder / xml_name)

@@ -87,10 +87,8 @@ class A5Material(mi.BSDF):
             raise ValueError(f"a5_material: 'refraction_index' must be >= 0 (0 = opaque), got {ior}")
         if "kd" in props:
             self.kd: mi.Texture = props.get_texture("kd")
-        else:
-            tmp = mi.Properties("srgb")
-            tmp["kd"] = mi.ScalarColor3d(*diffuse)
-            self.kd = tmp.get_texture("kd")
+        else:  # any finite colour (SPEC A.5 sets no range; a5soln renders 1.5 as it is): an unbounded texture
+            self.kd = mi.load_dict({"type": "srgb", "color": mi.ScalarColor3f(*diffuse), "unbounded": True})
         self.diffuse_color = mi.Color3f(*diffuse)
         self.specular_color = mi.Color3f(*specular)
         self.shininess = mi.Float(shininess)

@@ -249,19 +249,20 @@ def _usage_cases() -> list[Case]:
           setup=lambda root: (root / "img.png").mkdir()),
         c("output_unknown_extension", ["-input", "s.txt", "-output", "out.jpg"], "a5: error: out.jpg: unknown image "
           "extension '.jpg' (expected one of .bmp .exr .png .ppm .tga .tif .tiff)"),
-        c("output_no_extension", ["-input", "s.txt", "-output", "out"], "a5: error: out: unknown image extension "
-          "no extension (expected one of .bmp .exr .png .ppm .tga .tif .tiff)"),
+        c("output_no_extension", ["-input", "s.txt", "-output", "out"], "a5: error: out: no image extension "
+          "(expected one of .bmp .exr .png .ppm .tga .tif .tiff)"),
         c("normals_unknown_extension", ["-input", "s.txt", "-output", "out.png", "-normals", "n.gif"],
           "a5: error: n.gif: unknown image extension '.gif' (expected one of .bmp .exr .png .ppm .tga .tif .tiff)",
           aovs=False),
         c("depth_folder_missing", ["-input", "s.txt", "-output", "out.png", "-depth", "1", "2", "no/d.png"],
           "a5: error: no/d.png: output folder 'no' does not exist", aovs=False),
         c("same_output_twice", ["-input", "s.txt", "-output", "out.png", "-normals", "./out.png"],
-          "a5: error: -output, -normals and -depth must name different files", aovs=False),
+          "a5: error: -output 'out.png' and -normals './out.png' are the same file", aovs=False),
         Case("input_missing", {}, ["-input", "nope.txt", "-output", "out.png"],
              "nope.txt:1:1: error: cannot read scene file: No such file or directory"),
         Case("input_is_a_folder", {}, ["-input", "sub", "-output", "out.png"],
-             "sub:1:1: error: cannot read scene file: Is a directory", lambda root: (root / "sub").mkdir()),
+             "sub:1:1: error: cannot read scene file: not a regular file (folder)",
+             lambda root: (root / "sub").mkdir()),
     ]
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 
@@ -98,7 +99,8 @@ def test_b5_cached_stream_equals_computed_stream_across_the_prefix_end(tmp_path,
 
 
 @pytest.mark.parametrize("damage", ["value_in_head", "value_past_head", "state", "empty_values", "empty_state",
-                                    "truncated_values", "garbage_state"])
+                                    "truncated_values", "garbage_state", "fifo_values", "fifo_state",
+                                    "device_values"])
 def test_b5_damaged_cache_is_rejected_and_rebuilt(tmp_path, monkeypatch, damage) -> None:
     """Any damage to the cache files is caught on load (CRC-32s of values and state, fresh head values,
     shapes); the stream is then rebuilt and still exactly glibc's."""
@@ -123,6 +125,13 @@ def test_b5_damaged_cache_is_rejected_and_rebuilt(tmp_path, monkeypatch, damage)
         state_path.write_bytes(b"")
     elif damage == "truncated_values":
         values_path.write_bytes(values_path.read_bytes()[:1000])
+    elif damage in ("fifo_values", "fifo_state"):  # issue 19: a FIFO would block np.load forever
+        path = values_path if damage == "fifo_values" else state_path
+        path.unlink()
+        os.mkfifo(path)
+    elif damage == "device_values":  # ... and /dev/zero would be read without end
+        values_path.unlink()
+        values_path.symlink_to("/dev/zero")
     else:
         state_path.write_bytes(b"\x93NUMPY garbage")
     assert g._load_prefix(tmp_path, 1) is None

@@ -85,7 +85,7 @@ def test_b1_oiio_failure_keeps_old_file(tmp_path, monkeypatch) -> None:
 
 @pytest.mark.parametrize(
     "name,match",
-    [("out.jpg2", "unknown image extension '.jpg2'"), ("out", "unknown image extension no extension"),
+    [("out.jpg2", "unknown image extension '.jpg2'"), ("out", "out: no image extension"),
      ("missing/out.png", "does not exist")],
 )
 def test_b1_check_output_path(tmp_path, name, match) -> None:

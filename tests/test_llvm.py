@@ -88,3 +88,39 @@ def test_a5_cli_with_only_llvm15_prints_the_fix_and_writes_nothing(tmp_path: Pat
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "LLVM 15" in lines[0] and "apt-get install -y libllvm19" in lines[0]
     assert "Traceback" not in proc.stderr and not out.exists()
+
+
+def test_library_loaded_through_ld_library_path_is_checked(tmp_path: Path) -> None:
+    """Issue 19, item 10: an LLVM 15 ``libLLVM.so`` first on LD_LIBRARY_PATH is what Dr.Jit loads (the file
+    search of llvm.find prefers the newest); the render is refused with one line, exit 2, instead of
+    aborting (134, LLVM ERROR) at the first kernel."""
+    old = next((p for p in ("/usr/lib/x86_64-linux-gnu/libLLVM-15.so.1", "/usr/lib/x86_64-linux-gnu/libLLVM-15.so")
+                if Path(p).exists()), None)
+    if old is None:
+        pytest.skip("no LLVM 15 library on this machine")
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "lib" / "libLLVM.so").symlink_to(old)
+    (tmp_path / "s.txt").write_text("PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 20 }\n"
+                                    "Materials { numMaterials 1 Material { diffuseColor 1 0 0 } }\n"
+                                    "Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }\n")
+    import os
+
+    env = {**os.environ, "LD_LIBRARY_PATH": str(tmp_path / "lib")}
+    env.pop("DRJIT_LIBLLVM_PATH", None)
+    p = subprocess.run([sys.executable, "-m", "a5mi", "-input", "s.txt", "-output", "o.png", "-size", "8", "8",
+                        "-q"], cwd=tmp_path, capture_output=True, text=True, env=env, timeout=120)
+    assert p.returncode == 2, p.stderr[-500:]
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Dr.Jit loaded LLVM 15" in lines[0] and "LD_LIBRARY_PATH=" in lines[0]
+    assert not (tmp_path / "o.png").exists()
+
+
+def test_loaded_reads_the_process_maps(tmp_path: Path) -> None:
+    maps = tmp_path / "maps"
+    maps.write_text("7f00-7f01 r-xp 00000000 08:01 1 /usr/lib/x86_64-linux-gnu/libLLVM-15.so.1\n"
+                    "7f01-7f02 r--p 00000000 08:01 1 /usr/lib/x86_64-linux-gnu/libLLVM-15.so.1\n"
+                    "7f02-7f03 r--p 00000000 08:01 2 /usr/lib/libLLVMSupport.a.not-a-library\n")
+    assert [(lib.path, lib.major) for lib in llvm.loaded(str(maps))] == [
+        ("/usr/lib/x86_64-linux-gnu/libLLVM-15.so.1", 15)]
+    with pytest.raises(llvm.LLVMError, match="Dr.Jit loaded LLVM 15"):
+        llvm.check_loaded(str(maps))

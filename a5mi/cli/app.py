@@ -10,7 +10,9 @@ error policy (issue 8):
   prints one line, ``FILE:LINE:COL: error: ...`` or ``PROG: error: ...``, and returns 2;
 * anything else is a bug: one line ``PROG: internal error: Type: message (re-run with --debug for the
   traceback)`` and 1; ``--debug`` prints tracebacks;
-* Ctrl-C returns 130 with ``PROG: interrupted``; a closed output pipe (``a5mi compare A B | head``) ends
+* SIGINT, SIGTERM and SIGHUP (:mod:`a5mi.interrupts`, installed by :mod:`a5mi.entry`) return
+  ``128 + signal`` (130 for Ctrl-C) with one line ``PROG: interrupted (SIGINT)``; nothing is written and
+  no temporary is left; a closed output pipe (``a5mi compare A B | head``) ends
   quietly with 141 (128 + SIGPIPE, as a shell reports for coreutils).
 
 :func:`load_scene` is the one scene prologue: parse, print the parser's warnings, build the scene
@@ -26,6 +28,7 @@ import time
 import traceback
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Literal, TextIO
 
 from a5mi.cli.flags import COMMON, Args, Flag, Positional, format_help, parse
@@ -110,7 +113,7 @@ class Console:
     def error(self, msg: str) -> None:
         """One error line: positioned messages as they are, others as ``PROG: error: msg``."""
         line = msg if ": error: " in msg else f"{self.prog}: error: {msg}"
-        print((line.splitlines() or [""])[0], file=self.err)
+        print(line.split("\n")[0], file=self.err)
 
     def progress(self, enabled: bool) -> ProgressBar:
         return ProgressBar(self.err, enabled=enabled)
@@ -178,9 +181,12 @@ def guarded(console: Console, debug: bool, body: Callable[[], int]) -> int:
             traceback.print_exc()
         console.error(str(exc))
         return 2
-    except KeyboardInterrupt:
-        console.error("interrupted")
-        return 130
+    except KeyboardInterrupt as exc:
+        from a5mi import interrupts
+
+        signum = exc.signum if isinstance(exc, interrupts.Interrupted) else 2
+        interrupts.report_once(lambda: console.error(f"interrupted ({signal_name(signum)})"))
+        return 128 + signum
     except BrokenPipeError:
         _silence_stdout()
         return 141
@@ -192,6 +198,15 @@ def guarded(console: Console, debug: bool, body: Callable[[], int]) -> int:
             console.note(f"{console.prog}: internal error: {type(exc).__name__}{': ' + detail if detail else ''} "
                          "(re-run with --debug for the traceback)")
         return 1
+
+
+def signal_name(signum: int) -> str:
+    import signal
+
+    try:
+        return signal.Signals(signum).name
+    except ValueError:
+        return f"signal {signum}"
 
 
 def _silence_stdout() -> None:
@@ -217,10 +232,12 @@ def exception_summary(exc: BaseException) -> str:
 
 
 # ------------------------------------------------------------------------------------------ the scene prologue
-def load_scene(path: str, console: Console, *, stock: bool = False) -> Any:
+def load_scene(path: str, console: Console, *, stock: bool = False, inputs: list[Any] | None = None) -> Any:
     """Parse ``path`` (SPEC A), print the parser's warnings, build the scene description once (every mesh,
     texture and cube-map face read and checked) and print its warnings; raises positioned scene errors.
-    Mitsuba is not imported. Returns the description that the renderers and writers take."""
+    Mitsuba is not imported. Returns the description that the renderers and writers take. ``inputs``, when
+    given, receives every file the scene reads or names (:func:`a5mi.clobber.input_files`, plus textures
+    the renderer does not look up), for the output checks."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
 
@@ -233,15 +250,23 @@ def load_scene(path: str, console: Console, *, stock: bool = False) -> Any:
     console.warnings(model.warnings)
     desc = describe(model, stock=stock)
     console.warnings(desc.warnings)
+    if inputs is not None:
+        from a5mi.clobber import input_files
+
+        inputs.extend(input_files(desc))
+        for mat in model.materials or ():
+            if getattr(mat, "texture", None):
+                inputs.extend([model.base_dir / mat.texture, Path.cwd() / mat.texture])
     return desc
 
 
 def activate_variant(requested: str | None = None) -> str:
     """:func:`a5mi.variant.activate` with its failures as user errors (the message names the fix)."""
-    from a5mi import variant
+    from a5mi import interrupts, variant
 
     try:
-        return variant.activate(requested)
+        with interrupts.deferred():  # a signal in the middle of loading Dr.Jit would break the interpreter
+            return variant.activate(requested)
     except variant.VariantError as exc:
         raise UserError(str(exc)) from None
 

@@ -2,13 +2,17 @@
 
 The XML is written from the same scene description the renderer uses (:func:`a5mi.cli.app.load_scene`) and
 the same :class:`~a5mi.options.RenderOptions` (film size, integrator parameters), by
-:func:`a5mi.converters.to_xml.write_xml`.
+:func:`a5mi.converters.to_xml.write_xml`, which stages the whole set and moves it into place (nothing is
+written through a symlink; a second conversion replaces the first exactly). Outputs are checked before the
+scene is read (:func:`check_convert_outputs`) and against its input files after (:mod:`a5mi.clobber`).
 """
 
 from __future__ import annotations
 
 import os
+from typing import Any
 
+from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, Positional, text
 from a5mi.cli.render import RENDER_FLAGS, render_options
@@ -24,17 +28,38 @@ FLAGS: tuple[Flag, ...] = (
 )
 
 
-def run_convert(args: Args, console: Console) -> int:
-    if not args.output.endswith(".xml"):
-        raise UsageError(f"the output must end in .xml, found '{args.output}'")
-    folder = os.path.dirname(args.output) or "."
+def check_convert_outputs(xml: str) -> tuple[str, str, str]:
+    """Before the scene is read: the XML's folder exists and is writable, the XML is not a folder or special
+    file, ``{stem}_meshes`` is not a file and ``{stem}_envmap.exr`` not a folder (a symlink there is replaced,
+    never followed). Returns the paths of the XML, the meshes folder and the envmap."""
+    from a5mi.imageio import file_kind
+
+    if not xml.endswith(".xml"):
+        raise UsageError(f"the output must end in .xml, found '{xml}'")
+    folder = os.path.dirname(xml) or "."
     if not os.path.isdir(folder):
-        raise UsageError(f"{args.output}: output folder '{folder}' does not exist")
-    desc = load_scene(args.scene, console, stock=bool(args.stock))
+        what = "is not a folder" if os.path.exists(folder) else "does not exist"
+        raise UsageError(f"{xml}: output folder '{folder}' {what}")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise UsageError(f"{xml}: output folder '{folder}' is not writable")
+    stem = os.path.splitext(os.path.basename(xml))[0]
+    meshes, envmap = os.path.join(folder, f"{stem}_meshes"), os.path.join(folder, f"{stem}_envmap.exr")
+    for path, want in ((xml, "regular file"), (meshes, "folder"), (envmap, "regular file")):
+        if os.path.exists(path) and not os.path.islink(path) and file_kind(path) != want:
+            raise UsageError(f"{path}: exists and is a {file_kind(path)}, not a {want}: remove or rename it")
+    return xml, meshes, envmap
+
+
+def run_convert(args: Args, console: Console) -> int:
+    xml, meshes, envmap = check_convert_outputs(args.output)
+    inputs: list[Any] = []
+    desc = load_scene(args.scene, console, stock=bool(args.stock), inputs=inputs)
+    clobber.check_outputs([("-o", xml), ("the envmap", envmap)], inputs)
+    clobber.check_folder_holds_no_input("the meshes folder", meshes, inputs)
     activate_variant(None)  # the XML writer builds meshes (PLY) through Mitsuba
     from a5mi.converters.to_xml import write_xml
 
-    write_xml(desc, args.output, render_options(args), stock=bool(args.stock))
+    write_xml(desc, xml, render_options(args), stock=bool(args.stock))
     return 0
 
 

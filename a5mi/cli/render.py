@@ -10,18 +10,19 @@ written, each atomically and all or nothing, only after everything has rendered.
 from __future__ import annotations
 
 import dataclasses
-import os
 import sys
 import time
 from typing import Any
 
+from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, choice, integer, number, text
 from a5mi.errors import UsageError
 from a5mi.options import AOV_MODES, KERNELS, RenderOptions
 from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR, MAX_SIZE
 
-#: Render-buffer samples (3W x 3H with -jitter) accepted before anything is allocated.
+#: Render-buffer samples (3W x 3H with -jitter) accepted at most (~16 GB by a5mi.resources' model); below it
+#: a render is refused when its estimated memory (a5mi.resources.render_bytes) exceeds what is available.
 MAX_SAMPLES = 1 << 28
 
 
@@ -91,6 +92,25 @@ def check_render_args(args: Args) -> None:
     if args.filter and not args.jitter and (args.width < 3 or args.height < 3):
         raise UsageError(f"-filter without -jitter saves a W/3 x H/3 image; -size {args.width} {args.height} is "
                          "too small")
+    check_memory(args)
+
+
+def check_memory(args: Args) -> None:
+    """Refuse, before anything is read, a render whose estimated peak memory
+    (:func:`a5mi.resources.render_bytes`) exceeds the memory available (issue 19)."""
+    from a5mi import resources
+    from a5mi.options import TILE_RAYS
+
+    k = JITTER_FACTOR if args.jitter else 1
+    aovs = bool(args.get("normals_output") or args.get("depth_output"))
+    need = resources.render_bytes(args.width * k, args.height * k, width=args.width, height=args.height,
+                                  aovs=aovs, jitter=bool(args.jitter), filtered=bool(args.filter),
+                                  tile_rays=TILE_RAYS)
+    enough, have = resources.fits(need)
+    if not enough:
+        hint = " (-jitter -filter streams the render buffer)" if args.jitter and not args.filter else ""
+        raise UsageError(f"-size {args.width} {args.height}{' with -jitter' if args.jitter else ''} needs about "
+                         f"{resources.gb(need)} of memory; {resources.gb(have or 0)} is available{hint}")
 
 
 def outputs_of(args: Args) -> list[tuple[str, str]]:
@@ -104,8 +124,7 @@ def outputs_of(args: Args) -> list[tuple[str, str]]:
         outs.append(("-depth", args.depth_output))
     for _, path in outs:
         imageio.check_output_path(path)
-    if len({os.path.realpath(p) for _, p in outs}) != len(outs):
-        raise UsageError("-output, -normals and -depth must name different files")
+    clobber.check_outputs(outs, [args.input])  # the same file twice, or the scene itself
     return outs
 
 
@@ -116,7 +135,9 @@ def run_render(args: Args, console: Console) -> int:
     outputs = outputs_of(args)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
-    desc = load_scene(args.input, console)
+    inputs: list[Any] = []
+    desc = load_scene(args.input, console, inputs=inputs)
+    clobber.check_outputs(outputs, inputs)  # no output may overwrite a mesh, texture or cube-map face
     timings["parse"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     variant = activate_variant(args.variant)

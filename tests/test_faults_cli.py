@@ -1,0 +1,241 @@
+"""Issue 19, items 3, 4, 5, 6 and 11 through the real commands: each hostile input ends with a correct render or
+one line, exit 2 and nothing written; outputs never destroy inputs; ``a5mi convert`` writes only its set."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from a5mi import cli, driver, imageio
+from a5mi.cli.app import Console, load_scene
+from a5mi.options import RenderOptions
+
+HEAD = ("PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 20 }\n"
+        "Lights { numLights 1 DirectionalLight { direction -0.2 -0.2 -1 color 1 1 1 } }\n"
+        "Background { color 0.2 0 0.6 ambientLight 0 0 0 }\n")
+
+
+def _scene(material: str, objects: str = "Sphere { center 0 0 0 radius 1 }", n: int = 1) -> str:
+    return HEAD + (f"Materials {{ numMaterials 1 Material {{ {material} }} }}\n"
+                   f"Group {{ numObjects {n} MaterialIndex 0 {objects} }}\n")
+
+
+def _one_line(capsys) -> str:
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+def _files(root: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(root)): (p.read_bytes() if p.is_file() and not p.is_symlink() else b"")
+            for p in sorted(root.rglob("*"))}
+
+
+# ------------------------------------------------------------------------------- item 3: colours
+def _render(tmp_path: Path, text: str, mi, size: int = 12) -> np.ndarray:
+    (tmp_path / "s.txt").write_text(text.replace("color 0.2 0 0.6", "color 0 0 0"))  # black: only shading
+    desc = load_scene(str(tmp_path / "s.txt"), Console("a5", quiet=True))
+    return driver.render(desc, RenderOptions(width=size, height=size)).image
+
+
+@pytest.mark.parametrize("color", ["1.5 1.5 1.5", "2 0 0", "1.0000001 0 0", "-0.5 3 0"])
+def test_colours_outside_unit_range_render_linearly(tmp_path: Path, mi, color: str) -> None:
+    """Item 3: any finite diffuseColor renders (SPEC A.5 sets no range), and Lambert shading is linear in it:
+    the image of colour c is c times the image of white (unquantised renderer output)."""
+    c = np.array([float(x) for x in color.split()], np.float32)
+    white = _render(tmp_path, _scene("diffuseColor 1 1 1"), mi)
+    img = _render(tmp_path, _scene(f"diffuseColor {color}"), mi)
+    np.testing.assert_allclose(img, white * c, rtol=1e-6, atol=1e-7)
+    assert white.max() > 0.5
+
+
+def test_every_colour_field_accepts_any_finite_value(tmp_path: Path, mi, capsys) -> None:
+    """Item 3: specular, marble, light, background and ambient colours far outside [0, 1], through the CLI."""
+    text = (HEAD.replace("color 1 1 1", "color 4 -2 9").replace("ambientLight 0 0 0", "ambientLight 2 -1 7")
+            .replace("color 0.2 0 0.6", "color -3 5 1e30")
+            + "Materials { numMaterials 2 Material { diffuseColor 1e30 -1e30 2 specularColor 5 -5 0.5 }\n"
+              " Material { Noise { color 9 -9 1 color -2 2 40 octaves 2 frequency 1 amplitude 1 } "
+              "diffuseColor 1 1 1 } }\n"
+              "Group { numObjects 2 MaterialIndex 0 Sphere { center -1 0 0 radius 1 } MaterialIndex 1 "
+              "Sphere { center 1 0 0 radius 1 } }\n")
+    (tmp_path / "s.txt").write_text(text)
+    out = tmp_path / "o.png"
+    assert cli.run(["-input", str(tmp_path / "s.txt"), "-output", str(out), "-size", "16", "16",
+                    "-bounces", "2", "-q"]) == 0
+    assert capsys.readouterr().err == ""
+    assert imageio.read_uint8(out).shape == (16, 16, 3)
+
+
+def test_huge_colours_give_no_numpy_warnings(tmp_path: Path) -> None:
+    """Item 11: a successful render with colours near FLT_MAX prints nothing (no RuntimeWarning) in a fresh
+    interpreter, with -jitter -filter (the blur sums them)."""
+    (tmp_path / "s.txt").write_text(_scene("diffuseColor 3e38 3e38 3e38 specularColor 3e38 0 0"))
+    p = subprocess.run([sys.executable, "-W", "default", "-m", "a5mi", "-input", "s.txt", "-output", "o.png",
+                        "-size", "9", "9", "-jitter", "-filter", "-normals", "n.png", "-depth", "9", "11", "d.png"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and p.stderr == "", p.stderr
+
+
+# ------------------------------------------------------------------------------- item 4: positioned errors
+@pytest.mark.parametrize("camera,match", [
+    ("direction 1e-40 1e-40 -1e-40 up 0 1 0", "do not define a basis in float32"),
+    ("direction 0 0 -1 up 0 1e-30 -1", "do not define a basis in float32"),
+    ("direction 1e20 0 -1e20 up 0 1 0", "do not define a basis in float32"),
+    ("direction 0 0 -1 up 1e20 1e20 0", "do not define a basis in float32"),
+])
+def test_camera_degenerate_in_float32(tmp_path: Path, capsys, camera: str, match: str) -> None:
+    text = _scene("diffuseColor 1 1 1").replace("direction 0 0 -1 up 0 1 0", camera)
+    (tmp_path / "s.txt").write_text(text)
+    assert cli.run(["-input", str(tmp_path / "s.txt"), "-output", str(tmp_path / "o.png")]) == 2
+    line = _one_line(capsys)
+    assert line.startswith(f"{tmp_path / 's.txt'}:1:") and match in line
+    assert not (tmp_path / "o.png").exists()
+
+
+@pytest.mark.parametrize("name,match", [
+    ("a" * 300 + ".obj", "File name too long"),
+    ("f.obj", "is a FIFO, not a file"),
+    ("dev.obj", "is a device, not a file"),
+])
+def test_mesh_names_that_cannot_be_files(tmp_path: Path, capsys, name: str, match: str) -> None:
+    """Item 4 (a name longer than the filesystem allows) and 8/11 (FIFO, device: said as such, no hang)."""
+    os.mkfifo(tmp_path / "f.obj")
+    os.symlink("/dev/zero", tmp_path / "dev.obj")
+    (tmp_path / "s.txt").write_text(_scene("diffuseColor 1 1 1", f"TriangleMesh {{ obj_file {name} }}"))
+    assert cli.run(["-input", str(tmp_path / "s.txt"), "-output", str(tmp_path / "o.png")]) == 2
+    line = _one_line(capsys)
+    assert line.startswith(f"{tmp_path / 's.txt'}:5:") and match in line and len(line) < 400
+
+
+def test_output_of_another_user_in_a_sticky_folder_is_refused_before_rendering(tmp_path: Path) -> None:
+    """Item 4: as a user who may not replace the file (sticky folder, owned by someone else), the output is
+    refused before the render, and the file is untouched. Runs the command as ``nobody`` (needs root)."""
+    if os.geteuid() != 0 or shutil.which("setpriv") is None:
+        pytest.skip("needs root and setpriv to run as another user")
+    box = tmp_path / "sticky"
+    box.mkdir()
+    os.chmod(tmp_path, 0o755)
+    os.chmod(box, 0o1777)
+    (box / "s.txt").write_text(_scene("diffuseColor 1 1 1"))
+    (box / "o.png").write_bytes(b"root's file")
+    py = f"import sys; sys.path[:0] = {sys.path!r}; from a5mi.entry import a5; sys.argv = ['a5'] + sys.argv[1:]; a5()"
+    p = subprocess.run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", sys.executable, "-c", py,
+                        "-input", "s.txt", "-output", "o.png", "-size", "8", "8"], cwd=box, capture_output=True,
+                       text=True, timeout=120, env={**os.environ, "HOME": str(box), "A5MI_CACHE_DIR": str(box)})
+    if "Permission denied" in p.stderr and "python" in p.stderr.lower():
+        pytest.skip("nobody cannot run this interpreter")
+    assert p.returncode == 2, p.stderr
+    assert p.stderr.strip() == "a5: error: o.png: cannot replace it: it belongs to another user in the sticky " \
+                               "folder '.'"
+    assert (box / "o.png").read_bytes() == b"root's file"
+
+
+# ------------------------------------------------------------------------------- item 5: outputs vs inputs
+def _textured(tmp_path: Path) -> Path:
+    (tmp_path / "tex").mkdir()
+    imageio.write_image(tmp_path / "tex" / "head.bmp", np.full((4, 4, 3), 0.5, np.float32))
+    (tmp_path / "s.txt").write_text(_scene("diffuseColor 1 1 1 texture tex/head.bmp",
+                                           "Triangle { vertex0 -1 -1 0 vertex1 1 -1 0 vertex2 0 1 0 }"))
+    return tmp_path / "s.txt"
+
+
+@pytest.mark.parametrize("argv,match", [
+    (["-output", "o.png", "-normals", "tex/head.bmp"], "-normals 'tex/head.bmp' is the input file"),
+    (["-output", "tex/head.bmp"], "-output 'tex/head.bmp' is the input file"),
+    (["-output", "real/o.png", "-normals", "link/o.png"], "-output 'real/o.png' and -normals 'link/o.png' are "
+                                                           "the same file"),
+    (["-output", "o.png", "-depth", "1", "2", "hard.png"], "-output 'o.png' and -depth 'hard.png' are the same"),
+    (["-output", "scene.png"], "-output 'scene.png' is the input file 'scene.png'"),
+])
+def test_outputs_never_overwrite_inputs_or_each_other(tmp_path: Path, capsys, monkeypatch, argv, match) -> None:
+    """Item 5: compared by resolved path and inode, before anything is rendered; nothing changes on disk."""
+    scene = _textured(tmp_path)
+    (tmp_path / "real").mkdir()
+    os.symlink("real", tmp_path / "link")
+    imageio.write_image(tmp_path / "o.png", np.zeros((2, 2, 3), np.float32))
+    os.link(tmp_path / "o.png", tmp_path / "hard.png")
+    shutil.copy(scene, tmp_path / "scene.png")
+    monkeypatch.chdir(tmp_path)
+    before = _files(tmp_path)
+    inp = "scene.png" if "scene.png" in argv else "s.txt"
+    assert cli.run(["-input", inp, *argv, "-size", "8", "8"]) == 2
+    assert match in _one_line(capsys)
+    assert _files(tmp_path) == before
+
+
+# ------------------------------------------------------------------------------- items 4, 6: convert
+BUNNY = _scene("diffuseColor 1 1 1", "TriangleMesh { obj_file m.obj }")
+OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+
+
+@pytest.fixture
+def convert_dir(tmp_path: Path) -> Path:
+    (tmp_path / "in").mkdir()
+    (tmp_path / "in" / "s.txt").write_text(BUNNY)
+    (tmp_path / "in" / "m.obj").write_text(OBJ)
+    (tmp_path / "out").mkdir()
+    return tmp_path
+
+
+def test_convert_never_writes_through_symlinks_and_replaces_the_set(convert_dir: Path, mi, capsys) -> None:
+    """Item 6: symlinks in the meshes folder or at the envmap are replaced, not followed; stale PLYs of an
+    earlier conversion go; a second conversion leaves exactly the files of a fresh one."""
+    out = convert_dir / "out"
+    victim = convert_dir / "victim.ply"
+    victim.write_bytes(b"precious")
+    (out / "o_meshes").mkdir()
+    os.symlink(victim, out / "o_meshes" / "mesh_000.ply")
+    (out / "o_meshes" / "mesh_007.ply").write_bytes(b"stale")
+    os.symlink(victim, out / "o_envmap.exr")
+    assert cli.run_a5mi(["convert", str(convert_dir / "in" / "s.txt"), "-o", str(out / "o.xml"), "-q"]) == 0
+    assert victim.read_bytes() == b"precious"
+    first = _files(out)
+    assert sorted(first) == ["o.xml", "o_meshes", "o_meshes/mesh_000.ply"]
+    assert not (out / "o_meshes" / "mesh_000.ply").is_symlink()
+    assert cli.run_a5mi(["convert", str(convert_dir / "in" / "s.txt"), "-o", str(out / "o.xml"), "-q"]) == 0
+    assert _files(out) == first
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize("case,match", [
+    ("meshes_is_a_file", "o_meshes: exists and is a regular file, not a folder"),
+    ("xml_is_a_folder", "o.xml: exists and is a folder, not a regular file"),
+    ("meshes_hold_an_input", "the meshes folder"),
+])
+def test_convert_refuses_before_writing(convert_dir: Path, capsys, case: str, match: str) -> None:
+    """Item 4: a file where the meshes folder goes, a folder where the XML goes, or an input inside the
+    meshes folder: one line, exit 2, nothing written or removed."""
+    out = convert_dir / "out"
+    scene = convert_dir / "in" / "s.txt"
+    if case == "meshes_is_a_file":
+        (out / "o_meshes").write_bytes(b"mine")
+    elif case == "xml_is_a_folder":
+        (out / "o.xml").mkdir()
+    else:
+        (out / "o_meshes").mkdir()
+        shutil.copy(convert_dir / "in" / "m.obj", out / "o_meshes" / "m.obj")
+        shutil.copy(scene, out / "o_meshes" / "s.txt")
+        scene = out / "o_meshes" / "s.txt"
+    before = _files(convert_dir)
+    assert cli.run_a5mi(["convert", str(scene), "-o", str(out / "o.xml")]) == 2
+    assert match in _one_line(capsys)
+    assert _files(convert_dir) == before
+
+
+def test_convert_into_a_read_only_folder_leaves_nothing(convert_dir: Path, capsys, monkeypatch) -> None:
+    """Item 4: a folder the user may not write: refused before the scene is read (as root, whom permissions
+    do not stop, the check is exercised through os.access)."""
+    out = convert_dir / "out"
+    os.chmod(out, 0o555)
+    monkeypatch.setattr(os, "access", lambda path, mode, **kw: not str(path).endswith("out"))
+    assert cli.run_a5mi(["convert", str(convert_dir / "in" / "s.txt"), "-o", str(out / "o.xml")]) == 2
+    line = _one_line(capsys)
+    assert "output folder" in line and line.endswith("is not writable")
+    assert list(out.iterdir()) == []

@@ -1,0 +1,152 @@
+"""Issue 19, items 1, 7 (temporaries), 8 and 11: image writes on a full disk, stale temporaries, special files.
+
+The disk-full tests mount a small tmpfs made inside the test (root only; skipped otherwise) and fill it.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from a5mi import imageio
+from a5mi.errors import ImageWriteError, UserError
+
+
+@pytest.fixture
+def tiny_fs(tmp_path: Path):
+    """A 256 KiB tmpfs at ``tmp_path/fs``, unmounted afterwards."""
+    if os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root")
+    mnt = tmp_path / "fs"
+    mnt.mkdir()
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mnt)], capture_output=True)
+    if r.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {r.stderr.decode().strip()}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+def _fill(mnt: Path, leave: int) -> None:
+    """Fill the filesystem until about ``leave`` bytes are free."""
+    st = os.statvfs(mnt)
+    free = st.f_bavail * st.f_frsize
+    with open(mnt / "filler", "wb") as f:
+        try:
+            f.write(b"\0" * max(0, free - leave))
+        except OSError:
+            pass
+
+
+def _noise(h: int = 120, w: int = 160) -> np.ndarray:
+    return np.random.default_rng(5).random((h, w, 3), dtype=np.float32)
+
+
+@pytest.mark.parametrize("ext", [".png", ".bmp", ".tga", ".ppm", ".tif", ".exr"])
+@pytest.mark.parametrize("leave", [0, 8192])
+def test_disk_full_keeps_the_old_image(tiny_fs: Path, ext: str, leave: int) -> None:
+    """Item 1: on a full filesystem the write fails (one ImageWriteError), the old image is untouched
+    byte for byte and no temporary is left."""
+    target = tiny_fs / f"out{ext}"
+    small = np.full((4, 4, 3), 0.5, np.float32)
+    imageio.write_image(target, small)
+    before = target.read_bytes()
+    _fill(tiny_fs, leave)
+    with pytest.raises(ImageWriteError, match=r"write failed"):
+        imageio.write_image(target, _noise())
+    assert target.read_bytes() == before
+    assert sorted(p.name for p in tiny_fs.iterdir()) == sorted(["filler", target.name])
+
+
+def test_disk_full_message_names_the_cause(tiny_fs: Path) -> None:
+    _fill(tiny_fs, 0)
+    with pytest.raises(ImageWriteError, match="no space left on device"):
+        imageio.write_image(tiny_fs / "o.png", _noise())
+
+
+def test_write_is_verified_round_trip(tmp_path: Path) -> None:
+    """A normal write reads back exactly (the verification does not reject good files)."""
+    img = _noise(7, 9)
+    for ext in (".png", ".bmp", ".tga", ".ppm", ".tiff", ".exr"):
+        imageio.write_image(tmp_path / f"a{ext}", img)
+        back = imageio.read_image(tmp_path / f"a{ext}")
+        want = img if ext == ".exr" else imageio.quantize(img) / np.float32(255)
+        np.testing.assert_array_equal(back, want)
+
+
+def test_stale_temporaries_of_dead_processes_are_removed(tmp_path: Path) -> None:
+    """Item 7: a temporary left by a killed process (its pid no longer runs) is removed by the next write;
+    one of a live process (a concurrent writer) and other people's files are kept."""
+    proc = subprocess.Popen(["true"])
+    proc.wait()
+    stale = tmp_path / f".o.png.a5mi-{proc.pid}-abc123.png"
+    live = tmp_path / f".o.png.a5mi-{os.getppid()}-abc123.png"
+    other = tmp_path / ".o.png.mine.png"
+    for p in (stale, live, other):
+        p.write_bytes(b"partial")
+    imageio.write_image(tmp_path / "o.png", _noise(3, 3))
+    assert not stale.exists() and live.exists() and other.exists()
+    with imageio.atomic_file(tmp_path / "c.npy") as f:
+        f.write(b"x")
+    assert (tmp_path / "c.npy").read_bytes() == b"x"
+
+
+def test_read_regular_refuses_special_files(tmp_path: Path) -> None:
+    """Item 8: a FIFO does not block, /dev/zero is not read, a large file is refused by size."""
+    fifo = tmp_path / "f.txt"
+    os.mkfifo(fifo)
+    with pytest.raises(UserError, match=r"not a regular file \(FIFO\)"):
+        imageio.read_regular(fifo, 1000, "scene file")
+    with pytest.raises(UserError, match=r"not a regular file \(character device\)"):
+        imageio.read_regular("/dev/zero", 1000, "scene file")
+    with pytest.raises(UserError, match=r"not a regular file \(folder\)"):
+        imageio.read_regular(tmp_path, 1000, "scene file")
+    big = tmp_path / "big.txt"
+    big.write_bytes(b"a" * 1001)
+    with pytest.raises(UserError, match="1001 bytes is more than the limit of 1000 bytes"):
+        imageio.read_regular(big, 1000, "scene file")
+    assert imageio.read_regular(big, 1001) == b"a" * 1001
+
+
+def test_output_that_is_a_fifo_or_device_is_refused(tmp_path: Path) -> None:
+    """Item 11: a FIFO or device as an output is named for what it is, not "a folder"."""
+    fifo = tmp_path / "o.png"
+    os.mkfifo(fifo)
+    with pytest.raises(ImageWriteError, match=r"not a regular file \(FIFO\)"):
+        imageio.check_output_path(fifo)
+    with pytest.raises(ImageWriteError, match="no image extension"):
+        imageio.check_output_path("/dev/null")
+
+
+def test_texture_too_large_for_memory_is_refused_before_decoding(tmp_path: Path, monkeypatch) -> None:
+    """Item 9: the header is read first; an image whose decoded pixels would not fit is refused by size."""
+    from a5mi import resources
+
+    img = np.zeros((2000, 3000, 3), np.uint8)
+    imageio.write_image(tmp_path / "t.png", img)
+    need = resources.image_bytes(3000, 2000, 3)
+    monkeypatch.setenv("A5MI_MEMORY_LIMIT", str(need - 1))
+    with pytest.raises(imageio.ImageReadError, match=r"3000x2000 pixels need about 0.1 GB of memory to decode"):
+        imageio.read_uint8(tmp_path / "t.png")
+    monkeypatch.setenv("A5MI_MEMORY_LIMIT", str(need))
+    assert imageio.read_uint8(tmp_path / "t.png").shape == (2000, 3000, 3)
+
+
+def test_render_memory_model() -> None:
+    """Item 9: the model of a5mi.resources (figures measured with a5 -v, BENCHMARKS.md): 16384^2 is ~16 GB,
+    -jitter -filter keeps only the W x H result."""
+    from a5mi import resources
+
+    big = resources.render_bytes(16384, 16384, width=16384, height=16384, aovs=False, jitter=False,
+                                 filtered=False, tile_rays=1 << 20)
+    assert 16e9 < big < 17e9
+    plain = resources.render_bytes(2100, 2100, width=700, height=700, aovs=False, jitter=True, filtered=False,
+                                   tile_rays=1 << 20)
+    streamed = resources.render_bytes(2100, 2100, width=700, height=700, aovs=False, jitter=True, filtered=True,
+                                      tile_rays=1 << 20)
+    assert plain - streamed == (2100 * 2100 - 700 * 700) * resources.SAMPLE_BYTES
