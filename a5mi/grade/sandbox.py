@@ -147,21 +147,28 @@ def command_line(argv: Sequence[str], workdir: Path, limits: Limits, read_only: 
     return [shutil.which("prlimit") or "prlimit", *prlimit[1:], *drop, *argv], "rlimits"
 
 
+def _live_processes(uid: int) -> list[int]:
+    """Processes of real user id ``uid`` that are not zombies (a zombie holds no resources but its entry)."""
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/status", encoding="ascii", errors="replace") as f:
+                fields = dict(ln.split(":", 1) for ln in f if ":" in ln)
+        except OSError:
+            continue
+        if fields.get("Uid", "").split()[:1] == [str(uid)] and not fields.get("State", "").strip().startswith("Z"):
+            found.append(int(entry))
+    return found
+
+
 def kill_uid(uid: int) -> int:
-    """SIGKILL every process whose real user id is ``uid`` (the run's leftovers); returns how many."""
+    """SIGKILL every live process whose real user id is ``uid`` (the run's leftovers, wherever they moved:
+    another session, another process group), until none is left; returns how many signals were sent."""
     killed = 0
-    for _ in range(20):
-        found = []
-        for entry in os.listdir("/proc"):
-            if not entry.isdigit():
-                continue
-            try:
-                with open(f"/proc/{entry}/status", encoding="ascii", errors="replace") as f:
-                    line = next((ln for ln in f if ln.startswith("Uid:")), "")
-            except OSError:
-                continue
-            if line.split()[1:2] == [str(uid)]:
-                found.append(int(entry))
+    for _ in range(200):
+        found = _live_processes(uid)
         if not found:
             break
         for pid in found:
@@ -170,7 +177,7 @@ def kill_uid(uid: int) -> int:
                 killed += 1
             except OSError:
                 pass
-        time.sleep(0.02)
+        time.sleep(0.01)
     return killed
 
 
