@@ -49,8 +49,14 @@ class Journal:
 
     def append(self, record: dict[str, Any]) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        with open(self.path, "a", encoding="utf-8") as f:
-            f.write(json.dumps(record, allow_nan=False, default=str) + "\n")
+        line = json.dumps(record, allow_nan=False, default=str) + "\n"
+        with open(self.path, "ab") as f:
+            if f.tell() > 0:
+                with open(self.path, "rb") as r:
+                    r.seek(-1, os.SEEK_END)
+                    if r.read(1) != b"\n":
+                        line = "\n" + line  # end a torn last line so this record stays readable
+            f.write(line.encode("utf-8"))
             f.flush()
             os.fsync(f.fileno())
 

@@ -105,6 +105,7 @@ def load_cases(path: str | Path | None, options_of: Callable[[list[str]], Any] |
     (which raises a :class:`UserError` for a bad a5 command line). Errors carry ``FILE:LINE:COL``."""
     if path is None:
         cases, text, where = default_cases(), "", "default cases"
+        positions = [(1, 1)] * len(cases)
     else:
         where = str(path)
         try:
@@ -121,12 +122,13 @@ def load_cases(path: str | Path | None, options_of: Callable[[list[str]], Any] |
         entries = data.get("case")
         if not isinstance(entries, list) or not entries:
             raise CasesError(f"{path}:1:1: error: expected at least one [[case]] table with a command")
-        cases = []
+        cases, positions = [], []
         for k, entry in enumerate(entries):
             command = entry.get("command") if isinstance(entry, dict) else None
             if not isinstance(command, str):
                 raise CasesError(f"{path}:1:1: error: case {k + 1} has no command string")
             line, col = _position(text, command)
+            positions.append((line, col))
             try:
                 points = entry.get("points", DEFAULT_POINTS)
                 if not isinstance(points, int | float) or isinstance(points, bool):
@@ -142,11 +144,10 @@ def load_cases(path: str | Path | None, options_of: Callable[[list[str]], Any] |
     if options_of is None:
         return cases
     out = []
-    for c in cases:
+    for c, (line, col) in zip(cases, positions, strict=True):
         try:
             out.append(replace(c, options=options_of(list(c.argv))))
         except UserError as exc:
-            line, col = _position(text, c.output) if text else (1, 1)
             prefix = f"{path}:{line}:{col}: error: " if path is not None else ""
             raise CasesError(f"{prefix}case '{c.name}': {exc}") from None
     return out

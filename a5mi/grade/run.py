@@ -74,13 +74,20 @@ def prepare_workdir(task: Task) -> Path:
     return work
 
 
+def _signal_name(n: int) -> str:
+    try:
+        return signal.Signals(n).name
+    except ValueError:
+        return f"signal {n}"
+
+
 def _crash_detail(run: RunResult) -> str:
+    """``killed by SIGSEGV``; inside bubblewrap the sandbox's init reports a signal as 128 + N, as a shell does:
+    ``exit status 139 (SIGSEGV)``."""
     if run.returncode < 0:
-        try:
-            name = signal.Signals(-run.returncode).name
-        except ValueError:
-            name = f"signal {-run.returncode}"
-        return f"killed by {name}"
+        return f"killed by {_signal_name(-run.returncode)}"
+    if run.isolation == "bwrap" and 128 < run.returncode < 128 + 65:
+        return f"exit status {run.returncode} ({_signal_name(run.returncode - 128)})"
     return f"exit status {run.returncode}"
 
 
