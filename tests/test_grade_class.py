@@ -111,7 +111,7 @@ def klass(tmp_path_factory, scenes_dir):
         img, _ = ref.load()
         rng = np.random.default_rng(5)
         flat = img.reshape(-1, 3).copy()
-        pick = rng.choice(len(flat), size=int(0.028 * len(flat)), replace=False)  # 2.8%: between 2% and 3.5%
+        pick = rng.choice(len(flat), size=int(0.0125 * len(flat)), replace=False)  # between 1% and 1.5%
         flat[pick] = np.where(flat[pick] > 127, flat[pick] - 60, flat[pick] + 60)
         write_image(subs / "nearly" / case.output, (flat.reshape(img.shape) + 0.5) / 255)
     return root

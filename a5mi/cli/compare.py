@@ -2,7 +2,7 @@
 
 The verdict is :func:`a5mi.grade.verdict.judge` on the share of pixels beyond the noise band: with
 ``--noise SIGMA.npy`` (the per-pixel jitter standard deviation ``a5mi grade`` caches beside each reference)
-the band is ``4 sigma + 2`` levels, without it 2 levels. Exit status: 0 match, 1 differ (close, wrong, wrong
+the band is ``4 sigma + 1`` levels, without it 1 level. Exit status: 0 match, 1 differ (close, wrong, wrong
 size), 2 user error (unreadable image, bad flag), so the command can gate a script or CI job.
 """
 
@@ -25,8 +25,8 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--flip-map",), "flip_map", "write the FLIP heatmap (implies --flip)", 1, text, metavar="OUT.png"),
     Flag(("--noise",), "noise", "noise band: per-pixel jitter sigma (levels), an .npy of the image's shape", 1,
          text, metavar="SIGMA.npy"),
-    Flag(("--match",), "match", "largest share of pixels beyond noise for 'match'", 1, real, 0.02, "SHARE"),
-    Flag(("--close",), "close", "largest share of pixels beyond noise for 'close'", 1, real, 0.035, "SHARE"),
+    Flag(("--match",), "match", "largest share of pixels beyond noise for 'match'", 1, real, 0.01, "SHARE"),
+    Flag(("--close",), "close", "largest share of pixels beyond noise for 'close'", 1, real, 0.015, "SHARE"),
 )
 
 
@@ -81,7 +81,7 @@ def run_compare(args: Args, console: Console) -> int:
             console.result(f"pixels over {metrics.threshold:g}/255 lie in x {x0}..{x1}, y {y0}..{y1} (row 0 = top)")
         flip = "" if graded.flip is None else f", FLIP {graded.flip:.4f}"
         console.result(f"verdict: {decided} ({100 * graded.beyond_noise:.2f}% of pixels beyond "
-                       f"{'the noise band' if args.noise else '2/255'}{flip})")
+                       f"{'the noise band' if args.noise else f'{verdict.NOISE_FLOOR:g}/255'}{flip})")
     return 0 if decided == "match" else 1
 
 

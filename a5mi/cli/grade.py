@@ -34,8 +34,8 @@ FLAGS: tuple[Flag, ...] = (
          text, metavar="PATHS"),
     Flag(("--cache",), "cache", "reference cache (default: ~/.cache/a5mi/grade or $A5MI_CACHE_DIR/grade)", 1, text,
          metavar="DIR"),
-    Flag(("--match",), "match", "largest share of pixels beyond noise for 'match'", 1, real, 0.02, "SHARE"),
-    Flag(("--close",), "close", "largest share of pixels beyond noise for 'close'", 1, real, 0.035, "SHARE"),
+    Flag(("--match",), "match", "largest share of pixels beyond noise for 'match'", 1, real, 0.01, "SHARE"),
+    Flag(("--close",), "close", "largest share of pixels beyond noise for 'close'", 1, real, 0.015, "SHARE"),
     Flag(("--no-flip",), "flip", "skip NVIDIA FLIP (faster)", const=False, default=True, show_default=False),
 )
 

@@ -5,7 +5,7 @@ normal library path (parse -> :func:`~a5mi.converters.describe.describe` -> :fun
 quantised as SPEC B.1), with the binary's glibc ``rand()`` jitter, or the file the case names in
 ``--reference DIR`` (e.g. the sample solution's renders). The **noise band** ``sigma`` is the per-pixel,
 per-channel sample standard deviation (ddof 1, levels) of the K renders {glibc, ``-seed`` s_1 .. s_{K-1}}
-(:data:`NOISE_SEEDS`); without ``-jitter`` a render is deterministic and ``sigma`` = 0.
+(:data:`NOISE_SEEDS`, K = 8); without ``-jitter`` a render is deterministic and ``sigma`` = 0.
 
 Cache: ``CACHE/<key>/reference.png`` and ``sigma.npy``, ``key`` = SHA-256 of the scene text, the bytes of
 every file the scene names (OBJ meshes, textures, cube-map folders), the reference options, the seeds and the
@@ -27,7 +27,7 @@ from a5mi.errors import UserError
 from a5mi.imageio import atomic_file, quantize, read_levels, write_image
 
 #: Jitter seeds of the noise band's extra renders (the first render is the binary's glibc stream).
-NOISE_SEEDS: tuple[int, ...] = (1001, 1002, 1003)
+NOISE_SEEDS: tuple[int, ...] = (1001, 1002, 1003, 1004, 1005, 1006, 1007)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -32,15 +32,15 @@ VERDICTS: tuple[str, ...] = ("match", "close", "wrong", "wrong size", "no output
 CLOSE_CREDIT = 0.5
 #: sigma multiple and floor (levels) of the noise band.
 NOISE_K = 4.0
-NOISE_FLOOR = 2.0
+NOISE_FLOOR = 1.0
 
 
 @dataclass(frozen=True)
 class Thresholds:
     """Share of pixels beyond noise: ``match`` at most, ``close`` at most (calibrated, docs/GRADING.md)."""
 
-    match: float = 0.02
-    close: float = 0.035
+    match: float = 0.01
+    close: float = 0.015
 
 
 @dataclass(frozen=True)
