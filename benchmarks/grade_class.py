@@ -10,7 +10,9 @@ Printed: wall time, cases per second, scheduling overhead per case (cluster wall
 over the cases), peak RSS of each worker process and of the largest sandboxed run. References are rendered
 (and cached) before any timing.
 
-    .venv/bin/python benchmarks/grade_class.py [STUDENTS] [SIZE]      (default 40 students, 50 x 50)
+    .venv/bin/python benchmarks/grade_class.py [STUDENTS] [SIZE] [KEEP_DIR]   (default 40 students, 50 x 50)
+
+KEEP_DIR: copy the 2-worker report there (the README's screenshot is of that page).
 """
 
 from __future__ import annotations
@@ -119,6 +121,8 @@ def main(argv: list[str]) -> int:
             rows.append((f"LocalCluster, {workers} worker{'s' if workers > 1 else ''}", wall, list(peaks.values()),
                          max(kids.values())))
             print(f"{workers} workers: {wall:.1f} s", file=sys.stderr, flush=True)
+            if workers == 2 and len(argv) > 2:
+                shutil.copytree(report, argv[2], dirs_exist_ok=True)
 
         cases_n = len(tasks)
         print(f"{n} students x {len(cases)} cases = {cases_n} cases at {size}x{size}, "

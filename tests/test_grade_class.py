@@ -260,3 +260,51 @@ def test_journal_ignores_a_torn_last_line(tmp_path) -> None:
     assert j.done() == {"a/1", "a/2"}
     j.append({"key": "a/1", "verdict": "close"})  # a later record of a key wins
     assert [r["verdict"] for r in j.records()] == ["close", "wrong"]
+
+
+def test_joins_an_existing_cluster_and_reads_given_references(tmp_path, scenes_dir, capsys) -> None:
+    """--scheduler: a cluster started here (127.0.0.1) is joined, not started; --reference DIR supplies the
+    reference images (a5mi's noise band is still rendered for them)."""
+    from distributed import LocalCluster
+
+    from a5mi.cli import run_a5mi
+    from a5mi.cli.grade import _options_of
+    from a5mi.grade.cases import load_cases
+    from a5mi.grade.references import render_levels
+    from a5mi.imageio import write_image
+
+    toml = tmp_path / "cases.toml"
+    toml.write_text('[[case]]\ncommand = "-input scene11_cube.txt -size 20 20 -output 11f.png -shadows -bounces 4 '
+                    '-jitter -filter"\nreference = "scene11.given.png"\n')
+    case = load_cases(toml, _options_of)[0]
+    cwd = os.getcwd()
+    os.chdir(scenes_dir)
+    try:
+        import dataclasses
+
+        given = render_levels(scenes_dir / case.scene, dataclasses.replace(case.options, seed=41))
+        other = render_levels(scenes_dir / case.scene, dataclasses.replace(case.options, seed=42))
+        dark = render_levels(scenes_dir / case.scene, dataclasses.replace(case.options, shadows=False))
+    finally:
+        os.chdir(cwd)
+    (tmp_path / "refs").mkdir()
+    write_image(tmp_path / "refs" / "scene11.given.png", (given + 0.5) / 255)
+    for name, img in (("same", given), ("other", other), ("noshadows", dark)):
+        (tmp_path / "subs" / name).mkdir(parents=True)
+        write_image(tmp_path / "subs" / name / "11f.png", (img + 0.5) / 255)
+    with LocalCluster(n_workers=1, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
+                      silence_logs=50) as cluster:
+        argv = ["grade", str(tmp_path / "subs"), "-o", str(tmp_path / "report"), "--cases", str(toml),
+                "--reference", str(tmp_path / "refs"), "--scheduler", cluster.scheduler_address,
+                "--cache", str(tmp_path / "cache")]
+        assert run_a5mi(argv) == 0
+    doc = json.loads((tmp_path / "report" / "results.json").read_text())
+    assert {r["student"]: r["verdict"] for r in doc["results"]} == {"same": "match", "other": "match",
+                                                                   "noshadows": "wrong"}
+    assert doc["references"] == {"11f": str(tmp_path / "refs" / "scene11.given.png")}
+    by = {r["student"]: r for r in doc["results"]}
+    assert by["same"]["metrics"]["psnr"] is None  # identical to the given reference
+    capsys.readouterr()
+    (tmp_path / "refs" / "scene11.given.png").unlink()
+    assert run_a5mi(argv[:-2] + ["--workers", "1"]) == 2
+    assert "reference image" in capsys.readouterr().err
