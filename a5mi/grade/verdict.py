@@ -1,7 +1,7 @@
 """Verdicts of one submitted image against its reference (issue 13; thresholds: ``docs/GRADING.md``).
 
 Jittered renders of a correct ray tracer differ from the reference wherever the jitter samples matter (edges,
-shadow boundaries, refraction): 11-24% of the pixels of a correct 100x100 ``-jitter -filter`` render drawn with
+shadow boundaries, refraction): 2-24% of the pixels of a correct 100x100 ``-jitter -filter`` render drawn with
 other samples are off by more than 2/255. So the verdict is not taken on the raw error but against the
 **noise band** of the case: ``sigma`` = per-pixel, per-channel standard deviation of K renders of the case with
 different jitter seeds (:mod:`a5mi.grade.references`). A pixel is *beyond noise* when
