@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -70,6 +71,7 @@ def test_files_round_trip_and_diff_montage(tmp_path) -> None:
 
 
 def test_unreadable_image_is_a_user_error(tmp_path) -> None:
+
     bad = tmp_path / "bad.png"
     bad.write_bytes(b"not a png")
     with pytest.raises(ImageReadError, match="cannot read image"):
@@ -88,9 +90,10 @@ def test_cli_compare_prints_metrics_json_and_writes_diff(tmp_path, capsys) -> No
     write_image(tmp_path / "a.png", a)
     write_image(tmp_path / "b.png", b)
     assert run_a5mi(["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--json",
-                     "--diff", str(tmp_path / "d.png")]) == 0
+                     "--diff", str(tmp_path / "d.png")]) == 1  # 1 of 20 pixels off: 5% > the 1.5% of 'close'
     out = json.loads(capsys.readouterr().out)
     assert out["max_error"] == 10.0 and out["share_over"] == pytest.approx(1 / 20) and out["bbox"] == [0, 0, 0, 0]
+    assert out["verdict"] == "wrong" and out["beyond_noise"] == pytest.approx(1 / 20)
     assert (tmp_path / "d.png").is_file()
 
 
@@ -99,6 +102,8 @@ def test_cli_compare_prints_metrics_json_and_writes_diff(tmp_path, capsys) -> No
     [(["compare", "x.png"], "a5mi compare: error: missing A B (2 expected, found 1) (see a5mi compare -h)"),
      (["compare", "a.png", "b.png", "--bogus"], "a5mi compare: error: unknown flag '--bogus' (see a5mi compare -h)"),
      (["compare", "a.png", "b.png", "--diff"], "a5mi compare: error: --diff expects a value, found end of arguments"),
+     (["compare", "a.png", "b.png", "--match", "0.5", "--close", "0.1"],
+      "a5mi compare: error: --match and --close must satisfy 0 <= match <= close <= 1 (found 0.5, 0.1)"),
      (["fidelity", "extra"], "a5mi fidelity: error: unexpected argument 'extra' (see a5mi fidelity -h)")],
 )
 def test_cli_subcommand_misuse_is_one_line_exit_2(args, message, tmp_path, capsys, monkeypatch) -> None:
@@ -108,3 +113,68 @@ def test_cli_subcommand_misuse_is_one_line_exit_2(args, message, tmp_path, capsy
     assert run_a5mi(args) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [message]  # each sub-command's errors carry its own name
+
+
+def _write_pair(tmp_path, b_levels):
+    from a5mi.imageio import write_image
+
+    a = np.full(b_levels.shape, 100.0)
+    write_image(tmp_path / "a.png", (a + 0.5) / 255)
+    write_image(tmp_path / "b.png", (b_levels + 0.5) / 255)
+    return a
+
+
+def test_cli_compare_exit_status_is_the_verdict(tmp_path, capsys) -> None:
+    """0 for match, 1 for close / wrong / wrong size: scripts and CI can gate on it."""
+    from a5mi.cli import run_a5mi
+
+    a = np.full((20, 20, 3), 100.0)
+    b = a.copy()
+    b[0, :4] += 3  # 1% of pixels beyond 1/255: match (<= 1%)
+    _write_pair(tmp_path, b)
+    assert run_a5mi(["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png")]) == 0
+    assert "verdict: match (1.00% of pixels beyond 1/255)" in capsys.readouterr().out
+    b[0, 4] += 3  # 1.25%: close (<= 1.5%) -> differ
+    _write_pair(tmp_path, b)
+    assert run_a5mi(["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png")]) == 1
+    assert "verdict: close" in capsys.readouterr().out
+    from a5mi.imageio import write_image
+
+    write_image(tmp_path / "c.png", np.zeros((5, 20, 3)))
+    assert run_a5mi(["compare", str(tmp_path / "a.png"), str(tmp_path / "c.png"), "--json"]) == 1
+    assert json.loads(capsys.readouterr().out)["verdict"] == "wrong size"
+
+
+def test_cli_compare_noise_band_and_flip(tmp_path, capsys) -> None:
+    """With --noise, errors within 4 sigma + 2 levels are noise; --flip reports FLIP and writes its map."""
+    from a5mi.cli import run_a5mi
+
+    a = np.full((10, 10, 3), 100.0)
+    b = a.copy()
+    b[:5] += 10  # half the pixels 10 levels off
+    _write_pair(tmp_path, b)
+    sigma = np.zeros((10, 10, 3), dtype=np.float32)
+    sigma[:5] = 2.25  # band 4*2.25 + 1 = 10 levels: the error is noise there
+    np.save(tmp_path / "s.npy", sigma)
+    args = ["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--json"]
+    assert run_a5mi(args) == 1
+    assert json.loads(capsys.readouterr().out)["beyond_noise"] == pytest.approx(0.5)
+    assert run_a5mi([*args, "--noise", str(tmp_path / "s.npy"), "--flip-map", str(tmp_path / "f.png")]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["verdict"] == "match" and out["beyond_noise"] == 0.0 and 0 < out["flip"] < 1
+    assert read_levels(tmp_path / "f.png").shape == (10, 10, 3)
+    sigma[:5] = 2.2  # band 9.8 < 10: beyond
+    np.save(tmp_path / "s.npy", sigma)
+    assert run_a5mi([*args, "--noise", str(tmp_path / "s.npy")]) == 1
+    assert json.loads(capsys.readouterr().out)["beyond_noise"] == pytest.approx(0.5)
+
+
+def test_flip_is_zero_for_identical_and_grows_with_error() -> None:
+    from a5mi.grade.verdict import flip_map
+
+    a = np.random.default_rng(3).uniform(0, 255, (16, 16, 3)).round()
+    heat, same = flip_map(a, a)
+    assert same == 0.0 and heat.shape == (16, 16, 3)
+    _, small = flip_map(a, np.clip(a + 5, 0, 255))
+    _, large = flip_map(a, np.clip(a + 60, 0, 255))
+    assert 0 < small < large <= 1

@@ -23,6 +23,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "fidelity": ("a5mi.cli.fidelity:FIDELITY", "re-render the reference images and print the fidelity table"),
     "crosscheck": ("a5mi.cli.crosscheck:CROSSCHECK", "a5 Whitted vs Mitsuba's path tracer on the same rays"),
     "bench": ("a5mi.cli.bench:BENCH", "time the stages (cold/warm), optionally against a5soln"),
+    "grade": ("a5mi.cli.grade:GRADE", "grade a class's ray tracers: sandboxed, on Dask, HTML/CSV/JSON report"),
     "render-xml": ("a5mi.cli.render_xml:RENDER_XML", "render any Mitsuba XML with the a5mi plugins registered"),
     "completion": ("a5mi.cli.completion:COMPLETION", "print a bash/zsh completion script"),
 }

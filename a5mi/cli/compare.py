@@ -1,40 +1,90 @@
-"""``a5mi compare A B [--diff OUT.png] [--json] [--threshold L]``: the metrics of :mod:`a5mi.compare`."""
+"""``a5mi compare A B``: the metrics of :mod:`a5mi.compare` and the grading verdict of the pair (issue 13).
+
+The verdict is :func:`a5mi.grade.verdict.judge` on the share of pixels beyond the noise band: with
+``--noise SIGMA.npy`` (the per-pixel jitter standard deviation ``a5mi grade`` caches beside each reference)
+the band is ``4 sigma + 1`` levels, without it 1 level. Exit status: 0 match, 1 differ (close, wrong, wrong
+size), 2 user error (unreadable image, bad flag), so the command can gate a script or CI job.
+"""
 
 from __future__ import annotations
 
+import json
 import os
 
 from a5mi.cli.app import Command, Console
 from a5mi.cli.flags import Args, Flag, Positional, real, text
+from a5mi.errors import UsageError
 
 FLAGS: tuple[Flag, ...] = (
     Flag(("--diff",), "diff", "also write A | B | heatmap of the largest channel error", 1, text,
          metavar="OUT.png"),
-    Flag(("--json",), "json", "print the metrics as JSON", default=False, show_default=False),
+    Flag(("--json",), "json", "print the metrics and the verdict as JSON", default=False, show_default=False),
     Flag(("--threshold",), "threshold", "levels (of 255) a pixel may be off before it counts", 1, real, 2.0, "L"),
+    Flag(("--flip",), "flip", "also compute NVIDIA FLIP (mean, LDR)",
+         default=False, show_default=False),
+    Flag(("--flip-map",), "flip_map", "write the FLIP heatmap (implies --flip)", 1, text, metavar="OUT.png"),
+    Flag(("--noise",), "noise", "noise band: per-pixel jitter sigma (levels), an .npy of the image's shape", 1,
+         text, metavar="SIGMA.npy"),
+    Flag(("--match",), "match", "largest share of pixels beyond noise for 'match'", 1, real, 0.01, "SHARE"),
+    Flag(("--close",), "close", "largest share of pixels beyond noise for 'close'", 1, real, 0.015, "SHARE"),
 )
+
+
+def _noise(path: str | None, shape: tuple[int, ...]):  # noqa: ANN202 - numpy array or None
+    if path is None:
+        return None
+    import numpy as np
+
+    try:
+        sigma = np.load(path)
+    except (OSError, ValueError) as exc:
+        raise UsageError(f"--noise: cannot read '{path}': {exc}") from None
+    if sigma.shape != shape:
+        raise UsageError(f"--noise: '{path}' has shape {sigma.shape}, the images {shape}")
+    return sigma
 
 
 def run_compare(args: Args, console: Console) -> int:
     from a5mi import compare
-    from a5mi.imageio import check_output_path, read_levels
+    from a5mi.grade import verdict
+    from a5mi.imageio import check_output_path, read_levels, write_image
 
     a_path, b_path = args.images
-    if args.diff is not None:
-        check_output_path(args.diff)
+    for out in (args.diff, args.flip_map):
+        if out is not None:
+            check_output_path(out)
+    if not 0 <= args.match <= args.close <= 1:
+        raise UsageError(f"--match and --close must satisfy 0 <= match <= close <= 1 (found {args.match:g}, "
+                         f"{args.close:g})")
     a_img, b_img = read_levels(a_path), read_levels(b_path)
+    if a_img.shape != b_img.shape:
+        msg = f"image sizes differ: {a_img.shape[1]}x{a_img.shape[0]} vs {b_img.shape[1]}x{b_img.shape[0]}"
+        console.result(json.dumps({"verdict": "wrong size", "detail": msg}) if args.json
+                       else f"{a_path} vs {b_path}: {msg}\nverdict: wrong size")
+        return 1
     metrics = compare.compare_arrays(a_img, b_img, args.threshold)
+    want_flip = bool(args.flip) or args.flip_map is not None
+    graded, heat = verdict.measure(b_img, a_img, _noise(args.noise, a_img.shape), flip=want_flip)
+    decided = verdict.judge(graded, verdict.Thresholds(args.match, args.close))
     if args.diff is not None:
         compare.write_diff(a_img, b_img, metrics, args.diff, (os.path.basename(a_path), os.path.basename(b_path)))
+    if args.flip_map is not None and heat is not None:
+        write_image(args.flip_map, heat / 255.0 + 0.5 / 255.0)
     if args.json:
-        console.result(metrics.to_json())
-        return 0
-    console.result(f"{a_path} vs {b_path} ({metrics.width}x{metrics.height}): {metrics.summary()}")
-    if metrics.bbox is not None:
-        x0, y0, x1, y1 = metrics.bbox
-        console.result(f"pixels over {metrics.threshold:g}/255 lie in x {x0}..{x1}, y {y0}..{y1} (row 0 = top)")
-    return 0
+        doc = json.loads(metrics.to_json())
+        doc.update(verdict=decided, beyond_noise=graded.beyond_noise, flip=graded.flip)
+        console.result(json.dumps(doc))
+    else:
+        console.result(f"{a_path} vs {b_path} ({metrics.width}x{metrics.height}): {metrics.summary()}")
+        if metrics.bbox is not None:
+            x0, y0, x1, y1 = metrics.bbox
+            console.result(f"pixels over {metrics.threshold:g}/255 lie in x {x0}..{x1}, y {y0}..{y1} (row 0 = top)")
+        flip = "" if graded.flip is None else f", FLIP {graded.flip:.4f}"
+        console.result(f"verdict: {decided} ({100 * graded.beyond_noise:.2f}% of pixels beyond "
+                       f"{'the noise band' if args.noise else f'{verdict.NOISE_FLOOR:g}/255'}{flip})")
+    return 0 if decided == "match" else 1
 
 
-COMPARE = Command("compare", "Compare two images on the 8-bit scale: PSNR, mean error, share of pixels over the "
-                  "threshold, max error.", FLAGS, run_compare, (Positional("images", "A B", "the two images", 2),))
+COMPARE = Command("compare", "Compare two images on the 8-bit scale (PSNR, mean error, share of pixels over the "
+                  "threshold, max error, optionally FLIP) and give the grading verdict: exit 0 match, 1 differ.",
+                  FLAGS, run_compare, (Positional("images", "A B", "reference and test image", 2),))

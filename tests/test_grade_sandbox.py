@@ -1,0 +1,232 @@
+"""a5mi.grade.sandbox: every guarantee proved by a hostile fake submission (issue 13).
+
+Each fake is a small script in tmp_path graded through :func:`a5mi.grade.run.grade_one` against a tiny
+reference (no rendering): it must end in its verdict within seconds, with nothing written outside its private
+folder and no process of it left behind. bubblewrap is installed by ``make setup``; the rlimit fallback is
+tested with ``A5MI_NO_BWRAP=1``.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import stat
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from a5mi.grade.cases import make_case
+from a5mi.grade.run import Task, grade_one
+from a5mi.grade.sandbox import UID_BASE, UID_SPAN, Limits, isolation, run_sandboxed
+from a5mi.imageio import write_image
+
+LIMITS = Limits(timeout=3.0, memory_mb=512, nproc=48, keep_bytes=4096)
+
+
+def _sandbox_processes() -> list[int]:
+    """Live (non-zombie) processes whose real uid is in the sandbox's uid range."""
+    out = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/status") as f:
+                    fields = dict(ln.split(":", 1) for ln in f if ":" in ln)
+            except OSError:
+                continue
+            uid = int(fields["Uid"].split()[0])
+            if UID_BASE <= uid < UID_BASE + UID_SPAN and not fields["State"].strip().startswith("Z"):
+                out.append(int(entry))
+    return out
+
+
+@pytest.fixture
+def world(tmp_path):
+    """A class folder (0755, so the sandbox's user id can read it), a scenes folder, a reference."""
+    root = tmp_path / "w"
+    for d in ("subs", "scenes", "report", "work", "outside"):
+        (root / d).mkdir(parents=True)
+    for p in (tmp_path, root, *root.iterdir()):
+        p.chmod(0o755)
+    (root / "scenes" / "s.txt").write_text("PerspectiveCamera { }\n")
+    write_image(root / "ref.png", np.full((4, 4, 3), 0.5))
+    np.save(root / "sigma.npy", np.zeros((4, 4, 3), dtype=np.float32))
+    return root
+
+
+def _student(world: Path, name: str, script: str) -> Path:
+    d = world / "subs" / name
+    d.mkdir()
+    d.chmod(0o755)
+    exe = d / "a5"
+    exe.write_text(script)
+    exe.chmod(0o755)
+    return d
+
+
+def _grade(world: Path, name: str, script: str, limits: Limits = LIMITS) -> dict:
+    sub = _student(world, name, script)
+    case = make_case("-input s.txt -size 4 4 -output out.png", points=10)
+    task = Task(name, str(sub), case, str(world / "scenes"), str(world / "ref.png"), str(world / "sigma.npy"),
+                str(world / "work"), str(world / "report"), limits)
+    t0 = time.perf_counter()
+    rec = grade_one(task)
+    rec["elapsed"] = time.perf_counter() - t0
+    assert not _sandbox_processes(), "a sandboxed process survived its run"
+    return rec
+
+
+PY = "#!/usr/bin/python3\n"
+
+
+def test_bubblewrap_is_used_here() -> None:
+    assert isolation() == "bwrap"  # make setup installs it; the guarantees below are the bwrap ones
+
+
+def test_writes_outside_its_folder_fail(world) -> None:
+    victim = world / "subs" / "victim"
+    victim.mkdir()
+    targets = [world / "outside" / "pwned", victim / "pwned", world / "scenes" / "pwned", world / "ref.png",
+               Path("/tmp") / f"pwned-{os.getpid()}", world / "report" / "pwned"]
+    script = PY + f"""import sys
+ok = []
+for t in {[str(t) for t in targets]!r}:
+    try:
+        with open(t, "w") as f:
+            f.write("x")
+        ok.append(t)
+    except OSError as exc:
+        print("refused", t, exc.strerror, file=sys.stderr)
+open("mine.txt", "w").write("inside is fine")
+print("WROTE", ok, file=sys.stderr)
+"""
+    before = (world / "ref.png").read_bytes()
+    rec = _grade(world, "writer", script)
+    assert rec["verdict"] == "no output"
+    assert "refused" in rec["stderr_tail"] and "WROTE []" in rec["stderr_tail"]
+    for t in targets[:3] + targets[4:]:
+        assert not t.exists(), t
+    assert (world / "ref.png").read_bytes() == before
+
+
+def test_socket_cannot_reach_the_host(world) -> None:
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(1)
+    server.settimeout(0.2)
+    port = server.getsockname()[1]
+    got: list[object] = []
+    graded = threading.Event()
+
+    def accept() -> None:
+        while not graded.is_set() and not got:
+            try:
+                got.append(server.accept())
+            except OSError:
+                pass
+
+    t = threading.Thread(target=accept)
+    t.start()
+    script = PY + f"""import socket, sys
+try:
+    socket.create_connection(("127.0.0.1", {port}), timeout=1)
+    print("CONNECTED", file=sys.stderr)
+except OSError as exc:
+    print("no network:", exc, file=sys.stderr)
+    sys.exit(3)
+"""
+    rec = _grade(world, "net", script)
+    graded.set()
+    t.join()
+    server.close()
+    assert rec["verdict"] == "crash" and rec["detail"] == "exit status 3"
+    assert "no network" in rec["stderr_tail"] and not got
+
+
+def test_fork_bomb_is_bounded_and_cleaned_up(world) -> None:
+    script = PY + """import os, sys
+n = 0
+while True:
+    try:
+        if os.fork() == 0:
+            n = 0
+        else:
+            n += 1
+    except OSError:
+        pass
+"""
+    rec = _grade(world, "forkbomb", script)
+    assert rec["verdict"] == "timeout" and rec["elapsed"] < LIMITS.timeout + 5
+
+
+def test_twenty_gigabytes_end_over_memory(world) -> None:
+    script = PY + "buf = bytearray(20 << 30)\nprint(len(buf))\n"
+    rec = _grade(world, "hog", script)
+    assert rec["verdict"] == "over memory" and rec["elapsed"] < 3
+    assert "MemoryError" in rec["stderr_tail"] and "512 MB" in rec["detail"]
+
+
+def test_sleep_forever_times_out(world) -> None:
+    rec = _grade(world, "sleeper", "#!/bin/sh\nsleep 100000 & sleep 100000\n")
+    assert rec["verdict"] == "timeout" and LIMITS.timeout <= rec["elapsed"] < LIMITS.timeout + 3
+
+
+def test_one_gigabyte_of_stdout_is_drained_not_kept(world) -> None:
+    script = PY + """import sys
+chunk = b"x" * (1 << 20)
+for _ in range(1024):
+    sys.stdout.buffer.write(chunk)
+sys.stderr.write("done printing\\n")
+"""
+    rec = _grade(world, "printer", script, Limits(timeout=20.0, memory_mb=512, keep_bytes=4096))
+    assert rec["verdict"] == "no output" and rec["stdout_bytes"] == 1 << 30
+    assert rec["stderr_tail"] == "done printing\n"
+
+
+def test_the_capped_reader_keeps_head_and_tail_only(tmp_path) -> None:
+    work = tmp_path / "w"
+    work.mkdir()
+    r = run_sandboxed(["/bin/sh", "-c", "seq 1 200000; seq 1 200000 >&2"], work, Limits(timeout=10, keep_bytes=64))
+    assert r.returncode == 0 and len(r.stdout_head) == 64 and r.stdout_head.startswith("1\n2\n3\n")
+    assert len(r.stderr_tail) == 64 and r.stderr_tail.endswith("199999\n200000\n")
+    assert r.stdout_bytes == r.stderr_bytes > 1_000_000
+
+
+def test_environment_is_scrubbed_and_the_pid_namespace_fresh(tmp_path, monkeypatch) -> None:
+    monkeypatch.setenv("SECRET_TOKEN", "hunter2")
+    work = tmp_path / "w"
+    work.mkdir()
+    r = run_sandboxed(["/bin/sh", "-c", "env; echo pid=$$; ls /proc | grep -c '^[0-9]'; ls /"], work, LIMITS)
+    assert "hunter2" not in r.stdout_head and f"HOME={work}" in r.stdout_head
+    assert "pid=2" in r.stdout_head  # bwrap's init is 1 in the fresh namespace
+    assert "root\n" not in r.stdout_head and "work\n" not in r.stdout_head.split("pid=")[1]
+
+
+def test_fallback_without_bubblewrap_still_bounds_and_cleans(monkeypatch) -> None:
+    """rlimits + own user id + process group: the fork bomb, the sleeper and the hog end in their verdicts."""
+    monkeypatch.setenv("A5MI_NO_BWRAP", "1")
+    assert isolation() == "rlimits"
+    base = Path(tempfile.mkdtemp(prefix="a5mi-fallback-", dir="/tmp"))
+    try:
+        base.chmod(0o755)
+        for d in ("subs", "scenes", "report", "work", "outside"):
+            (base / d).mkdir()
+            (base / d).chmod(0o755)
+        (base / "scenes" / "s.txt").write_text("x\n")
+        write_image(base / "ref.png", np.full((4, 4, 3), 0.5))
+        np.save(base / "sigma.npy", np.zeros((4, 4, 3), dtype=np.float32))
+        bomb = _grade(base, "bomb", "#!/bin/sh\nwhile :; do sleep 1000 & done\n")
+        assert bomb["verdict"] == "timeout" and bomb["isolation"] == "rlimits"
+        hog = _grade(base, "hog", PY + "bytearray(20 << 30)\n")
+        assert hog["verdict"] == "over memory"
+        outside = base / "outside" / "pwned"
+        writer = _grade(base, "writer", f"#!/bin/sh\necho x > {outside}; echo x > out.png\n")
+        assert not outside.exists() and writer["verdict"] == "unreadable"
+        assert stat.S_IMODE((base / "outside").stat().st_mode) == 0o755
+    finally:
+        import shutil
+
+        shutil.rmtree(base, ignore_errors=True)
