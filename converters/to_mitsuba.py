@@ -165,7 +165,12 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
                 d[key] = {"type": "instance", "shapegroup": {"type": "ref", "id": key + "_group"},
                           "to_world": shape.to_world}
         elif isinstance(shape, PlaneShape):
-            d[f"plane_{i:03d}"] = {"type": "rectangle", "to_world": shape.rectangle, "bsdf": bsdf}
+            if stock:  # plain Mitsuba has no infinite plane: the finite stand-in of .geometry
+                d[f"plane_{i:03d}"] = {"type": "rectangle", "to_world": shape.rectangle, "bsdf": bsdf}
+            else:      # exact: intersected analytically by a5_whitted (plugins/planes.py)
+                d["integrator"].update({f"plane_{i:03d}_normal": [float(x) for x in shape.n_w],
+                                        f"plane_{i:03d}_offset": float(shape.offset_w),
+                                        f"plane_{i:03d}_bsdf": bsdf})
         else:
             key = f"{'mesh' if shape.obj_file is not None else 'triangle'}_{i:03d}"
             d[key] = backend.mesh(key, shape, bsdf)
