@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import files
+from . import files, octree
 from . import transforms as tf
 from .errors import FileLoc, SceneSemanticError
 from .files import Image
@@ -169,12 +169,14 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
         check_placement(p)
     meshes: dict[str, ObjMesh] = {}  # each OBJ file read once, in order of first use
     obj_paths: dict[str, Path] = {}
+    reach: dict[str, np.ndarray] = {}  # the binary's octree rule per OBJ (object space, so once per file)
     for p in placed:
         prim = p.primitive
         if isinstance(prim, TriangleMesh) and prim.obj_file not in meshes:
             obj_paths[prim.obj_file], meshes[prim.obj_file] = files.load_mesh(scene, prim.obj_file,
                                                                                prim.obj_file_loc)
             warnings.extend(meshes[prim.obj_file].warnings)
+            reach[prim.obj_file] = octree.reach_masks(meshes[prim.obj_file].vertices, meshes[prim.obj_file].faces)
     centre = geometry_centre(placed, meshes)
 
     decoded: files.Decoded = {}  # each image file decoded once, even when several materials name it
@@ -212,7 +214,7 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
     for p in placed:
         prim, m = p.primitive, p.to_world
         if isinstance(prim, TriangleMesh):
-            data = mesh_from_obj(meshes[prim.obj_file], m, normals)
+            data = mesh_from_obj(meshes[prim.obj_file], m, normals, reach[prim.obj_file], p.transformed)
             use_material(prim.material, data.has_uv, prim)
             check_float32(prim, data.positions, 0.0 if data.normals is None else data.normals)
             shapes.append(MeshShape(data, prim.material, prim.loc, obj_paths[prim.obj_file]))

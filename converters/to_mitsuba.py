@@ -65,6 +65,10 @@ from .geometry import MeshData
 from .materials import rgb
 from .model import DirectionalLight
 
+#: Face attributes carrying :attr:`.geometry.MeshData.octree` (name -> its columns).
+OCTREE_ATTRIBUTES = {"face_a5_inv0": [0, 1, 2], "face_a5_inv1": [3, 4, 5], "face_a5_inv2": [6, 7, 8],
+                     "face_a5_octree": [9, 10, 11]}
+
 #: Size of the baked latitude-longitude environment in stock mode.
 ENVMAP_SIZE = (2048, 1024)
 
@@ -196,6 +200,9 @@ def make_mesh(name: str, data: MeshData, bsdf: Any = None) -> Any:
     if data.texcoords is not None:
         params["vertex_texcoords"] = mi.Float(np.ascontiguousarray(data.texcoords, dtype=np.float32).ravel())
     params.update()
+    if data.octree is not None:  # the binary's octree rule, read by a5_whitted (plugins/octree_rule.py)
+        for name, cols in OCTREE_ATTRIBUTES.items():
+            mesh.add_attribute(name, len(cols), np.ascontiguousarray(data.octree[:, cols]).ravel().tolist())
     return mesh
 
 

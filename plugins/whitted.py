@@ -14,6 +14,7 @@ import mitsuba as mi
 
 from a5mi.spec import FRESNEL_MODES, MIRROR_THRESHOLD, TMIN
 
+from . import octree_rule
 from .common import fresnel_weight, reflect, snell
 from .planes import PlaneSet, intersect_planes, plane_bsdf, plane_normal, plane_set, planes_from_props
 
@@ -104,9 +105,10 @@ def _trace(
         t_min = stack_t[top]
 
         # Mitsuba rays have no tmin: start at o + tmin d and add tmin back to t. Planes: analytic (SPEC A.6).
-        si = scene.ray_intersect(mi.Ray3f(o + t_min * d, d))
+        # Meshes: as the binary's octree sees them (plugins/octree_rule.py).
+        si, offset = octree_rule.intersect(scene, o, d, t_min, dr.full(mi.Bool, True, width))
         shape_hit = si.is_valid()
-        t_hit = dr.select(shape_hit, si.t + t_min, dr.inf)
+        t_hit = dr.select(shape_hit, si.t + offset, dr.inf)
         on_plane, t_hit, plane_idx = intersect_planes(planes, o, d, t_min, t_hit, dr.full(mi.Bool, True, width))
         hit = shape_hit | on_plane
         p = o + t_hit * d                                   # SPEC: p = o + t d
@@ -147,9 +149,7 @@ def _trace(
             d_light = ds.d                                   # SPEC L
             visible = mi.Bool(hit)                           # SPEC S
             if shadows:
-                # Ray3f(o, d, x) would read x as the ray's *time*: set maxt through the copy constructor.
-                shadow_ray = mi.Ray3f(mi.Ray3f(p + tmin * d_light, d_light), ds.dist - tmin)
-                visible &= ~scene.ray_test(shadow_ray, hit)
+                visible &= ~octree_rule.occluded(scene, p, d_light, tmin, ds.dist, hit)
                 # Planes block up to the light; a directional light (Infinite) is at FLT_MAX in the binary.
                 far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0
                 blocked, _, _ = intersect_planes(planes, p, d_light, tmin,
