@@ -16,7 +16,15 @@ from a5mi.spec import FRESNEL_MODES, MIRROR_THRESHOLD, TMIN
 
 from . import octree_rule
 from .common import fresnel_weight, reflect, snell
-from .planes import PlaneSet, intersect_planes, plane_bsdf, plane_normal, plane_set, planes_from_props
+from .planes import (
+    PlaneSet,
+    intersect_planes,
+    plane_bsdf,
+    plane_normal,
+    plane_raw_normal,
+    plane_set,
+    planes_from_props,
+)
 
 #: AOV groups of the ``aovs`` parameter (a5mi.options.AOV_GROUPS) and the channels each adds, in order:
 #: first-hit shading normal and distance (SPEC B.6), the ray-tree class (:data:`MISS`, :data:`OPAQUE`,
@@ -138,7 +146,8 @@ def _trace(
         shininess = mi.Float(0.0)
         if phong:
             shininess = bsdf.eval_attribute_1("shininess", si, a5)
-        r_view = reflect(d, n)
+        # The binary mirrors off a plane with its unnormalised normal (plugins/planes.py).
+        r_view = reflect(d, dr.select(on_plane, plane_raw_normal(planes, plane_idx, on_plane), n))
 
         # ---- local shading: ambient ⊙ diffuseColor + Σ S clamp(L·N) lightColor ⊙ kd
         local = ambient * diffuse_color
@@ -158,7 +167,7 @@ def _trace(
                 n_shadow += dr.select(hit, 1.0, 0.0)
             term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * kd
             if phong:
-                l_dot_r = dr.maximum(dr.dot(d_light, r_view), 0.0)
+                l_dot_r = dr.maximum(dr.dot(d_light, dr.normalize(r_view)), 0.0)
                 highlight = dr.select(shininess == 0.0, 1.0, dr.power(l_dot_r, shininess))
                 term += highlight * light_color * specular
             local += dr.select(visible, term, 0.0)

@@ -23,6 +23,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "fidelity": ("a5mi.cli.fidelity:FIDELITY", "re-render the reference images and print the fidelity table"),
     "crosscheck": ("a5mi.cli.crosscheck:CROSSCHECK", "a5 Whitted vs Mitsuba's path tracer on the same rays"),
     "bench": ("a5mi.cli.bench:BENCH", "time the stages (cold/warm), optionally against a5soln"),
+    "difftest": ("a5mi.cli.difftest:DIFFTEST", "random scenes rendered by a5mi and another a5 binary, compared"),
 }
 
 A5MI_USAGE = """\
