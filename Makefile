@@ -5,9 +5,18 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.a5mi-installed
 DEMO_FLAGS := -size 300 300 -shadows -bounces 4 -jitter -filter
 
-.PHONY: setup llvm demo test fuzz lint bench clean
+.PHONY: setup llvm sandbox demo test fuzz lint bench clean
 
-setup: llvm $(STAMP)
+setup: llvm sandbox $(STAMP)
+
+# `a5mi difftest` runs the other a5 binary inside bubblewrap (no network, read-only file system): install it
+# if missing (root with apt), else say how.
+sandbox:
+	@command -v bwrap >/dev/null || { \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq bubblewrap; \
+	  else echo "a5mi: warning: bubblewrap (bwrap) is not installed; a5mi difftest will run binaries unsandboxed" \
+	    "(apt-get install bubblewrap)" >&2; fi; }
 
 # Dr.Jit's llvm variant needs libLLVM >= 16 (Debian 12 ships 15 by default): check, install if root.
 llvm:

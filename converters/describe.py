@@ -112,7 +112,10 @@ class SphereShape:
 @dataclass(frozen=True, eq=False)
 class PlaneShape:
     """An infinite plane ``P·n_w = offset_w`` in world space (SPEC A.6; ``n_w`` not normalised) and the
-    ``rectangle`` standing in for it: the (4, 4) ``to_world`` of Mitsuba's ``rectangle`` (:mod:`.geometry`)."""
+    ``rectangle`` standing in for it: the (4, 4) ``to_world`` of Mitsuba's ``rectangle`` (:mod:`.geometry`).
+    ``mirror_normal``: the normal the binary mirrors rays with, ``n`` as written for a plane outside any
+    ``Transform``, else the normalised world normal (the binary's Transform normalises the normals it maps;
+    measured against a5soln, issue 12)."""
 
     n_w: np.ndarray
     offset_w: float
@@ -120,6 +123,7 @@ class PlaneShape:
     material: int
     loc: FileLoc
     has_uv: bool = False
+    mirror_normal: np.ndarray | None = None
 
 
 Shape = MeshShape | SphereShape | PlaneShape
@@ -234,7 +238,8 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
             n_w, off_w = world_plane(prim, m)
             rect = plane_rectangle_to_world(n_w, off_w, cam_c)
             check_float32(prim, rect)
-            shapes.append(PlaneShape(n_w, off_w, rect, prim.material, prim.loc))
+            mirror = n_w / np.linalg.norm(n_w) if p.transformed else n_w
+            shapes.append(PlaneShape(n_w, off_w, rect, prim.material, prim.loc, mirror_normal=mirror))
         elif isinstance(prim, Triangle):
             data = mesh_from_triangle(prim, m)
             check_float32(prim, data.positions)

@@ -172,8 +172,10 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
             if stock:  # plain Mitsuba has no infinite plane: the finite stand-in of .geometry
                 d[f"plane_{i:03d}"] = {"type": "rectangle", "to_world": shape.rectangle, "bsdf": bsdf}
             else:      # exact: intersected analytically by a5_whitted (plugins/planes.py)
+                mirror = shape.n_w if shape.mirror_normal is None else shape.mirror_normal
                 d["integrator"].update({f"plane_{i:03d}_normal": [float(x) for x in shape.n_w],
                                         f"plane_{i:03d}_offset": float(shape.offset_w),
+                                        f"plane_{i:03d}_mirror_normal": [float(x) for x in mirror],
                                         f"plane_{i:03d}_bsdf": bsdf})
         else:
             key = f"{'mesh' if shape.obj_file is not None else 'triangle'}_{i:03d}"

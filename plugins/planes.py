@@ -6,14 +6,16 @@ common id (any string; the converter writes ``plane_NNN``)::
     plane_<id>_normal  vector  n, not normalised            (the plane is P·n = offset)
     plane_<id>_offset  float   offset
     plane_<id>_bsdf    bsdf    the plane's material (a nested BSDF object)
+    plane_<id>_mirror_normal  vector  optional: the normal mirror rays reflect about (default n/|n|)
 
 SPEC A.6: ``t = (offset - n·o) / (n·d)`` with the unnormalised n, in float32 in the binary's order
 (``n·v = (n_x v_x + n_y v_y) + n_z v_z``); a plane is skipped only when ``n·d == 0`` exactly, and it is hit
 when ``tmin < t < t_current``. The shading normal is ``n/|n|`` (never flipped), so the ray tree's
-inside/outside test (``d·N > 0``) uses the plane's own normal as the binary does. The mirror ray, though,
-is ``d - 2 (d·n) n`` with n as written (measured against a5soln: ``normal 0 2 0`` mirrors differently from
-``normal 0 1 0``, 33.8 dB against identical), so its direction is not a unit vector after a plane whose
-normal is not. Plane data lives in
+inside/outside test (``d·N > 0``) uses the plane's own normal as the binary does. The mirror ray is
+``d - 2 (d·m) m`` with ``m`` = ``plane_<id>_mirror_normal``: the a5 converter passes n as written for a plane
+outside any Transform, because the binary mirrors with it (measured against a5soln: ``normal 0 2 0``
+mirrors differently from ``normal 0 1 0``, 33.8 dB against identical), so the mirror ray is not a unit
+vector after such a plane; the binary's Transform normalises the normals it maps. Plane data lives in
 device arrays gathered by index with an opaque count, so scenes with any number of planes share one
 compiled kernel.
 """
@@ -28,7 +30,7 @@ from typing import Any
 import drjit as dr
 import mitsuba as mi
 
-_KEY = re.compile(r"^plane_(.+)_(normal|offset|bsdf)$")
+_KEY = re.compile(r"^plane_(.+?)_(normal|offset|bsdf|mirror_normal)$")
 
 
 @dataclass
@@ -40,6 +42,9 @@ class PlaneSet:
     nz: mi.Float
     offset: mi.Float
     inv_len: mi.Float
+    mx: mi.Float
+    my: mi.Float
+    mz: mi.Float
     bsdf: mi.BSDFPtr
     count: mi.UInt32
     size: int
@@ -57,8 +62,11 @@ def _vec3(value: Any, key: str) -> tuple[float, float, float]:
     return out  # type: ignore[return-value]
 
 
-def planes_from_props(props: mi.Properties) -> list[tuple[str, tuple[float, float, float], float, Any]]:
-    """``[(id, normal, offset, bsdf), ...]`` from the ``plane_<id>_*`` parameters, sorted by id.
+Plane = tuple[str, tuple[float, float, float], float, Any, tuple[float, float, float]]
+
+
+def planes_from_props(props: mi.Properties) -> list[Plane]:
+    """``[(id, normal, offset, bsdf, mirror normal), ...]`` from the ``plane_<id>_*`` parameters, by id.
 
     Every plane needs all three parameters; a zero or non-finite normal or a non-finite offset is a
     ``ValueError`` naming the parameter."""
@@ -82,19 +90,24 @@ def planes_from_props(props: mi.Properties) -> list[tuple[str, tuple[float, floa
         bsdf = parts["bsdf"]
         if not isinstance(bsdf, mi.BSDF):
             raise ValueError(f"a5_whitted: 'plane_{pid}_bsdf' must be a BSDF, got {type(bsdf).__name__}")
-        out.append((pid, n, float(off), bsdf))
+        length = math.sqrt(sum(c * c for c in n))
+        mirror = _vec3(parts["mirror_normal"], f"plane_{pid}_mirror_normal") if "mirror_normal" in parts else \
+            tuple(c / length for c in n)
+        out.append((pid, n, float(off), bsdf, mirror))
     return out
 
 
-def plane_set(planes: list[tuple[str, tuple[float, float, float], float, Any]]) -> PlaneSet:
+def plane_set(planes: list[Plane]) -> PlaneSet:
     """Device arrays of ``planes`` (as from :func:`planes_from_props`); a dummy entry when there are none."""
     if not planes:
         z = mi.Float([0.0])
-        return PlaneSet(z, z, z, z, z, dr.zeros(mi.BSDFPtr, 1), dr.opaque(mi.UInt32, 0), 0)
+        return PlaneSet(z, z, z, z, z, z, z, z, dr.zeros(mi.BSDFPtr, 1), dr.opaque(mi.UInt32, 0), 0)
     cols = list(zip(*[p[1] for p in planes], strict=True))
     inv = [1.0 / math.sqrt(sum(c * c for c in p[1])) for p in planes]
     ptrs = mi.BSDFPtr([p[3] for p in planes])
-    arrays = [mi.Float(c) for c in cols] + [mi.Float([p[2] for p in planes]), mi.Float(inv)]
+    mirror = list(zip(*[p[4] for p in planes], strict=True))
+    arrays = [mi.Float(c) for c in cols] + [mi.Float([p[2] for p in planes]), mi.Float(inv)] + \
+        [mi.Float(c) for c in mirror]
     dr.eval(ptrs, *arrays)
     return PlaneSet(*arrays, ptrs, dr.opaque(mi.UInt32, len(planes)), len(planes))
 
@@ -136,11 +149,10 @@ def plane_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool) -> mi.Vector3f:
                        dr.gather(mi.Float, ps.nz, idx, active) * inv)
 
 
-def plane_raw_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool) -> mi.Vector3f:
-    """The normal of plane ``idx`` as written, unnormalised: the binary's mirror direction uses it
-    (``d - 2 (d·n) n``, measured: issue 12), while its shading uses ``n/|n|``."""
-    return mi.Vector3f(dr.gather(mi.Float, ps.nx, idx, active), dr.gather(mi.Float, ps.ny, idx, active),
-                       dr.gather(mi.Float, ps.nz, idx, active))
+def plane_mirror_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool) -> mi.Vector3f:
+    """The normal plane ``idx`` mirrors rays about (``plane_<id>_mirror_normal``, module docstring)."""
+    return mi.Vector3f(dr.gather(mi.Float, ps.mx, idx, active), dr.gather(mi.Float, ps.my, idx, active),
+                       dr.gather(mi.Float, ps.mz, idx, active))
 
 
 def plane_bsdf(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool) -> mi.BSDFPtr:

@@ -21,7 +21,7 @@ from .planes import (
     intersect_planes,
     plane_bsdf,
     plane_normal,
-    plane_raw_normal,
+    plane_mirror_normal,
     plane_set,
     planes_from_props,
 )
@@ -147,7 +147,7 @@ def _trace(
         if phong:
             shininess = bsdf.eval_attribute_1("shininess", si, a5)
         # The binary mirrors off a plane with its unnormalised normal (plugins/planes.py).
-        r_view = reflect(d, dr.select(on_plane, plane_raw_normal(planes, plane_idx, on_plane), n))
+        r_view = reflect(d, dr.select(on_plane, plane_mirror_normal(planes, plane_idx, on_plane), n))
 
         # ---- local shading: ambient ⊙ diffuseColor + Σ S clamp(L·N) lightColor ⊙ kd
         local = ambient * diffuse_color

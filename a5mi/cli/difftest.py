@@ -42,6 +42,11 @@ def run_difftest(args: Args, console: Console) -> int:
     if args.binary is None:
         raise UsageError("--binary PATH is required")
     binary = check_binary(args.binary)
+    from a5mi.difftest.runner import sandbox_prefix
+
+    if not sandbox_prefix(binary.parent):
+        console.note("a5mi difftest: warning: bubblewrap (bwrap) is not installed: the binary runs unsandboxed "
+                     "(in its own temporary folder, with the time limit)")
     if args.timeout <= 0:
         raise UsageError("--timeout must be positive")
     data = require_data_dir() / "scenes"

@@ -231,9 +231,10 @@ class _Gen:
             files = tuple(f for o in kids for f in o.files)
             return Obj(m, f"Group {{\n  numObjects 2\n{body}\n}}", files)
         text, files = self.primitive(m in textured)
-        if files:  # a mesh: its fitting transform, possibly after more
+        if files:  # a mesh: its fitting transform after a random placement (so copies never coincide)
+            place = f"Translate {v3([self.u(-1.5, 1.5) for _ in range(3)])}\n"
             ops = "\n".join(self.transform_ops()) + "\n" if self.r.random() < 0.5 else ""
-            text = f"Transform {{\n{ops}{text}\n}}"
+            text = f"Transform {{\n{place}{ops}{text}\n}}"
         elif self.r.random() < 0.5:
             ops = "\n".join(self.transform_ops())
             text = f"Transform {{\n{ops}\n{text}\n}}"
