@@ -20,8 +20,8 @@ from .planes import (
     PlaneSet,
     intersect_planes,
     plane_bsdf,
-    plane_normal,
     plane_mirror_normal,
+    plane_normal,
     plane_set,
     planes_from_props,
 )
