@@ -12,7 +12,8 @@ at ~100 x 100 pixels to about a second:
   (``refractionIndex`` 1.1-2.4), ``Noise`` marble or a ``texture`` (with the course's textured meshes);
 * 1-4 objects: spheres, planes at any orientation, triangles, the course meshes (cube, diamond, bunny_200,
   bunny_1k, vase, the last two a third as often; the textured c1-c3; each placed by a random ``Translate``),
-  a nested ``Group``, each possibly inside a ``Transform`` of ``Translate``, ``Scale``, ``UniformScale``, ``X/Y/ZRotate``, ``Rotate`` and ``Matrix4f`` (shears);
+  a nested ``Group``, each possibly inside a ``Transform`` of
+  ``Translate``, ``Scale``, ``UniformScale``, ``X/Y/ZRotate``, ``Rotate`` and ``Matrix4f`` (shears);
 * flags: ``-shadows`` (70%), ``-bounces 0..8``, ``-jitter`` (20%), ``-filter`` (30%).
 
 The binary asserts on non-square images, so sizes are square.
