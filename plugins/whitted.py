@@ -146,7 +146,7 @@ def _trace(
         shininess = mi.Float(0.0)
         if phong:
             shininess = bsdf.eval_attribute_1("shininess", si, a5)
-        # The binary mirrors off a plane with its unnormalised normal (plugins/planes.py).
+        # The binary mirrors (and refracts) off a plane with its normal as written (plugins/planes.py).
         r_view = reflect(d, dr.select(on_plane, plane_mirror_normal(planes, plane_idx, on_plane), n))
 
         # ---- local shading: ambient ⊙ diffuseColor + Σ S clamp(L·N) lightColor ⊙ kd
@@ -188,8 +188,10 @@ def _trace(
         nt = mi.Float(n_medium)
         if refraction:
             refractive = go & (ior > 0.0)
-            leaving = dr.dot(d, n) > 0.0
-            n_facing = dr.select(leaving, -n, n)
+            # Planes refract about the binary's normal too (as written outside a Transform; measured).
+            n_r = dr.select(on_plane, plane_mirror_normal(planes, plane_idx, on_plane), n)
+            leaving = dr.dot(d, n_r) > 0.0
+            n_facing = dr.select(leaving, -n_r, n_r)
             nt = dr.select(leaving, 1.0, ior)
             t_dir, exists = snell(d, n_facing, n_medium, nt)
             push_refr = refractive & exists
