@@ -10,16 +10,14 @@ common id (any string; the converter writes ``plane_NNN``)::
 
 SPEC A.6: ``t = (offset - n·o) / (n·d)`` with the unnormalised n, in float32 in the binary's order
 (``n·v = (n_x v_x + n_y v_y) + n_z v_z``); a plane is skipped only when ``n·d == 0`` exactly, and it is hit
-when ``tmin < t < t_current``. The shading normal is ``n/|n|`` (never flipped), so the ray tree's
-Lambert term uses it. The mirror ray is
-``d - 2 (d·m) m`` with ``m`` = ``plane_<id>_mirror_normal``: the a5 converter passes n as written for a plane
-outside any Transform, because the binary mirrors with it (measured against a5soln: ``normal 0 2 0``
-mirrors differently from ``normal 0 1 0``, 33.8 dB against identical), so the mirror ray is not a unit
-vector after such a plane; the binary's Transform normalises the normals it maps. Refraction (inside/outside
-test, Snell, Schlick) uses the same normal: a glass ``normal 0 2 0`` plane then renders identically to a5soln
-(31.0 dB with the unit normal). Plane data lives in
-device arrays gathered by index with an opaque count, so scenes with any number of planes share one
-compiled kernel.
+when ``tmin < t < t_current``. The shading normal (the Lambert term) is ``n/|n|``, never flipped. The mirror
+ray is ``d - 2 (d·m) m`` with ``m`` = ``plane_<id>_mirror_normal``, and the refraction (inside/outside test
+``d·m > 0``, Snell, Schlick) uses ``m`` too: the a5 converter passes n as written for a plane outside any
+Transform, because the binary mirrors and refracts with it (measured against a5soln: a mirror
+``normal 0 2 0`` plane, 33.8 dB with the unit normal, a glass one 31.0 dB; both identical with n as
+written), so the mirror ray is not a unit vector after such a plane; the binary's Transform normalises the
+normals it maps, so transformed planes get ``n_w/|n_w|``. Plane data lives in device arrays gathered by
+index with an opaque count, so scenes with any number of planes share one compiled kernel.
 """
 
 from __future__ import annotations
