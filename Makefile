@@ -9,14 +9,15 @@ DEMO_FLAGS := -size 300 300 -shadows -bounces 4 -jitter -filter
 
 setup: llvm tools $(STAMP)
 
-# a5mi grade's sandbox (bubblewrap) and the report's headless-browser test (chromium): install if root.
+# a5mi grade's and a5mi difftest's sandbox (bubblewrap) and the report's headless-browser test (chromium):
+# install if root.
 APT_TOOLS := bwrap:bubblewrap chromium:chromium
 tools:
 	@missing=""; for t in $(APT_TOOLS); do command -v $${t%%:*} >/dev/null || missing="$$missing $${t#*:}"; done; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
-	  else echo "a5mi: note: apt-get install$$missing (sandbox for a5mi grade, report test)" >&2; fi; fi
+	  else echo "a5mi: note: apt-get install$$missing (sandbox for a5mi grade and difftest, report test)" >&2; fi; fi
 
 # Dr.Jit's llvm variant needs libLLVM >= 16 (Debian 12 ships 15 by default): check, install if root.
 llvm:

@@ -1,8 +1,10 @@
 """Regression against the sample solution's renders in ``reference/`` (issue 6, SPEC C).
 
-Per image: PSNR >= 50 dB and at most 0.5% of pixels off by more than 2/255. These are floors: SPEC C reports a
-throwaway implementation of the same SPEC at 53-92 dB. The measured figures are in the README's table
-(``a5mi fidelity`` regenerates it).
+Per image: PSNR >= 60 dB and fewer than 0.1% of pixels off by more than 2/255 (issue 12, with planes intersected
+exactly), except ``scene06_bunny_1k.b4`` at 58 dB: its 5 differing pixels (of 90,000) are mirror rays that graze
+the smooth bunny, where Mitsuba's and the binary's triangle tests differ in the last bits; one of them re-hits
+its own triangle at t = 0.00106, 6e-5 above tmin, and turned from a match into a miss when the plane became exact
+(59.2 dB with the 1e7 stand-in). The measured figures are in the README's table (``a5mi fidelity`` regenerates it).
 """
 
 from __future__ import annotations
@@ -12,8 +14,10 @@ import pytest
 from a5mi.compare import read_levels
 from a5mi.fidelity import cases, measure
 
-PSNR_FLOOR = 50.0
-SHARE_CEILING = 0.005
+PSNR_FLOOR = 60.0
+SHARE_CEILING = 0.001
+#: Measured exceptions to PSNR_FLOOR (module docstring).
+PSNR_FLOORS = {"scene06_bunny_1k.b4": 58.0}
 
 CASES = list(cases())  # empty without the data: test_reference_set_is_complete then fails
 
@@ -30,12 +34,13 @@ def test_reference_set_is_complete(a5_data) -> None:
 @pytest.mark.parametrize("case", CASES, ids=str)
 def test_matches_sample_solution(case, variant, tmp_path) -> None:
     m, ours, ref = measure(case)
-    if m.psnr < PSNR_FLOOR or m.share_over > SHARE_CEILING:
+    floor = PSNR_FLOORS.get(str(case), PSNR_FLOOR)
+    if m.psnr < floor or m.share_over >= SHARE_CEILING:
         from a5mi.compare import write_diff
 
         write_diff(ours, ref, m, tmp_path / f"{case}.diff.png", ("a5mi", "a5soln"))
-    assert m.psnr >= PSNR_FLOOR, f"{case}: {m.summary()} (diff in {tmp_path})"
-    assert m.share_over <= SHARE_CEILING, f"{case}: {m.summary()} (diff in {tmp_path})"
+    assert m.psnr >= floor, f"{case}: {m.summary()} (diff in {tmp_path})"
+    assert m.share_over < SHARE_CEILING, f"{case}: {m.summary()} (diff in {tmp_path})"
 
 
 @pytest.mark.slow

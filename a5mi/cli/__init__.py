@@ -26,6 +26,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "grade": ("a5mi.cli.grade:GRADE", "grade a class's ray tracers: sandboxed, on Dask, HTML/CSV/JSON report"),
     "render-xml": ("a5mi.cli.render_xml:RENDER_XML", "render any Mitsuba XML with the a5mi plugins registered"),
     "completion": ("a5mi.cli.completion:COMPLETION", "print a bash/zsh completion script"),
+    "difftest": ("a5mi.cli.difftest:DIFFTEST", "random scenes rendered by a5mi and another a5 binary, compared"),
 }
 
 A5MI_USAGE = """\

@@ -1,0 +1,70 @@
+"""``a5mi difftest --binary PATH [--count N] [--seed S] [--size N] [--threshold DB] [--out DIR] [--json F]``.
+
+Differential testing of a5mi against another executable with the a5 command line (:mod:`a5mi.difftest`):
+prints one table row per scene as it is done, then the summary; failures are minimised and written to
+``--out``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from a5mi.cli.app import Command, Console, activate_variant
+from a5mi.cli.flags import Args, Flag, integer, real, text
+from a5mi.errors import UsageError
+
+FLAGS: tuple[Flag, ...] = (
+    Flag(("--binary", "-binary"), "binary", "the other renderer: an executable with the a5 command line "
+         "(a5soln, a student's a5); run sandboxed in a temporary folder", 1, text, metavar="PATH"),
+    Flag(("--count", "-count"), "count", "number of random scenes", 1, integer(1, 100_000), 20, "N"),
+    Flag(("--seed", "-seed"), "seed", "series of scenes (scene i of seed s is always the same)", 1,
+         integer(0, 2**31 - 1), 0, "S"),
+    Flag(("--start",), "start", "first scene index", 1, integer(0, 10**9), 0, "I"),
+    Flag(("--size", "-size"), "size", "square image size (each scene draws size-10 .. size+10)", 1,
+         integer(16, 1000), 100, "N"),
+    Flag(("--threshold",), "threshold", "PSNR (dB) below which a scene fails and is minimised", 1, real, 50.0,
+         "DB"),
+    Flag(("--timeout",), "timeout", "seconds one run of the binary may take", 1, real, 60.0, "S"),
+    Flag(("--budget",), "budget", "comparisons the minimiser may spend per failing scene", 1,
+         integer(1, 10_000), 80, "N"),
+    Flag(("--out", "-o"), "out", "folder for failing scenes and their minimised reproducers", 1, text,
+         metavar="DIR"),
+    Flag(("--json",), "json", "also write the whole report as JSON to FILE", 1, text, metavar="FILE"),
+)
+
+
+def run_difftest(args: Args, console: Console) -> int:
+    from a5mi import require_data_dir
+    from a5mi.difftest import campaign
+    from a5mi.difftest.runner import check_binary
+    from a5mi.imageio import atomic_file
+
+    if args.binary is None:
+        raise UsageError("--binary PATH is required")
+    binary = check_binary(args.binary)
+    from a5mi.difftest.runner import sandbox_prefix
+
+    if not sandbox_prefix(binary.parent):
+        console.note("a5mi difftest: warning: bubblewrap (bwrap) is not installed: the binary runs unsandboxed "
+                     "(in its own temporary folder, with the time limit)")
+    if args.timeout <= 0:
+        raise UsageError("--timeout must be positive")
+    data = require_data_dir() / "scenes"
+    activate_variant(None)
+    console.result(campaign.TABLE_HEAD)
+    rows = campaign.run_campaign(
+        binary, data, count=args.count, seed=args.seed, size=args.size, threshold=args.threshold,
+        timeout=args.timeout, out_dir=Path(args.out) if args.out else None, minimise_budget=args.budget,
+        start=args.start, on_row=lambda r: console.result(campaign.table_line(r)))
+    s = campaign.summary(rows, args.threshold)
+    console.result(f"\n{s['scenes']} scenes (seed {args.seed}): median PSNR {s['median_psnr']:.1f} dB, "
+                   f"{100 * s['share_at_least_50']:.1f}% at >= 50 dB, {s['identical']} identical, "
+                   f"{s['failed_runs']} failed runs")
+    if args.json:
+        with atomic_file(args.json, "w") as f:
+            f.write(campaign.report_json(rows, args.threshold, args.seed))
+    return 0
+
+
+DIFFTEST = Command("difftest", "Differential testing against another a5 executable on seeded random scenes.",
+                   FLAGS, run_difftest)
