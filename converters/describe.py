@@ -1,7 +1,7 @@
 """The scene description: a parsed scene with every file read and every world-space quantity computed, once.
 
 :func:`describe` turns the typed model (:mod:`.model`, SPEC A.1-A.6) into a :class:`SceneDescription`:
-paths resolved and files checked (:mod:`.files`: OBJ meshes, textures of materials used on shapes with uv,
+paths resolved and files checked (:mod:`.files`: OBJ meshes, the textures of every material a shape uses,
 the six cube-map faces), each image decoded once (its pixels travel in the description), geometry in world
 space (:mod:`.geometry`), and the conversion warnings. It never imports Mitsuba, so the command line reports
 a bad file as ``FILE:LINE:COL: error`` before the JIT starts; :func:`.to_mitsuba.to_dict` and
@@ -9,7 +9,8 @@ a bad file as ``FILE:LINE:COL: error`` before the JIT starts; :func:`.to_mitsuba
 
 Materials (A.5, B.3): the Lambert colour ``kd`` is the ``Noise`` (marble, B.4), else the ``texture`` on
 shapes with uv, else the diffuse colour: SPEC B.3's "texture(uv) only if the hit has uv". A textured
-material's image is read only when a shape with uv uses it (the others never look it up). ``bump`` is parsed
+material's image is read (and a missing or unreadable one is an error at its ``texture`` keyword) whenever a
+shape uses the material; on a shape without uv it cannot show, which is a warning at the shape. ``bump`` is parsed
 and ignored. The ambient term is ``Background.ambientLight``, (1,1,1) without lights (A.1).
 """
 
@@ -20,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import files
+from . import files, octree
 from . import transforms as tf
 from .errors import FileLoc, SceneSemanticError
 from .files import Image
@@ -168,12 +169,14 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
         check_placement(p)
     meshes: dict[str, ObjMesh] = {}  # each OBJ file read once, in order of first use
     obj_paths: dict[str, Path] = {}
+    reach: dict[str, np.ndarray] = {}  # the binary's octree rule per OBJ (object space, so once per file)
     for p in placed:
         prim = p.primitive
         if isinstance(prim, TriangleMesh) and prim.obj_file not in meshes:
             obj_paths[prim.obj_file], meshes[prim.obj_file] = files.load_mesh(scene, prim.obj_file,
                                                                                prim.obj_file_loc)
             warnings.extend(meshes[prim.obj_file].warnings)
+            reach[prim.obj_file] = octree.reach_masks(meshes[prim.obj_file].vertices, meshes[prim.obj_file].faces)
     centre = geometry_centre(placed, meshes)
 
     decoded: files.Decoded = {}  # each image file decoded once, even when several materials name it
@@ -189,27 +192,34 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
     used: set[int] = set()
     textures: dict[int, Image] = {}
 
-    def use_material(index: int, with_uv: bool) -> None:
+    def use_material(index: int, with_uv: bool, shape: object) -> None:
         mat = scene.materials[index]
         if index not in used:
             used.add(index)
             if stock and mat.noise is not None:
                 warnings.append((mat.noise.loc or mat.loc,  # type: ignore[arg-type]
                                  "stock conversion: Noise (marble) replaced by its mean colour"))
-        if with_uv and mat.noise is None and mat.texture is not None and index not in textures:
-            textures[index] = files.texture_image(scene, mat, decoded)
+        if mat.texture is None:
+            return
+        # A referenced file is checked wherever it is used, shown or not (issue 12).
+        image = files.texture_image(scene, mat, decoded)
+        if mat.noise is None:
+            textures.setdefault(index, image)
+            if not with_uv:
+                warnings.append((shape.loc, f"texture '{mat.texture}' cannot show on this "  # type: ignore[attr-defined]
+                                 f"{type(shape).__name__}: it has no texture coordinates (SPEC B.3)"))
 
     cam_c = np.asarray(scene.camera.center, dtype=np.float64)
     shapes: list[Shape] = []
     for p in placed:
         prim, m = p.primitive, p.to_world
         if isinstance(prim, TriangleMesh):
-            data = mesh_from_obj(meshes[prim.obj_file], m, normals)
-            use_material(prim.material, data.has_uv)
+            data = mesh_from_obj(meshes[prim.obj_file], m, normals, reach[prim.obj_file], p.transformed)
+            use_material(prim.material, data.has_uv, prim)
             check_float32(prim, data.positions, 0.0 if data.normals is None else data.normals)
             shapes.append(MeshShape(data, prim.material, prim.loc, obj_paths[prim.obj_file]))
             continue
-        use_material(prim.material, False)
+        use_material(prim.material, False, prim)
         if isinstance(prim, Sphere):
             scale = tf.similarity_scale(m)
             if scale is not None:

@@ -13,14 +13,15 @@
   ends instance it).
 * **Triangles**: a one-face mesh, as flat meshes above.
 * **Planes** (infinite in the assignment: ``P·n = offset``, n not normalised): the world plane is
-  ``π_w = M⁻ᵀ (n, −offset)`` (:func:`world_plane`); it becomes a rectangle of half-size
-  :data:`PLANE_HALF_SIZE` = 1e7 scene units (:func:`plane_rectangle_to_world`), centred on the foot of the
-  perpendicular from the camera centre, with its frame's z axis along the plane's unit normal (the a5 shading
-  normal). A camera ray misses it only when it would hit the infinite plane at t > 1e7, i.e. within
-  ``h/1e7`` radians of the horizon for a camera at height h, far below one pixel (scene10's last plane row is
-  hit at t ≈ 16,000: tests/test_to_mitsuba.py checks that every B.2 pixel ray hits the rectangle exactly when
-  it hits the plane, for every shipped scene with a plane). The plane keeps only its z extent in float32, so
-  the hit distance is as precise as an analytic plane.
+  ``π_w = M⁻ᵀ (n, −offset)`` (:func:`world_plane`). a5 renders intersect it exactly, analytically, inside
+  ``a5_whitted`` (``plugins/planes.py``): no geometry stands in for it. Plain Mitsuba (``--stock``) needs a
+  finite stand-in: a ``rectangle`` of half-size :data:`PLANE_HALF_SIZE` = 4096 scene units
+  (:func:`plane_rectangle_to_world`), centred on the foot of the perpendicular from the camera centre, with
+  its frame's z axis along the plane's unit normal. Mitsuba inverts its ``to_world`` in float32, so the hit
+  point's error grows with the half-size (measured on a plane tilted by 0.05: 1.3e-2 at 1e7, 2.8e-5 at 1e4,
+  3e-6 at 1e3); at 4096 it stays below 1e-5 = tmin/100 (tests/test_to_mitsuba.py). What it cannot do: a
+  camera ray that would meet the infinite plane more than ~4096 units away misses the stand-in, i.e. the
+  last rows below the horizon (scene10's farthest plane row is hit at t ≈ 16,000) show the background.
 
 Every world-space number handed to Mitsuba (float32) must be finite there (:func:`check_float32`).
 """
@@ -38,8 +39,8 @@ from .errors import SceneSemanticError
 from .model import Placed, Plane, Sphere, Triangle
 from .obj import FLOAT32_MAX, NormalMode, ObjMesh, vertex_normals
 
-#: Half-size of the rectangle standing in for an infinite plane (scene units); see the module docstring.
-PLANE_HALF_SIZE = 1.0e7
+#: Half-size of the ``--stock`` rectangle standing in for an infinite plane (scene units; module docstring).
+PLANE_HALF_SIZE = 4096.0
 
 
 def _frozen(a: np.ndarray | None) -> Any:
@@ -57,9 +58,13 @@ class MeshData:
     faces: np.ndarray
     normals: np.ndarray | None = None
     texcoords: np.ndarray | None = None
+    #: (F, 12) float32 per face for the binary's octree rule (:mod:`.octree`): the rows of the world-to-object
+    #: matrix A = M⁻¹ (upper 3x3, 9 numbers), the two reach-mask words, and 1.0 if some ``Transform``
+    #: encloses the mesh, else 0.0. None for a ``Triangle`` (the binary tests it exactly).
+    octree: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        for a in (self.positions, self.faces, self.normals, self.texcoords):
+        for a in (self.positions, self.faces, self.normals, self.texcoords, self.octree):
             _frozen(a)
 
     @property
@@ -73,8 +78,19 @@ def _face_normals_flip(faces: np.ndarray, m: np.ndarray) -> np.ndarray:
     return faces[:, ::-1].copy() if np.linalg.det(m[:3, :3]) < 0 else faces
 
 
-def mesh_from_obj(obj: ObjMesh, m: np.ndarray, normals: NormalMode = "auto") -> MeshData:
-    """World-space :class:`MeshData` for an OBJ placed with ``M`` (module docstring: normals, winding, uv)."""
+def octree_rows(reach: np.ndarray, m: np.ndarray, transformed: bool) -> np.ndarray:
+    """The (F, 12) :attr:`MeshData.octree` rows for an OBJ with per-face reach masks ``reach`` (F, 2) placed
+    with ``M`` (``transformed``: inside some ``Transform``)."""
+    a = np.linalg.inv(m[:3, :3]).astype(np.float32).ravel()
+    out = np.empty((len(reach), 12), dtype=np.float32)
+    out[:, :9], out[:, 9:11], out[:, 11] = a, reach, 1.0 if transformed else 0.0
+    return out
+
+
+def mesh_from_obj(obj: ObjMesh, m: np.ndarray, normals: NormalMode = "auto",
+                  reach: np.ndarray | None = None, transformed: bool = True) -> MeshData:
+    """World-space :class:`MeshData` for an OBJ placed with ``M`` (module docstring: normals, winding, uv);
+    ``reach``: the OBJ's :func:`.octree.reach_masks` (face order is kept), for :attr:`MeshData.octree`."""
     vn = vertex_normals(obj.vertices, obj.faces, normals)
     faces = obj.faces
     positions = obj.vertices
@@ -97,7 +113,8 @@ def mesh_from_obj(obj: ObjMesh, m: np.ndarray, normals: NormalMode = "auto") -> 
         world_n = vn @ tf.normal_matrix(m).T  # A n, deliberately not renormalised
     else:
         faces = _face_normals_flip(faces, m)
-    return MeshData(world, faces.astype(np.uint32), world_n, texcoords)
+    rows = None if reach is None else octree_rows(reach, m, transformed)
+    return MeshData(world, faces.astype(np.uint32), world_n, texcoords, rows)
 
 
 def mesh_from_triangle(tri: Triangle, m: np.ndarray) -> MeshData:

@@ -185,22 +185,25 @@ Node = Group | Transform | Sphere | Plane | Triangle | TriangleMesh
 
 @dataclass(frozen=True, eq=False)
 class Placed:
-    """A primitive with its object-to-world matrix (the product of the enclosing ``Transform`` matrices)."""
+    """A primitive with its object-to-world matrix (the product of the enclosing ``Transform`` matrices);
+    ``transformed``: some ``Transform`` encloses it (even one whose matrix is the identity: the binary then
+    still maps its rays, which matters for signed zeros, :mod:`.octree`)."""
 
     primitive: Primitive
     to_world: np.ndarray
+    transformed: bool = False
 
 
-def iter_placed(obj: Node, to_world: np.ndarray | None = None) -> Iterator[Placed]:
+def iter_placed(obj: Node, to_world: np.ndarray | None = None, transformed: bool = False) -> Iterator[Placed]:
     """Depth-first, file-order walk: ``to_world = M_outer @ ... @ M_inner`` (SPEC A.6)."""
     m = np.eye(4) if to_world is None else to_world
     if isinstance(obj, Group):
         for child in obj.children:
-            yield from iter_placed(child, m)
+            yield from iter_placed(child, m, transformed)
     elif isinstance(obj, Transform):
-        yield from iter_placed(obj.child, m @ obj.matrix_array)
+        yield from iter_placed(obj.child, m @ obj.matrix_array, True)
     else:
-        yield Placed(obj, m)
+        yield Placed(obj, m, transformed)
 
 
 # -------------------------------------------------------------------------------------------------------- scene

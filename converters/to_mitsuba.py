@@ -67,6 +67,10 @@ from .geometry import MeshData
 from .materials import rgb
 from .model import DirectionalLight
 
+#: Face attributes carrying :attr:`.geometry.MeshData.octree` (name -> its columns).
+OCTREE_ATTRIBUTES = {"face_a5_inv0": [0, 1, 2], "face_a5_inv1": [3, 4, 5], "face_a5_inv2": [6, 7, 8],
+                     "face_a5_octree": [9, 10, 11]}
+
 #: Size of the baked latitude-longitude environment in stock mode.
 ENVMAP_SIZE = (2048, 1024)
 
@@ -167,7 +171,12 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
                 d[key] = {"type": "instance", "shapegroup": {"type": "ref", "id": key + "_group"},
                           "to_world": shape.to_world}
         elif isinstance(shape, PlaneShape):
-            d[f"plane_{i:03d}"] = {"type": "rectangle", "to_world": shape.rectangle, "bsdf": bsdf}
+            if stock:  # plain Mitsuba has no infinite plane: the finite stand-in of .geometry
+                d[f"plane_{i:03d}"] = {"type": "rectangle", "to_world": shape.rectangle, "bsdf": bsdf}
+            else:      # exact: intersected analytically by a5_whitted (plugins/planes.py)
+                d["integrator"].update({f"plane_{i:03d}_normal": [float(x) for x in shape.n_w],
+                                        f"plane_{i:03d}_offset": float(shape.offset_w),
+                                        f"plane_{i:03d}_bsdf": bsdf})
         else:
             key = f"{'mesh' if shape.obj_file is not None else 'triangle'}_{i:03d}"
             d[key] = backend.mesh(key, shape, bsdf)
@@ -193,6 +202,9 @@ def make_mesh(name: str, data: MeshData, bsdf: Any = None) -> Any:
     if data.texcoords is not None:
         params["vertex_texcoords"] = mi.Float(np.ascontiguousarray(data.texcoords, dtype=np.float32).ravel())
     params.update()
+    if data.octree is not None:  # the binary's octree rule, read by a5_whitted (plugins/octree_rule.py)
+        for name, cols in OCTREE_ATTRIBUTES.items():
+            mesh.add_attribute(name, len(cols), np.ascontiguousarray(data.octree[:, cols]).ravel().tolist())
     return mesh
 
 

@@ -14,7 +14,9 @@ import mitsuba as mi
 
 from a5mi.spec import FRESNEL_MODES, MIRROR_THRESHOLD, TMIN
 
+from . import octree_rule
 from .common import fresnel_weight, reflect, snell
+from .planes import PlaneSet, intersect_planes, plane_bsdf, plane_normal, plane_set, planes_from_props
 
 #: AOV groups of the ``aovs`` parameter (a5mi.options.AOV_GROUPS) and the channels each adds, in order:
 #: first-hit shading normal and distance (SPEC B.6), the ray-tree class (:data:`MISS`, :data:`OPAQUE`,
@@ -49,6 +51,7 @@ def _trace(
     tmin: mi.Float,
     lights: mi.EmitterPtr,
     n_lights: mi.UInt32,
+    planes: PlaneSet,
     size: int,
     shadows: bool,
     phong: bool,
@@ -101,13 +104,22 @@ def _trace(
         n_medium = stack_n[top]
         t_min = stack_t[top]
 
-        # Mitsuba rays have no tmin: start at o + tmin d and add tmin back to t.
-        si = scene.ray_intersect(mi.Ray3f(o + t_min * d, d))
-        hit = si.is_valid()
-        t_hit = si.t + t_min
+        # Mitsuba rays have no tmin: start at o + tmin d and add tmin back to t. Planes: analytic (SPEC A.6).
+        # Meshes: as the binary's octree sees them (plugins/octree_rule.py).
+        si, offset = octree_rule.intersect(scene, o, d, t_min, dr.full(mi.Bool, True, width))
+        shape_hit = si.is_valid()
+        t_hit = dr.select(shape_hit, si.t + offset, dr.inf)
+        on_plane, t_hit, plane_idx = intersect_planes(planes, o, d, t_min, t_hit, dr.full(mi.Bool, True, width))
+        hit = shape_hit | on_plane
         p = o + t_hit * d                                   # SPEC: p = o + t d
-        n = mi.Vector3f(si.sh_frame.n)                      # SPEC N: not flipped toward the viewer
+        n = dr.select(on_plane, plane_normal(planes, plane_idx, on_plane),
+                      mi.Vector3f(si.sh_frame.n))           # SPEC N: not flipped toward the viewer
         si.p = dr.select(hit, p, si.p)
+        si.t = dr.select(hit, t_hit, si.t)
+        si.n = dr.select(on_plane, n, si.n)
+        si.sh_frame = dr.select(on_plane, mi.Frame3f(n), si.sh_frame)
+        si.uv = dr.select(on_plane, mi.Point2f(0.0), si.uv)
+        si.wi = dr.select(on_plane, si.sh_frame.to_local(-d), si.wi)
 
         # ---- miss: the background for this ray's direction (camera and secondary rays alike)
         background = dr.zeros(mi.Color3f, width)
@@ -117,7 +129,7 @@ def _trace(
             background = mi.Color3f(env.eval(si_env, ~hit))
 
         # ---- the material, through the vcall-able BSDF attribute interface
-        bsdf = si.bsdf()
+        bsdf = dr.select(on_plane, plane_bsdf(planes, plane_idx, on_plane), si.bsdf())
         a5 = bsdf.has_attribute("diffuse_color", hit) & hit
         kd = mi.Color3f(bsdf.eval_diffuse_reflectance(si, hit))
         diffuse_color = dr.select(a5, bsdf.eval_attribute_3("diffuse_color", si, a5), kd)
@@ -137,9 +149,12 @@ def _trace(
             d_light = ds.d                                   # SPEC L
             visible = mi.Bool(hit)                           # SPEC S
             if shadows:
-                # Ray3f(o, d, x) would read x as the ray's *time*: set maxt through the copy constructor.
-                shadow_ray = mi.Ray3f(mi.Ray3f(p + tmin * d_light, d_light), ds.dist - tmin)
-                visible &= ~scene.ray_test(shadow_ray, hit)
+                visible &= ~octree_rule.occluded(scene, p, d_light, tmin, ds.dist, hit)
+                # Planes block up to the light; a directional light (Infinite) is at FLT_MAX in the binary.
+                far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0
+                blocked, _, _ = intersect_planes(planes, p, d_light, tmin,
+                                                 dr.select(far, dr.inf, ds.dist), visible)
+                visible &= ~blocked
                 n_shadow += dr.select(hit, 1.0, 0.0)
             term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * kd
             if phong:
@@ -280,6 +295,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         if groups is None or any(g not in AOV_CHANNELS for g in groups):
             raise ValueError(f"a5_whitted: 'aovs' must list groups of {', '.join(AOV_CHANNELS)}, got {aovs!r}")
         self.aovs = tuple(g for g in AOV_CHANNELS if g in groups)
+        self.planes = planes_from_props(props)
+        self._planes = plane_set(self.planes)
 
     # ------------------------------------------------------------------ Mitsuba interface
 
@@ -308,7 +325,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         return _trace(
             scene, o, d, dr.full(mi.Bool, True, width) & active,
             dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, self.ambient),
-            dr.opaque(mi.Float, self.tmin), lights, n_lights,
+            dr.opaque(mi.Float, self.tmin), lights, n_lights, self._planes,
             stack_size(self.max_depth), self.shadows, self.phong, self.fresnel,
             self.reflection, self.refraction,
         )

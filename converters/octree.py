@@ -1,0 +1,204 @@
+"""The sample solution's mesh octree, and which triangles it reaches for rays with a zero direction component.
+
+``a5soln`` intersects a ``TriangleMesh`` through an octree (Revelles et al.'s parametric traversal; the
+course's ``octree.cpp``): built on the object-space vertices (float32), a node splits into 8 when it holds
+more than 7 triangles and its level is at most 8; a triangle goes into every child whose box its bounding
+box touches (closed intervals). The traversal normalises the object-space direction, mirrors every axis
+with ``d_k < 0`` and computes ``t_k0 = (mn_k - o_k) / d_k``, ``t_k1 = (mx_k - o_k) / d_k`` (``1/d_k`` first).
+For every ray whose direction has no zero component it visits every leaf the ray crosses, so the result is
+the exact nearest hit. A zero component breaks it (measured against the binary, SPEC A.6 / issue 12):
+
+* ``d_k = -0.0`` (not mirrored, ``1/d_k = -inf``) makes the root slab test fail: **the mesh is invisible**
+  to that ray. Only an untransformed mesh can see a ``-0.0``: vecmath's ``Matrix4f * Vector4f`` sums from
+  ``+0``, so after any ``Transform`` every zero component is ``+0``;
+* ``d_k = +0.0`` gives ``t_k0 = -inf``, ``t_k1 = +inf`` and NaN midpoints, and every comparison with NaN is
+  false, so the traversal never steps along that axis (and, with two zero axes, steps in odd patterns): it
+  reaches only some leaves. :func:`reach_masks` runs the traversal's own decision code with the zero axes'
+  actual values (``-inf``, ``+inf``, NaN) and every possible outcome of the comparisons between finite axes,
+  and marks each triangle that lies in a reachable leaf.
+
+The result per triangle is a bit mask over *patterns*: slot ``(zmask - 1) * 8 + neg`` with ``zmask`` the
+zero axes (x=1, y=2, z=4; 1..6) and ``neg`` the finite axes with a negative component (same bits). A hit
+on a triangle whose slot bit is 0 is one the binary does not see.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+MAX_TRIG = 7
+MAX_LEVEL = 8
+#: Pattern slots: zmask 1..6 times the 8 sign combinations.
+N_SLOTS = 48
+_F = "F"  # a finite t value of unknown order
+
+
+class _Node:
+    """An octree node, split on first visit (the traversals of :func:`reach_masks` reach few nodes)."""
+
+    __slots__ = ("_children", "level", "mn", "mx", "tree", "trigs")
+
+    def __init__(self, tree: _Tree, mn: np.ndarray, mx: np.ndarray, trigs: np.ndarray, level: int) -> None:
+        self.tree, self.mn, self.mx, self.trigs, self.level = tree, mn, mx, trigs, level
+        self._children: list[_Node] | None = None
+
+    @property
+    def is_leaf(self) -> bool:
+        return len(self.trigs) <= MAX_TRIG or self.level > MAX_LEVEL
+
+    @property
+    def children(self) -> list[_Node]:
+        """The 8 children (``buildNode``): child ``i`` takes the upper half of x, y, z for bits 4, 2, 1."""
+        if self._children is None:
+            mid = ((self.mn + self.mx) / np.float32(2)).astype(np.float32)
+            a_mn, a_mx = self.tree.tmn[self.trigs], self.tree.tmx[self.trigs]
+            kids = []
+            for i in range(8):
+                hi = np.array([(i >> 2) & 1, (i >> 1) & 1, i & 1], dtype=bool)
+                cmn = np.where(hi, mid, self.mn).astype(np.float32)
+                cmx = np.where(hi, self.mx, mid).astype(np.float32)
+                touch = np.all((a_mn <= cmx) & (cmn <= a_mx), axis=1)
+                kids.append(_Node(self.tree, cmn, cmx, self.trigs[touch], self.level + 1))
+            self._children = kids
+        return self._children
+
+
+class _Tree:
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray) -> None:
+        v = np.asarray(vertices, dtype=np.float32)
+        tri = v[np.asarray(faces, dtype=np.int64)]
+        self.tmn, self.tmx = tri.min(axis=1), tri.max(axis=1)
+        self.root = _Node(self, v.min(axis=0), v.max(axis=0), np.arange(len(faces)), 0)
+
+
+def build(vertices: np.ndarray, faces: np.ndarray) -> _Node:
+    """The root of the binary's octree (module docstring) on float32 object-space ``vertices`` (N, 3) and
+    ``faces`` (F, 3); nodes split when first visited."""
+    return _Tree(vertices, faces).root
+
+
+def _lt(a: object, b: object) -> tuple[bool, ...]:
+    """Possible outcomes of ``a < b`` for concrete floats (the zero axes) and :data:`_F` (finite axes)."""
+    if a == _F and b == _F:
+        return (True, False)
+    if a == _F:
+        return (False,) if math.isnan(b) else ((b == math.inf),)  # type: ignore[arg-type]
+    if b == _F:
+        return (False,) if math.isnan(a) else ((a == -math.inf),)  # type: ignore[arg-type]
+    return (a < b,)  # type: ignore[operator]
+
+
+def _outcomes(fn: Callable[[Callable[[object, object], bool]], int]) -> set[int]:
+    """Every result of ``fn(lt)`` over all choices of the comparisons that can go either way."""
+    results: set[int] = set()
+    pending: list[list[bool]] = [[]]
+    while pending:
+        prefix = pending.pop()
+        pos = 0
+
+        def lt(a: object, b: object, prefix: list[bool] = prefix) -> bool:
+            nonlocal pos
+            opts = _lt(a, b)
+            if len(opts) == 1:
+                return opts[0]
+            if pos == len(prefix):
+                pending.append(prefix + [False])
+                prefix.append(True)
+            pos += 1
+            return prefix[pos - 1]
+
+        results.add(fn(lt))
+    return results
+
+
+def _first_node(t0: tuple, tm: tuple) -> Callable:
+    def fn(lt: Callable[[object, object], bool]) -> int:
+        (tx0, ty0, tz0), (txm, tym, tzm) = t0, tm
+        bits = 0
+        if lt(ty0, tx0):
+            if lt(tz0, tx0):
+                bits |= 2 if lt(tym, tx0) else 0
+                bits |= 1 if lt(tzm, tx0) else 0
+                return bits
+        elif lt(tz0, ty0):
+            bits |= 4 if lt(txm, ty0) else 0
+            bits |= 1 if lt(tzm, ty0) else 0
+            return bits
+        bits |= 4 if lt(txm, tz0) else 0
+        bits |= 2 if lt(tym, tz0) else 0
+        return bits
+    return fn
+
+
+def _new_node(exits: tuple, succ: tuple) -> Callable:
+    def fn(lt: Callable[[object, object], bool]) -> int:
+        (tx, ty, tz), (x, y, z) = exits, succ
+        if lt(tx, ty):
+            if lt(tx, tz):
+                return x
+        elif lt(ty, tz):
+            return y
+        return z
+    return fn
+
+
+def _mid(a: object, b: object) -> object:
+    return _F if _F in (a, b) else 0.5 * (a + b)  # type: ignore[operator]
+
+
+def _key(v: object) -> str:
+    return v if isinstance(v, str) else repr(v)
+
+
+def reachable_trigs(root: _Node, zmask: int, neg: int) -> set[int]:
+    """Triangles in the leaves the traversal can reach for a direction with zero axes ``zmask`` (+0.0
+    each) and negative finite axes ``neg`` (bits x=1, y=2, z=4), over every ray origin inside the box."""
+    aa = (4 if neg & 1 else 0) | (2 if neg & 2 else 0) | (1 if neg & 4 else 0)
+    t0 = tuple(-math.inf if zmask & (1 << k) else _F for k in range(3))
+    t1 = tuple(math.inf if zmask & (1 << k) else _F for k in range(3))
+    out: set[int] = set()
+    seen: set[tuple] = set()
+    stack = [(root, t0, t1)]
+    while stack:
+        node, a0, a1 = stack.pop()
+        key = (id(node), *map(_key, a0), *map(_key, a1))
+        if key in seen:
+            continue
+        seen.add(key)
+        if node.is_leaf:
+            out.update(int(t) for t in node.trigs)
+            continue
+        tm = tuple(_mid(a, b) for a, b in zip(a0, a1, strict=True))
+        todo = list(_outcomes(_first_node(a0, tm)))
+        done: set[int] = set()
+        while todo:
+            cur = todo.pop()
+            if cur >= 8 or cur in done:
+                continue
+            done.add(cur)
+            bits = ((cur >> 2) & 1, (cur >> 1) & 1, cur & 1)
+            c0 = tuple(tm[k] if bits[k] else a0[k] for k in range(3))
+            c1 = tuple(a1[k] if bits[k] else tm[k] for k in range(3))
+            stack.append((node.children[cur ^ aa], c0, c1))
+            succ = tuple(8 if bits[k] else cur | (4 >> k) for k in range(3))
+            todo.extend(_outcomes(_new_node(c1, succ)))
+    return out
+
+
+def reach_masks(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(F, 2) float32: per triangle, bit ``s`` of ``lo + hi·2^24`` says the traversal reaches it in pattern
+    slot ``s`` (module docstring); both words are integers below 2^24, exact in float32."""
+    root = build(vertices, faces)
+    words = np.zeros((len(faces), 2), dtype=np.int64)
+    for zmask in range(1, 7):
+        for neg in range(8):
+            if neg & zmask:
+                continue
+            slot = (zmask - 1) * 8 + neg
+            idx = np.fromiter(reachable_trigs(root, zmask, neg), dtype=np.int64)
+            if len(idx):
+                words[idx, slot // 24] |= 1 << (slot % 24)
+    return words.astype(np.float32)
