@@ -25,6 +25,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("a5mi.cli.bench:BENCH", "time the stages (cold/warm), optionally against a5soln"),
     "render-xml": ("a5mi.cli.render_xml:RENDER_XML", "render any Mitsuba XML with the a5mi plugins registered"),
     "completion": ("a5mi.cli.completion:COMPLETION", "print a bash/zsh completion script"),
+    "trace": ("a5mi.cli.trace:TRACE", "the ray tree of one pixel with every term, checked against the render"),
 }
 
 A5MI_USAGE = """\
