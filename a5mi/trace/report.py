@@ -217,15 +217,35 @@ def pixel_terms(pt: PixelTrace) -> list[Term]:
     return list(acc.values())
 
 
+def _aggregates(terms: list[Term]) -> list[Term]:
+    """One extra candidate per kind of light term with several members: all of them together (a student who
+    skips every shadow test adds every blocked term at once), labelled by its largest member. Child subtrees
+    need no aggregate: the camera ray's children already hold everything below them."""
+    out = []
+    for kind in ("shadow", "light"):
+        members = [t for t in terms if t.kind == kind]
+        if len(members) < 2:
+            continue
+        total = np.sum([np.array(t.value) for t in members], axis=0)
+        big = max(members, key=lambda t: float(np.linalg.norm(t.value)))
+        out.append(Term(f"all {len(members)} {kind} terms together, the largest: {big.label}", kind, tuple(total),
+                        members[0].sign, big.node))
+    return out
+
+
 def explain(pt: PixelTrace, student: Any) -> list[tuple[Term, float]]:
-    """Terms ranked by how well ``reference + sign · value`` matches the student's pixel (float, /255): the
-    residual ``|student - reference - sign · value|`` (smallest first; ties: the larger term)."""
-    delta = np.asarray(student, np.float64) - np.asarray(pt.value, np.float64)
+    """Terms ranked by how well the reference with that term changed, ``clamp(reference + sign · value, 0,
+    1)``, matches the student's pixel (float, /255, so saturated pixels compare fairly): the residual
+    ``|student - clamp(...)|`` (smallest first; ties: the larger term)."""
+    student = np.asarray(student, np.float64)
+    ref = np.asarray(pt.value, np.float64)
+    terms = pixel_terms(pt)
     scored = []
-    for term in pixel_terms(pt):
+    for term in terms + _aggregates(terms):
         v = np.array(term.value)
         if not np.any(v):
             continue
-        scored.append((term, float(np.linalg.norm(delta - term.sign * v)), -float(np.linalg.norm(v))))
+        predicted = np.clip(ref + term.sign * v, 0.0, 1.0)
+        scored.append((term, float(np.linalg.norm(student - predicted)), -float(np.linalg.norm(v))))
     scored.sort(key=lambda s: (s[1], s[2]))
     return [(t, r) for t, r, _ in scored]
