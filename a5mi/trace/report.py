@@ -49,7 +49,7 @@ def node_lines(tree: RayTree, node: RayNode, fresnel: str, ambient: Any) -> list
     obj = node.obj
     where = f"{obj} (material {obj.material}, line {obj.material_line})" if obj else "an object outside the scene file"
     lines.append(f"{pad}hit t {node.t:.7g}  p {v3(node.p)}  {where}, {'inside' if node.inside else 'outside'}, "
-                 f"N {v3(node.n)}" + (f", uv {v3(node.uv)}" if obj and obj.kind != "Sphere" else ""))
+                 f"N {v3(node.n)}" + (f", uv {v3(node.uv)}" if obj and obj.kind == "TriangleMesh" else ""))
     lines.append(f"{pad}ambient ⊙ diffuseColor = {v3(ambient)} ⊙ {v3(node.diffuse_color)} = {v3(node.ambient_term)}"
                  + (f"  (kd {v3(node.kd)})" if node.kd != node.diffuse_color else ""))
     for lt in node.lights:
