@@ -275,3 +275,36 @@ def test_bad_input_one_line(variant: str, scenes_dir: Path, tmp_path: Path, extr
     lines = err.strip().splitlines()
     assert rc == 2 and out == "" and len(lines) == 1, err
     assert lines[0].startswith("a5mi trace: error: ") and message in lines[0]
+
+
+def test_readme_example_is_what_trace_prints(variant: str, scenes_dir: Path,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    """The README's scene10 trace, run as written (from the scenes folder), prints exactly the README's text."""
+    import re
+
+    readme = (Path(__file__).parent.parent / "README.md").read_text()
+    block = re.search(r"```\n\$ cd \.\./shared/a5/scenes && a5mi trace (.*?)\n(.*?)```", readme, re.S)
+    assert block is not None
+    cwd = os.getcwd()
+    os.chdir(scenes_dir)
+    try:
+        rc, out, _ = _a5mi(["trace", *block.group(1).split()], capsys)
+    finally:
+        os.chdir(cwd)
+    assert rc == 0 and out == block.group(2)
+
+
+@pytest.mark.parametrize("opts, grid, n_samples", [
+    ({"filter": True}, (4, 4), 49),                 # -filter alone: the saved image is W/3 x H/3
+    ({"jitter": True}, (12, 12), 9),                # -jitter alone: nine saved pixels of the 3W x 3H image
+])
+def test_filter_alone_and_jitter_alone(variant: str, scenes_dir: Path, opts: dict[str, bool],
+                                       grid: tuple[int, int], n_samples: int) -> None:
+    from a5mi.trace.core import TraceError, pixel_grid
+
+    tracer = tracer_for(scenes_dir / "scene07_shine.txt", width=12, height=12, shadows=True, **opts)
+    assert pixel_grid(tracer.options) == grid
+    (pt,) = tracer.pixels([(1, 2)])
+    assert len(pt.samples) == n_samples and pt.max_error <= 1e-6 and pt.value_error <= 1e-6
+    with pytest.raises(TraceError, match="outside"):
+        tracer.pixels([(grid[0], 0)])
