@@ -58,8 +58,6 @@ def _f(v: object) -> mi.Float:
     """Bools as 0/1, integers and pointers as their value, floats unchanged (all small or exact in float32)."""
     if isinstance(v, mi.Bool):
         return dr.select(v, mi.Float(1.0), mi.Float(0.0))
-    if isinstance(v, (mi.UInt32, mi.Int32)):
-        return mi.Float(v)
     return mi.Float(v)
 
 

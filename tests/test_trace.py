@@ -308,3 +308,18 @@ def test_filter_alone_and_jitter_alone(variant: str, scenes_dir: Path, opts: dic
     assert len(pt.samples) == n_samples and pt.max_error <= 1e-6 and pt.value_error <= 1e-6
     with pytest.raises(TraceError, match="outside"):
         tracer.pixels([(grid[0], 0)])
+
+
+def test_many_samples_are_traced_in_chunks(variant: str, scenes_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Record buffers are bounded: with room for a few lanes per launch the 49 samples of a -jitter -filter
+    pixel take several launches and give the same trees as one launch."""
+    from a5mi.plugins.whitted_record import LIGHT_STRIDE, NODE_STRIDE
+    from a5mi.trace import core
+
+    tracer = tracer_for(scenes_dir / "scene10_sphere.txt", width=6, height=6, shadows=True, jitter=True,
+                        filter=True, bounces=2)
+    (one,) = tracer.pixels([(2, 3)])
+    monkeypatch.setattr(core, "RECORD_FLOATS", 7 * 7 * (NODE_STRIDE + 2 * LIGHT_STRIDE))   # 7 lanes a launch
+    (chunked,) = tracer.pixels([(2, 3)])
+    assert [t.nodes[-1].color for t in chunked.trees] == [t.nodes[-1].color for t in one.trees]
+    assert chunked.max_error == 0.0 and chunked.value == one.value

@@ -32,6 +32,8 @@ from .tree import RayTree, build_trees
 
 #: Most nodes recorded per camera ray (a full tree of 9 bounces); deeper trees are reported as cut.
 MAX_NODES = 1023
+#: Most floats of record buffers per launch (128 MiB); more samples are traced in several launches.
+RECORD_FLOATS = 1 << 25
 
 
 class TraceError(UsageError):
@@ -172,7 +174,20 @@ class Tracer:
         return i + jx[pos], j + jy[pos]
 
     def trees(self, samples: list[tuple[int, int]]) -> tuple[list[RayTree], np.ndarray, np.ndarray]:
-        """The ray trees of render-buffer samples, from one record-mode launch of the render kernel."""
+        """The ray trees of render-buffer samples, from record-mode launches of the render kernel (as many
+        samples per launch as keep the record buffers under :data:`RECORD_FLOATS` floats)."""
+        from a5mi.plugins.whitted_record import LIGHT_STRIDE, NODE_STRIDE
+
+        xs, ys = self.coords(samples)
+        max_nodes = min(2 ** (self.options.bounces + 1) - 1, MAX_NODES)
+        per_lane = max_nodes * (NODE_STRIDE + max(1, len(self.desc.lights)) * LIGHT_STRIDE)
+        chunk = max(1, RECORD_FLOATS // per_lane)
+        trees: list[RayTree] = []
+        for k in range(0, len(samples), chunk):
+            trees += self._record(xs[k:k + chunk], ys[k:k + chunk], max_nodes)
+        return trees, xs, ys
+
+    def _record(self, xs: np.ndarray, ys: np.ndarray, max_nodes: int) -> list[RayTree]:
         import drjit as dr
         import mitsuba as mi
 
@@ -181,17 +196,15 @@ class Tracer:
         from a5mi.plugins.whitted_record import TreeRecorder
 
         rw, rh = self.options.render_size
-        xs, ys = self.coords(samples)
         cam = self.desc.camera
         ray = camera_rays(cam.center, cam.direction, cam.up, cam.angle, mi.Float(aligned_float32(xs)),
                           mi.Float(aligned_float32(ys)), rw, rh)
-        max_nodes = min(2 ** (self.options.bounces + 1) - 1, MAX_NODES)
-        rec = TreeRecorder(len(samples), max_nodes, len(self.desc.lights))
+        rec = TreeRecorder(len(xs), max_nodes, len(self.desc.lights))
         color = self.integrator.trace(self.scene, ray, mi.Bool(True), record=rec)[0]
         dr.eval(color)
         nodes, lights, counts = rec.read()
-        colors = np.asarray(color).T.reshape(len(samples), 3)
-        return build_trees(nodes, lights, counts, colors, self.desc, self.scene, self.integrator), xs, ys
+        colors = np.asarray(color).T.reshape(len(xs), 3)
+        return build_trees(nodes, lights, counts, colors, self.desc, self.scene, self.integrator)
 
     def pixels(self, pixels: list[tuple[int, int]]) -> list[PixelTrace]:
         """:class:`PixelTrace` of each pixel ``(x, y)`` (top-left of :func:`pixel_grid`), traced in one launch."""
