@@ -167,7 +167,7 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
             if shape.to_world is None:
                 d[key] = sphere
             else:
-                d[key + "_group"] = {"type": "shapegroup", "shape": sphere}
+                d[key + "_group"] = {"type": "shapegroup", key + "_shape": sphere}  # id names the object
                 d[key] = {"type": "instance", "shapegroup": {"type": "ref", "id": key + "_group"},
                           "to_world": shape.to_world}
         elif isinstance(shape, PlaneShape):

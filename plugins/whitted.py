@@ -25,6 +25,7 @@ from .planes import (
     plane_set,
     planes_from_props,
 )
+from .whitted_record import TreeRecorder, shape_id
 
 #: AOV groups of the ``aovs`` parameter (a5mi.options.AOV_GROUPS) and the channels each adds, in order:
 #: first-hit shading normal and distance (SPEC B.6), the ray-tree class (:data:`MISS`, :data:`OPAQUE`,
@@ -66,6 +67,7 @@ def _trace(
     fresnel: str,
     reflection: bool,
     refraction: bool,
+    rec: TreeRecorder | None = None,
 ) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float, mi.Float]:
     """SPEC B.3 for a batch of camera rays (unit ``ray_d``, tmin 0, index 1.0, budget ``max_depth``).
 
@@ -73,7 +75,9 @@ def _trace(
     ``class = GLASS`` if some node of the ray tree hits a material with ``refraction_index > 0``, else
     ``OPAQUE`` if the camera ray hits, else ``MISS`` (the tree is the one the colour walks, so the push
     rules are the same by construction). Only ``size`` and the Python flags are baked into the kernel;
-    scene values arrive as opaque variables or arrays.
+    scene values arrive as opaque variables or arrays. ``rec`` (``a5mi trace`` only; None for renders, whose
+    kernel it leaves untouched): a :class:`~.whitted_record.TreeRecorder` that the marked ``# record`` calls
+    fill with each node's values (plugins/whitted_record.py).
     """
     width = dr.width(ray_d)
     env = scene.environment()
@@ -165,12 +169,19 @@ def _trace(
                                                  dr.select(far, dr.inf, ds.dist), visible)
                 visible &= ~blocked
                 n_shadow += dr.select(hit, 1.0, 0.0)
+                if rec is not None:  # record: the occluder's identity (a nearest-hit query of its own)
+                    rec.occluder(scene, planes, n_refl, n_refr, top, k, p, d_light, tmin, ds.dist, far, hit)
             term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * kd
             if phong:
                 l_dot_r = dr.maximum(dr.dot(d_light, dr.normalize(r_view)), 0.0)
                 highlight = dr.select(shininess == 0.0, 1.0, dr.power(l_dot_r, shininess))
                 term += highlight * light_color * specular
+                if rec is not None:  # record
+                    rec.light(n_refl, n_refr, top, k, highlight=highlight)
             local += dr.select(visible, term, 0.0)
+            if rec is not None:  # record
+                rec.light(n_refl, n_refr, top, k, valid=hit, L=d_light, n_dot_l=dr.dot(d_light, n),
+                          light_color=light_color, dist=ds.dist, visible=visible, tested=shadows, term=term)
             k += 1
 
         color += weight * dr.select(hit, local, background)
@@ -179,6 +190,12 @@ def _trace(
         aov_class = dr.select(first & hit, float(OPAQUE), aov_class)   # only the camera ray sets OPAQUE
         aov_class = dr.select(a5 & (ior > 0.0), float(GLASS), aov_class)
         first = dr.full(mi.Bool, False, width)
+        if rec is not None:  # record
+            rec.node(n_refl, n_refr, top, valid=True, o=o, d=d, tmin=t_min, n_medium=n_medium, weight=weight,
+                     bounces=bounces, hit=hit, on_plane=on_plane, plane=plane_idx, shape=shape_id(si.shape),
+                     t=t_hit, p=p, n=n, uv=si.uv, a5=a5, diffuse_color=diffuse_color, kd=kd, specular=specular,
+                     ior=ior, shininess=shininess, local=local, background=background,
+                     contribution=weight * dr.select(hit, local, background), color=color)
 
         # ---- children: mirror and refraction (SPEC B.3, "if bounces > 0")
         go = hit & (bounces > 0)
@@ -204,6 +221,10 @@ def _trace(
             stack_t.write(tmin, top, push_refr)
             top += dr.select(push_refr, 1, 0)
             n_refr += dr.select(push_refr, 1.0, 0.0)
+            if rec is not None:  # record
+                rec.node(n_refl, n_refr, top, refractive=refractive, leaving=leaving, nt=nt, refr_exists=exists,
+                         t_dir=t_dir, r_fresnel=r_fresnel, push_refr=push_refr,
+                         w_refr=weight * specular * (1.0 - r_fresnel))
         if reflection:
             push_refl = go & (dr.norm(specular) > MIRROR_THRESHOLD)
             stack_o.write(p, top, push_refl)
@@ -214,6 +235,9 @@ def _trace(
             stack_t.write(tmin, top, push_refl)
             top += dr.select(push_refl, 1, 0)
             n_refl += dr.select(push_refl, 1.0, 0.0)
+            if rec is not None:  # record
+                rec.node(n_refl, n_refr, top, push_refl=push_refl, r_dir=r_view, r_fresnel=r_fresnel,
+                         w_refl=weight * specular * r_fresnel)
 
     return color, aov_n, aov_t, aov_class, n_refl, n_refr, n_shadow
 
@@ -325,9 +349,10 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         return ptrs, dr.opaque(mi.UInt32, len(idx))
 
     def trace(
-        self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True
+        self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True, record: TreeRecorder | None = None
     ) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float, mi.Float]:
-        """SPEC B.3 for camera rays: ``(colour, normal, t, class, n_reflection, n_refraction, n_shadow)``."""
+        """SPEC B.3 for camera rays: ``(colour, normal, t, class, n_reflection, n_refraction, n_shadow)``;
+        ``record`` (``a5mi trace``): fill this recorder with every node of each lane's ray tree."""
         lights, n_lights = self._lights(scene)
         width = _width(ray, active)
         # Every loop variable must be full width (a width-1 stack pointer makes lanes loop forever).
@@ -338,7 +363,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, self.ambient),
             dr.opaque(mi.Float, self.tmin), lights, n_lights, self._planes,
             stack_size(self.max_depth), self.shadows, self.phong, self.fresnel,
-            self.reflection, self.refraction,
+            self.reflection, self.refraction, record,
         )
 
     def sample(

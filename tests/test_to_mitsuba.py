@@ -135,7 +135,8 @@ def test_a6_sphere_similarity_vs_shapegroup(variant: str, scenes_dir: Path) -> N
     d = to_dict(desc)
     assert d["sphere_000"]["type"] == "instance"
     assert d["sphere_000"]["shapegroup"] == {"type": "ref", "id": "sphere_000_group"}
-    assert d["sphere_000_group"]["type"] == "shapegroup" and d["sphere_000_group"]["shape"]["type"] == "sphere"
+    group = d["sphere_000_group"]
+    assert group["type"] == "shapegroup" and group["sphere_000_shape"]["type"] == "sphere"
     assert np.allclose(np.array(d["sphere_000"]["to_world"].matrix), tf.z_rotate(45) @ tf.scale(1, 0.2, 1))
     text = CAM + "Materials { numMaterials 1 Material { } }\nGroup { numObjects 1 MaterialIndex 0 Transform {" \
                  " Translate 1 2 3 ZRotate 30 UniformScale 2 Sphere { center 1 0 0 radius 0.5 } } }"

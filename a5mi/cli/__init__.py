@@ -27,6 +27,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "render-xml": ("a5mi.cli.render_xml:RENDER_XML", "render any Mitsuba XML with the a5mi plugins registered"),
     "completion": ("a5mi.cli.completion:COMPLETION", "print a bash/zsh completion script"),
     "difftest": ("a5mi.cli.difftest:DIFFTEST", "random scenes rendered by a5mi and another a5 binary, compared"),
+    "trace": ("a5mi.cli.trace:TRACE", "the ray tree of one pixel with every term, checked against the render"),
 }
 
 A5MI_USAGE = """\

@@ -1,0 +1,139 @@
+"""``a5mi trace``: why one pixel has its colour: the SPEC B.3 ray tree as ``a5_whitted`` computes it.
+
+``a5mi trace -input S.txt -size W H -pixel X Y [a5 render flags] [--origin bottom-left] [--sample K] [--json]
+[--svg OUT.svg]`` prints every node of the pixel's ray tree (the render kernel in record mode, :mod:`a5mi.trace`)
+and checks that the contributions sum to the pixel of the real render. ``--diff STUDENT.png [--worst N]``
+renders the reference, picks the N pixels where the student's image is furthest off and names, for each,
+the term of the reference tree that best accounts for the difference.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+
+from a5mi.cli.app import Command, Console, activate_variant, load_scene
+from a5mi.cli.flags import Args, Flag, choice, integer, text
+from a5mi.cli.render import RENDER_FLAGS, check_render_args, render_options
+from a5mi.errors import ImageWriteError
+from a5mi.spec import MAX_SIZE
+
+#: Render flags that name output images: accepted (so an a5 command line can be pasted), nothing is written.
+_OUTPUT_FLAGS = ("output", "normals_output", "depth_output")
+
+FLAGS: tuple[Flag, ...] = (
+    *RENDER_FLAGS,
+    Flag(("--pixel", "-pixel"), ("px", "py"), "the pixel to trace (x right, y down from the top-left; see "
+         "--origin)", 2, integer(0, MAX_SIZE), (None, None), "X Y"),
+    Flag(("--origin",), "origin", "where -pixel counts from: top-left (image viewers) or bottom-left (a5soln's j)",
+         1, choice(("top-left", "bottom-left")), "top-left", "O"),
+    Flag(("--sample",), "sample", "with -jitter: only sub-sample K (0..8, row-major from the pixel's top-left)",
+         1, integer(0, 8), metavar="K"),
+    Flag(("--json",), "json", "print the trace as JSON", default=False, show_default=False),
+    Flag(("--svg",), "svg", "also write a diagram of the (first shown) ray tree", 1, text, metavar="OUT.svg"),
+    Flag(("--diff",), "diff", "find the pixels where this student image is furthest from the reference and name "
+         "the term to look at", 1, text, metavar="STUDENT.png"),
+    Flag(("--worst",), "worst", "with --diff: how many pixels", 1, integer(1, 1000), 3, "N"),
+)
+
+
+def check_trace_args(args: Args) -> None:
+    from a5mi.trace.core import TraceError
+
+    check_render_args(args)
+    if args.sample is not None and not args.jitter:
+        raise TraceError("--sample needs -jitter (without it a pixel has one camera ray)")
+    if args.diff is None and args.px is None:
+        raise TraceError("give -pixel X Y (or --diff STUDENT.png)")
+    if args.diff is not None and args.jitter and not args.filter:
+        raise TraceError("--diff with -jitter alone: the saved image is the 3W x 3H buffer; use -jitter -filter")
+    if args.svg is not None:
+        folder = os.path.dirname(os.path.abspath(args.svg))
+        if not args.svg.lower().endswith(".svg"):
+            raise TraceError(f"--svg '{args.svg}' must end in .svg")
+        if not os.path.isdir(folder) or not os.access(folder, os.W_OK):
+            raise ImageWriteError(f"--svg '{args.svg}': folder '{folder}' does not exist or is not writable")
+
+
+def run_trace(args: Args, console: Console) -> int:
+    from a5mi.trace import report
+    from a5mi.trace.core import Tracer, to_top_left
+
+    given = [f for f in _OUTPUT_FLAGS if args.get(f)]
+    if given:
+        console.note(f"{console.prog}: note: trace writes no images; ignoring " + ", ".join(given))
+    desc = load_scene(args.input, console)
+    activate_variant(args.variant)
+    options = render_options(args, normals=False, depth=None, count_rays=False)
+    tracer = Tracer(desc, options)
+    if args.diff is not None:
+        return _run_diff(args, console, tracer, desc)
+    x, y = to_top_left(options, args.px, args.py, args.origin)
+    (pt,) = tracer.pixels([(x, y)])
+    if args.json:
+        console.result(report.dumps(report.trace_json(pt)))
+    else:
+        console.result(report.format_trace(pt, desc.ambient, args.sample))
+    if args.svg is not None:
+        from a5mi.trace.svg import write_svg
+
+        k = args.sample if args.sample is not None else 0
+        write_svg(args.svg, pt.trees[k], f"{args.input} pixel ({x}, {y}) sample {k}")
+    return 0
+
+
+def _run_diff(args: Args, console: Console, tracer: Any, desc: Any) -> int:
+    from a5mi.imageio import quantize, read_levels
+    from a5mi.trace import report
+    from a5mi.trace.core import TraceError
+
+    student = read_levels(args.diff)
+    ref = tracer.image()
+    if student.shape[:2] != ref.shape[:2]:
+        raise TraceError(f"--diff '{args.diff}' is {student.shape[1]}x{student.shape[0]}; the reference render is "
+                         f"{ref.shape[1]}x{ref.shape[0]}")
+    ref_bytes = quantize(ref)[..., :3].astype(np.float64)
+    err = np.abs(student - ref_bytes).max(axis=-1)
+    order = np.argsort(-err, axis=None, kind="stable")[: args.worst]
+    pixels = [(int(k % err.shape[1]), int(k // err.shape[1])) for k in order]
+    traces = tracer.pixels(pixels)
+    out_json = []
+    blocks = []
+    for pt in traces:
+        stud = student[pt.y, pt.x] / 255.0
+        ranked = report.explain(pt, stud)
+        centre = 4 if len(pt.block) > 1 else 0
+        if args.json:
+            out_json.append({"pixel": [pt.x, pt.y], "student_byte": [int(v) for v in student[pt.y, pt.x]],
+                             "reference_byte": list(pt.image_byte), "reference": list(pt.value),
+                             "terms": [{"label": t.label, "kind": t.kind, "value": list(t.value), "sign": t.sign,
+                                        "residual": r} for t, r in ranked[:5]],
+                             "trace": report.trace_json(pt)})
+            continue
+        lines = [f"pixel ({pt.x}, {pt.y}) (top-left): student {tuple(int(v) for v in student[pt.y, pt.x])}, "
+                 f"reference {pt.image_byte} (off by {int(err[pt.y, pt.x])}/255)"]
+        if ranked:
+            best, resid = ranked[0]
+            lines.append(f"  look at: {best.label}: {report.v3(best.value, 4)} "
+                         f"({'the student adds it' if best.sign > 0 else 'the student lacks it'}; leaves "
+                         f"{resid * 255:.1f}/255 unexplained)")
+            for t, r in ranked[1:3]:
+                lines.append(f"  then: {t.label}: {report.v3(t.value, 4)} (leaves {r * 255:.1f}/255)")
+        lines.append(f"  reference tree{' of the centre sample' if centre else ''}:")
+        lines.extend("    " + s for s in report.tree_lines(pt.trees[centre], tracer.options.fresnel, desc.ambient))
+        blocks.append("\n".join(lines))
+    console.result(report.dumps(out_json) if args.json else "\n\n".join(blocks))
+    if args.svg is not None and traces:
+        from a5mi.trace.svg import write_svg
+
+        pt = traces[0]
+        write_svg(args.svg, pt.trees[4 if len(pt.block) > 1 else 0], f"{args.input} pixel ({pt.x}, {pt.y})")
+    return 0
+
+
+TRACE = Command("trace", "Print the SPEC B.3 ray tree of one pixel exactly as a5_whitted computes it, with every "
+                "term, checked against the real render; or (--diff) name the term a student image gets wrong.",
+                FLAGS, run_trace, required=("input",), check=check_trace_args,
+                epilog="Exit status: 0 printed, 1 internal error, 2 user error.")
