@@ -30,7 +30,7 @@ from typing import Final, TypeVar
 
 import numpy as np
 
-from . import transforms
+from . import ext_parser, transforms
 from .errors import FileLoc, SceneSemanticError, SceneSyntaxError
 from .lexer import Token, read_source, tokenize
 from .model import (
@@ -178,8 +178,8 @@ def parse_camera(ts: TokenStream, start: Token) -> Camera:
     w = np.asarray(fields["direction"])
     if np.linalg.norm(np.cross(w, np.asarray(fields["up"]))) == 0.0:
         raise ts.semantic_error("camera up must not be parallel to direction", tok.loc)
-    ts.expect("}", "to close PerspectiveCamera")
-    return Camera(fields["center"], fields["direction"], fields["up"], angle, start.loc)
+    aperture, focus = ext_parser.parse_camera_lens(ts)  # docs/EXTENSIONS.md E.3; reads the closing '}'
+    return Camera(fields["center"], fields["direction"], fields["up"], angle, start.loc, aperture, focus)
 
 
 def _vector_then(ts: TokenStream, block: str, fields: tuple[str, str], what: str,
@@ -264,7 +264,8 @@ def _counted_block(ts: TokenStream, block: str, count_key: str, noun: str,
 def parse_lights(ts: TokenStream, start: Token) -> tuple[Light, ...]:
     """``Lights { numLights I <light>* }`` with exactly ``numLights`` lights (A.3)."""
     return _counted_block(ts, "Lights", "numLights", "light",
-                          {"DirectionalLight": parse_directional_light, "PointLight": parse_point_light})
+                          {"DirectionalLight": parse_directional_light, "PointLight": parse_point_light,
+                           **ext_parser.LIGHTS})
 
 
 # -- A.4 ------------------------------------------------------------------------------------------------
@@ -327,7 +328,7 @@ def parse_noise(ts: TokenStream, start: Token) -> Noise:
 
 
 MATERIAL_KEYS: Final = ("diffuseColor", "specularColor", "shininess", "refractionIndex", "texture", "bump", "Noise",
-                         "'}'")
+                         *ext_parser.MATERIAL_KEYWORDS, "'}'")
 
 
 def parse_material(ts: TokenStream, start: Token) -> Material:
@@ -358,6 +359,8 @@ def parse_material(ts: TokenStream, start: Token) -> Material:
             values["bump"] = ts.name(tok.text).text
         elif tok.text == "Noise":
             values["noise"] = parse_noise(ts, tok)
+        elif tok.text in ext_parser.MATERIAL_KEYWORDS:
+            ext_parser.parse_material_keyword(ts, tok, values)
         else:
             raise ts.syntax_error(f"unknown Material keyword '{tok.text}' (expected "
                                   f"{_one_of(MATERIAL_KEYS)})", tok)
