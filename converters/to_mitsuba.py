@@ -62,10 +62,10 @@ from .describe import (
     SceneDescription,
     SphereShape,
 )
+from .ext_mitsuba import light_entry, thinlens_params
 from .files import Image
 from .geometry import MeshData
 from .materials import rgb
-from .ext_mitsuba import light_entry, thinlens_params
 from .model import AreaLight, DirectionalLight, SphereLight, SpotLight
 
 #: Face attributes carrying :attr:`.geometry.MeshData.octree` (name -> its columns).
