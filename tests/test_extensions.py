@@ -247,9 +247,9 @@ def test_stock_mapping_loads_and_renders(mi: Any, scene: str, a5_types: set[str]
                                          tmp_path: Path) -> None:
     """Both conversions load; the stock one renders with Mitsuba's path tracer (finite, not black); the XML of
     the stock conversion loads with the stock loader."""
+    from a5mi.converters import materials
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
-    from a5mi.converters import materials
     from a5mi.converters.to_mitsuba import to_dict
     from a5mi.converters.to_xml import write_xml
     from a5mi.options import RenderOptions
