@@ -44,6 +44,7 @@ from a5mi import interrupts
 from a5mi.filters import FilterStream, postprocess
 from a5mi.glibc_rand import glibc_stream, jitter_offsets
 from a5mi.options import TILE_RAYS, RenderOptions  # noqa: F401 - re-exported
+from a5mi.passes import sample_passes
 
 Progress = Callable[[int, int], None]  # (samples done, samples total)
 CameraRays = Callable[..., Any]  # a5mi.plugins.camera.camera_rays
@@ -242,6 +243,8 @@ class _TraceContext:
     timings: dict[str, float]
     progress: Progress | None
     total: int
+    spp: int = 1    #: docs/EXTENSIONS.md E.5: passes per pixel (a5mi/passes.py)
+    seed: int = 0   #: seed of the stochastic samples
 
 
 _COUNT_NAMES = ("reflection", "refraction", "shadow")
@@ -269,9 +272,7 @@ def _trace_pass(
                     camera.center, camera.direction, camera.up, camera.angle,
                     mi.Float(aligned_float32(x_pix)), mi.Float(aligned_float32(y_pix)), rw, rh,
                 )  # fmt: skip
-                sampler.seed(0, n)
-                ray_d = mi.RayDifferential3f(ray)
-                rgb, _valid, aovs = integrator.sample(ctx.scene, sampler, ray_d, None, mi.Bool(True))
+                rgb, aovs = sample_passes(ctx.scene, integrator, sampler, ray, camera, j0 * rw, n, ctx.spp, ctx.seed)
                 named = dict(zip(integrator.aov_names(), aovs, strict=True))
                 missing = [k for k in buffers.aov_names if k not in named]
                 if missing:
@@ -365,7 +366,8 @@ def render_scene(
             yield (j0, j1, *quadrant_coords(rw, rh, j0, j1))
 
     t_start = time.perf_counter()
-    ctx = _TraceContext(mi_scene, camera, integrator, camera_rays, (rw, rh), timings, progress, total)
+    ctx = _TraceContext(mi_scene, camera, integrator, camera_rays, (rw, rh), timings, progress, total,
+                        options.spp, options.seed or 0)
     done = _trace_pass(ctx, main_tiles(), main, 0)
     if separate:
         _trace_pass(ctx, quadrant_tiles(), aov, done)

@@ -56,6 +56,8 @@ class RenderOptions:
     count_rays: bool = False
     classes: bool = False
     aov_mode: str = "main"
+    #: docs/EXTENSIONS.md E.5: passes per render-buffer pixel over the stochastic dimensions (lights, lens, gloss)
+    spp: int = 1
 
     def __post_init__(self) -> None:
         if self.width <= 0 or self.height <= 0:
@@ -68,6 +70,8 @@ class RenderOptions:
             raise ValueError(f"kernel must be one of {', '.join(KERNELS)}, got '{self.kernel}'")
         if self.aov_mode not in AOV_MODES:
             raise ValueError(f"aov_mode must be one of {', '.join(AOV_MODES)}, got '{self.aov_mode}'")
+        if self.spp < 1:
+            raise ValueError(f"spp must be >= 1, got {self.spp}")
         if self.tile_rays <= 0:
             raise ValueError(f"tile_rays must be positive, got {self.tile_rays}")
 

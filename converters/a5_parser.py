@@ -32,7 +32,7 @@ import numpy as np
 
 from a5mi.vecmath32 import camera_basis
 
-from . import transforms
+from . import ext_parser, transforms
 from .errors import FileLoc, SceneSemanticError, SceneSyntaxError, shown
 from .lexer import NUMBER, Token, read_source, tokenize
 from .model import (
@@ -191,8 +191,8 @@ def parse_camera(ts: TokenStream, start: Token) -> Camera:
         raise ts.semantic_error("camera direction and up do not define a basis in float32 (the sample solution's "
                                 "precision): too small, too large (|x|·|x| > 3.4e38) or nearly parallel",
                                 tok.loc) from None
-    ts.expect("}", "to close PerspectiveCamera")
-    return Camera(fields["center"], fields["direction"], fields["up"], angle, start.loc)
+    aperture, focus = ext_parser.parse_camera_lens(ts)  # docs/EXTENSIONS.md E.3; reads the closing '}'
+    return Camera(fields["center"], fields["direction"], fields["up"], angle, start.loc, aperture, focus)
 
 
 def _vector_then(ts: TokenStream, block: str, fields: tuple[str, str], what: str,
@@ -277,7 +277,8 @@ def _counted_block(ts: TokenStream, block: str, count_key: str, noun: str,
 def parse_lights(ts: TokenStream, start: Token) -> tuple[Light, ...]:
     """``Lights { numLights I <light>* }`` with exactly ``numLights`` lights (A.3)."""
     return _counted_block(ts, "Lights", "numLights", "light",
-                          {"DirectionalLight": parse_directional_light, "PointLight": parse_point_light})
+                          {"DirectionalLight": parse_directional_light, "PointLight": parse_point_light,
+                           **ext_parser.LIGHTS})
 
 
 # -- A.4 ------------------------------------------------------------------------------------------------
@@ -340,7 +341,7 @@ def parse_noise(ts: TokenStream, start: Token) -> Noise:
 
 
 MATERIAL_KEYS: Final = ("diffuseColor", "specularColor", "shininess", "refractionIndex", "texture", "bump", "Noise",
-                         "'}'")
+                         *ext_parser.MATERIAL_KEYWORDS, "'}'")
 
 
 def parse_material(ts: TokenStream, start: Token) -> Material:
@@ -371,6 +372,8 @@ def parse_material(ts: TokenStream, start: Token) -> Material:
             values["bump"] = ts.name(tok.text).text
         elif tok.text == "Noise":
             values["noise"] = parse_noise(ts, tok)
+        elif tok.text in ext_parser.MATERIAL_KEYWORDS:
+            ext_parser.parse_material_keyword(ts, tok, values)
         else:
             raise ts.syntax_error(f"unknown Material keyword '{shown(tok.text)}' (expected "
                                   f"{_one_of(MATERIAL_KEYS)})", tok)

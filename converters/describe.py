@@ -35,10 +35,9 @@ from .geometry import (
     plane_rectangle_to_world,
     world_plane,
 )
-from .model import Camera, DirectionalLight, Noise, Plane, PointLight, Scene, Sphere, Triangle, TriangleMesh, Vec3
+from .model import Camera, Light, Noise, Plane, Scene, Sphere, Triangle, TriangleMesh, Vec3
 from .obj import NormalMode, ObjMesh
 
-Light = DirectionalLight | PointLight
 SceneWarning = tuple[FileLoc, str]
 
 
@@ -75,6 +74,9 @@ class MaterialDescription:
     refraction_index: float
     kd: Noise | Image | None
     loc: FileLoc | None = None
+    #: docs/EXTENSIONS.md E.4: GGX alpha (0 = mirror) and glossy children per camera hit
+    roughness: float = 0.0
+    glossy_samples: int = 1
 
     def kd_on(self, with_uv: bool) -> Noise | Image | None:
         """The kd source on a shape with (``with_uv``) or without texture coordinates."""
@@ -250,7 +252,7 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
     materials = tuple(
         MaterialDescription(mat.diffuse_color, mat.specular_color, float(mat.shininess),
                             float(mat.refraction_index), mat.noise if mat.noise is not None else textures.get(i),
-                            mat.loc)
+                            mat.loc, float(mat.roughness), int(mat.glossy_samples))
         for i, mat in enumerate(scene.materials))
     return SceneDescription(scene.path, scene.camera, scene.ambient, background, materials, tuple(shapes),
                             tuple(scene.lights), centre, tuple(warnings))

@@ -35,6 +35,7 @@ import numpy as np
 from a5mi.spec import MIRROR_THRESHOLD
 
 from .describe import MaterialDescription
+from .ext_mitsuba import rough
 from .files import Image
 from .model import Noise
 
@@ -76,6 +77,9 @@ def a5_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_p
         "shininess": float(mat.shininess),
         "refraction_index": float(mat.refraction_index),
     }
+    if mat.roughness > 0.0:  # docs/EXTENSIONS.md E.4
+        d["roughness"] = float(mat.roughness)
+        d["glossy_samples"] = int(mat.glossy_samples)
     kd = mat.kd_on(with_uv)
     if isinstance(kd, Noise):
         d["kd"] = {"type": "a5_marble", "color1": rgb(kd.color1), "color2": rgb(kd.color2),
@@ -112,6 +116,7 @@ def stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = fil
                  "specular_reflectance": spec_refl, "specular_transmittance": spec_refl}
     else:
         other = {"type": "conductor", "material": "none", "specular_reflectance": spec_refl}
+    other = rough(other, mat.roughness)  # docs/EXTENSIONS.md E.4: roughconductor / roughdielectric
     if d == 0.0:
         return other
     return {"type": "blendbsdf", "weight": w, "bsdf_0": diffuse, "bsdf_1": other}

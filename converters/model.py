@@ -38,6 +38,9 @@ class Camera:
     up: Vec3
     angle: float
     loc: FileLoc
+    #: thin lens (docs/EXTENSIONS.md E.3): lens diameter (0 = the pinhole of B.2) and the focus-plane distance
+    aperture: float = 0.0
+    focus_distance: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -59,7 +62,47 @@ class PointLight:
     loc: FileLoc
 
 
-Light = DirectionalLight | PointLight
+@dataclass(frozen=True)
+class SpotLight:
+    """``SpotLight { position V3 direction V3 color V3 [falloff F] angle F [beamWidth F] }``
+    (docs/EXTENSIONS.md E.1): a PointLight times the cone profile; angles in degrees from the axis."""
+
+    position: Vec3
+    direction: Vec3
+    color: Vec3
+    falloff: float
+    angle: float
+    beam_width: float
+    loc: FileLoc
+
+
+@dataclass(frozen=True)
+class AreaLight:
+    """``AreaLight { corner V3 edge1 V3 edge2 V3 color V3 [falloff F] [samples I] }`` (EXTENSIONS E.2):
+    the parallelogram ``corner + s·edge1 + t·edge2``, ``s, t`` in [0, 1]."""
+
+    corner: Vec3
+    edge1: Vec3
+    edge2: Vec3
+    color: Vec3
+    falloff: float
+    samples: int
+    loc: FileLoc
+
+
+@dataclass(frozen=True)
+class SphereLight:
+    """``SphereLight { center V3 radius F color V3 [falloff F] [samples I] }`` (EXTENSIONS E.2)."""
+
+    center: Vec3
+    radius: float
+    color: Vec3
+    falloff: float
+    samples: int
+    loc: FileLoc
+
+
+Light = DirectionalLight | PointLight | SpotLight | AreaLight | SphereLight
 
 
 @dataclass(frozen=True)
@@ -99,6 +142,9 @@ class Material:
     bump: str | None = None
     noise: Noise | None = None
     loc: FileLoc | None = None
+    #: glossy lobe (docs/EXTENSIONS.md E.4): GGX roughness alpha (0 = the mirror of B.3) and the children per hit
+    roughness: float = 0.0
+    glossy_samples: int = 1
 
 
 # ------------------------------------------------------------------------------------------------------ objects

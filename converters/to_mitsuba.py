@@ -62,10 +62,11 @@ from .describe import (
     SceneDescription,
     SphereShape,
 )
+from .ext_mitsuba import light_entry, thinlens_params
 from .files import Image
 from .geometry import MeshData
 from .materials import rgb
-from .model import DirectionalLight
+from .model import AreaLight, DirectionalLight, SphereLight, SpotLight
 
 #: Face attributes carrying :attr:`.geometry.MeshData.octree` (name -> its columns).
 OCTREE_ATTRIBUTES = {"face_a5_inv0": [0, 1, 2], "face_a5_inv1": [3, 4, 5], "face_a5_inv2": [6, 7, 8],
@@ -79,7 +80,11 @@ def integrator_dict(desc: SceneDescription, options: RenderOptions, *, stock: bo
     """SPEC B.3: ``a5_whitted`` (ambient + the options' parameters), or stock ``path`` (``bounces + 2``)."""
     if stock:
         return {"type": "path", "max_depth": int(options.bounces) + 2}
-    return {"type": "a5_whitted", "ambient": rgb(desc.ambient), **options.integrator_params()}
+    d = {"type": "a5_whitted", "ambient": rgb(desc.ambient), **options.integrator_params()}
+    glossy = max((m.glossy_samples for m in desc.materials if m.roughness > 0.0), default=1)
+    if glossy > 1:  # docs/EXTENSIONS.md E.4: the stack holds 2 G children of a glossy camera hit
+        d["glossy_samples"] = int(glossy)
+    return d
 
 
 def sensor_dict(desc: SceneDescription, options: RenderOptions, *, stock: bool) -> dict[str, Any]:
@@ -96,6 +101,11 @@ def sensor_dict(desc: SceneDescription, options: RenderOptions, *, stock: bool) 
     w = max(int(width), 2)
     fov = math.degrees(2.0 * math.atan(math.tan(math.radians(cam.angle) / 2.0) * w / (w - 1)))
     c = np.asarray(cam.center, dtype=np.float64)
+    if cam.aperture > 0.0:  # docs/EXTENSIONS.md E.3
+        sampler = {"type": "stratified", "sample_count": int(options.spp), "jitter": True}
+        return {"type": "thinlens", "fov": fov, "fov_axis": "x", **thinlens_params(cam.aperture, cam.focus_distance),
+                "to_world": tf.look_at(c, c + np.asarray(cam.direction), np.asarray(cam.up)),
+                "film": film, "sampler": sampler}
     return {"type": "perspective", "fov": fov, "fov_axis": "x",
             "to_world": tf.look_at(c, c + np.asarray(cam.direction), np.asarray(cam.up)),
             "film": film, "sampler": sampler}
@@ -106,6 +116,8 @@ def light_dict(light: Light, centre: np.ndarray | None, *, stock: bool) -> dict[
     to be exact at the distance to ``centre``)."""
     if isinstance(light, DirectionalLight):
         return {"type": "directional", "direction": list(light.direction), "irradiance": rgb(light.color)}
+    if isinstance(light, SpotLight | AreaLight | SphereLight):  # docs/EXTENSIONS.md E.1, E.2
+        return light_entry(light, centre, stock=stock)
     if not stock:
         return {"type": "a5_point", "position": list(light.position), "color": rgb(light.color),
                 "falloff": float(light.falloff)}

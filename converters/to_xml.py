@@ -46,12 +46,14 @@ from .to_mitsuba import Backend, bake_cubemap_envmap, make_mesh, scene_entries
 
 PLUGIN_TAGS: dict[str, str] = {
     **dict.fromkeys(("a5_whitted", "path", "direct"), "integrator"),
-    **dict.fromkeys(("a5_camera", "perspective"), "sensor"),
+    **dict.fromkeys(("a5_camera", "perspective", "thinlens"), "sensor"),
     "hdrfilm": "film",
     **dict.fromkeys(("stratified", "independent"), "sampler"),
     **dict.fromkeys(("box", "gaussian"), "rfilter"),
-    **dict.fromkeys(("directional", "a5_point", "point", "a5_cubemap", "constant", "envmap"), "emitter"),
-    **dict.fromkeys(("a5_material", "diffuse", "conductor", "dielectric", "blendbsdf"), "bsdf"),
+    **dict.fromkeys(("directional", "a5_point", "point", "a5_cubemap", "constant", "envmap", "a5_spot", "spot",
+                     "a5_area", "area"), "emitter"),
+    **dict.fromkeys(("a5_material", "diffuse", "conductor", "dielectric", "blendbsdf", "roughconductor",
+                     "roughdielectric"), "bsdf"),
     **dict.fromkeys(("a5_marble", "a5_bitmap", "bitmap", "srgb"), "texture"),
     **dict.fromkeys(("sphere", "rectangle", "instance", "shapegroup", "ply"), "shape"),
 }

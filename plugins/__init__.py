@@ -15,6 +15,8 @@ PLUGIN_MODULES: tuple[str, ...] = (
     "marble",           # a5_marble texture (noise functions in perlin.py)
     "bitmap",           # a5_bitmap texture
     "point_light",      # a5_point emitter
+    "spot_light",       # a5_spot emitter (docs/EXTENSIONS.md E.1)
+    "area_light",       # a5_area emitter (docs/EXTENSIONS.md E.2)
     "cubemap",          # a5_cubemap emitter
     "camera",           # a5_camera sensor
     "a5_material",      # a5_material BSDF

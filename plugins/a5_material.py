@@ -58,7 +58,7 @@ from a5mi.spec import MIRROR_THRESHOLD
 
 #: Attributes served through ``eval_attribute_3`` / ``eval_attribute_1`` (and ``has_attribute``).
 COLOR_ATTRIBUTES: tuple[str, ...] = ("diffuse_color", "specular_color")
-FLOAT_ATTRIBUTES: tuple[str, ...] = ("shininess", "refraction_index")
+FLOAT_ATTRIBUTES: tuple[str, ...] = ("shininess", "refraction_index", "roughness", "glossy_samples")
 
 
 def _rgb(props: mi.Properties, name: str, default: Sequence[float]) -> list[float]:
@@ -93,6 +93,14 @@ class A5Material(mi.BSDF):
         self.specular_color = mi.Color3f(*specular)
         self.shininess = mi.Float(shininess)
         self.refraction_index = mi.Float(ior)
+        # docs/EXTENSIONS.md E.4: GGX alpha of the glossy lobe (0 = mirror) and children per camera hit
+        roughness = float(props.get("roughness", 0.0))
+        glossy_samples = int(props.get("glossy_samples", 1))
+        if not 0.0 <= roughness <= 1.0 or glossy_samples < 1:
+            raise ValueError(f"a5_material: need 0 <= roughness <= 1 and glossy_samples >= 1, got {roughness}, "
+                             f"{glossy_samples}")
+        self.roughness = mi.Float(roughness)
+        self.glossy_samples = mi.Float(float(glossy_samples))
         self._make_opaque()
 
         spec_len = sum(c * c for c in specular) ** 0.5
@@ -115,7 +123,8 @@ class A5Material(mi.BSDF):
         self.m_flags = flags
 
     def _make_opaque(self) -> None:
-        dr.make_opaque(self.diffuse_color, self.specular_color, self.shininess, self.refraction_index)
+        dr.make_opaque(self.diffuse_color, self.specular_color, self.shininess, self.refraction_index,
+                       self.roughness, self.glossy_samples)
 
     # ------------------------------------------------------------------ a5 channel (SPEC B.3)
 
@@ -130,7 +139,8 @@ class A5Material(mi.BSDF):
 
     def eval_attribute_1(self, name: str, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Float:
         """``refraction_index`` or ``shininess``; zero for any other name."""
-        value = {"refraction_index": self.refraction_index, "shininess": self.shininess}.get(name)
+        value = {"refraction_index": self.refraction_index, "shininess": self.shininess,
+                 "roughness": self.roughness, "glossy_samples": self.glossy_samples}.get(name)
         return mi.Float(0.0) if value is None else mi.Float(value)
 
     def eval_diffuse_reflectance(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
@@ -236,6 +246,8 @@ class A5Material(mi.BSDF):
         callback.put("specular_color", self.specular_color, flags)
         callback.put("shininess", self.shininess, flags)
         callback.put("refraction_index", self.refraction_index, flags)
+        callback.put("roughness", self.roughness, flags)
+        callback.put("glossy_samples", self.glossy_samples, flags)
         callback.put("kd", self.kd, flags)
 
     def parameters_changed(self, keys: list[str] | None = None) -> None:

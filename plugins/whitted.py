@@ -25,6 +25,7 @@ from .planes import (
     plane_set,
     planes_from_props,
 )
+from .sampling import GLOSSY_SLOT, Stochastic, ggx_normal, pixel_keys, stratified_2d
 from .whitted_record import TreeRecorder, shape_id
 
 #: AOV groups of the ``aovs`` parameter (a5mi.options.AOV_GROUPS) and the channels each adds, in order:
@@ -41,12 +42,13 @@ AOV_CHANNELS: dict[str, tuple[str, ...]] = {
 MISS, OPAQUE, GLASS = 0, 1, 2
 
 
-def stack_size(max_depth: int) -> int:
-    """Pending-ray stack entries for a bounce budget: depth-first, pop one / push two, so ``max_depth + 1``.
+def stack_size(max_depth: int, glossy_samples: int = 1) -> int:
+    """Pending-ray stack entries for a bounce budget: depth-first, pop one / push two, so ``max_depth + 1``;
+    a glossy camera hit pushes ``2 G`` children (docs/EXTENSIONS.md E.4), so ``max_depth + 2 G - 1``.
 
     Rounded up to at least 8, so every budget from 0 to 7 shares one compiled kernel.
     """
-    return max(8, max_depth + 1)
+    return max(8, max_depth + 2 * glossy_samples - 1)
 
 
 @dr.syntax
@@ -67,6 +69,7 @@ def _trace(
     fresnel: str,
     reflection: bool,
     refraction: bool,
+    rng: Stochastic,
     rec: TreeRecorder | None = None,
 ) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float, mi.Float]:
     """SPEC B.3 for a batch of camera rays (unit ``ray_d``, tmin 0, index 1.0, budget ``max_depth``).
@@ -106,6 +109,10 @@ def _trace(
     n_refl = dr.zeros(mi.Float, width)
     n_refr = dr.zeros(mi.Float, width)
     n_shadow = dr.zeros(mi.Float, width)
+    # ---- extension E.5: per-lane draw counter and ray-tree node number (sampling dimensions)
+    pixel_key, pass_key = mi.UInt32(rng.pixel_key), mi.UInt32(rng.pass_key)
+    counter = dr.zeros(mi.UInt32, width)
+    node = dr.zeros(mi.UInt32, width)
 
     while top > 0:
         top -= 1
@@ -152,43 +159,64 @@ def _trace(
             shininess = bsdf.eval_attribute_1("shininess", si, a5)
         # The binary mirrors (and refracts) off a plane with its normal as written (plugins/planes.py).
         r_view = reflect(d, dr.select(on_plane, plane_mirror_normal(planes, plane_idx, on_plane), n))
+        # ---- extension E.2: the emitter seen by this ray (an AreaLight / SphereLight shape), E.4: gloss
+        emitter_hit = si.emitter(scene, hit & ~on_plane)
+        sees_light = hit & ~on_plane & (emitter_hit != None)  # noqa: E711 - a Dr.Jit pointer comparison
+        alpha = bsdf.eval_attribute_1("roughness", si, a5)
+        n_gloss = dr.minimum(mi.UInt32(dr.maximum(bsdf.eval_attribute_1("glossy_samples", si, a5), 1.0)),
+                             rng.glossy_cap)
 
         # ---- local shading: ambient ⊙ diffuseColor + Σ S clamp(L·N) lightColor ⊙ kd
         local = ambient * diffuse_color
         k = dr.zeros(mi.UInt32, width)
         while hit & (k < n_lights):
             emitter = dr.gather(mi.EmitterPtr, lights, k, hit)
-            ds, light_color = emitter.sample_direction(si, mi.Point2f(0.5, 0.5), hit)
-            d_light = ds.d                                   # SPEC L
-            visible = mi.Bool(hit)                           # SPEC S
-            if shadows:
-                visible &= ~octree_rule.occluded(scene, p, d_light, tmin, ds.dist, hit)
-                # Planes block up to the light; a directional light (Infinite) is at FLT_MAX in the binary.
-                far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0
-                blocked, _, _ = intersect_planes(planes, p, d_light, tmin,
-                                                 dr.select(far, dr.inf, ds.dist), visible)
-                visible &= ~blocked
-                n_shadow += dr.select(hit, 1.0, 0.0)
-                if rec is not None:  # record: the occluder's identity (a nearest-hit query of its own)
-                    rec.occluder(scene, planes, n_refl, n_refr, top, k, p, d_light, tmin, ds.dist, far, hit)
-            term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * kd
-            if phong:
-                l_dot_r = dr.maximum(dr.dot(d_light, dr.normalize(r_view)), 0.0)
-                highlight = dr.select(shininess == 0.0, 1.0, dr.power(l_dot_r, shininess))
-                term += highlight * light_color * specular
-                if rec is not None:  # record
-                    rec.light(n_refl, n_refr, top, k, highlight=highlight)
-            local += dr.select(visible, term, 0.0)
-            if rec is not None:  # record
+            # extension E.2: S stratified samples of an area light (S = 1 and the sample unused for the others)
+            n_samples = dr.gather(mi.UInt32, rng.light_samples, k, hit)
+            is_area = dr.gather(mi.UInt32, rng.light_area, k, hit) > 0
+            acc = dr.zeros(mi.Color3f, width)
+            j = dr.zeros(mi.UInt32, width)
+            while hit & (j < n_samples):
+                u = stratified_2d(pixel_key, pass_key, node * 256 + k, rng.pass_index * n_samples + j,
+                                  rng.passes * n_samples, counter)
+                counter += 2
+                ds, light_color = emitter.sample_direction(si, u, hit)
+                d_light = ds.d                                   # SPEC L
+                dist = dr.select(is_area, ds.dist * (1.0 - 1e-4), ds.dist)  # not the light's own shape
+                visible = mi.Bool(hit)                           # SPEC S
+                if shadows:
+                    visible &= ~octree_rule.occluded(scene, p, d_light, tmin, dist, hit)
+                    # Planes block up to the light; a directional light (Infinite) is at FLT_MAX in the binary.
+                    far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0
+                    blocked, _, _ = intersect_planes(planes, p, d_light, tmin,
+                                                     dr.select(far, dr.inf, dist), visible)
+                    visible &= ~blocked
+                    n_shadow += dr.select(hit, 1.0, 0.0)
+                    if rec is not None:  # record: the occluder's identity (a nearest-hit query of its own)
+                        rec.occluder(scene, planes, n_refl, n_refr, top, k, p, d_light, tmin, dist, far, hit)
+                term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * kd
+                if phong:
+                    l_dot_r = dr.maximum(dr.dot(d_light, dr.normalize(r_view)), 0.0)
+                    highlight = dr.select(shininess == 0.0, 1.0, dr.power(l_dot_r, shininess))
+                    term += highlight * light_color * specular
+                    if rec is not None:  # record
+                        rec.light(n_refl, n_refr, top, k, highlight=highlight)
+                acc += dr.select(visible, term, 0.0)
+                j += 1
+            local += acc * (1.0 / mi.Float(dr.maximum(n_samples, 1)))
+            if rec is not None:  # record (an area light: its last sample's ray and the mean of its terms)
                 rec.light(n_refl, n_refr, top, k, valid=hit, L=d_light, n_dot_l=dr.dot(d_light, n),
-                          light_color=light_color, dist=ds.dist, visible=visible, tested=shadows, term=term)
+                          light_color=light_color, dist=ds.dist, visible=visible, tested=shadows,
+                          term=acc * (1.0 / mi.Float(dr.maximum(n_samples, 1))))
             k += 1
+        local = dr.select(sees_light, local + mi.Color3f(emitter_hit.eval(si, sees_light)), local)
 
         color += weight * dr.select(hit, local, background)
         aov_n = dr.select(first & hit, n, aov_n)
         aov_t = dr.select(first & hit, t_hit, aov_t)
         aov_class = dr.select(first & hit, float(OPAQUE), aov_class)   # only the camera ray sets OPAQUE
         aov_class = dr.select(a5 & (ior > 0.0), float(GLASS), aov_class)
+        root = mi.Bool(first)
         first = dr.full(mi.Bool, False, width)
         if rec is not None:  # record
             rec.node(n_refl, n_refr, top, valid=True, o=o, d=d, tmin=t_min, n_medium=n_medium, weight=weight,
@@ -197,47 +225,66 @@ def _trace(
                      ior=ior, shininess=shininess, local=local, background=background,
                      contribution=weight * dr.select(hit, local, background), color=color)
 
-        # ---- children: mirror and refraction (SPEC B.3, "if bounces > 0")
+        # ---- children: mirror and refraction (SPEC B.3, "if bounces > 0"). Extension E.4: with roughness
+        # alpha > 0 both children use a sampled GGX microfacet normal m instead of N (m = N for alpha = 0), a
+        # camera hit pushes G = glossySamples such pairs with weight 1/G, and a child on the wrong side of the
+        # surface is dropped.
         go = hit & (bounces > 0)
-        r_fresnel = dr.full(mi.Float, 1.0, width)           # SPEC R
-        push_refr = mi.Bool(False)
-        t_dir = dr.zeros(mi.Vector3f, width)
-        nt = mi.Float(n_medium)
-        if refraction:
-            refractive = go & (ior > 0.0)
-            # Planes refract about the binary's normal too (as written outside a Transform; measured).
-            n_r = dr.select(on_plane, plane_mirror_normal(planes, plane_idx, on_plane), n)
-            leaving = dr.dot(d, n_r) > 0.0
-            n_facing = dr.select(leaving, -n_r, n_r)
-            nt = dr.select(leaving, 1.0, ior)
-            t_dir, exists = snell(d, n_facing, n_medium, nt)
-            push_refr = refractive & exists
-            r_fresnel = dr.select(push_refr, fresnel_weight(fresnel, d, n_facing, t_dir, n_medium, nt), 1.0)
-            stack_o.write(p, top, push_refr)
-            stack_d.write(t_dir, top, push_refr)
-            stack_w.write(weight * specular * (1.0 - r_fresnel), top, push_refr)
-            stack_b.write(bounces - 1, top, push_refr)
-            stack_n.write(nt, top, push_refr)
-            stack_t.write(tmin, top, push_refr)
-            top += dr.select(push_refr, 1, 0)
-            n_refr += dr.select(push_refr, 1.0, 0.0)
-            if rec is not None:  # record
-                rec.node(n_refl, n_refr, top, refractive=refractive, leaving=leaving, nt=nt, refr_exists=exists,
-                         t_dir=t_dir, r_fresnel=r_fresnel, push_refr=push_refr,
-                         w_refr=weight * specular * (1.0 - r_fresnel))
-        if reflection:
-            push_refl = go & (dr.norm(specular) > MIRROR_THRESHOLD)
-            stack_o.write(p, top, push_refl)
-            stack_d.write(r_view, top, push_refl)
-            stack_w.write(weight * specular * r_fresnel, top, push_refl)
-            stack_b.write(bounces - 1, top, push_refl)
-            stack_n.write(n_medium, top, push_refl)
-            stack_t.write(tmin, top, push_refl)
-            top += dr.select(push_refl, 1, 0)
-            n_refl += dr.select(push_refl, 1.0, 0.0)
-            if rec is not None:  # record
-                rec.node(n_refl, n_refr, top, push_refl=push_refl, r_dir=r_view, r_fresnel=r_fresnel,
-                         w_refl=weight * specular * r_fresnel)
+        glossy = alpha > 0.0
+        n_children = dr.select(go & glossy & root, n_gloss, 1)
+        share = 1.0 / mi.Float(n_children)
+        # Planes refract about the binary's normal too (as written outside a Transform; measured).
+        n_r = dr.select(on_plane, plane_mirror_normal(planes, plane_idx, on_plane), n)
+        leaving = dr.dot(d, n_r) > 0.0
+        n_side = dr.select(leaving, -n_r, n_r)              # faces the incoming ray
+        g = dr.zeros(mi.UInt32, width)
+        while go & (g < n_children):
+            m_facing = n_side
+            r_dir = r_view
+            u_g = stratified_2d(pixel_key, pass_key, node * 256 + GLOSSY_SLOT, rng.pass_index * n_children + g,
+                                rng.passes * n_children, counter)   # E.4 lobe sample (unused for alpha = 0)
+            counter += dr.select(glossy, 2, 0)
+            m_facing = dr.select(glossy, ggx_normal(n_side, alpha, u_g), n_side)
+            r_dir = dr.select(glossy, reflect(d, m_facing), r_view)
+            r_fresnel = dr.full(mi.Float, 1.0, width)           # SPEC R
+            push_refr = mi.Bool(False)
+            t_dir = dr.zeros(mi.Vector3f, width)
+            nt = mi.Float(n_medium)
+            if refraction:
+                refractive = go & (ior > 0.0)
+                nt = dr.select(leaving, 1.0, ior)
+                t_dir, exists = snell(d, m_facing, n_medium, nt)
+                exists &= ~glossy | (dr.dot(t_dir, n_side) < 0.0)
+                push_refr = refractive & exists
+                r_fresnel = dr.select(push_refr, fresnel_weight(fresnel, d, m_facing, t_dir, n_medium, nt), 1.0)
+                stack_o.write(p, top, push_refr)
+                stack_d.write(t_dir, top, push_refr)
+                stack_w.write(weight * specular * (1.0 - r_fresnel) * share, top, push_refr)
+                stack_b.write(bounces - 1, top, push_refr)
+                stack_n.write(nt, top, push_refr)
+                stack_t.write(tmin, top, push_refr)
+                top += dr.select(push_refr, 1, 0)
+                n_refr += dr.select(push_refr, 1.0, 0.0)
+                if rec is not None:  # record
+                    rec.node(n_refl, n_refr, top, refractive=refractive, leaving=leaving, nt=nt, refr_exists=exists,
+                             t_dir=t_dir, r_fresnel=r_fresnel, push_refr=push_refr,
+                             w_refr=weight * specular * (1.0 - r_fresnel) * share)
+            if reflection:
+                push_refl = go & (dr.norm(specular) > MIRROR_THRESHOLD)
+                push_refl &= ~glossy | (dr.dot(r_dir, n_side) > 0.0)
+                stack_o.write(p, top, push_refl)
+                stack_d.write(r_dir, top, push_refl)
+                stack_w.write(weight * specular * r_fresnel * share, top, push_refl)
+                stack_b.write(bounces - 1, top, push_refl)
+                stack_n.write(n_medium, top, push_refl)
+                stack_t.write(tmin, top, push_refl)
+                top += dr.select(push_refl, 1, 0)
+                n_refl += dr.select(push_refl, 1.0, 0.0)
+                if rec is not None:  # record
+                    rec.node(n_refl, n_refr, top, push_refl=push_refl, r_dir=r_dir, r_fresnel=r_fresnel,
+                             w_refl=weight * specular * r_fresnel * share)
+            g += 1
+        node += 1
 
     return color, aov_n, aov_t, aov_class, n_refl, n_refr, n_shadow
 
@@ -261,6 +308,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     reflection       bool    true    trace mirror rays (``-reflection_off`` = false)
     refraction       bool    true    trace refracted rays (``-refraction_off`` = false)
     tmin             float   0.001   tmin of secondary and shadow rays (``a5mi.spec.TMIN``)
+    glossy_samples   int     1       cap on the glossy children of a camera hit (docs/EXTENSIONS.md E.4)
     aovs             string  ""      comma-separated AOV groups: ``normal`` (nx, ny, nz), ``depth``
                                      (t), ``class`` (class), ``counts`` (n_reflection, n_refraction,
                                      n_shadow)
@@ -332,6 +380,38 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         self.aovs = tuple(g for g in AOV_CHANNELS if g in groups)
         self.planes = planes_from_props(props)
         self._planes = plane_set(self.planes)
+        glossy_samples = props.get("glossy_samples", 1)  # docs/EXTENSIONS.md E.4: cap on glossy children
+        if isinstance(glossy_samples, bool) or not isinstance(glossy_samples, int) or glossy_samples < 1:
+            raise ValueError(f"a5_whitted: 'glossy_samples' must be an integer >= 1, got {glossy_samples!r}")
+        self.glossy_samples = glossy_samples
+        self._pass: tuple[int, int, int, int] | None = None
+
+    def set_pass(self, first_pixel: int, index: int, count: int, seed: int) -> None:
+        """Extension E.5 (called by ``a5mi.driver`` before each ``sample``): lane ``i`` of the next batch is
+        render-buffer sample ``first_pixel + i``, in pass ``index`` of ``count`` (``-spp``), with ``seed``.
+        Without it (``mi.render``), a lane's key comes from the sampler and every pass is independent."""
+        self._pass = (int(first_pixel), int(index), int(count), int(seed) & 0xFFFFFFFF)
+
+    def _stochastic(self, scene: mi.Scene, sampler: mi.Sampler | None, width: int) -> Stochastic:
+        """The :class:`Stochastic` state of a batch: keys from :meth:`set_pass` (or the sampler)."""
+        emitters = [e for e in scene.emitters() if self._is_light(e)]
+        samples = [int(getattr(e, "samples", 1)) for e in emitters] or [1]
+        area = [1 if hasattr(e, "samples") else 0 for e in emitters] or [0]
+        if self._pass is not None:
+            first, index, count, seed = self._pass
+            pixel = dr.arange(mi.UInt32, width) + dr.opaque(mi.UInt32, first)
+        else:
+            index, count, seed = 0, 1, 0
+            rnd = sampler.next_1d() if sampler is not None else dr.zeros(mi.Float, width)
+            pixel = mi.UInt32(rnd * 16777216.0) + dr.zeros(mi.UInt32, width)
+        pixel_key, pass_key = pixel_keys(pixel, dr.opaque(mi.UInt32, seed), dr.opaque(mi.UInt32, index))
+        return Stochastic(pixel_key, pass_key, dr.opaque(mi.UInt32, index), dr.opaque(mi.UInt32, count),
+                          mi.UInt32(samples), mi.UInt32(area), dr.opaque(mi.UInt32, self.glossy_samples))
+
+    @staticmethod
+    def _is_light(e: mi.Emitter) -> bool:
+        """A light of the light loop: a delta emitter (SPEC A.3, E.1) or an ``a5_area`` emitter (E.2)."""
+        return mi.has_flag(e.flags(), mi.EmitterFlags.Delta) or hasattr(e, "samples")
 
     # ------------------------------------------------------------------ Mitsuba interface
 
@@ -341,7 +421,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     def _lights(self, scene: mi.Scene) -> tuple[mi.EmitterPtr, mi.UInt32]:
         """The scene's delta emitters as a gatherable pointer array, and their count (opaque)."""
         emitters = scene.emitters()
-        idx = [i for i, e in enumerate(emitters) if mi.has_flag(e.flags(), mi.EmitterFlags.Delta)]
+        idx = [i for i, e in enumerate(emitters) if self._is_light(e)]
         if not idx:
             return dr.zeros(mi.EmitterPtr, 1), dr.opaque(mi.UInt32, 0)
         ptrs = dr.gather(mi.EmitterPtr, scene.emitters_dr(), mi.UInt32(idx))
@@ -349,7 +429,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         return ptrs, dr.opaque(mi.UInt32, len(idx))
 
     def trace(
-        self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True, record: TreeRecorder | None = None
+        self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True, sampler: mi.Sampler | None = None,
+        record: TreeRecorder | None = None,
     ) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float, mi.Float]:
         """SPEC B.3 for camera rays: ``(colour, normal, t, class, n_reflection, n_refraction, n_shadow)``;
         ``record`` (``a5mi trace``): fill this recorder with every node of each lane's ray tree."""
@@ -362,8 +443,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             scene, o, d, dr.full(mi.Bool, True, width) & active,
             dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, self.ambient),
             dr.opaque(mi.Float, self.tmin), lights, n_lights, self._planes,
-            stack_size(self.max_depth), self.shadows, self.phong, self.fresnel,
-            self.reflection, self.refraction, record,
+            stack_size(self.max_depth, self.glossy_samples), self.shadows, self.phong, self.fresnel,
+            self.reflection, self.refraction, self._stochastic(scene, sampler, width), record,
         )
 
     def sample(
@@ -371,7 +452,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         active: mi.Bool | bool = True,
     ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
         """Colour of one camera ray per lane, the ``active`` mask, and the AOVs of :meth:`aov_names`."""
-        color, n, t, cls, n_refl, n_refr, n_shadow = self.trace(scene, ray, active)
+        color, n, t, cls, n_refl, n_refr, n_shadow = self.trace(scene, ray, active, sampler)
         channels = {"normal": [n.x, n.y, n.z], "depth": [t], "class": [cls], "counts": [n_refl, n_refr, n_shadow]}
         aovs = [a for g in self.aovs for a in channels[g]]
         width = _width(ray, active)
@@ -388,6 +469,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         callback.put("refraction", self.refraction, flags)
         callback.put("tmin", self.tmin, flags)
         callback.put("aovs", ",".join(self.aovs), flags)
+        callback.put("glossy_samples", self.glossy_samples, flags)
 
     def to_string(self) -> str:
         return (

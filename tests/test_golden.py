@@ -49,3 +49,27 @@ def test_golden(scene: str, suffix: str, variant: str, tmp_path: Path) -> None:
         write_diff(ours, ref, m, tmp_path / f"{scene}.{suffix}.diff.png", ("now", "golden"))
     assert m.psnr >= 60.0, f"{scene}.{suffix}: {m.summary()} (diff in {tmp_path})"
     assert m.share_over <= 0.001, f"{scene}.{suffix}: {m.summary()} (diff in {tmp_path})"
+
+
+#: The extension's demo scenes (docs/EXTENSIONS.md), seeded: -shadows -bounces 4 -spp 4 -seed 1.
+EXT_SCENES = ("soft_shadows", "dof", "spot", "glossy")
+
+
+@pytest.mark.parametrize("scene", EXT_SCENES)
+def test_golden_extension(scene: str, variant: str, tmp_path: Path) -> None:
+    from a5mi.converters.a5_parser import parse_file
+    from a5mi.driver import RenderOptions, render
+    from a5mi.imageio import quantize, write_image
+
+    options = RenderOptions(width=SIZE, height=SIZE, shadows=True, bounces=4, spp=4, seed=1)
+    result = render(parse_file(ROOT / "scenes" / f"{scene}.txt"), options)
+    ours = quantize(result.image).astype(np.float64)
+    golden = GOLDEN / f"{scene}.ext-spp4.png"
+    if os.environ.get("A5MI_UPDATE_GOLDEN") == "1":
+        write_image(golden, result.image)
+    assert golden.is_file(), f"missing {golden}: run with A5MI_UPDATE_GOLDEN=1 and check the image by eye"
+    ref = read_levels(golden)
+    m = compare_arrays(ours, ref)
+    if m.psnr < 60.0 or m.share_over > 0.001:
+        write_diff(ours, ref, m, tmp_path / f"{scene}.diff.png", ("now", "golden"))
+    assert m.psnr >= 60.0 and m.share_over <= 0.001, f"{scene}: {m.summary()} (diff in {tmp_path})"

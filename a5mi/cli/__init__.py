@@ -22,6 +22,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "compare": ("a5mi.cli.compare:COMPARE", "PSNR, mean error, share of pixels > 2/255 of two images (+ diff)"),
     "fidelity": ("a5mi.cli.fidelity:FIDELITY", "re-render the reference images and print the fidelity table"),
     "crosscheck": ("a5mi.cli.crosscheck:CROSSCHECK", "a5 Whitted vs Mitsuba's path tracer on the same rays"),
+    "converge": ("a5mi.cli.converge:CONVERGE", "time and RMSE per spp of the extension's sampling (EXTENSIONS E.5)"),
     "bench": ("a5mi.cli.bench:BENCH", "time the stages (cold/warm), optionally against a5soln"),
     "grade": ("a5mi.cli.grade:GRADE", "grade a class's ray tracers: sandboxed, on Dask, HTML/CSV/JSON report"),
     "render-xml": ("a5mi.cli.render_xml:RENDER_XML", "render any Mitsuba XML with the a5mi plugins registered"),

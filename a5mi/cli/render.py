@@ -53,8 +53,11 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          show_default=False),
     Flag(("-refraction_off", "--refraction-off"), "refraction", "no refracted rays", const=False, default=True,
          show_default=False),
-    Flag(("-seed", "--seed"), "seed", "jitter from numpy's PCG64 with seed N instead of glibc rand() (seed 1)", 1,
+    Flag(("-seed", "--seed"), "seed", "jitter from numpy's PCG64 with seed N instead of glibc rand() (seed 1); also "
+         "seeds the -spp sampling (default 0)", 1,
          integer(0, 2**63 - 1), metavar="N"),
+    Flag(("-spp", "--spp"), "spp", "samples per pixel of area lights, lens and gloss (docs/EXTENSIONS.md E.5)",
+         1, integer(1, 65536), 1, "N"),
     Flag(("-variant", "--variant"), "variant", "llvm (default; or $A5MI_VARIANT), cuda or auto", 1,
          choice(("llvm", "cuda", "auto")), metavar="V"),
     Flag(("-threads", "--threads"), "threads", "Dr.Jit worker threads", 1, integer(1, 1024), metavar="N"),

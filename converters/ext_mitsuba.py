@@ -1,0 +1,123 @@
+"""Mitsuba entries of the distribution-ray-tracing extension (docs/EXTENSIONS.md E.1-E.4, "stock mapping").
+
+Used by :mod:`.to_mitsuba` (and so by :mod:`.to_xml`); plain dicts, no Mitsuba import. a5 mode uses the a5mi
+plugins; ``stock=True`` the physically based stock plugins, scaled to agree with the a5 light at the
+distance ``D`` from the light to the centre of the scene's finite geometry (as the stock ``point`` mapping
+of a PointLight does), so ``a5mi crosscheck`` compares like with like there and explains the rest:
+
+* SpotLight -> ``a5_spot`` | stock ``spot`` (``cutoff_angle = angle``, ``beam_width = beamWidth``, the same
+  profile), ``intensity = color·D²/(1 + falloff·D²)``;
+* AreaLight -> a ``rectangle`` (``to_world`` maps ``[-1, 1]²`` onto the parallelogram: columns ``edge1/2``,
+  ``edge2/2``, ``±n``, translation its centre) carrying ``a5_area`` and a black ``a5_material`` | the same
+  rectangle with a stock ``area`` emitter, one-sided, facing the scene centre, ``radiance = color·D² /
+  (A cos θ_l (1 + falloff·D²))`` (``A = |edge1 × edge2|``, ``θ_l`` the angle at the light to the centre);
+* SphereLight -> a ``sphere`` carrying ``a5_area`` (``shape = sphere``) | stock ``area`` on the sphere with
+  ``radiance = color·D² / (π r² (1 + falloff·D²))``;
+* camera ``aperture A > 0`` -> stock ``thinlens`` with ``aperture_radius = A/2``, ``focus_distance = F``
+  (a5 mode: the driver's thin lens, a5mi/passes.py);
+* ``roughness α > 0`` -> ``roughconductor`` / ``roughdielectric`` (GGX, ``alpha = α``) in place of the mirror /
+  dielectric of the stock material (converters/materials.py); not ``roughplastic``, whose Fresnel-weighted
+  coat cannot reproduce the a5 sum ``kd·D + ks·M``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from .model import AreaLight, SphereLight, SpotLight
+
+ExtLight = SpotLight | AreaLight | SphereLight
+
+
+def _rgb(c: Any) -> dict[str, Any]:
+    return {"type": "rgb", "value": [float(x) for x in c]}
+
+
+#: What a ray hitting an area light's shape reflects: nothing (the light adds its ``eval`` colour).
+BLACK_A5 = {"type": "a5_material", "diffuse_color": _rgb((0, 0, 0)), "specular_color": _rgb((0, 0, 0))}
+
+
+def _dist2(centre: np.ndarray | None, p: np.ndarray) -> float:
+    return 1.0 if centre is None else max(float(np.sum((centre - p) ** 2)), 1e-12)
+
+
+def _look_at(origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """4x4 camera-style frame at ``origin`` whose +z is ``direction`` (Mitsuba's ``look_at`` convention)."""
+    z = direction / np.linalg.norm(direction)
+    up = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    x = np.cross(up, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, y, z, origin
+    return m
+
+
+def parallelogram_to_world(light: AreaLight, towards: np.ndarray | None = None) -> np.ndarray:
+    """The ``rectangle`` ``to_world`` of the module docstring; with ``towards`` the normal faces that point."""
+    c, e1, e2 = (np.asarray(v, dtype=np.float64) for v in (light.corner, light.edge1, light.edge2))
+    n = np.cross(e1, e2)
+    n /= np.linalg.norm(n)
+    centre = c + 0.5 * (e1 + e2)
+    if towards is not None and float(np.dot(n, towards - centre)) < 0.0:
+        n = -n
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = 0.5 * e1, 0.5 * e2, n, centre
+    return m
+
+
+def light_entry(light: ExtLight, centre: np.ndarray | None, *, stock: bool) -> dict[str, Any]:
+    """The scene-dict entry of one extension light (module docstring)."""
+    falloff = float(light.falloff)
+    if isinstance(light, SpotLight):
+        p, axis = np.asarray(light.position, dtype=np.float64), np.asarray(light.direction, dtype=np.float64)
+        if not stock:
+            return {"type": "a5_spot", "position": list(light.position), "direction": list(light.direction),
+                    "color": _rgb(light.color), "falloff": falloff, "angle": float(light.angle),
+                    "beam_width": float(light.beam_width)}
+        d2 = _dist2(centre, p)
+        return {"type": "spot", "to_world": _look_at(p, axis), "cutoff_angle": float(light.angle),
+                "beam_width": float(light.beam_width),
+                "intensity": _rgb(np.asarray(light.color) * d2 / (1.0 + falloff * d2))}
+    if isinstance(light, AreaLight):
+        e1, e2 = np.asarray(light.edge1, dtype=np.float64), np.asarray(light.edge2, dtype=np.float64)
+        if not stock:
+            emitter = {"type": "a5_area", "shape": "parallelogram", "corner": list(light.corner),
+                       "edge1": list(light.edge1), "edge2": list(light.edge2), "color": _rgb(light.color),
+                       "falloff": falloff, "samples": int(light.samples)}
+            return {"type": "rectangle", "to_world": parallelogram_to_world(light), "bsdf": BLACK_A5,
+                    "emitter": emitter}
+        m = parallelogram_to_world(light, centre)
+        mid = m[:3, 3]
+        d2 = _dist2(centre, mid)
+        cos_l = 1.0 if centre is None else abs(float(np.dot(m[:3, 2], centre - mid))) / math.sqrt(d2)
+        area = float(np.linalg.norm(np.cross(e1, e2)))
+        radiance = np.asarray(light.color) * d2 / (area * max(cos_l, 0.05) * (1.0 + falloff * d2))
+        return {"type": "rectangle", "to_world": m, "emitter": {"type": "area", "radiance": _rgb(radiance)}}
+    c = np.asarray(light.center, dtype=np.float64)
+    sphere = {"type": "sphere", "center": list(light.center), "radius": float(light.radius)}
+    if not stock:
+        return {**sphere, "bsdf": BLACK_A5,
+                "emitter": {"type": "a5_area", "shape": "sphere", "center": list(light.center),
+                            "radius": float(light.radius), "color": _rgb(light.color), "falloff": falloff,
+                            "samples": int(light.samples)}}
+    d2 = _dist2(centre, c)
+    radiance = np.asarray(light.color) * d2 / (math.pi * light.radius ** 2 * (1.0 + falloff * d2))
+    return {**sphere, "emitter": {"type": "area", "radiance": _rgb(radiance)}}
+
+
+def thinlens_params(aperture: float, focus_distance: float) -> dict[str, Any]:
+    """Stock ``thinlens`` parameters of a camera with ``aperture > 0`` (module docstring)."""
+    return {"aperture_radius": 0.5 * float(aperture), "focus_distance": float(focus_distance)}
+
+
+def rough(other: dict[str, Any], roughness: float) -> dict[str, Any]:
+    """``conductor`` -> ``roughconductor``, ``dielectric`` -> ``roughdielectric`` (GGX, ``alpha``) for
+    ``roughness > 0``; otherwise ``other`` unchanged."""
+    if roughness <= 0.0:
+        return other
+    kind = {"conductor": "roughconductor", "dielectric": "roughdielectric"}[other["type"]]
+    return {**other, "type": kind, "distribution": "ggx", "alpha": float(roughness)}

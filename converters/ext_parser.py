@@ -1,0 +1,153 @@
+"""Parser rules of the distribution-ray-tracing extension (docs/EXTENSIONS.md E.1-E.4).
+
+New blocks and keywords, read from the same :class:`~.a5_parser.TokenStream` with the same positioned errors
+as the course grammar (SPEC A): ``SpotLight``, ``AreaLight``, ``SphereLight`` inside ``Lights``; ``aperture`` /
+``focusDistance`` at the end of ``PerspectiveCamera``; ``roughness`` / ``glossySamples`` in ``Material``. A course
+scene contains none of them, so it parses to the same model as before (every new field has the default that
+means "as SPEC B").
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Final
+
+from .model import AreaLight, SphereLight, SpotLight, Vec3
+
+if TYPE_CHECKING:
+    from .a5_parser import TokenStream
+    from .lexer import Token
+
+#: Upper bound of ``samples`` / ``glossySamples`` (one kernel loop bound / stack size, EXTENSIONS E.5).
+MAX_LIGHT_SAMPLES: Final = 4096
+MAX_GLOSSY_SAMPLES: Final = 64
+#: The keywords this module adds to ``Material`` (for the parser's error message).
+MATERIAL_KEYWORDS: Final = ("roughness", "glossySamples")
+
+_V3, _F, _I = "vec3", "number", "integer"
+
+
+def _fields(ts: TokenStream, start: Token, block: str, kinds: dict[str, str],
+            required: tuple[str, ...]) -> dict[str, object]:
+    """``BLOCK { (KEY value)* }``, keys of ``kinds`` in any order, each at most once; ``required`` must appear.
+    Values are checked here for type only; the callers check ranges at the keyword's position, so every
+    error points at the offending token (SPEC A.0 style)."""
+    ts.expect("{", f"after '{block}'")
+    values: dict[str, object] = {}
+    locs: dict[str, object] = {}
+    while True:
+        tok = ts.next()
+        if tok is not None and tok.text == "}":
+            break
+        if tok is None or tok.text not in kinds:
+            found = "end of file" if tok is None else f"'{tok.text}'"
+            raise ts.syntax_error(f"expected {', '.join(kinds)} or '}}' in {block}, found {found}", tok)
+        if tok.text in values:
+            raise ts.syntax_error(f"{block} gives '{tok.text}' twice", tok)
+        kind = kinds[tok.text]
+        values[tok.text] = (ts.vec3(tok.text) if kind == _V3 else ts.number(tok.text) if kind == _F
+                            else ts.integer(tok.text)[0])
+        locs[tok.text] = tok.loc
+    for key in required:
+        if key not in values:
+            raise ts.semantic_error(f"{block} needs '{key}'", start.loc)
+    values["_locs"] = locs
+    return values
+
+
+def _check(ts: TokenStream, ok: bool, values: dict[str, object], key: str, msg: str) -> None:
+    if not ok:
+        raise ts.semantic_error(msg, values["_locs"][key])  # type: ignore[index]
+
+
+def _nonzero(v: Vec3) -> bool:
+    return any(c != 0.0 for c in v)
+
+
+def _falloff_samples(ts: TokenStream, block: str, values: dict[str, object]) -> tuple[float, int]:
+    falloff = float(values.get("falloff", 0.0))  # type: ignore[arg-type]
+    _check(ts, falloff >= 0.0, values, "falloff", f"{block} falloff must not be negative, found {falloff:g}")
+    samples = int(values.get("samples", 16))  # type: ignore[call-overload]
+    _check(ts, 1 <= samples <= MAX_LIGHT_SAMPLES, values, "samples",
+           f"{block} samples must be between 1 and {MAX_LIGHT_SAMPLES}, found {samples}")
+    return falloff, samples
+
+
+def parse_spot_light(ts: TokenStream, start: Token) -> SpotLight:
+    """``SpotLight { position V3 direction V3 color V3 [falloff F] angle F [beamWidth F] }`` (E.1): any order;
+    ``0 < beamWidth <= angle < 90`` degrees, ``beamWidth`` defaulting to ``3/4 angle``."""
+    v = _fields(ts, start, "SpotLight", {"position": _V3, "direction": _V3, "color": _V3, "falloff": _F,
+                                         "angle": _F, "beamWidth": _F}, ("position", "direction", "color", "angle"))
+    _check(ts, _nonzero(v["direction"]), v, "direction", "SpotLight direction must not be the zero vector")  # type: ignore[arg-type]
+    angle = float(v["angle"])  # type: ignore[arg-type]
+    _check(ts, 0.0 < angle < 90.0, v, "angle", f"SpotLight angle must be between 0 and 90 degrees, found {angle:g}")
+    beam = float(v.get("beamWidth", 0.75 * angle))  # type: ignore[arg-type]
+    _check(ts, 0.0 < beam <= angle, v, "beamWidth",
+           f"SpotLight beamWidth must be in (0, angle = {angle:g}] degrees, found {beam:g}")
+    falloff, _ = _falloff_samples(ts, "SpotLight", v)
+    return SpotLight(v["position"], v["direction"], v["color"], falloff, angle, beam, start.loc)  # type: ignore[arg-type]
+
+
+def parse_area_light(ts: TokenStream, start: Token) -> AreaLight:
+    """``AreaLight { corner V3 edge1 V3 edge2 V3 color V3 [falloff F] [samples I] }`` (E.2); the edges must
+    span a parallelogram of non-zero area; ``samples`` defaults to 16."""
+    v = _fields(ts, start, "AreaLight", {"corner": _V3, "edge1": _V3, "edge2": _V3, "color": _V3, "falloff": _F,
+                                         "samples": _I}, ("corner", "edge1", "edge2", "color"))
+    e1, e2 = v["edge1"], v["edge2"]
+    cross = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])  # type: ignore[index]
+    _check(ts, _nonzero(cross), v, "edge2", "AreaLight edge1 and edge2 must span a non-zero area")
+    falloff, samples = _falloff_samples(ts, "AreaLight", v)
+    return AreaLight(v["corner"], e1, e2, v["color"], falloff, samples, start.loc)  # type: ignore[arg-type]
+
+
+def parse_sphere_light(ts: TokenStream, start: Token) -> SphereLight:
+    """``SphereLight { center V3 radius F color V3 [falloff F] [samples I] }`` (E.2); radius > 0."""
+    v = _fields(ts, start, "SphereLight", {"center": _V3, "radius": _F, "color": _V3, "falloff": _F,
+                                           "samples": _I}, ("center", "radius", "color"))
+    radius = float(v["radius"])  # type: ignore[arg-type]
+    _check(ts, radius > 0.0, v, "radius", f"SphereLight radius must be positive, found {radius:g}")
+    falloff, samples = _falloff_samples(ts, "SphereLight", v)
+    return SphereLight(v["center"], radius, v["color"], falloff, samples, start.loc)  # type: ignore[arg-type]
+
+
+#: ``Lights`` entries this module adds (name -> parse function).
+LIGHTS: Final = {"SpotLight": parse_spot_light, "AreaLight": parse_area_light, "SphereLight": parse_sphere_light}
+
+
+def parse_camera_lens(ts: TokenStream) -> tuple[float, float]:
+    """The optional ``[aperture F] [focusDistance F]`` after the camera's ``angle``, then ``}`` (E.3):
+    ``aperture >= 0`` (the lens diameter; 0, the default, is the pinhole), ``focusDistance > 0`` (default 1)."""
+    aperture, focus = 0.0, 1.0
+    seen: set[str] = set()
+    while True:
+        tok = ts.next()
+        if tok is not None and tok.text == "}":
+            return aperture, focus
+        if tok is None or tok.text not in ("aperture", "focusDistance") or tok.text in seen:
+            found = "end of file" if tok is None else f"'{tok.text}'"
+            raise ts.syntax_error(f"expected '}}' to close PerspectiveCamera (or aperture, focusDistance), "
+                                  f"found {found}", tok)
+        seen.add(tok.text)
+        value = ts.number(tok.text)
+        if tok.text == "aperture":
+            if value < 0.0:
+                raise ts.semantic_error(f"camera aperture must not be negative, found {value:g}", tok.loc)
+            aperture = value
+        else:
+            if value <= 0.0:
+                raise ts.semantic_error(f"camera focusDistance must be positive, found {value:g}", tok.loc)
+            focus = value
+
+
+def parse_material_keyword(ts: TokenStream, tok: Token, values: dict[str, object]) -> None:
+    """``roughness F`` (GGX alpha, 0 <= alpha <= 1) or ``glossySamples I`` (1..64) inside ``Material`` (E.4)."""
+    if tok.text == "roughness":
+        alpha = ts.number(tok.text)
+        if not 0.0 <= alpha <= 1.0:
+            raise ts.semantic_error(f"roughness must be between 0 and 1, found {alpha:g}", tok.loc)
+        values["roughness"] = alpha
+    else:
+        n, n_tok = ts.integer(tok.text)
+        if not 1 <= n <= MAX_GLOSSY_SAMPLES:
+            raise ts.semantic_error(f"glossySamples must be between 1 and {MAX_GLOSSY_SAMPLES}, found {n}",
+                                    n_tok.loc)
+        values["glossy_samples"] = n

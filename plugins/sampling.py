@@ -1,0 +1,78 @@
+"""Seeded, stratified sample numbers for the distribution-ray-tracing extension (docs/EXTENSIONS.md E.5).
+
+Stateless: every number is a TEA hash (``mi.sample_tea_32`` / ``mi.sample_tea_float32``) of per-lane keys,
+so a render is reproducible for a given ``-seed`` whatever the tile size or thread count.
+
+* ``pixel_key = tea(pixel, seed)``: one per render-buffer sample (pixel) and seed;
+* ``pass_key = tea(pixel_key, pass)``: one per ``-spp`` pass (the uniform jitter ``ξ`` of each draw is
+  ``tea_float(pass_key, counter)``, ``counter`` advancing by 2 per 2D draw);
+* a *dimension* ``dim`` (the camera lens, light k at ray-tree node t, the glossy lobe at node t) has ``M``
+  samples per pixel (``M = spp · samples``); sample ``i`` of them (``i = pass · samples + j``) lies in
+  stratum ``s = (i + shift) mod M`` with the per-pixel shift ``shift = tea(pixel_key, dim) mod M``, a uniformly
+  random cyclic permutation, so each sample is uniform and the dimensions of one sample are independent;
+* stratum ``s`` of ``M`` with ``q = floor(sqrt M)``: for ``s < q²`` the cell ``(s mod q, s div q)`` of a
+  ``q x q`` grid, ``u = ((s mod q) + ξ1)/q``, ``v = ((s div q) + ξ2)/q``; the ``M - q²`` remaining samples are
+  uniform on the square. Both are uniform densities, so the mixture is unbiased.
+"""
+
+from __future__ import annotations
+
+import drjit as dr
+import mitsuba as mi
+
+#: ``dim`` of the thin-lens sample (EXTENSIONS E.3); ray-tree dimensions are ``node · 256 + slot`` < 2^24.
+LENS_DIM = 0xFFFFFFF0
+#: slot of the glossy lobe at a node; light k uses slot k (k < 255).
+GLOSSY_SLOT = 255
+
+
+def tea(a: mi.UInt32, b: mi.UInt32) -> mi.UInt32:
+    """A 32-bit hash of two 32-bit words (TEA, 4 rounds): the first word of ``mi.sample_tea_32``."""
+    return mi.sample_tea_32(mi.UInt32(a), mi.UInt32(b))[0]
+
+
+def pixel_keys(pixel: mi.UInt32, seed: mi.UInt32, pass_index: mi.UInt32) -> tuple[mi.UInt32, mi.UInt32]:
+    """``(pixel_key, pass_key)`` of the module docstring."""
+    pk = tea(pixel, seed)
+    return pk, tea(pk, pass_index)
+
+
+def stratified_2d(pixel_key: mi.UInt32, pass_key: mi.UInt32, dim: mi.UInt32, index: mi.UInt32,
+                  count: mi.UInt32, counter: mi.UInt32) -> mi.Point2f:
+    """Sample ``index`` of ``count`` of dimension ``dim``, jittered by draw ``counter`` (module docstring)."""
+    count = dr.maximum(mi.UInt32(count), 1)
+    shift = tea(pixel_key, dim) % count
+    s = (mi.UInt32(index) + shift) % count
+    q = mi.UInt32(dr.floor(dr.sqrt(mi.Float(count))))
+    q = dr.select(q * q > count, q - 1, q)                      # guard sqrt rounding up
+    xi1 = mi.sample_tea_float32(pass_key, mi.UInt32(counter))
+    xi2 = mi.sample_tea_float32(pass_key, mi.UInt32(counter) + 1)
+    grid = s < q * q
+    qf = mi.Float(q)
+    u = dr.select(grid, (mi.Float(s % q) + xi1) / qf, xi1)
+    v = dr.select(grid, (mi.Float(s // q) + xi2) / qf, xi2)
+    return mi.Point2f(dr.minimum(u, 0.99999994), dr.minimum(v, 0.99999994))
+
+
+def ggx_normal(n: mi.Vector3f, alpha: mi.Float, u: mi.Point2f) -> mi.Vector3f:
+    """A GGX microfacet normal around ``n`` (EXTENSIONS E.4): ``tan²θm = α² u1/(1 - u1)``, ``φm = 2π u2``;
+    pdf ``D(m) cos θm`` with ``D(m) = α² / (π cos⁴θm (α² + tan²θm)²)``. ``α = 0`` returns ``n``."""
+    tan2 = alpha * alpha * u.x / dr.maximum(1.0 - u.x, 1e-7)
+    cos_t = dr.rsqrt(1.0 + tan2)
+    sin_t = dr.safe_sqrt(1.0 - cos_t * cos_t)
+    s, c = dr.sincos(2.0 * dr.pi * u.y)
+    frame = mi.Frame3f(n)
+    m = frame.to_world(mi.Vector3f(sin_t * c, sin_t * s, cos_t))
+    return dr.select(alpha > 0.0, dr.normalize(m), n)
+
+
+class Stochastic:
+    """Per-lane sampling state of the extension (docs/EXTENSIONS.md E.5, :mod:`.sampling`): ``pixel_key`` and
+    ``pass_key`` (UInt32 per lane), the pass index and the number of passes (``-spp``), the lights' sample
+    counts and area flags (arrays indexed like ``lights``) and the cap on glossy children (opaque)."""
+
+    def __init__(self, pixel_key: mi.UInt32, pass_key: mi.UInt32, pass_index: mi.UInt32, passes: mi.UInt32,
+                 light_samples: mi.UInt32, light_area: mi.UInt32, glossy_cap: mi.UInt32) -> None:
+        self.pixel_key, self.pass_key = pixel_key, pass_key
+        self.pass_index, self.passes = pass_index, passes
+        self.light_samples, self.light_area, self.glossy_cap = light_samples, light_area, glossy_cap
