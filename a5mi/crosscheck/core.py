@@ -112,12 +112,14 @@ def _pixel_rays(camera: Any, width: int, height: int, repeat: int = 1) -> Any:
 
 def pixel_classes(
     mi_scene: Any, camera: Any, width: int, height: int, bounces: int, *, tmin: float = TMIN,
-    reflection: bool = True, refraction: bool = True,
+    reflection: bool = True, refraction: bool = True, integrator: Mapping[str, Any] | None = None,
 ) -> npt.NDArray[np.uint8]:
     """Class of each pixel (HxW, row 0 = top): :data:`BACKGROUND`, :data:`OPAQUE` or :data:`GLASS`.
 
     Parameter ``mi_scene``: a loaded scene with a5 materials. ``camera``: ``center``, ``direction``, ``up``,
     ``angle`` (SPEC A.2). ``bounces``, ``tmin``, ``reflection``, ``refraction``: as ``a5_whitted``'s.
+    ``integrator``: the scene's ``a5_whitted`` parameters (its dict entry), which carry what the scene puts
+    into the integrator (the exact planes, ``plane_*``); the arguments above override them.
     Output: the ``class`` AOV of ``a5_whitted`` (SPEC B.3 ray tree, pixel centres of SPEC B.2) rendered by
     :func:`a5mi.driver.render_scene`: ``GLASS`` where some node of the pixel's ray tree hits a material with
     ``refraction_index > 0``; else ``BACKGROUND`` where the camera ray misses, else ``OPAQUE``.
@@ -127,7 +129,8 @@ def pixel_classes(
     from a5mi.driver import render_scene
     from a5mi.options import RenderOptions
 
-    integ = mi.load_dict({"type": "a5_whitted", "max_depth": bounces, "tmin": float(tmin),
+    base = {k: v for k, v in (integrator or {}).items() if k not in ("type", "aovs")}
+    integ = mi.load_dict({**base, "type": "a5_whitted", "max_depth": bounces, "tmin": float(tmin),
                           "reflection": reflection, "refraction": refraction, "aovs": "class"})
     ro = RenderOptions(width=width, height=height, bounces=bounces, reflection=reflection,
                        refraction=refraction, classes=True)
@@ -278,7 +281,7 @@ def crosscheck_dicts(
         timings[mode] = time.perf_counter() - t0
     t0 = time.perf_counter()
     classes = pixel_classes(a5_scene, camera, options.width, options.height, options.bounces,
-                            tmin=float(integrator.get("tmin", TMIN)))
+                            tmin=float(integrator.get("tmin", TMIN)), integrator=integrator)
     timings["classes"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     stock_scene = mi.load_dict(path_dict(stock_dict, options))

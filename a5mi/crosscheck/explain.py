@@ -81,7 +81,7 @@ def explain(desc_or_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]
     c, f = whitted(dimmed, no_ambient), whitted(no_lamps, no_ambient)
     d, e, g = path(a5d), path(no_lamps), path(stock)
     classes = pixel_classes(mi.load_dict(a5d), cam, options.width, options.height, options.bounces,
-                            tmin=float(integ.get("tmin", TMIN)))
+                            tmin=float(integ.get("tmin", TMIN)), integrator=integ)
 
     def term(name: str, how: str, x: npt.NDArray[np.float64]) -> ExplainTerm:
         glass, other = classes == GLASS, classes == OPAQUE
