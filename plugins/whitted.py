@@ -202,12 +202,12 @@ def _trace(
                     if rec is not None:  # record
                         rec.light(n_refl, n_refr, top, k, highlight=highlight)
                 acc += dr.select(visible, term, 0.0)
+                if rec is not None:  # record (an area light keeps its last sample's ray and verdict)
+                    rec.light(n_refl, n_refr, top, k, valid=hit, L=d_light, n_dot_l=dr.dot(d_light, n),
+                              light_color=light_color, dist=ds.dist, visible=visible, tested=shadows,
+                              term=term * (1.0 / mi.Float(dr.maximum(n_samples, 1))))
                 j += 1
             local += acc * (1.0 / mi.Float(dr.maximum(n_samples, 1)))
-            if rec is not None:  # record (an area light: its last sample's ray and the mean of its terms)
-                rec.light(n_refl, n_refr, top, k, valid=hit, L=d_light, n_dot_l=dr.dot(d_light, n),
-                          light_color=light_color, dist=ds.dist, visible=visible, tested=shadows,
-                          term=acc * (1.0 / mi.Float(dr.maximum(n_samples, 1))))
             k += 1
         local = dr.select(sees_light, local + mi.Color3f(emitter_hit.eval(si, sees_light)), local)
 
