@@ -374,3 +374,27 @@ def test_bash_completion_is_generated_from_the_flag_tables(tmp_path) -> None:
     assert complete("a5", "-sha") == ["-shadows"]
     assert complete("a5", "--si") == []           # the a5 grammar has no GNU spellings
     assert complete("a5mi", "render", "--si") == ["--size"]
+
+
+def test_verbose_times_the_plain_kernel_and_counts_rays_in_a_second_pass(tmp_path, scenes_dir, monkeypatch,
+                                                                         variant, capsys) -> None:
+    """Issue 18: -v must not change the timed kernel (counting is a different kernel), and a log that is not a
+    terminal never gets a carriage-return progress bar."""
+    seen: list[driver.RenderOptions] = []
+    real = driver.render
+
+    def spy(desc, options, **kw):
+        seen.append(options)
+        return real(desc, options, **kw)
+
+    monkeypatch.setattr(driver, "render", spy)
+    monkeypatch.chdir(scenes_dir)
+    out = tmp_path / "o.png"
+    assert cli.run(["-input", "scene10_sphere.txt", "-size", "12", "12", "-output", str(out), "-shadows",
+                    "-jitter", "-filter", "-v"]) == 0
+    err = capsys.readouterr().err
+    assert "\r" not in err and "secondary rays reflection" in err
+    assert [o.count_rays for o in seen] == [False, True]  # the timed render, then the counting pass
+    counted = real(driver.describe_if_needed(__import__("a5mi.converters.a5_parser", fromlist=["x"]).parse_file(
+        "scene10_sphere.txt")), seen[1])
+    assert f"reflection {counted.ray_counts['reflection']}," in err

@@ -121,9 +121,9 @@ class Console:
 
 class ProgressBar:
     """A one-line bar on a terminal's stderr, shown once a render has taken more than ``delay`` seconds; a
-    callback ``(done, total)`` for the driver."""
+    callback ``(done, total)`` for the driver, which calls it once per tile (at most 2^20 rays)."""
 
-    def __init__(self, stream: TextIO, enabled: bool, delay: float = 2.0, width: int = 30) -> None:
+    def __init__(self, stream: TextIO, enabled: bool, delay: float = 1.0, width: int = 30) -> None:
         self.stream, self.enabled, self.delay, self.width = stream, enabled, delay, width
         self.start = time.perf_counter()
         self.shown = False

@@ -10,7 +10,6 @@ written, each atomically and all or nothing, only after everything has rendered.
 from __future__ import annotations
 
 import dataclasses
-import sys
 import time
 from typing import Any
 
@@ -146,10 +145,15 @@ def run_render(args: Args, console: Console) -> int:
     variant = activate_variant(args.variant)
     timings["variant"] = time.perf_counter() - t0
 
-    options = render_options(args)
-    bar = console.progress(enabled=bool(args.verbose) or sys.stderr.isatty())
-    result = driver.render(desc, options, progress=bar)
+    # -v times the plain render kernel; the ray counts (a different kernel: three more outputs) come from a
+    # second, untimed pass afterwards.
+    options = render_options(args, count_rays=False)
+    interactive = console.err.isatty()  # never a \r bar in a log file
+    result = driver.render(desc, options, progress=console.progress(enabled=interactive))
     timings.update(result.timings)
+    if args.verbose:
+        counting = dataclasses.replace(options, count_rays=True, normals=False, depth=None, filter=False)
+        result.ray_counts = driver.render(desc, counting).ray_counts
 
     t0 = time.perf_counter()
     images = {"-output": result.image, "-normals": result.normals, "-depth": result.depth}
