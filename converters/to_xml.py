@@ -135,12 +135,40 @@ def _element(parent: ET.Element, key: str, value: Any, top: bool) -> None:
         raise TypeError(f"cannot write parameter {key!r} of type {type(value).__name__} to XML")
 
 
+#: XML ``<default>`` parameters (``mitsuba -Dname=value``, ``mi.load_file(path, name=value)``) and where they go:
+#: (element tag, its ``type`` or None for any, parameter name).
+DEFAULTS: dict[str, tuple[str, str | None, str]] = {
+    "spp": ("sampler", None, "sample_count"),
+    "width": ("film", None, "width"),
+    "height": ("film", None, "height"),
+    "max_depth": ("integrator", None, "max_depth"),
+}
+
+
+def parametrise(root: ET.Element, spp: int | None = None) -> None:
+    """Turn the sampler's ``sample_count``, the film's ``width``/``height`` and the integrator's ``max_depth``
+    into ``<default>`` parameters (``$spp``, ``$width``, ``$height``, ``$max_depth``) whose values are the
+    converted ones (``spp`` overrides the sample count), so ``mitsuba -Dspp=256 scene.xml`` works."""
+    defaults = []
+    for name, (tag, _, param) in DEFAULTS.items():
+        for parent in root.iter(tag):
+            el = next((e for e in parent if e.get("name") == param), None)
+            if el is not None:
+                value = str(spp) if name == "spp" and spp is not None else el.get("value", "")
+                el.set("value", f"${name}")
+                defaults.append(ET.Element("default", name=name, value=value))
+                break
+    for k, el in enumerate(defaults):
+        root.insert(k, el)
+
+
 def write_xml(desc: SceneDescription, path: str | Path, options: RenderOptions | None = None, *,
-              stock: bool = False) -> Path:
+              stock: bool = False, spp: int | None = None) -> Path:
     """Write the scene ``desc`` as Mitsuba XML at ``path`` (meshes as PLY beside it); returns the XML path.
-    ``options`` (default ``RenderOptions()``): film size and integrator parameters. Every scene error was
-    raised by :func:`.describe.describe` already. Needs an active Mitsuba variant (PLY writing; the stock
-    cube-map bake also needs the a5 plugins registered)."""
+    ``options`` (default ``RenderOptions()``): film size and integrator parameters, written as ``<default>``
+    parameters (:func:`parametrise`; ``spp``: the sampler's sample count, for ``--stock`` path tracing).
+    Every scene error was raised by :func:`.describe.describe` already. Needs an active Mitsuba variant (PLY
+    writing; the stock cube-map bake also needs the a5 plugins registered)."""
     xml_path = Path(path)
     options = options if options is not None else RenderOptions()
     folder = xml_path.parent if str(xml_path.parent) else Path(".")
@@ -153,6 +181,7 @@ def write_xml(desc: SceneDescription, path: str | Path, options: RenderOptions |
         for key, value in entries.items():
             if key != "type":
                 _element(root, key, value, top=True)
+        parametrise(root, spp)
         ET.indent(root, space="    ")
         with open(staged_xml, "w", encoding="utf-8") as f:
             ET.ElementTree(root).write(f, encoding="unicode", xml_declaration=True)

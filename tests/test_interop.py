@@ -86,3 +86,18 @@ def test_converted_xml_and_diff_images_honour_the_umask(scene10, tmp_path: Path,
         os.umask(old)
     for path in (tmp_path / "d.png", xml):
         assert path.stat().st_mode & 0o777 == 0o666 & ~umask, path
+
+
+def test_convert_writes_render_flags_as_mitsuba_defaults(tmp_path: Path, scenes_dir: Path) -> None:
+    """Issue 18: size, bounces and --spp become <default> parameters (mitsuba -Dspp=256 scene.xml)."""
+    import mitsuba as mi
+
+    xml = tmp_path / "s.xml"
+    assert run_a5mi(["convert", str(scenes_dir / "scene10_sphere.txt"), "-o", str(xml), "--stock", "--size", "30",
+                     "20", "--bounces", "2", "--spp", "16", "-q"]) == 0
+    text = xml.read_text()
+    for name, value in (("spp", "16"), ("width", "30"), ("height", "20"), ("max_depth", "4")):
+        assert f'<default name="{name}" value="{value}" />' in text, name  # path: max_depth = bounces + 2
+    scene = mi.load_file(str(xml), width=12, height=8, spp=9)  # the stratified sampler wants a square
+    assert tuple(scene.sensors()[0].film().size()) == (12, 8)
+    assert scene.sensors()[0].sampler().sample_count() == 9

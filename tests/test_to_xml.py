@@ -43,7 +43,8 @@ def test_xml_structure(variant: str, scenes_dir: Path, tmp_path: Path) -> None:
     assert integ is not None and integ.get("type") == "a5_whitted"
     assert integ.find("boolean[@name='shadows']").get("value") == "true"  # type: ignore[union-attr]
     film = root.find("sensor/film")
-    assert film is not None and film.find("integer[@name='width']").get("value") == "40"  # type: ignore[union-attr]
+    assert film is not None and film.find("integer[@name='width']").get("value") == "$width"  # type: ignore[union-attr]
+    assert root.find("default[@name='width']").get("value") == "40"  # type: ignore[union-attr]
     mesh = root.find("shape[@id='mesh_001']")
     assert mesh is not None and mesh.get("type") == "ply"
     assert mesh.find("string[@name='filename']").get("value") == "s11_meshes/mesh_001.ply"  # type: ignore[union-attr]

@@ -14,7 +14,7 @@ from typing import Any
 
 from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
-from a5mi.cli.flags import Args, Flag, Positional, text
+from a5mi.cli.flags import Args, Flag, Positional, integer, text
 from a5mi.cli.render import RENDER_FLAGS, render_options
 from a5mi.errors import UsageError
 
@@ -24,6 +24,8 @@ FLAGS: tuple[Flag, ...] = (
          text, metavar="OUT.xml"),
     Flag(("--stock",), "stock", "stock Mitsuba plugins only (path integrator; approximations are warned)",
          default=False, show_default=False),
+    Flag(("--spp",), "spp", "the sampler's samples per pixel, the XML default $spp (mitsuba -Dspp=N overrides it)",
+         1, integer(1, 1 << 20), metavar="N"),
     *(f for f in RENDER_FLAGS if f.dests[0] in _SHARED),
 )
 
@@ -59,7 +61,7 @@ def run_convert(args: Args, console: Console) -> int:
     activate_variant(None)  # the XML writer builds meshes (PLY) through Mitsuba
     from a5mi.converters.to_xml import write_xml
 
-    write_xml(desc, xml, render_options(args), stock=bool(args.stock))
+    write_xml(desc, xml, render_options(args), stock=bool(args.stock), spp=args.spp)
     return 0
 
 
