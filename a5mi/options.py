@@ -25,6 +25,14 @@ AOV_GROUPS: tuple[str, ...] = ("normal", "depth", "class", "counts")
 TILE_RAYS: int = 1 << 20
 
 
+def check_size_and_bounces(width: int, height: int, bounces: int) -> None:
+    """``ValueError`` unless the image size is positive and the bounce budget is not negative (SPEC B.1)."""
+    if width <= 0 or height <= 0:
+        raise ValueError(f"size must be positive, got {width}x{height}")
+    if bounces < 0:
+        raise ValueError(f"bounces must be >= 0, got {bounces}")
+
+
 @dataclass(frozen=True)
 class RenderOptions:
     """What to render: the ``a5`` flags (SPEC B.1) and the extras. Frozen: derive variants with
@@ -60,10 +68,7 @@ class RenderOptions:
     spp: int = 1
 
     def __post_init__(self) -> None:
-        if self.width <= 0 or self.height <= 0:
-            raise ValueError(f"size must be positive, got {self.width}x{self.height}")
-        if self.bounces < 0:
-            raise ValueError(f"bounces must be >= 0, got {self.bounces}")
+        check_size_and_bounces(self.width, self.height, self.bounces)
         if self.fresnel not in FRESNEL_MODES:
             raise ValueError(f"fresnel must be one of {', '.join(FRESNEL_MODES)}, got '{self.fresnel}'")
         if self.kernel not in KERNELS:

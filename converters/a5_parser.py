@@ -254,6 +254,12 @@ def _block_count(ts: TokenStream, block: str, count_key: str) -> int:
     return count
 
 
+def _check_count(ts: TokenStream, tok: Token, block: str, count_key: str, count: int, found: int, noun: str) -> None:
+    """At the block's ``}``: exactly the declared number of items (A.3, A.5, A.6)."""
+    if found != count:
+        raise ts.syntax_error(f"{block} declares {count_key} {count} but has {_count(found, noun)}, found '}}'", tok)
+
+
 def _counted_block(ts: TokenStream, block: str, count_key: str, noun: str,
                    items: dict[str, Callable[[TokenStream, Token], _T]]) -> tuple[_T, ...]:
     """``BLOCK { COUNT_KEY I <item>* }`` with exactly ``I`` items, each one of ``items`` (A.3, A.5)."""
@@ -262,9 +268,7 @@ def _counted_block(ts: TokenStream, block: str, count_key: str, noun: str,
     while True:
         tok = ts.next()
         if tok is not None and tok.text == "}":
-            if len(out) != count:
-                raise ts.syntax_error(
-                    f"{block} declares {count_key} {count} but has {_count(len(out), noun)}, found '}}'", tok)
+            _check_count(ts, tok, block, count_key, count, len(out), noun)
             return tuple(out)
         if tok is None or tok.text not in items:
             raise ts.syntax_error(f"expected {', '.join(items)} or '}}' in {block}, found {_quoted(tok)}", tok)
@@ -527,10 +531,7 @@ def parse_group(ts: TokenStream, start: Token, state: _GroupState) -> Group:
     while True:
         tok = ts.next()
         if tok is not None and tok.text == "}":
-            if len(children) != count:
-                raise ts.syntax_error(
-                    f"Group declares numObjects {count} but has {_count(len(children), 'object')}, found '}}'", tok
-                )
+            _check_count(ts, tok, "Group", "numObjects", count, len(children), "object")
             return Group(count, tuple(children), start.loc)
         if tok is not None and tok.text == "MaterialIndex":
             index, index_tok = ts.integer("MaterialIndex")

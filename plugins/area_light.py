@@ -25,7 +25,7 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from .point_light import _vec3_param, attenuation
+from .point_light import _vec3_param, attenuation, light_sample
 
 
 class A5AreaLight(mi.Emitter):
@@ -82,14 +82,7 @@ class A5AreaLight(mi.Emitter):
         y = self._point(it.p, sample)
         d = y - it.p
         dist = dr.norm(d)
-        ds = dr.zeros(mi.DirectionSample3f, dr.width(it.p))
-        ds.p = y
-        ds.time = it.time
-        ds.pdf = mi.Float(1.0)
-        ds.delta = mi.Bool(False)
-        ds.d = d / dist
-        ds.dist = dist
-        ds.emitter = mi.EmitterPtr(self)
+        ds = light_sample(self, it, y, d, dist, delta=False)
         return ds, dr.select(active, attenuation(self.color, self.falloff, dist), 0.0)
 
     def eval(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:

@@ -25,6 +25,16 @@ def _vec3_param(props: mi.Properties, name: str, default: Sequence[float] | None
     return out
 
 
+def light_sample(emitter: mi.Emitter, it: mi.Interaction3f, p: mi.Point3f, d: mi.Vector3f, dist: mi.Float,
+                 delta: bool) -> mi.DirectionSample3f:
+    """The ``DirectionSample3f`` of an a5 light seen from ``it``: towards ``p`` along ``d`` (unnormalised, length
+    ``dist``), pdf 1 (one sample is the light, SPEC A.3), normal 0."""
+    ds = dr.zeros(mi.DirectionSample3f, dr.width(it.p))
+    ds.p, ds.n, ds.time, ds.pdf = p, mi.Normal3f(0.0), it.time, mi.Float(1.0)
+    ds.delta, ds.d, ds.dist, ds.emitter = mi.Bool(delta), d / dist, dist, mi.EmitterPtr(emitter)
+    return ds
+
+
 def attenuation(color: mi.Color3f, falloff: mi.Float, dist: mi.Float) -> mi.Color3f:
     """Colour arriving at distance d: color / (1 + falloff·d²) (SPEC A.3; no inverse-square law)."""
     return color / (1.0 + falloff * dist * dist)
@@ -93,17 +103,8 @@ class A5PointLight(mi.Emitter):
         """Output (ds, colour arriving at ``it.p``) per the class docstring; ``sample`` is unused."""
         d = self.position - it.p
         dist = dr.sqrt((d.x * d.x + d.y * d.y) + d.z * d.z)
-        ds = dr.zeros(mi.DirectionSample3f, dr.width(it.p))
-        ds.p = mi.Point3f(self.position)
-        ds.n = mi.Normal3f(0.0)
-        ds.time = it.time
-        ds.pdf = mi.Float(1.0)
-        ds.delta = mi.Bool(True)
-        ds.d = d / dist
-        ds.dist = dist
-        ds.emitter = mi.EmitterPtr(self)
-        value = attenuation(self.color, self.falloff, dist)
-        return ds, dr.select(active, value, 0.0)
+        ds = light_sample(self, it, mi.Point3f(self.position), d, dist, delta=True)
+        return ds, dr.select(active, attenuation(self.color, self.falloff, dist), 0.0)
 
     def pdf_direction(self, it: mi.Interaction3f, ds: mi.DirectionSample3f, active: mi.Bool = True) -> mi.Float:
         """0: a delta light cannot be sampled by direction."""

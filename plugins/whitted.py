@@ -51,6 +51,15 @@ def stack_size(max_depth: int, glossy_samples: int = 1) -> int:
     return max(8, max_depth + 2 * glossy_samples - 1)
 
 
+def _push(stacks: tuple, top: mi.UInt32, mask: mi.Bool, o: mi.Point3f, d: mi.Vector3f, w: mi.Color3f,
+          bounces: mi.UInt32, n_medium: mi.Float, t_min: mi.Float) -> mi.UInt32:
+    """Push a child ray (origin, direction, path weight, bounces left, medium index, tmin) onto the pending-ray
+    stacks of the lanes in ``mask``; returns the new stack pointer."""
+    for stack, value in zip(stacks, (o, d, w, bounces, n_medium, t_min), strict=True):
+        stack.write(value, top, mask)
+    return top + dr.select(mask, 1, 0)
+
+
 @dr.syntax
 def _trace(
     scene: mi.Scene,
@@ -91,6 +100,7 @@ def _trace(
     stack_b = dr.alloc_local(mi.UInt32, size)   # remaining bounces
     stack_n = dr.alloc_local(mi.Float, size)    # index of the medium the ray travels in
     stack_t = dr.alloc_local(mi.Float, size)    # the ray's tmin
+    stacks = (stack_o, stack_d, stack_w, stack_b, stack_n, stack_t)
 
     zero_u = dr.zeros(mi.UInt32, width)
     stack_o[zero_u] = mi.Point3f(ray_o)
@@ -257,13 +267,8 @@ def _trace(
                 exists &= ~glossy | (dr.dot(t_dir, n_side) < 0.0)
                 push_refr = refractive & exists
                 r_fresnel = dr.select(push_refr, fresnel_weight(fresnel, d, m_facing, t_dir, n_medium, nt), 1.0)
-                stack_o.write(p, top, push_refr)
-                stack_d.write(t_dir, top, push_refr)
-                stack_w.write(weight * specular * (1.0 - r_fresnel) * share, top, push_refr)
-                stack_b.write(bounces - 1, top, push_refr)
-                stack_n.write(nt, top, push_refr)
-                stack_t.write(tmin, top, push_refr)
-                top += dr.select(push_refr, 1, 0)
+                top = _push(stacks, top, push_refr, p, t_dir, weight * specular * (1.0 - r_fresnel) * share,
+                            bounces - 1, nt, tmin)
                 n_refr += dr.select(push_refr, 1.0, 0.0)
                 if rec is not None:  # record
                     rec.node(n_refl, n_refr, top, refractive=refractive, leaving=leaving, nt=nt, refr_exists=exists,
@@ -272,13 +277,8 @@ def _trace(
             if reflection:
                 push_refl = go & (dr.norm(specular) > MIRROR_THRESHOLD)
                 push_refl &= ~glossy | (dr.dot(r_dir, n_side) > 0.0)
-                stack_o.write(p, top, push_refl)
-                stack_d.write(r_dir, top, push_refl)
-                stack_w.write(weight * specular * r_fresnel * share, top, push_refl)
-                stack_b.write(bounces - 1, top, push_refl)
-                stack_n.write(n_medium, top, push_refl)
-                stack_t.write(tmin, top, push_refl)
-                top += dr.select(push_refl, 1, 0)
+                top = _push(stacks, top, push_refl, p, r_dir, weight * specular * r_fresnel * share, bounces - 1,
+                            n_medium, tmin)
                 n_refl += dr.select(push_refl, 1.0, 0.0)
                 if rec is not None:  # record
                     rec.node(n_refl, n_refr, top, push_refl=push_refl, r_dir=r_dir, r_fresnel=r_fresnel,

@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import gc
-import os
 import tempfile
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -44,14 +42,7 @@ def rank_within_lane(lanes: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
 # --------------------------------------------------------------------------------------------------------
 
 
-@contextmanager
-def _chdir(path: Path) -> Iterator[None]:
-    old = os.getcwd()
-    os.chdir(path)
-    try:
-        yield
-    finally:
-        os.chdir(old)
+_chdir = contextlib.chdir
 
 
 def _free(*_objs: Any) -> None:

@@ -44,10 +44,9 @@ class CrosscheckOptions:
     shadows: bool = True
 
     def __post_init__(self) -> None:
-        if self.width <= 0 or self.height <= 0:
-            raise ValueError(f"size must be positive, got {self.width}x{self.height}")
-        if self.bounces < 0:
-            raise ValueError(f"bounces must be >= 0, got {self.bounces}")
+        from a5mi.options import check_size_and_bounces
+
+        check_size_and_bounces(self.width, self.height, self.bounces)
         if self.spp <= 0:
             raise ValueError(f"spp must be positive, got {self.spp}")
 

@@ -16,12 +16,11 @@ For each handout scene (``-shadows -bounces 4 -jitter -filter`` at ``size``), th
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
-import os
 import re
 import tempfile
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -51,14 +50,6 @@ class Row:
         return self.verdict in (self.expected, "no effect")
 
 
-@contextmanager
-def _in(folder: Path) -> Iterator[None]:
-    cwd = os.getcwd()
-    os.chdir(folder)
-    try:
-        yield
-    finally:
-        os.chdir(cwd)
 
 
 def _box_not_blur(scene: Path, options: RenderOptions) -> np.ndarray:
@@ -109,7 +100,7 @@ def calibrate(scenes_dir: str | Path, size: int, cache_dir: str | Path, *, scene
     thresholds = thresholds or Thresholds()
     base = RenderOptions(width=size, height=size, shadows=True, bounces=4, jitter=True, filter=True)
     rows: list[Row] = []
-    with _in(folder):
+    with contextlib.chdir(folder):
         for name in scenes:
             scene = folder / name
             ref_img, sigma = build_reference(scene, base, cache_dir).load()

@@ -17,18 +17,13 @@ from __future__ import annotations
 
 import re
 import shlex
-import sys
+import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from a5mi.errors import UserError
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 
 HANDOUT_FLAGS = "-size 300 300 -shadows -bounces 4 -jitter -filter"
 #: The handout's four test commands (SPEC B.1 form), 25 points each.
