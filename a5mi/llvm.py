@@ -13,12 +13,12 @@ exists, through the command layer (:mod:`a5mi.cli.setup`)::
 
 from __future__ import annotations
 
-import ctypes
 import glob
 import os
 import re
 import shutil
 import subprocess
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -62,17 +62,31 @@ def _major_from_name(path: str) -> int | None:
     return int(m.group(1)) if m else None
 
 
-def _major_from_library(path: str) -> int | None:
-    """Ask the library itself. ``LLVMGetVersion`` exists from LLVM 16 on, so its absence means < 16."""
-    try:
-        lib = ctypes.CDLL(path)
-    except OSError:
-        return None
-    if not hasattr(lib, "LLVMGetVersion"):
-        return 15  # older than 16: the exact number does not matter, it is refused either way
+_VERSION_PROBE = """
+import ctypes, sys
+try:
+    lib = ctypes.CDLL(sys.argv[1])
+except OSError:
+    sys.exit(3)
+if not hasattr(lib, "LLVMGetVersion"):
+    print(15)
+else:
     major, minor, patch = ctypes.c_uint(), ctypes.c_uint(), ctypes.c_uint()
     lib.LLVMGetVersion(ctypes.byref(major), ctypes.byref(minor), ctypes.byref(patch))
-    return int(major.value)
+    print(major.value)
+"""
+
+
+def _major_from_library(path: str) -> int | None:
+    """Ask the library itself, in a child process (loading it here would map it into this process, where
+    :func:`check_loaded` would then find it). ``LLVMGetVersion`` exists from LLVM 16 on, so its absence means
+    < 16 (reported as 15: refused either way)."""
+    try:
+        p = subprocess.run([sys.executable, "-c", _VERSION_PROBE, path], capture_output=True, text=True,
+                           timeout=30)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    return int(p.stdout) if p.returncode == 0 and p.stdout.strip().isdigit() else None
 
 
 def probe(path: str) -> LLVMLibrary:

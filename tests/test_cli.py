@@ -214,7 +214,7 @@ def test_a5mi_convert(tmp_path, scene, monkeypatch, capsys, variant) -> None:
     """Flag handling with a stand-in write_xml (the real one is exercised in test_a5mi_convert_real)."""
     written = []
     fake = type(sys)("a5mi.converters.to_xml")
-    fake.write_xml = lambda desc, path, options=None, *, stock=False: written.append((desc, path, stock))
+    fake.write_xml = lambda desc, path, options=None, *, stock=False, spp=None: written.append((desc, path, stock))
     monkeypatch.setitem(sys.modules, "a5mi.converters.to_xml", fake)
     assert cli.run_a5mi(["convert", scene, "-o", str(tmp_path / "s.xml"), "--stock"]) == 0
     (model, path, stock), = written

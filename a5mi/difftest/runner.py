@@ -61,9 +61,23 @@ def sandbox_prefix(folder: Path, binary: Path | None = None) -> list[str]:
     if bwrap is None:
         return []
     own = [] if binary is None else ["--ro-bind", str(binary.parent), str(binary.parent)]
+    # What a binary here may run from that the private /tmp would hide (a checkout or virtual environment
+    # under /tmp: this Python, a5mi's own sources, the course data), bound back read-only.
+    for path in sorted(_tmp_paths_needed()):
+        own += ["--ro-bind", path, path]
     return [bwrap, "--ro-bind", "/", "/", "--dev", "/dev", "--proc", "/proc", "--tmpfs", "/tmp", *own,
             "--bind", str(folder), str(folder), "--chdir", str(folder), "--unshare-net", "--unshare-pid",
             "--die-with-parent", "--new-session"]
+
+
+def _tmp_paths_needed() -> set[str]:
+    """The interpreter's prefixes, the project and the course data, where they lie under ``/tmp``."""
+    import sys
+
+    from a5mi import PROJECT_ROOT, data_dir
+
+    paths = {sys.prefix, sys.base_prefix, str(PROJECT_ROOT), str(data_dir())}
+    return {os.path.realpath(p) for p in paths if os.path.realpath(p).startswith("/tmp/") and os.path.isdir(p)}
 
 
 def check_binary(path: str | os.PathLike[str]) -> Path:
