@@ -68,3 +68,11 @@ def test_golden_extension(scene: str, variant: str, tmp_path: Path) -> None:
 
     options = RenderOptions(width=SIZE, height=SIZE, shadows=True, bounces=4, spp=4, seed=1)
     _check_golden(scene, f"{scene}.ext-spp4", options, tmp_path)
+
+
+def test_golden_fog(variant: str, tmp_path: Path) -> None:
+    """The fog demo (docs/EXTENSIONS.md E.8): 64 x 64, -shadows -bounces 4 -spp 2 -seed 1."""
+    from a5mi.driver import RenderOptions
+
+    options = RenderOptions(width=64, height=64, shadows=True, bounces=4, spp=2, seed=1)
+    _check_golden("fog_shafts", "fog_shafts.fog-spp2", options, tmp_path)
