@@ -320,6 +320,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     aovs             string  ""      comma-separated AOV groups: ``normal`` (nx, ny, nz), ``depth``
                                      (t), ``class`` (class), ``counts`` (n_reflection, n_refraction,
                                      n_shadow)
+    medium           string  none    ``fog`` / ``volume``: a participating medium (EXTENSIONS E.8,
+                                     E.9; ``medium_*`` parameters, plugins/media.py)
     ================ ======= ======= ==========================================================
 
     Per hit (``p = o + t d``, ``N`` the shading normal, never flipped toward the viewer)::

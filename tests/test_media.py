@@ -220,3 +220,25 @@ def test_stock_mapping_uses_volpath_media(mi: Any, tmp_path: Path) -> None:
     med = d["sensor"]["medium"]
     assert med["type"] == "heterogeneous" and med["scale"] == 2.0 and med["sigma_t"]["type"] == "gridvolume"
     assert mi.load_dict(d) is not None
+
+
+def test_xml_carries_the_medium(mi: Any, tmp_path: Path) -> None:
+    """a5 XML: the integrator's ``medium_grid`` is a ``gridvolume`` on the .vol file; stock XML: the sensor's
+    ``heterogeneous`` medium and ``volpath``; both load in Mitsuba."""
+    from a5mi.converters.a5_parser import parse_file
+    from a5mi.converters.describe import describe
+    from a5mi.converters.to_xml import write_xml
+
+    volgrid.write_vol(tmp_path / "g.vol", np.ones((2, 2, 2), dtype=np.float32))
+    (tmp_path / "v.txt").write_text(WALL.format(light="0 0 -1", wall="1 1 1", n=1, extra="",
+                                                medium="Volume { grid g.vol density 2 min 0 0 0 max 1 2 3 }"))
+    desc = describe(parse_file(tmp_path / "v.txt"))
+    a5 = write_xml(desc, tmp_path / "a5.xml")
+    stock = write_xml(desc, tmp_path / "stock.xml", stock=True)
+    text = a5.read_text()
+    assert '<volume type="gridvolume" name="medium_grid">' in text and str(tmp_path / "g.vol") in text
+    assert '<string name="medium" value="volume" />' in text
+    text = stock.read_text()
+    assert '<integrator type="volpath"' in text and '<medium type="heterogeneous" name="medium">' in text
+    assert mi.load_file(str(a5)).integrator()._medium.kind == "volume"
+    assert mi.load_file(str(stock)).sensors()[0].get_medium() is not None
