@@ -74,6 +74,10 @@ from .model import AreaLight, DirectionalLight, SphereLight, SpotLight
 #: Face attributes carrying :attr:`.geometry.MeshData.octree` (name -> its columns).
 OCTREE_ATTRIBUTES = {"face_a5_inv0": [0, 1, 2], "face_a5_inv1": [3, 4, 5], "face_a5_inv2": [6, 7, 8],
                      "face_a5_octree": [9, 10, 11]}
+#: Face attributes carrying :attr:`.geometry.MeshData.triangles` (name -> its columns).
+TRIANGLE_ATTRIBUTES = {"face_a5_inv_t": [0, 1, 2], "face_a5_v0": [3, 4, 5], "face_a5_v1": [6, 7, 8],
+                       "face_a5_v2": [9, 10, 11], "face_a5_n0": [12, 13, 14], "face_a5_n1": [15, 16, 17],
+                       "face_a5_n2": [18, 19, 20]}
 
 #: Size of the baked latitude-longitude environment in stock mode.
 ENVMAP_SIZE = (2048, 1024)
@@ -234,6 +238,9 @@ def make_mesh(name: str, data: MeshData, bsdf: Any = None) -> Any:
     if data.octree is not None:  # the binary's octree rule, read by a5_whitted (plugins/octree_rule.py)
         for name, cols in OCTREE_ATTRIBUTES.items():
             mesh.add_attribute(name, len(cols), np.ascontiguousarray(data.octree[:, cols]).ravel().tolist())
+    if data.triangles is not None:  # the binary's triangle test, read by a5_whitted (plugins/triangle_rule.py)
+        for name, cols in TRIANGLE_ATTRIBUTES.items():
+            mesh.add_attribute(name, len(cols), np.ascontiguousarray(data.triangles[:, cols]).ravel().tolist())
     return mesh
 
 
