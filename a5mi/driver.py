@@ -121,9 +121,10 @@ def jitter_stream(seed: int | None, total: int | None = None) -> Callable[[int],
 
 
 #: Tiles start on a sample index that is a multiple of this (every SIMD packet width of Dr.Jit's LLVM backend
-#: divides it: 4, 8, 16). Mitsuba's Embree ray queries give results that depend, in the last bits, on which rays
-#: share a packet; with rows of a width that is not a multiple of the packet width, a tile boundary shifted the
-#: packets of every later sample, and scene10 at 30x30 -jitter changed by up to 2.8e-5 between tile sizes.
+#: divides it: 4, 8, 16). Some sample's result depends, in the last bits, on which samples share its SIMD packet
+#: (seen on scene10 at 30x30 -jitter, 8-wide AVX2: one pixel off by 2.8e-5 whenever a tile started off an
+#: 8-sample boundary, none when it started on one; the operation was not isolated, the scene has Embree-traced
+#: meshes, a glass sphere and a cube map). Aligned tiles keep every packet as in a one-launch render.
 PACKET_ALIGN = 64
 #: A render of many samples is split into about this many tiles (points where the progress bar learns the
 #: render's rate and where a signal is taken) ...
