@@ -12,12 +12,25 @@ import json
 import os
 
 from a5mi.cli.app import Command, Console
-from a5mi.cli.flags import Args, Flag, Positional, real, text
+from a5mi.cli.flags import Args, Flag, Positional, number, real, text
 from a5mi.errors import UsageError
+
+
+def _scale(flag: str, values: list[str]) -> float | str:
+    """``--scale``: ``auto`` or a positive number of levels (1/255 units)."""
+    if values[0] == "auto":
+        return "auto"
+    value = number(flag, values[0])
+    if value <= 0:
+        raise UsageError(f"{flag} expects a positive number of levels or 'auto', found '{values[0]}'")
+    return value
+
 
 FLAGS: tuple[Flag, ...] = (
     Flag(("--diff",), "diff", "also write A | B | heatmap of the largest channel error", 1, text,
          metavar="OUT.png"),
+    Flag(("--scale",), "scale", "--diff heatmap full scale in levels (red at N/255 and beyond), or auto: the "
+         "99.9th percentile of the error", 1, _scale, 16.0, "N|auto"),
     Flag(("--json",), "json", "print the metrics and the verdict as JSON", default=False, show_default=False),
     Flag(("--threshold",), "threshold", "levels (of 255) a pixel may be off before it counts", 1, real, 2.0, "L"),
     Flag(("--flip",), "flip", "also compute NVIDIA FLIP (mean, LDR)",
@@ -67,7 +80,9 @@ def run_compare(args: Args, console: Console) -> int:
     graded, heat = verdict.measure(b_img, a_img, _noise(args.noise, a_img.shape), flip=want_flip)
     decided = verdict.judge(graded, verdict.Thresholds(args.match, args.close))
     if args.diff is not None:
-        compare.write_diff(a_img, b_img, metrics, args.diff, (os.path.basename(a_path), os.path.basename(b_path)))
+        scale = compare.auto_scale(a_img, b_img) if args.scale == "auto" else float(args.scale)
+        compare.write_diff(a_img, b_img, metrics, args.diff, (os.path.basename(a_path), os.path.basename(b_path)),
+                           scale)
     if args.flip_map is not None and heat is not None:
         write_image(args.flip_map, heat / 255.0 + 0.5 / 255.0)
     if args.json:
