@@ -141,8 +141,9 @@ def tile_rows(rw: int, rh: int, tile_rays: int, *, align: int | None = None,
 
     Rows per tile: ``max(1, target // rw)`` with ``target = min(tile_rays, max(MIN_TILE_RAYS, ceil(rw·rh /
     steps)))`` (``steps`` = :data:`PROGRESS_STEPS`), rounded down to a multiple of ``m = align / gcd(rw,
-    align)`` (``align`` = :data:`PACKET_ALIGN`) and at least ``m``, so every tile starts on a sample index that
-    is a multiple of ``align``: each sample then shares its SIMD packet with the same neighbours whatever the
+    align)`` (``align`` = :data:`PACKET_ALIGN`) and at least ``m``, then evened out (the same number of tiles,
+    ``ceil(rh / count)`` rows rounded up to ``m``); a buffer that fits in one tile is one tile. Every tile
+    starts on a sample index that is a multiple of ``align``: each sample then shares its SIMD packet with the same neighbours whatever the
     tile size, and the image is bit-identical for any ``tile_rays`` (a tile may exceed ``tile_rays`` by
     up to ``m`` rows when the width is odd).
     """
@@ -151,7 +152,11 @@ def tile_rows(rw: int, rh: int, tile_rays: int, *, align: int | None = None,
     target = min(tile_rays, max(MIN_TILE_RAYS, -(-(rw * rh) // max(1, steps))))
     m = align // math.gcd(rw, align)
     rows = max(1, target // rw)
+    if rows >= rh:
+        return [(0, rh)]  # one launch: nothing to align
     rows = max(m, rows - rows % m)
+    count = -(-rh // rows)
+    rows = -(-(-(-rh // count)) // m) * m  # the same number of tiles, evened out (still <= rows)
     return [(j0, min(rh, j0 + rows)) for j0 in range(0, rh, rows)]
 
 
