@@ -8,9 +8,10 @@
 * jitter: per sample ``r1 = rand(); r2 = rand()``, ``jy = (float)r1·2^-31 - 0.5`` first, then ``jx``, from
   glibc's seed-1 stream (:mod:`a5mi.glibc_rand`); ``seed`` selects numpy's PCG64 instead;
 * ``integrator.sample(scene, sampler, ray, None, active)`` of ``a5_whitted`` gives the colour and the AOVs
-  ``[nx, ny, nz, t]``, in tiles of whole rows (:func:`tile_rows`: about :data:`PROGRESS_STEPS` per render, at
-  most ``tile_rays`` rays, each starting on a multiple of :data:`PACKET_ALIGN` samples so the image does not
-  depend on the tile size; one kernel, compiled once and reused);
+  ``[nx, ny, nz, t]``, in tiles of whole rows (:func:`tile_rows`: at most ``tile_rays`` rays, about
+  :data:`PROGRESS_STEPS` per render when a progress callback is given, each starting on a multiple of
+  :data:`PACKET_ALIGN` samples so the image does not depend on the tile size; one kernel, compiled once and
+  reused);
 * ``-filter``: blur + 3x3 downsample (:mod:`a5mi.filters`) of the render buffer, streamed tile by tile
   (:class:`a5mi.filters.FilterStream`): the full-size colour buffer is never held, so with ``-jitter
   -filter`` memory is bounded by the tile size plus the W x H output, not by the 3W x 3H buffer;
@@ -126,8 +127,8 @@ def jitter_stream(seed: int | None, total: int | None = None) -> Callable[[int],
 #: 8-sample boundary, none when it started on one; the operation was not isolated, the scene has Embree-traced
 #: meshes, a glass sphere and a cube map). Aligned tiles keep every packet as in a one-launch render.
 PACKET_ALIGN = 64
-#: A render of many samples is split into about this many tiles (points where the progress bar learns the
-#: render's rate and where a signal is taken) ...
+#: With a progress callback, a render of many samples is split into about this many tiles (points where the
+#: progress bar learns the render's rate); without one it is one tile up to ``tile_rays`` ...
 PROGRESS_STEPS = 4
 #: ... of at least this many samples each: every launch re-traces the integrator in Python (about 50-90 ms
 #: for the course scenes on the shared 2-core machine), so finer tiles would cost more than they show; the
@@ -143,20 +144,20 @@ def tile_rows(rw: int, rh: int, tile_rays: int, *, align: int | None = None,
     steps)))`` (``steps`` = :data:`PROGRESS_STEPS`), rounded down to a multiple of ``m = align / gcd(rw,
     align)`` (``align`` = :data:`PACKET_ALIGN`) and at least ``m``, then evened out (the same number of tiles,
     ``ceil(rh / count)`` rows rounded up to ``m``); a buffer that fits in one tile is one tile. Every tile
-    starts on a sample index that is a multiple of ``align``: each sample then shares its SIMD packet with the same neighbours whatever the
-    tile size, and the image is bit-identical for any ``tile_rays`` (a tile may exceed ``tile_rays`` by
-    up to ``m`` rows when the width is odd).
+    starts on a sample index that is a multiple of ``align``: each sample then shares its SIMD packet with the
+    same neighbours whatever the tile size, and the image is bit-identical for any ``tile_rays`` (a tile may
+    exceed ``tile_rays`` by up to ``m`` rows when the width is odd).
     """
     align = PACKET_ALIGN if align is None else align
     steps = PROGRESS_STEPS if steps is None else steps
-    target = min(tile_rays, max(MIN_TILE_RAYS, -(-(rw * rh) // max(1, steps))))
+    target = min(tile_rays, max(MIN_TILE_RAYS, math.ceil(rw * rh / max(1, steps))))
     m = align // math.gcd(rw, align)
     rows = max(1, target // rw)
     if rows >= rh:
         return [(0, rh)]  # one launch: nothing to align
     rows = max(m, rows - rows % m)
-    count = -(-rh // rows)
-    rows = -(-(-(-rh // count)) // m) * m  # the same number of tiles, evened out (still <= rows)
+    count = math.ceil(rh / rows)
+    rows = math.ceil(math.ceil(rh / count) / m) * m  # the same number of tiles, evened out (still <= rows)
     return [(j0, min(rh, j0 + rows)) for j0 in range(0, rh, rows)]
 
 
@@ -374,7 +375,8 @@ def render_scene(
     integrator = integrator if integrator is not None else mi_scene.integrator()
     camera_rays = camera_rays if camera_rays is not None else _default_camera_rays()
     rw, rh = options.render_size
-    tiles = tile_rows(rw, rh, options.tile_rays)
+    # progress steps only for a caller that shows them: each extra tile re-traces the integrator (~50 ms)
+    tiles = tile_rows(rw, rh, options.tile_rays, steps=PROGRESS_STEPS if progress is not None else 1)
     want_aov = options.normals or options.depth is not None
     separate = want_aov and options.aov_mode == "quadrant"
     total = rw * rh * (2 if separate else 1)

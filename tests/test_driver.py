@@ -251,6 +251,18 @@ def test_tiles_start_on_packet_boundaries(rw, tile_rays) -> None:
     assert all((j1 - j0) * rw <= max(tile_rays, m * rw) for j0, j1 in tiles)
 
 
+def test_progress_steps_only_when_someone_watches(variant, monkeypatch) -> None:
+    """With a progress callback the render is split into PROGRESS_STEPS tiles of at least MIN_TILE_RAYS
+    samples; without one it stays one launch (each tile re-traces the integrator); the image is the same."""
+    monkeypatch.setattr(driver, "MIN_TILE_RAYS", 64)
+    seen = []
+    watched = render_scene(None, CAMERA, RenderOptions(width=64, height=16), integrator=_Probe(),
+                           camera_rays=_probe_rays, progress=lambda done, total: seen.append(done))
+    alone = _render(width=64, height=16)
+    assert watched.tiles == len(seen) == driver.PROGRESS_STEPS and alone.tiles == 1
+    np.testing.assert_array_equal(watched.image, alone.image)
+
+
 def test_large_renders_are_split_for_progress() -> None:
     """A render of many samples gets PROGRESS_STEPS tiles of at least MIN_TILE_RAYS samples (the bar's rate)."""
     assert len(tile_rows(3000, 3000, driver.TILE_RAYS)) >= 9  # 9M samples: bounded by TILE_RAYS
