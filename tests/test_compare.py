@@ -258,6 +258,8 @@ def test_cli_scale_sets_the_full_scale(tmp_path, scale, colour, capsys) -> None:
         assert run_a5mi(args + ([] if scale is None else ["--scale", scale])) == 1  # exit status: the verdict
     finally:
         os.umask(old)
+    assert f"d.png: A | B | |A-B| heatmap, full scale {8 if scale in ('8', 'auto') else int(scale or 16)}/255" in \
+        capsys.readouterr().out
     assert (tmp_path / "d.png").stat().st_mode & 0o777 == 0o640
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # written atomically
     np.testing.assert_array_equal(_heat_pixel(tmp_path / "d.png", 20, 20, 10, 10), colour)

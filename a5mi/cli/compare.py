@@ -4,6 +4,10 @@ The verdict is :func:`a5mi.grade.verdict.judge` on the share of pixels beyond th
 ``--noise SIGMA.npy`` (the per-pixel jitter standard deviation ``a5mi grade`` caches beside each reference)
 the band is ``4 sigma + 1`` levels, without it 1 level. Exit status: 0 match, 1 differ (close, wrong, wrong
 size), 2 user error (unreadable image, bad flag), so the command can gate a script or CI job.
+
+``--diff OUT.png`` writes :func:`a5mi.compare.montage`: A | B | heatmap of the largest channel error, full scale
+``--scale`` levels (default 16; ``auto``: :func:`a5mi.compare.auto_scale`, the 99.9th percentile of the error,
+at least 1), a colour bar labelled in /255 units and the metrics as a caption; ``--json`` then has ``diff_scale``.
 """
 
 from __future__ import annotations
@@ -79,6 +83,7 @@ def run_compare(args: Args, console: Console) -> int:
     want_flip = bool(args.flip) or args.flip_map is not None
     graded, heat = verdict.measure(b_img, a_img, _noise(args.noise, a_img.shape), flip=want_flip)
     decided = verdict.judge(graded, verdict.Thresholds(args.match, args.close))
+    scale = None
     if args.diff is not None:
         scale = compare.auto_scale(a_img, b_img) if args.scale == "auto" else float(args.scale)
         compare.write_diff(a_img, b_img, metrics, args.diff, (os.path.basename(a_path), os.path.basename(b_path)),
@@ -88,12 +93,16 @@ def run_compare(args: Args, console: Console) -> int:
     if args.json:
         doc = json.loads(metrics.to_json())
         doc.update(verdict=decided, beyond_noise=graded.beyond_noise, flip=graded.flip)
+        if scale is not None:
+            doc["diff_scale"] = scale
         console.result(json.dumps(doc))
     else:
         console.result(f"{a_path} vs {b_path} ({metrics.width}x{metrics.height}): {metrics.summary()}")
         if metrics.bbox is not None:
             x0, y0, x1, y1 = metrics.bbox
             console.result(f"pixels over {metrics.threshold:g}/255 lie in x {x0}..{x1}, y {y0}..{y1} (row 0 = top)")
+        if scale is not None:
+            console.result(f"{args.diff}: A | B | |A-B| heatmap, full scale {scale:g}/255")
         flip = "" if graded.flip is None else f", FLIP {graded.flip:.4f}"
         console.result(f"verdict: {decided} ({100 * graded.beyond_noise:.2f}% of pixels beyond "
                        f"{'the noise band' if args.noise else f'{verdict.NOISE_FLOOR:g}/255'}{flip})")
