@@ -156,6 +156,8 @@ def test_converted_folder_can_be_moved(tmp_path: Path, scenes_dir: Path) -> None
     files = [e.get("value") for e in ET.parse(xml).getroot().iter("string") if e.get("name") == "filename"]
     assert files and all(not Path(f).is_absolute() and str(tmp_path) not in f for f in files), files
     assert run_a5mi(["render-xml", str(xml), "-o", str(tmp_path / "before.png")]) == 0
+    assert run_a5mi(["convert", str(src / "s.txt"), "-o", str(out / "stock.xml"), "--stock", *flags]) == 0
+    assert run_a5mi(["render-xml", str(out / "stock.xml"), "-o", str(tmp_path / "stock_before.png")]) == 0
 
     moved = tmp_path / "elsewhere" / "moved here"
     moved.parent.mkdir()
@@ -166,3 +168,6 @@ def test_converted_folder_can_be_moved(tmp_path: Path, scenes_dir: Path) -> None
     np.testing.assert_array_equal(after, read_levels(tmp_path / "before.png"))
     np.testing.assert_array_equal(after, read_levels(tmp_path / "a5.png"))  # texture and sky really loaded
     assert after.std() > 10
+    assert run_a5mi(["render-xml", str(moved / "stock.xml"), "-o", str(tmp_path / "stock_after.png")]) == 0
+    np.testing.assert_array_equal(read_levels(tmp_path / "stock_after.png"),
+                                  read_levels(tmp_path / "stock_before.png"))  # the stock bitmap and envmap too
