@@ -124,8 +124,10 @@ def jitter_stream(seed: int | None, total: int | None = None) -> Callable[[int],
 #: Tiles start on a sample index that is a multiple of this (every SIMD packet width of Dr.Jit's LLVM backend
 #: divides it: 4, 8, 16). Some sample's result depends, in the last bits, on which samples share its SIMD packet
 #: (seen on scene10 at 30x30 -jitter, 8-wide AVX2: one pixel off by 2.8e-5 whenever a tile started off an
-#: 8-sample boundary, none when it started on one; the operation was not isolated, the scene has Embree-traced
-#: meshes, a glass sphere and a cube map). Aligned tiles keep every packet as in a one-launch render.
+#: 8-sample boundary, none when it started on one). Narrowed down: it stays without the cube mesh, the glass,
+#: the cube map or -bounces (0), and goes with -shadows off, so it is a shadow test (Mitsuba's ray queries in
+#: plugins/octree_rule.occluded) flipping for one grazing sample whose light term is 2.8e-5; which query
+#: depends on its packet was not isolated. Aligned tiles keep every packet as in a one-launch render.
 PACKET_ALIGN = 64
 #: With a progress callback, a render of many samples is split into about this many tiles (points where the
 #: progress bar learns the render's rate); without one it is one tile up to ``tile_rays`` ...
