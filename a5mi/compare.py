@@ -222,9 +222,14 @@ class Layout:
     caption_lines: tuple[str, ...]
 
 
+#: Narrowest montage: smaller panels leave room on the right, so the caption stays a few readable lines.
+MIN_WIDTH = 240
+
+
 def layout(h: int, w: int, caption: str, gap: int = 4) -> Layout:
-    """The :class:`Layout` of a montage of ``h x w`` panels: caption wrapped to the montage width."""
-    width = 3 * w + 2 * gap
+    """The :class:`Layout` of a montage of ``h x w`` panels (at least :data:`MIN_WIDTH` wide): the caption
+    wrapped to the montage width."""
+    width = max(3 * w + 2 * gap, MIN_WIDTH)
     lines = tuple(wrap(caption, width - 2 * MARGIN))
     bar_top = h + MARGIN
     labels_top = bar_top + BAR_HEIGHT + 2

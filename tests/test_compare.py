@@ -65,7 +65,7 @@ def test_files_round_trip_and_diff_montage(tmp_path) -> None:
     assert m.bbox == (0, 5, 0, 5)
     write_diff(read_levels(tmp_path / "a.png"), read_levels(tmp_path / "b.png"), m, tmp_path / "d.png", ("a", "b"))
     d = read_levels(tmp_path / "d.png")
-    assert d.shape[1] == 3 * 7 + 8
+    assert d.shape[1] == 240  # 3 * 7 + 8 panels, widened to MIN_WIDTH for the caption
     assert np.array_equal(d[:6, :7], a)  # left panel is A, unchanged
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".a5mi-")] == []
 
