@@ -102,6 +102,7 @@ def wavelength(pixel_key: mi.UInt32, pass_key: mi.UInt32, pass_index: mi.UInt32,
 def start(rng: object, width: int, size: int) -> tuple[mi.Float, object]:
     """Per lane of a batch: its wavelength and the pending-ray stack of "already weighted" flags (UInt32 0/1;
     entry 0, the camera ray, 0). ``rng`` is the kernel's :class:`~.sampling.Stochastic`."""
+    _table_jit()  # built here, outside the kernel's symbolic loop (its first evaluation reads Mitsuba's CIE table)
     lam = wavelength(rng.pixel_key, rng.pass_key, rng.pass_index, rng.passes)  # type: ignore[attr-defined]
     lam = lam + dr.zeros(mi.Float, width)
     stack = dr.alloc_local(mi.UInt32, size)  # 0/1 (a Bool local array miscompiles on LLVM)
