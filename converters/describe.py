@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from a5mi.spec import CENTRE_WAVELENGTH_NM
+
 from . import files, octree
 from . import transforms as tf
 from .errors import FileLoc, SceneSemanticError
@@ -208,8 +210,10 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
                 warnings.append((mat.noise.loc or mat.loc,  # type: ignore[arg-type]
                                  "stock conversion: Noise (marble) replaced by its mean colour"))
             if stock and mat.dispersion is not None:  # docs/EXTENSIONS.md E.10
+                n_c = mat.refraction_index + mat.dispersion / (CENTRE_WAVELENGTH_NM * 1e-3) ** 2
                 warnings.append((mat.loc,  # type: ignore[arg-type]
-                                 "stock conversion: dispersion replaced by the index at the centre wavelength"))
+                                 "stock conversion: dispersion replaced by the index at the centre wavelength, "
+                                 f"n({CENTRE_WAVELENGTH_NM:g} nm) = {n_c:.6g}"))
         if mat.texture is None:
             return
         # A referenced file is checked wherever it is used, shown or not (issue 12).
