@@ -288,3 +288,24 @@ def test_prism_demo_converts_both_ways(mi: Any, tmp_path: Any) -> None:
     text = xml.read_text()
     assert "dielectric" in text and f"{1.6 + 0.012 / 0.55 ** 2:.6g}"[:6] in text
     mi.load_file(str(xml))
+
+
+def test_one_lane_launch_without_passes(mi: Any) -> None:
+    """A one-lane launch without set_pass (what ``a5mi trace`` does) compiles the dispersion kernel (the weight
+    table is built before the kernel's loop: built inside it, this launch aborted the process) and gives the
+    colour of a lane of a wider launch with the same keys."""
+    from a5mi.converters.describe import describe
+    from a5mi.driver import RenderOptions, build_scene
+    from a5mi.plugins.whitted_record import TreeRecorder
+
+    text = _scene_text(f"dispersion {A} {B}", _prism_text(), 9)
+    scene = build_scene(describe(parse_text(text)), RenderOptions(bounces=4))
+    integ = scene.integrator()
+    colors = []
+    for n in (1, 4):
+        o = mi.Point3f(np.zeros(n), np.full(n, 0.2), np.full(n, 5.0))
+        ray = mi.Ray3f(o, mi.Vector3f(np.full(n, -0.05), np.zeros(n), np.full(n, -1.0)))
+        c = integ.trace(scene, ray, mi.Bool(True), record=TreeRecorder(n, 15, 1))[0]
+        colors.append(np.array([np.asarray(c[i]) for i in range(3)]).T)
+    assert np.all(np.isfinite(colors[0]))
+    np.testing.assert_allclose(colors[0][0], colors[1][0], rtol=1e-6, atol=1e-7)
