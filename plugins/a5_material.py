@@ -17,8 +17,8 @@ values. This plugin therefore has two faces:
    * Lambert ``kd/π`` (front side only), and
    * when ``|specular_color| > 0.001`` or ``refraction_index > 0``, a delta lobe weighted by
      ``specular_color``: an ideal mirror if ``refraction_index == 0``, else a smooth dielectric with
-     interior index ``refraction_index`` and exterior 1 (exact Fresnel ``mi.fresnel``, radiance scaled by
-     ``1/η²`` on transmission, both sides).
+     interior index ``refraction_index`` (``n(550 nm)`` if ``cauchy_b ≠ 0``) and exterior 1 (exact Fresnel
+     ``mi.fresnel``, radiance scaled by ``1/η²`` on transmission, both sides).
 
    The lobe is chosen with probability ``p_s = mean(specular_color) / (mean(kd) + mean(specular_color))``;
    sampled weights are ``kd / (1 - p_s)`` (diffuse) and ``specular_color / p_s`` (delta), and ``pdf`` is
@@ -55,7 +55,7 @@ from collections.abc import Sequence
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.spec import MIRROR_THRESHOLD
+from a5mi.spec import CENTRE_WAVELENGTH_NM, MIRROR_THRESHOLD
 
 #: Attributes served through ``eval_attribute_3`` / ``eval_attribute_1`` (and ``has_attribute``).
 COLOR_ATTRIBUTES: tuple[str, ...] = ("diffuse_color", "specular_color")
@@ -107,6 +107,7 @@ class A5Material(mi.BSDF):
         if cauchy_b != 0.0 and ior <= 0.0:
             raise ValueError(f"a5_material: 'cauchy_b' needs refraction_index > 0, got {ior}")
         self.cauchy_b = mi.Float(cauchy_b)
+        self._dispersive = cauchy_b != 0.0
         self._make_opaque()
 
         spec_len = sum(c * c for c in specular) ** 0.5
@@ -194,7 +195,11 @@ class A5Material(mi.BSDF):
         weight_s = self.specular_color / dr.maximum(p_s, 1e-8)
         ok_s = active & choose_delta
         if self._dielectric:
-            r_i, cos_t, eta_it, eta_ti = mi.fresnel(cos_i, self.refraction_index)
+            # docs/EXTENSIONS.md E.10: a dispersive material at the centre wavelength, as the stock mapping
+            ior = self.refraction_index
+            if self._dispersive:
+                ior = ior + self.cauchy_b * (1.0 / (CENTRE_WAVELENGTH_NM * 1e-3) ** 2)
+            r_i, cos_t, eta_it, eta_ti = mi.fresnel(cos_i, ior)
             u = sample1 / dr.maximum(p_s, 1e-8)
             pick_r = u <= r_i
             wo_s = dr.select(pick_r, wo_r, mi.refract(si.wi, cos_t, eta_ti))
