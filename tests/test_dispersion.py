@@ -261,7 +261,13 @@ def test_stock_mapping_uses_the_centre_wavelength(mi: Any) -> None:
     assert stock["int_ior"] == pytest.approx(A + B / 0.55 ** 2, rel=1e-12)
     assert any("dispersion replaced by the index at the centre wavelength" in msg for _, msg in desc.warnings)
     mi.load_dict(stock)
-    mi.load_dict(a5)
+    # a5_material's physical face (for stock integrators) refracts at the same index
+    import drjit as dr
+
+    si = dr.zeros(mi.SurfaceInteraction3f)
+    si.wi, si.sh_frame = mi.Vector3f(0.6, 0, 0.8), mi.Frame3f(mi.Vector3f(0, 0, 1))
+    bs, _ = mi.load_dict(a5).sample(mi.BSDFContext(), si, 0.99, mi.Point2f(0.5, 0.5))
+    assert float(bs.eta[0]) == pytest.approx(A + B / 0.55 ** 2, rel=1e-6)
 
 
 def test_prism_demo_converts_both_ways(mi: Any, tmp_path: Any) -> None:
