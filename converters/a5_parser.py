@@ -365,6 +365,8 @@ def parse_material(ts: TokenStream, start: Token) -> Material:
         elif tok.text == "shininess":
             values["shininess"] = ts.number(tok.text)
         elif tok.text == "refractionIndex":
+            if ext_parser.parse_dispersion(ts, tok, values):  # refractionIndex dispersion A B (EXTENSIONS E.10)
+                continue
             n = ts.number(tok.text)
             if n < 0.0:
                 raise ts.semantic_error(f"refractionIndex must not be negative, found {n:g}", tok.loc)

@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from a5mi.spec import CENTRE_WAVELENGTH_NM
+
 from . import files, octree, volgrid
 from . import transforms as tf
 from .errors import FileLoc, SceneSemanticError
@@ -78,6 +80,8 @@ class MaterialDescription:
     #: docs/EXTENSIONS.md E.4: GGX alpha (0 = mirror) and glossy children per camera hit
     roughness: float = 0.0
     glossy_samples: int = 1
+    #: docs/EXTENSIONS.md E.10: Cauchy's B (µm²) of a dispersive material (``refraction_index`` is A), else None
+    dispersion: float | None = None
 
     def kd_on(self, with_uv: bool) -> Noise | Image | None:
         """The kd source on a shape with (``with_uv``) or without texture coordinates."""
@@ -245,6 +249,11 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
             if stock and mat.noise is not None:
                 warnings.append((mat.noise.loc or mat.loc,  # type: ignore[arg-type]
                                  "stock conversion: Noise (marble) replaced by its mean colour"))
+            if stock and mat.dispersion is not None:  # docs/EXTENSIONS.md E.10
+                n_c = mat.refraction_index + mat.dispersion / (CENTRE_WAVELENGTH_NM * 1e-3) ** 2
+                warnings.append((mat.loc,  # type: ignore[arg-type]
+                                 "stock conversion: dispersion replaced by the index at the centre wavelength, "
+                                 f"n({CENTRE_WAVELENGTH_NM:g} nm) = {n_c:.6g}"))
         if mat.texture is None:
             return
         # A referenced file is checked wherever it is used, shown or not (issue 12).
@@ -292,7 +301,8 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
     materials = tuple(
         MaterialDescription(mat.diffuse_color, mat.specular_color, float(mat.shininess),
                             float(mat.refraction_index), mat.noise if mat.noise is not None else textures.get(i),
-                            mat.loc, float(mat.roughness), int(mat.glossy_samples))
+                            mat.loc, float(mat.roughness), int(mat.glossy_samples),
+                            None if mat.dispersion is None else float(mat.dispersion))
         for i, mat in enumerate(scene.materials))
     medium = describe_volume(scene, scene.medium) if isinstance(scene.medium, Volume) else scene.medium
     return SceneDescription(scene.path, scene.camera, scene.ambient, background, materials, tuple(shapes),

@@ -177,6 +177,9 @@ class Material:
     #: glossy lobe (docs/EXTENSIONS.md E.4): GGX roughness alpha (0 = the mirror of B.3) and the children per hit
     roughness: float = 0.0
     glossy_samples: int = 1
+    #: dispersion (docs/EXTENSIONS.md E.10): Cauchy's B in µm² of ``refractionIndex dispersion A B`` (then
+    #: ``refraction_index`` is A); None when the index is a plain number
+    dispersion: float | None = None
 
 
 # ------------------------------------------------------------------------------------------------------ objects
