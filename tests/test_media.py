@@ -223,8 +223,8 @@ def test_stock_mapping_uses_volpath_media(mi: Any, tmp_path: Path) -> None:
 
 
 def test_xml_carries_the_medium(mi: Any, tmp_path: Path) -> None:
-    """a5 XML: the integrator's ``medium_grid`` is a ``gridvolume`` on the grid written beside it; stock XML: the sensor's
-    ``heterogeneous`` medium and ``volpath``; both load in Mitsuba."""
+    """a5 XML: the integrator's ``medium_grid`` is a ``gridvolume`` on the grid written beside it;
+    stock XML: the sensor's ``heterogeneous`` medium and ``volpath``; both load in Mitsuba."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
     from a5mi.converters.to_xml import write_xml
