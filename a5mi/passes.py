@@ -25,7 +25,8 @@ def thin_lens(ray: Any, camera: Any, sample: Any) -> Any:
 
     from a5mi.plugins.camera import camera_basis
 
-    w, u, v = (mi.Vector3f(*(float(c) for c in a)) for a in camera_basis(camera.direction, camera.up))
+    # opaque: a keyframed camera (docs/EXTENSIONS.md E.11) turns without a new kernel
+    w, u, v = (dr.opaque(mi.Vector3f, [float(c) for c in a]) for a in camera_basis(camera.direction, camera.up))
     radius = dr.opaque(mi.Float, 0.5 * float(camera.aperture))
     focus = dr.opaque(mi.Float, float(camera.focus_distance))
     focal_point = ray.o + (focus / dr.dot(ray.d, w)) * ray.d

@@ -51,6 +51,7 @@ Group { numObjects 5
 TRACKS = """Animation { frames 12 fps 12 SHUTTER
   Track { Camera center smooth key 0 0 1 10 key 1 1 1.5 9 }
   Track { Camera focusDistance linear key 0 10 key 1 5 }
+  Track { Camera direction linear key 0 0 -0.1 -1 key 1 0.1 -0.15 -1 }
   Track { Light 0 position linear key 0 -3 5 4 key 1 3 5 4 }
   Track { Light 0 color linear key 0 0.8 0.8 0.8 key 1 0.2 0.9 0.2 }
   Track { Light 1 direction linear key 0 0.5 -1 -0.5 key 1 -0.5 -1 0.2 }
