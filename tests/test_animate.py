@@ -58,6 +58,7 @@ TRACKS = """Animation { frames 12 fps 12 SHUTTER
   Track { Light 2 direction smooth key 0 0 -1 0 key 1 0.3 -1 0 }
   Track { Material 1 diffuseColor linear key 0 0.9 0.2 0.1 key 1 0.1 0.9 0.2 }
   Track { Material 0 specularColor linear key 0 0 0 0 key 1 0.5 0.5 0.5 }
+  Track { Material 2 diffuseColor linear key 0 0.1 0.5 0.9 key 1 0.9 0.5 0.1 }
   Track { Transform 0 0 linear key 0 0 0 0 key 1 0 -0.5 0 }
   Track { Transform 1 0 linear key 0 0 0 0 key 1 0 1 0 }
   Track { Transform 2 1 smooth key 0 0.5 1 0.5 key 1 0.3 1.5 0.3 }
