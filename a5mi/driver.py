@@ -52,6 +52,8 @@ from a5mi.passes import sample_passes
 
 Progress = Callable[[int, int], None]  # (samples done, samples total)
 CameraRays = Callable[..., Any]  # a5mi.plugins.camera.camera_rays
+#: docs/EXTENSIONS.md E.12: ``hook(k)`` updates the scene for pass ``k`` of ``spp`` and returns its camera
+PassHook = Callable[[int], Any]
 
 
 @dataclass
@@ -285,6 +287,7 @@ class _TraceContext:
     total: int
     spp: int = 1    #: docs/EXTENSIONS.md E.5: passes per pixel (a5mi/passes.py)
     seed: int = 0   #: seed of the stochastic samples
+    only_pass: int | None = None  #: E.12: trace only this pass of ``spp`` (not averaged)
 
 
 _COUNT_NAMES = ("reflection", "refraction", "shadow")
@@ -312,7 +315,8 @@ def _trace_pass(
                     camera.center, camera.direction, camera.up, camera.angle,
                     mi.Float(aligned_float32(x_pix)), mi.Float(aligned_float32(y_pix)), rw, rh,
                 )  # fmt: skip
-                rgb, aovs = sample_passes(ctx.scene, integrator, sampler, ray, camera, j0 * rw, n, ctx.spp, ctx.seed)
+                rgb, aovs = sample_passes(ctx.scene, integrator, sampler, ray, camera, j0 * rw, n, ctx.spp, ctx.seed,
+                                          only=ctx.only_pass)
                 named = dict(zip(integrator.aov_names(), aovs, strict=True))
                 missing = [k for k in buffers.aov_names if k not in named]
                 if missing:
@@ -355,6 +359,35 @@ def _trace_pass(
     return done
 
 
+def _trace_moving(ctx: _TraceContext, tiles: Callable[[], Iterator[tuple[int, int, np.ndarray, np.ndarray]]],
+                  main: _Pass, hook: PassHook) -> None:
+    """docs/EXTENSIONS.md E.12: pass ``k`` of ``spp`` traces every tile of the scene as ``hook(k)`` left it,
+    with the camera it returns; the colours are summed in pass order and scaled by ``1/spp`` in float32 (the
+    operations of :func:`a5mi.passes.sample_passes`, so a scene that does not move renders bit for bit as
+    without the hook); AOVs and classes come from pass 0."""
+    import dataclasses
+
+    rw, rh = ctx.size
+    total: np.ndarray | None = None
+    done = 0
+    for k in range(ctx.spp):
+        camera = hook(k)
+        buf = _Pass(color=np.empty((rh, rw, 3), np.float32), normal=main.normal if k == 0 else None,
+                    dist=main.dist if k == 0 else None, classes=main.classes if k == 0 else None,
+                    counts=main.counts, kernels=main.kernels)
+        done = _trace_pass(dataclasses.replace(ctx, camera=camera, only_pass=k, total=ctx.total * ctx.spp),
+                           tiles(), buf, done)
+        total = buf.color if total is None else total + buf.color
+    assert total is not None
+    if ctx.spp > 1:
+        total = total * np.float32(1.0 / ctx.spp)
+    if main.stream is not None:
+        main.stream.push(total)
+    else:
+        assert main.color is not None
+        main.color[...] = total
+
+
 def render_scene(
     mi_scene: Any,
     camera: Any,
@@ -363,13 +396,16 @@ def render_scene(
     integrator: Any = None,
     camera_rays: CameraRays | None = None,
     progress: Progress | None = None,
+    pass_hook: PassHook | None = None,
 ) -> RenderResult:
     """Render a loaded Mitsuba scene with the a5 camera ``camera`` (``center``, ``direction``, ``up``,
     ``angle`` in degrees). ``integrator`` defaults to ``mi_scene.integrator()``; ``camera_rays`` to
     :func:`a5mi.plugins.camera.camera_rays`. With ``aov_mode="quadrant"`` the AOV images come from a second
     pass with the sample solution's own AOV rays (:func:`quadrant_coords`). With ``options.classes`` the
     integrator must list the ``class`` AOV (``a5_whitted`` ``aovs`` including ``class``); it is read from the
-    main pass into :attr:`RenderResult.classes`."""
+    main pass into :attr:`RenderResult.classes`. ``pass_hook`` (motion blur, docs/EXTENSIONS.md E.12): called
+    before each of the ``spp`` passes, which then run one after the other over the whole image
+    (:func:`_trace_moving`); its camera replaces ``camera``."""
     import drjit as dr
 
     if options.threads is not None:
@@ -409,7 +445,11 @@ def render_scene(
     t_start = time.perf_counter()
     ctx = _TraceContext(mi_scene, camera, integrator, camera_rays, (rw, rh), timings, progress, total,
                         options.spp, options.seed or 0)
-    done = _trace_pass(ctx, main_tiles(), main, 0)
+    if pass_hook is None:
+        done = _trace_pass(ctx, main_tiles(), main, 0)
+    else:
+        _trace_moving(ctx, main_tiles, main, pass_hook)
+        done = total * ctx.spp
     if separate:
         _trace_pass(ctx, quadrant_tiles(), aov, done)
     timings["render"] = time.perf_counter() - t_start - timings["filter"]  # the streamed filter is its own stage

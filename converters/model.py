@@ -18,10 +18,14 @@ import stat
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import FileLoc, SceneSemanticError, shown
+
+if TYPE_CHECKING:
+    from .keyframes import Animation
 
 Vec3 = tuple[float, float, float]
 #: A 4x4 matrix as hashable row-major tuples (``m[row][col]``); :func:`.transforms.as_array` gives numpy.
@@ -305,6 +309,8 @@ class Scene:
     warnings: tuple[tuple[FileLoc, str], ...] = ()
     #: the participating medium (docs/EXTENSIONS.md E.8, E.9); None in course scenes
     medium: Medium | None = None
+    #: ``Animation { ... }`` (docs/EXTENSIONS.md E.11; :mod:`.keyframes`), None for a still scene
+    animation: Animation | None = None
 
     @property
     def base_dir(self) -> Path:
