@@ -48,7 +48,7 @@ from a5mi.converters.model import (
     Triangle,
     TriangleMesh,
 )
-from a5mi.converters.to_mitsuba import OCTREE_ATTRIBUTES, to_dict
+from a5mi.converters.to_mitsuba import OCTREE_ATTRIBUTES, TRIANGLE_ATTRIBUTES, to_dict
 from a5mi.driver import RenderResult, aligned_float32, render_scene
 from a5mi.options import RenderOptions
 
@@ -199,6 +199,9 @@ class WarmScene:
                 if data.octree is not None:
                     for attr, cols in OCTREE_ATTRIBUTES.items():
                         p[f"{name}.{attr}"] = mi.Float(aligned_float32(data.octree[:, cols]))
+                if data.triangles is not None:  # the binary's triangle test (plugins/triangle_rule.py)
+                    for attr, cols in TRIANGLE_ATTRIBUTES.items():
+                        p[f"{name}.{attr}"] = mi.Float(aligned_float32(data.triangles[:, cols]))
             elif isinstance(prim, Sphere):
                 scale = tf.similarity_scale(m)
                 if (scale is not None) != self._sphere_kind[i]:
