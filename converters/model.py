@@ -130,6 +130,23 @@ class Noise:
 
 
 @dataclass(frozen=True)
+class Solid:
+    """``Wood`` / ``Turbulence`` / ``Veins { color V3 color V3 ... }`` (docs/EXTENSIONS.md E.6): a procedural solid
+    texture on the marble's noise; ``kind`` is ``wood``, ``turbulence`` or ``veins``."""
+
+    kind: str
+    color1: Vec3
+    color2: Vec3
+    octaves: int = 4
+    frequency: float = 1.0
+    amplitude: float = 1.0
+    scale: float = 1.0
+    axis: Vec3 = (0.0, 1.0, 0.0)
+    center: Vec3 = (0.0, 0.0, 0.0)
+    loc: FileLoc | None = None
+
+
+@dataclass(frozen=True)
 class Material:
     """``Material`` / ``PhongMaterial`` (SPEC A.5). ``shininess`` is parsed but unused by a5soln (SPEC B.3)."""
 
@@ -145,6 +162,14 @@ class Material:
     #: glossy lobe (docs/EXTENSIONS.md E.4): GGX roughness alpha (0 = the mirror of B.3) and the children per hit
     roughness: float = 0.0
     glossy_samples: int = 1
+    #: docs/EXTENSIONS.md E.6: a procedural solid (Wood, Turbulence, Veins) as kd, in place of Noise
+    solid: Solid | None = None
+    #: docs/EXTENSIONS.md E.7 (used with -bump only): where ``bump`` was given, the height of grey 1 in world
+    #: units (``bumpScale``), and the tangent-space ``normalMap``
+    bump_loc: FileLoc | None = None
+    bump_scale: float = 1.0
+    normal_map: str | None = None
+    normal_map_loc: FileLoc | None = None
 
 
 # ------------------------------------------------------------------------------------------------------ objects
