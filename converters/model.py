@@ -129,6 +129,10 @@ class Noise:
     loc: FileLoc | None = None
 
 
+#: docs/EXTENSIONS.md E.7: default ``bumpScale``, the height (world units) of grey 1 in a bump height field
+BUMP_SCALE = 0.2
+
+
 @dataclass(frozen=True)
 class Solid:
     """``Wood`` / ``Turbulence`` / ``Veins { color V3 color V3 ... }`` (docs/EXTENSIONS.md E.6): a procedural solid
@@ -167,7 +171,7 @@ class Material:
     #: docs/EXTENSIONS.md E.7 (used with -bump only): where ``bump`` was given, the height of grey 1 in world
     #: units (``bumpScale``), and the tangent-space ``normalMap``
     bump_loc: FileLoc | None = None
-    bump_scale: float = 1.0
+    bump_scale: float = BUMP_SCALE
     normal_map: str | None = None
     normal_map_loc: FileLoc | None = None
 
