@@ -53,8 +53,8 @@ PLUGIN_TAGS: dict[str, str] = {
     **dict.fromkeys(("directional", "a5_point", "point", "a5_cubemap", "constant", "envmap", "a5_spot", "spot",
                      "a5_area", "area"), "emitter"),
     **dict.fromkeys(("a5_material", "diffuse", "conductor", "dielectric", "blendbsdf", "roughconductor",
-                     "roughdielectric"), "bsdf"),
-    **dict.fromkeys(("a5_marble", "a5_bitmap", "bitmap", "srgb"), "texture"),
+                     "roughdielectric", "bumpmap", "normalmap"), "bsdf"),
+    **dict.fromkeys(("a5_marble", "a5_solid", "a5_bitmap", "bitmap", "srgb"), "texture"),
     **dict.fromkeys(("sphere", "rectangle", "instance", "shapegroup", "ply"), "shape"),
 }
 VECTOR_NAMES = frozenset(("direction", "up"))
