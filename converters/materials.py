@@ -17,8 +17,10 @@ Stock (:func:`stock_bsdf`, for use outside a5mi; none is needed for a5 renders):
   (energy conservation); both colours survive (a coloured diffuse under a white mirror keeps its hue).
   ``d = 0`` (clear glass, black mirrors) gives the mirror/dielectric alone. A texture (``d`` = its largest
   texel) is kept unscaled, so its diffuse part is ``kd·d/(d + m)`` instead;
-* textures: stock ``bitmap`` with ``raw=True``, ``filter_type='bilinear'``, ``wrap_mode='clamp'``: it has
-  Mitsuba's half-texel offset, unlike A.4; Noise (3D marble): the mean colour ``(color1 + color2)/2`` (the
+* textures: stock ``bitmap`` with ``raw=True``, ``filter_type='bilinear'``, ``wrap_mode='clamp'`` and ``to_uv`` =
+  ``(u, v) -> (u, 1 − v)`` (:data:`FLIP_V`: Mitsuba's bitmap puts v = 0 on the top row, A.4 on the bottom one, and
+  Mitsuba's own OBJ loader flips v to compensate, which these meshes built from the OBJ's numbers do not): it
+  has Mitsuba's half-texel offset, unlike A.4; Noise (3D marble): the mean colour ``(color1 + color2)/2`` (the
   mean of ``t`` over a period of the sine; :func:`.describe.describe` warns with ``stock=True``);
   procedural solids (docs/EXTENSIONS.md E.6): the same ``a5_solid`` texture as the reflectance of the stock
   BSDF (so the a5mi plugins must be registered to load it), unscaled like a bitmap texture;
@@ -46,6 +48,15 @@ from .model import Noise, Solid
 
 #: ``(image) -> the image parameters of a bitmap texture`` (``{'filename': ...}`` or ``{'bitmap': ...}``).
 ImageParams = Callable[[Image], dict[str, Any]]
+
+#: The stock ``bitmap``'s ``to_uv``: ``(u, v) -> (u, 1 − v)``, A.4's rows from the bottom (module docstring).
+FLIP_V = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+
+
+def stock_bitmap(image: Image, params: ImageParams) -> dict[str, Any]:
+    """The stock ``bitmap`` texture of an A.4 image (module docstring: raw, bilinear, clamp, v flipped)."""
+    return {"type": "bitmap", **params(image), "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp",
+            "to_uv": FLIP_V.copy()}
 
 
 def rgb(c: Any) -> dict[str, Any]:
@@ -100,12 +111,10 @@ def stock_maps(mat: MaterialDescription, with_uv: bool, bsdf: dict[str, Any], im
     if not with_uv:
         return bsdf
     if mat.normal_map is not None:
-        bsdf = {"type": "normalmap", "normalmap": {"type": "bitmap", **image(mat.normal_map), "raw": True,
-                                                   "filter_type": "bilinear", "wrap_mode": "clamp"}, "bsdf": bsdf}
+        bsdf = {"type": "normalmap", "normalmap": stock_bitmap(mat.normal_map, image), "bsdf": bsdf}
     if mat.bump is not None:
         bsdf = {"type": "bumpmap", "scale": float(mat.bump_scale), "bsdf": bsdf,
-                "height": {"type": "bitmap", **image(mat.bump), "raw": True, "filter_type": "bilinear",
-                           "wrap_mode": "clamp"}}
+                "height": stock_bitmap(mat.bump, image)}
     return bsdf
 
 
@@ -149,7 +158,7 @@ def _stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams) -> 
         texture = solid_texture(kd_src)
     elif isinstance(kd_src, Image):
         kd = np.ones(3)
-        texture = {"type": "bitmap", **image(kd_src), "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp"}
+        texture = stock_bitmap(kd_src, image)
     else:
         kd = np.asarray(mat.diffuse_color, dtype=np.float64)
     spec = np.asarray(mat.specular_color, dtype=np.float64)

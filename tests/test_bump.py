@@ -165,3 +165,53 @@ def test_stock_mapping_wraps_the_bsdf(tmp_path: Path, variant: str) -> None:
     text = str(mesh.bsdf())
     assert "BumpMap" in text and "NormalMap" in text, text[:300]
     assert mi.load_dict(d) is not None
+
+
+def _stock_normal(bsdf_dict: dict, uv: tuple[float, float]) -> np.ndarray:
+    """The shading normal a stock adapter uses at ``uv`` on the quad (dp_du = (2,0,0), dp_dv = (0,2,0), N = z),
+    read off a white Lambert inside it: π f(wo) = N'·wo for three directions wo in front."""
+    import drjit as dr
+    import mitsuba as mi
+
+    bsdf = mi.load_dict(bsdf_dict)
+    si = dr.zeros(mi.SurfaceInteraction3f, 1)
+    si.n = mi.Normal3f(0, 0, 1)
+    si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+    si.uv = mi.Point2f(*uv)
+    si.dp_du, si.dp_dv, si.wi = mi.Vector3f(2, 0, 0), mi.Vector3f(0, 2, 0), mi.Vector3f(0, 0, 1)
+
+    def f(x: float, y: float, z: float) -> float:
+        return float(bsdf.eval(mi.BSDFContext(), si, mi.Vector3f(x, y, z))[0][0]) * np.pi
+
+    r = float(np.sqrt(0.5))
+    c = f(0.0, 0.0, 1.0)
+    return np.array([f(r, 0.0, r) / r - c, f(0.0, r, r) / r - c, c])
+
+
+def test_stock_bumpmap_has_the_same_law(variant: str) -> None:
+    """Mitsuba's bumpmap on the stock bitmap (converters/materials.py: raw, bilinear, v flipped to A.4's rows)
+    tilts a constant-slope ramp in u and in v exactly as a5mi does (the half-texel offset does not change a
+    constant gradient); the stock texture shows A.4's top row at v near 1."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from a5mi.converters.files import Image
+    from a5mi.converters.materials import stock_bitmap
+
+    size, slope, s = 16, 12, 0.01
+    lambert = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}
+    h = s * slope * size / 255.0
+    ramp_u = _ramp(slope, size)
+    ramp_rows = np.ascontiguousarray(ramp_u.transpose(1, 0, 2))  # g rises down the image: ∂g/∂v < 0 in A.4
+    for pixels, want in ((ramp_u, (-2.0 * h, 0.0, 4.0)), (ramp_rows, (0.0, 2.0 * h, 4.0))):
+        tex = stock_bitmap(Image(Path("ramp.png"), pixels), lambda img: {"bitmap": mi.Bitmap(img.pixels.copy())})
+        tex["to_uv"] = mi.ScalarTransform4f(tex["to_uv"].tolist())
+        got = _stock_normal({"type": "bumpmap", "scale": s, "bsdf": lambert, "height": tex}, (0.37, 0.41))
+        assert np.allclose(got, np.array(want) / np.linalg.norm(want), atol=1e-5), got
+    top = np.zeros((16, 16, 3), dtype=np.uint8)
+    top[:8] = 255
+    tex = stock_bitmap(Image(Path("top.png"), top), lambda img: {"bitmap": mi.Bitmap(img.pixels.copy())})
+    tex["to_uv"] = mi.ScalarTransform4f(tex["to_uv"].tolist())
+    si = dr.zeros(mi.SurfaceInteraction3f, 1)
+    si.uv = mi.Point2f(0.5, 0.9)
+    assert np.allclose(np.asarray(mi.load_dict(tex).eval(si)), 1.0)
