@@ -566,6 +566,13 @@ def parse_tokens(ts: TokenStream) -> Scene:
     state = _GroupState(None)
     group_materials: object = None  # the Materials list the (last) Group was parsed with
     while (tok := ts.next()) is not None:
+        if tok.text in ext_parser.MEDIA:  # docs/EXTENSIONS.md E.8, E.9: at most one medium
+            if "medium" in fields:
+                raise ts.semantic_error(f"a scene has at most one medium (Fog or Volume); {tok.text} follows the "
+                                        f"one at line {seen['medium'].loc.line}", tok.loc)
+            seen["medium"] = tok
+            fields["medium"] = ext_parser.MEDIA[tok.text](ts, tok)
+            continue
         if tok.text not in TOP_LEVEL:
             raise ts.syntax_error(f"expected {_one_of(TOP_LEVEL)}, found '{shown(tok.text)}'", tok)
         if tok.text in seen and not (tok.text == "Materials" and "Group" in seen):

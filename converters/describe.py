@@ -14,7 +14,8 @@ shape uses the material; on a shape without uv it cannot show, which is a warnin
 and ignored unless ``describe(bump=True)`` (``-bump``, docs/EXTENSIONS.md E.7): then the ``bump`` height field and the
 ``normalMap`` of materials used on shapes with uv are read too. A procedural solid (``Wood``, ``Turbulence``,
 ``Veins``, E.6) is kd like the ``Noise``. The ambient term is ``Background.ambientLight``, (1,1,1) without lights
-(A.1).
+(A.1). A ``Volume``'s ``.vol`` grid (docs/EXTENSIONS.md E.9) is read here once (:mod:`.volgrid`); a ``Fog`` passes
+as it is (E.8).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import files, octree
+from . import files, octree, volgrid
 from . import transforms as tf
 from .errors import FileLoc, SceneSemanticError
 from .files import Image
@@ -38,7 +39,7 @@ from .geometry import (
     plane_rectangle_to_world,
     world_plane,
 )
-from .model import Camera, Light, Noise, Plane, Scene, Solid, Sphere, Triangle, TriangleMesh, Vec3
+from .model import Camera, Fog, Light, Noise, Plane, Scene, Solid, Sphere, Triangle, TriangleMesh, Vec3, Volume
 from .obj import NormalMode, ObjMesh
 
 SceneWarning = tuple[FileLoc, str]
@@ -145,6 +146,43 @@ Shape = MeshShape | SphereShape | PlaneShape
 
 
 @dataclass(frozen=True, eq=False)
+class VolumeDescription:
+    """A ``Volume`` (docs/EXTENSIONS.md E.9) with its grid read: ``grid`` the ``(z, y, x, 1)`` float32 array of
+    the resolved ``.vol`` file ``path``, stretched over the box ``[box_min, box_max]``."""
+
+    grid: np.ndarray
+    path: Path
+    density: float
+    box_min: Vec3
+    box_max: Vec3
+    color: Vec3
+    steps: int
+    loc: FileLoc
+
+
+MediumDescription = Fog | VolumeDescription
+
+
+def describe_volume(scene: Scene, vol: Volume) -> VolumeDescription:
+    """Resolve and read the ``.vol`` grid of ``vol`` (E.9); a missing, unreadable, malformed or multi-channel
+    file is a :class:`SceneSemanticError` at its name."""
+    path = scene.resolve(vol.grid, vol.grid_loc, "Volume grid")
+    try:
+        grid = volgrid.read_vol(path)
+    except OSError as exc:
+        raise SceneSemanticError(f"Volume grid '{path}': {exc.strerror or exc}", vol.grid_loc) from None
+    except volgrid.VolFormatError as exc:
+        raise SceneSemanticError(f"Volume grid '{path}' is not a .vol grid: {exc.reason}", vol.grid_loc) from None
+    if grid.shape[3] != 1:
+        raise SceneSemanticError(f"Volume grid '{path}' has {grid.shape[3]} channels; a density grid has 1",
+                                 vol.grid_loc)
+    if not np.all(np.isfinite(grid)) or float(grid.min()) < 0.0:
+        raise SceneSemanticError(f"Volume grid '{path}' holds negative or non-finite densities", vol.grid_loc)
+    return VolumeDescription(grid, path.resolve(), vol.density, vol.box_min, vol.box_max, vol.color, vol.steps,
+                             vol.loc)
+
+
+@dataclass(frozen=True, eq=False)
 class SceneDescription:
     """Everything a renderer needs from a scene, files already read (module docstring).
 
@@ -163,6 +201,8 @@ class SceneDescription:
     lights: tuple[Light, ...]
     centre: np.ndarray | None = None
     warnings: tuple[SceneWarning, ...] = ()
+    #: the participating medium (docs/EXTENSIONS.md E.8, E.9), None without one
+    medium: MediumDescription | None = None
 
 
 def describe(scene: Scene, *, stock: bool = False, normals: NormalMode = "auto", bump: bool = False
@@ -277,5 +317,6 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
                             mat.loc, float(mat.roughness), int(mat.glossy_samples),
                             maps.get((i, "bump")), float(mat.bump_scale), maps.get((i, "normal_map")))
         for i, mat in enumerate(scene.materials))
+    medium = describe_volume(scene, scene.medium) if isinstance(scene.medium, Volume) else scene.medium
     return SceneDescription(scene.path, scene.camera, scene.ambient, background, materials, tuple(shapes),
-                            tuple(scene.lights), centre, tuple(warnings))
+                            tuple(scene.lights), centre, tuple(warnings), medium)

@@ -17,7 +17,13 @@ of a PointLight does), so ``a5mi crosscheck`` compares like with like there and 
   (a5 mode: the driver's thin lens, a5mi/passes.py);
 * ``roughness α > 0`` -> ``roughconductor`` / ``roughdielectric`` (GGX, ``alpha = α``) in place of the mirror /
   dielectric of the stock material (converters/materials.py); not ``roughplastic``, whose Fresnel-weighted
-  coat cannot reproduce the a5 sum ``kd·D + ks·M``.
+  coat cannot reproduce the a5 sum ``kd·D + ks·M``;
+* ``Fog`` (E.8) -> ``a5_whitted`` parameters ``medium = fog``, ``medium_density``, ``medium_albedo``,
+  ``medium_steps`` | a stock ``homogeneous`` medium (``sigma_t = density``, ``albedo = color``, ``isotropic``
+  phase) on the sensor, rendered with ``volpath``;
+* ``Volume`` (E.9) -> ``medium = volume`` and ``medium_grid``, a ``gridvolume`` placed on the box (``to_world``
+  maps the unit cube onto ``[min, max]``) | a stock ``heterogeneous`` medium with that ``gridvolume`` as
+  ``sigma_t``, ``scale = density``, on the sensor, with ``volpath``.
 """
 
 from __future__ import annotations
@@ -27,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from .model import AreaLight, SphereLight, SpotLight
+from .model import AreaLight, Fog, SphereLight, SpotLight
 
 ExtLight = SpotLight | AreaLight | SphereLight
 
@@ -121,3 +127,38 @@ def rough(other: dict[str, Any], roughness: float) -> dict[str, Any]:
         return other
     kind = {"conductor": "roughconductor", "dielectric": "roughdielectric"}[other["type"]]
     return {**other, "type": kind, "distribution": "ggx", "alpha": float(roughness)}
+
+
+# -------------------------------------------------------------------------------------------- E.8, E.9 media
+def box_to_world(box_min: Any, box_max: Any) -> np.ndarray:
+    """4x4 map of the unit cube onto the box ``[box_min, box_max]`` (a ``gridvolume``'s ``to_world``)."""
+    lo, hi = np.asarray(box_min, dtype=np.float64), np.asarray(box_max, dtype=np.float64)
+    m = np.diag([*(hi - lo), 1.0])
+    m[:3, 3] = lo
+    return m
+
+
+def grid_volume(medium: Any, source: dict[str, Any]) -> dict[str, Any]:
+    """The ``gridvolume`` of a Volume description: ``source`` is ``{'data': tensor}`` (dict) or ``{'filename':
+    path}`` (XML); trilinear, clamped, on the box."""
+    return {"type": "gridvolume", **source, "filter_type": "trilinear", "wrap_mode": "clamp",
+            "to_world": box_to_world(medium.box_min, medium.box_max)}
+
+
+def medium_params(medium: Any, grid: dict[str, Any] | None) -> dict[str, Any]:
+    """The ``a5_whitted`` parameters of a Fog (``grid`` None) or a Volume (its :func:`grid_volume`)."""
+    out: dict[str, Any] = {"medium": "fog" if isinstance(medium, Fog) else "volume",
+                           "medium_density": float(medium.density), "medium_albedo": _rgb(medium.color),
+                           "medium_steps": int(medium.steps)}
+    if grid is not None:
+        out["medium_grid"] = grid
+    return out
+
+
+def stock_medium(medium: Any, grid: dict[str, Any] | None) -> dict[str, Any]:
+    """The stock medium of the sensor: ``homogeneous`` (Fog) or ``heterogeneous`` (Volume), isotropic."""
+    if isinstance(medium, Fog):
+        return {"type": "homogeneous", "sigma_t": float(medium.density), "albedo": _rgb(medium.color),
+                "phase": {"type": "isotropic"}}
+    return {"type": "heterogeneous", "sigma_t": grid, "scale": float(medium.density), "albedo": _rgb(medium.color),
+            "phase": {"type": "isotropic"}}

@@ -2,7 +2,8 @@
 
 New blocks and keywords, read from the same :class:`~.a5_parser.TokenStream` with the same positioned errors
 as the course grammar (SPEC A): ``SpotLight``, ``AreaLight``, ``SphereLight`` inside ``Lights``; ``aperture`` /
-``focusDistance`` at the end of ``PerspectiveCamera``; ``roughness`` / ``glossySamples`` in ``Material``. A course
+``focusDistance`` at the end of ``PerspectiveCamera``; ``roughness`` / ``glossySamples`` in ``Material``; the
+top-level ``Fog`` and ``Volume`` blocks (E.8, E.9; at most one medium per scene). A course
 scene contains none of them, so it parses to the same model as before (every new field has the default that
 means "as SPEC B"). Part 2: ``Wood`` / ``Turbulence`` / ``Veins`` blocks (E.6) and ``bumpScale`` / ``normalMap`` (E.7)
 in ``Material``.
@@ -12,7 +13,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Final
 
-from .model import AreaLight, Solid, SphereLight, SpotLight, Vec3
+from .model import AreaLight, Fog, Solid, SphereLight, SpotLight, Vec3, Volume
 
 if TYPE_CHECKING:
     from .a5_parser import TokenStream
@@ -31,7 +32,12 @@ SOLID_KEYWORDS: Final = {
     "Veins": ("octaves", "frequency", "amplitude", "scale", "axis"),
 }
 
-_V3, _F, _I = "vec3", "number", "integer"
+#: Upper bound of a medium's ``steps`` (EXTENSIONS E.8, E.9): a kernel loop bound.
+MAX_MEDIUM_STEPS: Final = 1024
+#: Top-level blocks this module adds (the course's error message keeps listing only the course's five).
+TOP_LEVEL: Final = ("Fog", "Volume")
+
+_V3, _F, _I, _N = "vec3", "number", "integer", "name"
 
 
 def _fields(ts: TokenStream, start: Token, block: str, kinds: dict[str, str],
@@ -52,8 +58,12 @@ def _fields(ts: TokenStream, start: Token, block: str, kinds: dict[str, str],
         if tok.text in values:
             raise ts.syntax_error(f"{block} gives '{tok.text}' twice", tok)
         kind = kinds[tok.text]
-        values[tok.text] = (ts.vec3(tok.text) if kind == _V3 else ts.number(tok.text) if kind == _F
-                            else ts.integer(tok.text)[0])
+        if kind == _N:
+            name = ts.name(tok.text)
+            values[tok.text], locs[tok.text + ":value"] = name.text, name.loc
+        else:
+            values[tok.text] = (ts.vec3(tok.text) if kind == _V3 else ts.number(tok.text) if kind == _F
+                                else ts.integer(tok.text)[0])
         locs[tok.text] = tok.loc
     for key in required:
         if key not in values:
@@ -215,3 +225,42 @@ def parse_material_keyword(ts: TokenStream, tok: Token, values: dict[str, object
             raise ts.semantic_error(f"glossySamples must be between 1 and {MAX_GLOSSY_SAMPLES}, found {n}",
                                     n_tok.loc)
         values["glossy_samples"] = n
+
+
+# ------------------------------------------------------------------------------------------- E.8, E.9 media
+def _medium_common(ts: TokenStream, block: str, v: dict[str, object], default_steps: int) -> tuple[float, Vec3, int]:
+    density = float(v["density"])  # type: ignore[arg-type]
+    _check(ts, density >= 0.0, v, "density", f"{block} density must not be negative, found {density:g}")
+    color: Vec3 = v.get("color", (1.0, 1.0, 1.0))  # type: ignore[assignment]
+    _check(ts, all(0.0 <= c <= 1.0 for c in color), v, "color",
+           f"{block} color is the single-scattering albedo: each component must be in [0, 1], found "
+           f"{' '.join(f'{c:g}' for c in color)}")
+    steps = int(v.get("steps", default_steps))  # type: ignore[call-overload]
+    _check(ts, 1 <= steps <= MAX_MEDIUM_STEPS, v, "steps",
+           f"{block} steps must be between 1 and {MAX_MEDIUM_STEPS}, found {steps}")
+    return density, color, steps
+
+
+def parse_fog(ts: TokenStream, start: Token) -> Fog:
+    """``Fog { color V3 density F [steps I] }`` (E.8): any order; ``density >= 0`` (extinction per unit
+    length), ``color`` in [0, 1]³ (the albedo), ``1 <= steps <= 1024`` (default 16)."""
+    v = _fields(ts, start, "Fog", {"color": _V3, "density": _F, "steps": _I}, ("color", "density"))
+    density, color, steps = _medium_common(ts, "Fog", v, 16)
+    return Fog(color, density, steps, start.loc)
+
+
+def parse_volume(ts: TokenStream, start: Token) -> Volume:
+    """``Volume { grid NAME density F min V3 max V3 [color V3] [steps I] }`` (E.9): any order; ``min < max``
+    in every coordinate, ``density >= 0`` (scales the grid's values), ``color`` the albedo (default 1 1 1),
+    ``steps`` the marching steps across the box (default 64)."""
+    v = _fields(ts, start, "Volume", {"grid": _N, "density": _F, "min": _V3, "max": _V3, "color": _V3,
+                                      "steps": _I}, ("grid", "density", "min", "max"))
+    lo, hi = v["min"], v["max"]
+    _check(ts, all(a < b for a, b in zip(lo, hi, strict=True)), v, "max",  # type: ignore[call-overload]
+           "Volume max must exceed min in every coordinate")
+    density, color, steps = _medium_common(ts, "Volume", v, 64)
+    return Volume(str(v["grid"]), density, lo, hi, color, steps, start.loc, v["_locs"]["grid:value"])  # type: ignore[arg-type, index]
+
+
+#: Top-level blocks (name -> parse function); each sets the scene's ``medium``.
+MEDIA: Final = {"Fog": parse_fog, "Volume": parse_volume}

@@ -37,7 +37,7 @@ import numpy as np
 from . import transforms as tf
 from .errors import SceneSemanticError
 from .model import Placed, Plane, Sphere, Triangle
-from .obj import FLOAT32_MAX, NormalMode, ObjMesh, vertex_normals
+from .obj import FLOAT32_MAX, NormalMode, ObjMesh, binary_corner_normals, vertex_normals
 
 #: Half-size of the ``--stock`` rectangle standing in for an infinite plane (scene units; module docstring).
 PLANE_HALF_SIZE = 4096.0
@@ -62,9 +62,12 @@ class MeshData:
     #: matrix A = M⁻¹ (upper 3x3, 9 numbers), the two reach-mask words, and 1.0 if some ``Transform``
     #: encloses the mesh, else 0.0. None for a ``Triangle`` (the binary tests it exactly).
     octree: np.ndarray | None = None
+    #: (F, 21) float32 per face for the binary's triangle test and shading normal (:func:`triangle_rows`,
+    #: plugins/triangle_rule.py); None where :attr:`octree` is None.
+    triangles: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        for a in (self.positions, self.faces, self.normals, self.texcoords, self.octree):
+        for a in (self.positions, self.faces, self.normals, self.texcoords, self.octree, self.triangles):
             _frozen(a)
 
     @property
@@ -84,6 +87,21 @@ def octree_rows(reach: np.ndarray, m: np.ndarray, transformed: bool) -> np.ndarr
     a = np.linalg.inv(m[:3, :3]).astype(np.float32).ravel()
     out = np.empty((len(reach), 12), dtype=np.float32)
     out[:, :9], out[:, 9:11], out[:, 11] = a, reach, 1.0 if transformed else 0.0
+    return out
+
+
+def triangle_rows(obj: ObjMesh, m: np.ndarray, normals: NormalMode = "auto") -> np.ndarray:
+    """The (F, 21) :attr:`MeshData.triangles` rows of an OBJ placed with ``M``, in the binary's object space:
+    the translation column of ``M⁻¹`` (3; its upper 3x3 are the :attr:`MeshData.octree` rows), the face's
+    float32 vertices ``v0, v1, v2`` (9) and its corner normals ``n0, n1, n2`` (9,
+    :func:`.obj.binary_corner_normals`). ``M⁻¹`` is the float64 inverse rounded once to float32 (the binary
+    inverts in float32 with cofactors; equal on scene06's ``Translate``/``Scale``, checked with gdb)."""
+    f = np.asarray(obj.faces, dtype=np.int64)
+    v = np.asarray(obj.vertices, dtype=np.float32)[f].reshape(len(f), 9)
+    n = binary_corner_normals(obj.vertices, f, normals).reshape(len(f), 9)
+    out = np.empty((len(f), 21), dtype=np.float32)
+    out[:, :3] = np.linalg.inv(m)[:3, 3].astype(np.float32)
+    out[:, 3:12], out[:, 12:] = v, n
     return out
 
 
@@ -114,7 +132,8 @@ def mesh_from_obj(obj: ObjMesh, m: np.ndarray, normals: NormalMode = "auto",
     else:
         faces = _face_normals_flip(faces, m)
     rows = None if reach is None else octree_rows(reach, m, transformed)
-    return MeshData(world, faces.astype(np.uint32), world_n, texcoords, rows)
+    tris = None if reach is None else triangle_rows(obj, m, normals)
+    return MeshData(world, faces.astype(np.uint32), world_n, texcoords, rows, tris)
 
 
 def mesh_from_triangle(tri: Triangle, m: np.ndarray) -> MeshData:

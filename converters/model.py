@@ -116,6 +116,38 @@ class Background:
     loc: FileLoc | None = None
 
 
+# ------------------------------------------------------------------------------------------------------- media
+@dataclass(frozen=True)
+class Fog:
+    """``Fog { color V3 density F [steps I] }`` (docs/EXTENSIONS.md E.8): a homogeneous medium filling the
+    scene, extinction ``density`` per unit length, single-scattering albedo ``color``, ``steps`` light
+    samples along each ray segment."""
+
+    color: Vec3
+    density: float
+    steps: int
+    loc: FileLoc
+
+
+@dataclass(frozen=True)
+class Volume:
+    """``Volume { grid NAME density F min V3 max V3 [color V3] [steps I] }`` (EXTENSIONS E.9): extinction
+    ``density · grid(x)`` inside the box ``[min, max]`` (a Mitsuba ``.vol`` grid stretched over it), albedo
+    ``color``, ``steps`` ray-marching steps across the box."""
+
+    grid: str
+    density: float
+    box_min: Vec3
+    box_max: Vec3
+    color: Vec3
+    steps: int
+    loc: FileLoc
+    grid_loc: FileLoc
+
+
+Medium = Fog | Volume
+
+
 # ---------------------------------------------------------------------------------------------------- materials
 @dataclass(frozen=True)
 class Noise:
@@ -297,6 +329,8 @@ class Scene:
     materials: tuple[Material, ...] = ()
     root: Group = field(default_factory=lambda: Group(0, (), FileLoc("<none>", 1, 1)))
     warnings: tuple[tuple[FileLoc, str], ...] = ()
+    #: the participating medium (docs/EXTENSIONS.md E.8, E.9); None in course scenes
+    medium: Medium | None = None
 
     @property
     def base_dir(self) -> Path:

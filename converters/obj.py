@@ -382,3 +382,44 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray, normals: NormalMode 
         np.add.at(acc, faces[:, k], fn)
     length = np.linalg.norm(acc, axis=1, keepdims=True)
     return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
+
+
+def _cross32(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise vecmath ``cross`` in float32: (a.y b.z − a.z b.y, a.z b.x − a.x b.z, a.x b.y − a.y b.x)."""
+    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1).astype(np.float32)
+
+
+def _normalized32(v: np.ndarray) -> np.ndarray:
+    """Row-wise vecmath ``normalized()`` in float32: v / sqrtf((x·x + y·y) + z·z), one division per component."""
+    length = np.sqrt((v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1]) + v[:, 2] * v[:, 2])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (v / length[:, None]).astype(np.float32)
+
+
+def binary_corner_normals(vertices: np.ndarray, faces: np.ndarray, normals: NormalMode = "auto",
+                          smooth_threshold: int = SMOOTH_THRESHOLD) -> np.ndarray:
+    """The three corner normals (F, 3, 3) float32 of each face as the sample solution's ``Mesh`` holds them
+    (``Mesh::compute_norm`` and ``Mesh::intersectTrig``, read from the binary; object space).
+
+    All in float32 on the float32 vertices ``v``, with ``c_f = (v[f1] − v[f0]) × (v[f2] − v[f0])``:
+
+    * smooth (:func:`uses_smooth_normals`): ``acc[v] += c_f`` for each face in file order and its corners in
+      order (the order of the float32 sums matters), then ``n_v = acc[v] / |acc[v]|``; face f's corners get
+      ``n_{f0}, n_{f1}, n_{f2}``;
+    * flat: all three corners get ``c_f / |c_f|``.
+
+    The binary interpolates these with its own barycentrics (plugins/triangle_rule.py). A degenerate face or
+    an unused vertex gives NaN components, as in the binary.
+    """
+    v = np.asarray(vertices, dtype=np.float32)
+    f = np.asarray(faces, dtype=np.int64)
+    cross = _cross32(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    if not uses_smooth_normals(len(v), normals, smooth_threshold):
+        n = _normalized32(cross)
+        return np.repeat(n[:, None, :], 3, axis=1)
+    acc = np.zeros_like(v)
+    # ufunc.at applies unbuffered, in index order: face 0 corners 0, 1, 2, face 1 corners 0, 1, 2, ...
+    np.add.at(acc, f.ravel(), np.repeat(cross, 3, axis=0))
+    return _normalized32(acc)[f]
+

@@ -30,6 +30,8 @@ Camera, integrator, lights and background:
   centres coincide exactly for square images. Non-square images: y keeps Mitsuba's aspect-correct spacing
   ``2/(W−1)·tan(angle/2)`` instead of B.2's ``2/(H−1)``. With the ``stratified`` sampler (1 spp, no jitter)
   the ray goes through the pixel centre as in a5soln;
+* a ``Fog`` / ``Volume`` (docs/EXTENSIONS.md E.8, E.9): a ``homogeneous`` / ``heterogeneous`` medium on the
+  sensor and ``volpath`` instead of ``path`` (:mod:`.ext_mitsuba`);
 * materials: :mod:`.materials`;
 * ``a5_point`` -> ``point`` with ``intensity = color·d²/(1 + falloff·d²)``, ``d`` the distance from the light
   to the centre of the scene's finite geometry: exact at that distance, inverse-square elsewhere;
@@ -61,8 +63,9 @@ from .describe import (
     PlaneShape,
     SceneDescription,
     SphereShape,
+    VolumeDescription,
 )
-from .ext_mitsuba import light_entry, thinlens_params
+from .ext_mitsuba import grid_volume, light_entry, medium_params, stock_medium, thinlens_params
 from .files import Image
 from .geometry import MeshData
 from .materials import rgb
@@ -71,6 +74,10 @@ from .model import AreaLight, DirectionalLight, SphereLight, SpotLight
 #: Face attributes carrying :attr:`.geometry.MeshData.octree` (name -> its columns).
 OCTREE_ATTRIBUTES = {"face_a5_inv0": [0, 1, 2], "face_a5_inv1": [3, 4, 5], "face_a5_inv2": [6, 7, 8],
                      "face_a5_octree": [9, 10, 11]}
+#: Face attributes carrying :attr:`.geometry.MeshData.triangles` (name -> its columns).
+TRIANGLE_ATTRIBUTES = {"face_a5_inv_t": [0, 1, 2], "face_a5_v0": [3, 4, 5], "face_a5_v1": [6, 7, 8],
+                       "face_a5_v2": [9, 10, 11], "face_a5_n0": [12, 13, 14], "face_a5_n1": [15, 16, 17],
+                       "face_a5_n2": [18, 19, 20]}
 
 #: Size of the baked latitude-longitude environment in stock mode.
 ENVMAP_SIZE = (2048, 1024)
@@ -155,6 +162,10 @@ class Backend(ABC):
     def envmap(self, bg: CubeMapBackground) -> Any:
         """The stock ``envmap`` entry baked from the cube map."""
 
+    @abstractmethod
+    def grid_source(self, vol: VolumeDescription) -> dict[str, Any]:
+        """Where a ``gridvolume`` gets a Volume's grid: ``{'data': tensor}`` or ``{'filename': path}``."""
+
 
 def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backend) -> dict[str, Any]:
     """The scene dict's layout (module docstring): ``integrator``, ``sensor``, ``light_NNN``, ``background``,
@@ -166,6 +177,14 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
                          "sensor": sensor_dict(desc, options, stock=stock)}
     for i, light in enumerate(desc.lights):
         d[f"light_{i:03d}"] = light_dict(light, desc.centre, stock=stock)
+    if desc.medium is not None:  # docs/EXTENSIONS.md E.8, E.9
+        med = desc.medium
+        grid = grid_volume(med, backend.grid_source(med)) if isinstance(med, VolumeDescription) else None
+        if stock:
+            d["integrator"]["type"] = "volpath"
+            d["sensor"]["medium"] = stock_medium(med, grid)
+        else:
+            d["integrator"].update(medium_params(med, grid))
     bg = desc.background
     if isinstance(bg, CubeMapBackground):
         d["background"] = backend.envmap(bg) if stock else backend.cubemap(bg)
@@ -219,6 +238,9 @@ def make_mesh(name: str, data: MeshData, bsdf: Any = None) -> Any:
     if data.octree is not None:  # the binary's octree rule, read by a5_whitted (plugins/octree_rule.py)
         for name, cols in OCTREE_ATTRIBUTES.items():
             mesh.add_attribute(name, len(cols), np.ascontiguousarray(data.octree[:, cols]).ravel().tolist())
+    if data.triangles is not None:  # the binary's triangle test, read by a5_whitted (plugins/triangle_rule.py)
+        for name, cols in TRIANGLE_ATTRIBUTES.items():
+            mesh.add_attribute(name, len(cols), np.ascontiguousarray(data.triangles[:, cols]).ravel().tolist())
     return mesh
 
 
@@ -285,6 +307,11 @@ class _DictBackend(Backend):
         import mitsuba as mi
 
         return {"type": "envmap", "bitmap": mi.Bitmap(bake_cubemap_envmap(bg))}
+
+    def grid_source(self, vol: VolumeDescription) -> dict[str, Any]:
+        import mitsuba as mi
+
+        return {"data": mi.TensorXf(np.ascontiguousarray(vol.grid, dtype=np.float32))}
 
 
 def _transforms(value: Any) -> Any:

@@ -41,11 +41,11 @@ from a5mi.imageio import remove_stale, temp_prefix
 from a5mi.options import RenderOptions
 
 from . import materials
-from .describe import CubeMapBackground, MeshShape, SceneDescription
+from .describe import CubeMapBackground, MeshShape, SceneDescription, VolumeDescription
 from .to_mitsuba import Backend, bake_cubemap_envmap, make_mesh, scene_entries
 
 PLUGIN_TAGS: dict[str, str] = {
-    **dict.fromkeys(("a5_whitted", "path", "direct"), "integrator"),
+    **dict.fromkeys(("a5_whitted", "path", "direct", "volpath"), "integrator"),
     **dict.fromkeys(("a5_camera", "perspective", "thinlens"), "sensor"),
     "hdrfilm": "film",
     **dict.fromkeys(("stratified", "independent"), "sampler"),
@@ -56,6 +56,9 @@ PLUGIN_TAGS: dict[str, str] = {
                      "roughdielectric", "bumpmap", "normalmap"), "bsdf"),
     **dict.fromkeys(("a5_marble", "a5_solid", "a5_bitmap", "bitmap", "srgb"), "texture"),
     **dict.fromkeys(("sphere", "rectangle", "instance", "shapegroup", "ply"), "shape"),
+    **dict.fromkeys(("homogeneous", "heterogeneous"), "medium"),
+    "isotropic": "phase",
+    "gridvolume": "volume",
 }
 VECTOR_NAMES = frozenset(("direction", "up"))
 
@@ -99,6 +102,9 @@ class _XmlBackend(Backend):
         exr = self.xml_path.parent / set_names(self.xml_path)[2]
         mi.Bitmap(np.ascontiguousarray(bake_cubemap_envmap(bg), dtype=np.float32)).write(str(exr))
         return {"type": "envmap", "filename": exr.name}
+
+    def grid_source(self, vol: VolumeDescription) -> dict[str, Any]:
+        return {"filename": str(vol.path)}
 
 
 def _element(parent: ET.Element, key: str, value: Any, top: bool) -> None:

@@ -13,9 +13,16 @@ import mitsuba as mi
 from a5mi.spec import FRESNEL_MODES
 
 
+def dot32(a: mi.Vector3f, b: mi.Vector3f) -> mi.Float:
+    """vecmath ``Vector3f::dot`` as the binary computes it: ``(a_x b_x + a_y b_y) + a_z b_z`` in float32,
+    without the fused multiply-adds of ``dr.dot``."""
+    return (a.x * b.x + a.y * b.y) + a.z * b.z
+
+
 def reflect(d: mi.Vector3f, n: mi.Vector3f) -> mi.Vector3f:
-    """Mirror direction (SPEC B.3): ``d - 2 (d·N) N``. Unchanged when N is negated."""
-    return d - 2.0 * dr.dot(d, n) * n
+    """Mirror direction (SPEC B.3): ``d - 2 (d·N) N``, per component ``d_k − N_k (2 (d·N))`` with the
+    binary's :func:`dot32` (``mirrorDirection``; not renormalised). Unchanged when N is negated."""
+    return d - 2.0 * dot32(d, n) * n
 
 
 def snell(

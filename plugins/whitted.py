@@ -14,7 +14,7 @@ import mitsuba as mi
 
 from a5mi.spec import FRESNEL_MODES, MIRROR_THRESHOLD, TMIN
 
-from . import octree_rule
+from . import media, octree_rule
 from .bump import shading_normal
 from .common import fresnel_weight, reflect, snell
 from .planes import (
@@ -81,6 +81,7 @@ def _trace(
     refraction: bool,
     rng: Stochastic,
     rec: TreeRecorder | None = None,
+    medium: media.MediumParams | None = None,
     bump: bool = False,
 ) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float, mi.Float]:
     """SPEC B.3 for a batch of camera rays (unit ``ray_d``, tmin 0, index 1.0, budget ``max_depth``).
@@ -91,7 +92,9 @@ def _trace(
     rules are the same by construction). Only ``size`` and the Python flags are baked into the kernel;
     scene values arrive as opaque variables or arrays. ``rec`` (``a5mi trace`` only; None for renders, whose
     kernel it leaves untouched): a :class:`~.whitted_record.TreeRecorder` that the marked ``# record`` calls
-    fill with each node's values (plugins/whitted_record.py).
+    fill with each node's values (plugins/whitted_record.py). ``medium`` (docs/EXTENSIONS.md E.8, E.9; None
+    leaves the kernel as it is): the node's segment transmittance scales its contribution and its children's
+    weights, its in-scattered light is added (plugins/media.py).
     """
     width = dr.width(ray_d)
     env = scene.environment()
@@ -225,6 +228,11 @@ def _trace(
             k += 1
         local = dr.select(sees_light, local + mi.Color3f(emitter_hit.eval(si, sees_light)), local)
 
+        if medium is not None:  # ---- extensions E.8, E.9: the segment o -> p (o -> infinity on a miss), in air
+            seg_t, seg_light, counter = media.segment(scene, planes, medium, o, d, t_min, t_hit, n_medium == 1.0,
+                                                      lights, n_lights, tmin, shadows, rng, node, counter)
+            color += weight * seg_light
+            weight = weight * seg_t
         color += weight * dr.select(hit, local, background)
         aov_n = dr.select(first & hit, n, aov_n)
         aov_t = dr.select(first & hit, t_hit, aov_t)
@@ -317,6 +325,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     aovs             string  ""      comma-separated AOV groups: ``normal`` (nx, ny, nz), ``depth``
                                      (t), ``class`` (class), ``counts`` (n_reflection, n_refraction,
                                      n_shadow)
+    medium           string  none    ``fog`` / ``volume``: a participating medium (EXTENSIONS E.8,
+                                     E.9; ``medium_*`` parameters, plugins/media.py)
     ================ ======= ======= ==========================================================
 
     Per hit (``p = o + t d``, ``N`` the shading normal, never flipped toward the viewer)::
@@ -391,6 +401,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             raise ValueError(f"a5_whitted: 'glossy_samples' must be an integer >= 1, got {glossy_samples!r}")
         self.glossy_samples = glossy_samples
         self._pass: tuple[int, int, int, int] | None = None
+        self._medium = media.params_from_props(props)   # docs/EXTENSIONS.md E.8, E.9 (None: no medium)
 
     def set_pass(self, first_pixel: int, index: int, count: int, seed: int) -> None:
         """Extension E.5 (called by ``a5mi.driver`` before each ``sample``): lane ``i`` of the next batch is
@@ -450,7 +461,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, self.ambient),
             dr.opaque(mi.Float, self.tmin), lights, n_lights, self._planes,
             stack_size(self.max_depth, self.glossy_samples), self.shadows, self.phong, self.fresnel,
-            self.reflection, self.refraction, self._stochastic(scene, sampler, width), record, self.bump,
+            self.reflection, self.refraction, self._stochastic(scene, sampler, width), record, self._medium,
+            self.bump,
         )
 
     def sample(

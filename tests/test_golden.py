@@ -80,3 +80,11 @@ def test_golden_part2(scene: str, variant: str, tmp_path: Path) -> None:
 
     name, extra = PART2[scene]
     _check_golden(scene, name, RenderOptions(width=64, height=64, shadows=True, bounces=4, **extra), tmp_path)
+
+
+def test_golden_fog(variant: str, tmp_path: Path) -> None:
+    """The fog demo (docs/EXTENSIONS.md E.8): 64 x 64, -shadows -bounces 4 -spp 2 -seed 1."""
+    from a5mi.driver import RenderOptions
+
+    options = RenderOptions(width=64, height=64, shadows=True, bounces=4, spp=2, seed=1)
+    _check_golden("fog_shafts", "fog_shafts.fog-spp2", options, tmp_path)

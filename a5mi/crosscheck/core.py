@@ -167,7 +167,8 @@ def render_path(
     mi_scene: Any, camera: Any, width: int, height: int, spp: int, max_depth: int, *, seed: int = 0,
     lanes: int = PATH_LANES,
 ) -> tuple[npt.NDArray[np.float32], float]:
-    """Mitsuba's ``path`` integrator (``max_depth``, no Russian roulette) through the SPEC B.2 pixel centres.
+    """Mitsuba's ``path`` integrator (``max_depth``, no Russian roulette) through the SPEC B.2 pixel centres;
+    ``volpath`` when the scene's sensor sits in a medium (EXTENSIONS E.8, E.9), the camera rays starting in it.
 
     Parameter ``spp``: samples per pixel, all through the pixel centre (no antialiasing, as the a5
     renders). ``lanes``: samples per kernel launch (rounded to whole images). Output: the mean image
@@ -177,8 +178,10 @@ def render_path(
     import drjit as dr
     import mitsuba as mi
 
-    integ = mi.load_dict({"type": "path", "max_depth": max_depth, "rr_depth": NO_RR_DEPTH,
-                          "hide_emitters": False})
+    # docs/EXTENSIONS.md E.8, E.9: a medium on the stock sensor is rendered by volpath, camera rays start in it
+    medium = mi_scene.sensors()[0].get_medium() if mi_scene.sensors() else None
+    integ = mi.load_dict({"type": "path" if medium is None else "volpath", "max_depth": max_depth,
+                          "rr_depth": NO_RR_DEPTH, "hide_emitters": False})
     n_pix = width * height
     per_launch = max(1, min(spp, lanes // n_pix))
     total = np.zeros((3, n_pix), np.float64)
@@ -190,7 +193,7 @@ def render_path(
         k = min(per_launch, spp - done)
         ray = _pixel_rays(camera, width, height, repeat=k)
         sampler.seed(seed * 1_000_003 + launch, k * n_pix)
-        rgb, _valid, _aovs = integ.sample(mi_scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
+        rgb, _valid, _aovs = integ.sample(mi_scene, sampler, mi.RayDifferential3f(ray), medium, mi.Bool(True))
         dr.eval(rgb)
         dr.sync_thread()
         c = np.asarray(rgb, dtype=np.float64).reshape(3, k, n_pix)
