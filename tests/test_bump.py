@@ -57,7 +57,8 @@ def _render(scene: Path, bump: bool, **kw: object) -> np.ndarray:
     from a5mi.driver import build_scene
     from a5mi.options import RenderOptions
 
-    options = RenderOptions(width=W, height=W, bump=bump, normals=True, shadows=True, bounces=2, **kw)
+    options = RenderOptions(**{"width": W, "height": W, "bump": bump, "normals": True, "shadows": True, "bounces": 2,
+                               **kw})
     desc = describe(parse_file(str(scene)), bump=bump)
     return np.asarray(mi.render(build_scene(desc, options)))
 
@@ -215,3 +216,33 @@ def test_stock_bumpmap_has_the_same_law(variant: str) -> None:
     si = dr.zeros(mi.SurfaceInteraction3f, 1)
     si.uv = mi.Point2f(0.5, 0.9)
     assert np.allclose(np.asarray(mi.load_dict(tex).eval(si)), 1.0)
+
+
+MIRROR = """PerspectiveCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 angle 8 }
+Background { color 0 0 0 }
+Materials { numMaterials 2
+  Material { diffuseColor 0 0 0 specularColor 1 1 1 normalMap tilt.png }
+  Material { diffuseColor 0 1 0 } }
+Group { numObjects 2
+  MaterialIndex 0 TriangleMesh { obj_file quad.obj }
+  MaterialIndex 1 Sphere { center 3 0 0 radius 0.8 } }
+"""
+
+
+def test_mirror_rays_leave_about_the_perturbed_normal(tmp_path: Path, variant: str) -> None:
+    """A mirror quad facing the camera with a normal map tilted 45° towards +x: with -bump the mirror ray of
+    d = −z is reflect(d, N') = +x and sees the green sphere there (no lights: ambient 1, SPEC A.1, so its colour
+    is exactly (0, 1, 0)); without -bump it goes back to the black background."""
+    from a5mi import imageio
+
+    (tmp_path / "quad.obj").write_text(OBJ)
+    tilt = np.full((8, 8, 3), 128, dtype=np.uint8)
+    tilt[..., 0] = 255
+    tilt[..., 2] = 255
+    imageio.write_image(tmp_path / "tilt.png", tilt.astype(np.float32) / 255.0)
+    scene = tmp_path / "m.txt"
+    scene.write_text(MIRROR)
+    bumped, plain = _render(scene, bump=True, shadows=False), _render(scene, bump=False, shadows=False)
+    centre = slice(W // 2 - 2, W // 2 + 2)
+    assert np.allclose(bumped[centre, centre, :3], [0.0, 1.0, 0.0], atol=1e-6)
+    assert np.allclose(plain[centre, centre, :3], 0.0)
