@@ -94,11 +94,13 @@ def start_client(workers: int = 2, scheduler: str | None = None, *,
 
 def run_units(client: Any, units: Sequence[tuple[str, Any]], fn: Callable[[Any], dict[str, Any]],
               journal: Journal, *, resume: bool = False, retries: int = 2,
-              progress: Progress | None = None) -> list[dict[str, Any]]:
+              progress: Progress | None = None,
+              on_record: Callable[[dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
     """Run ``fn(unit)`` for every ``(key, unit)`` on ``client`` (one task each), journaling each result dict
     (which gets ``"key"``); with ``resume`` the keys already journaled are not run again. Returns every
     record of these keys. A task that fails for good (its exception, or a worker dying more than
-    ``allowed-failures`` times) is journaled as ``{"key", "error"}`` and not retried on resume."""
+    ``allowed-failures`` times) is journaled as ``{"key", "error"}`` and not retried on resume. ``on_record``
+    sees each new record as it is journaled."""
     from distributed import as_completed
 
     if not resume:
@@ -118,6 +120,8 @@ def run_units(client: Any, units: Sequence[tuple[str, Any]], fn: Callable[[Any],
             rec = {"error": f"{type(exc).__name__}: {exc}"}
         rec["key"] = key
         journal.append(rec)
+        if on_record is not None:
+            on_record(rec)
         finished += 1
         if progress is not None:
             progress(finished, total)

@@ -8,7 +8,10 @@
 * jitter: per sample ``r1 = rand(); r2 = rand()``, ``jy = (float)r1·2^-31 - 0.5`` first, then ``jx``, from
   glibc's seed-1 stream (:mod:`a5mi.glibc_rand`); ``seed`` selects numpy's PCG64 instead;
 * ``integrator.sample(scene, sampler, ray, None, active)`` of ``a5_whitted`` gives the colour and the AOVs
-  ``[nx, ny, nz, t]``, in tiles of at most ``tile_rays`` rays (one kernel, compiled once and reused);
+  ``[nx, ny, nz, t]``, in tiles of whole rows (:func:`tile_rows`: at most ``tile_rays`` rays, about
+  :data:`PROGRESS_STEPS` per render when a progress callback is given, each starting on a multiple of
+  :data:`PACKET_ALIGN` samples so the image does not depend on the tile size; one kernel, compiled once and
+  reused);
 * ``-filter``: blur + 3x3 downsample (:mod:`a5mi.filters`) of the render buffer, streamed tile by tile
   (:class:`a5mi.filters.FilterStream`): the full-size colour buffer is never held, so with ``-jitter
   -filter`` memory is bounded by the tile size plus the W x H output, not by the 3W x 3H buffer;
@@ -31,6 +34,7 @@ This module never prints: progress goes through a callback.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -48,6 +52,8 @@ from a5mi.passes import sample_passes
 
 Progress = Callable[[int, int], None]  # (samples done, samples total)
 CameraRays = Callable[..., Any]  # a5mi.plugins.camera.camera_rays
+#: docs/EXTENSIONS.md E.12: ``hook(k)`` updates the scene for pass ``k`` of ``spp`` and returns its camera
+PassHook = Callable[[int], Any]
 
 
 @dataclass
@@ -117,9 +123,45 @@ def jitter_stream(seed: int | None, total: int | None = None) -> Callable[[int],
     return numpy_next
 
 
-def tile_rows(rw: int, rh: int, tile_rays: int) -> list[tuple[int, int]]:
-    """Row ranges ``[j0, j1)`` (bottom-up) of at most ``tile_rays`` samples each (at least one row)."""
-    rows = max(1, tile_rays // rw)
+#: Tiles start on a sample index that is a multiple of this (every SIMD packet width of Dr.Jit's LLVM backend
+#: divides it: 4, 8, 16). Some sample's result depends, in the last bits, on which samples share its SIMD packet
+#: (seen on scene10 at 30x30 -jitter, 8-wide AVX2: one pixel off by 2.8e-5 whenever a tile started off an
+#: 8-sample boundary, none when it started on one). Narrowed down: it stays without the cube mesh, the glass,
+#: the cube map or -bounces (0), and goes with -shadows off, so it is a shadow test (Mitsuba's ray queries in
+#: plugins/octree_rule.occluded) flipping for one grazing sample whose light term is 2.8e-5; which query
+#: depends on its packet was not isolated. Aligned tiles keep every packet as in a one-launch render.
+PACKET_ALIGN = 64
+#: With a progress callback, a render of many samples is split into about this many tiles (points where the
+#: progress bar learns the render's rate); without one it is one tile up to ``tile_rays`` ...
+PROGRESS_STEPS = 4
+#: ... of at least this many samples each: every launch re-traces the integrator in Python (about 50-90 ms
+#: for the course scenes on the shared 2-core machine), so finer tiles would cost more than they show; the
+#: bar moves between tiles on the measured rate (a5mi.cli.app.ProgressBar).
+MIN_TILE_RAYS = 1 << 18
+
+
+def tile_rows(rw: int, rh: int, tile_rays: int, *, align: int | None = None,
+              steps: int | None = None) -> list[tuple[int, int]]:
+    """Row ranges ``[j0, j1)`` (bottom-up) of the ``rw x rh`` render buffer, one per kernel launch.
+
+    Rows per tile: ``max(1, target // rw)`` with ``target = min(tile_rays, max(MIN_TILE_RAYS, ceil(rw·rh /
+    steps)))`` (``steps`` = :data:`PROGRESS_STEPS`), rounded down to a multiple of ``m = align / gcd(rw,
+    align)`` (``align`` = :data:`PACKET_ALIGN`) and at least ``m``, then evened out (the same number of tiles,
+    ``ceil(rh / count)`` rows rounded up to ``m``); a buffer that fits in one tile is one tile. Every tile
+    starts on a sample index that is a multiple of ``align``: each sample then shares its SIMD packet with the
+    same neighbours whatever the tile size, and the image is bit-identical for any ``tile_rays`` (a tile may
+    exceed ``tile_rays`` by up to ``m`` rows when the width is odd).
+    """
+    align = PACKET_ALIGN if align is None else align
+    steps = PROGRESS_STEPS if steps is None else steps
+    target = min(tile_rays, max(MIN_TILE_RAYS, math.ceil(rw * rh / max(1, steps))))
+    m = align // math.gcd(rw, align)
+    rows = max(1, target // rw)
+    if rows >= rh:
+        return [(0, rh)]  # one launch: nothing to align
+    rows = max(m, rows - rows % m)
+    count = math.ceil(rh / rows)
+    rows = math.ceil(math.ceil(rh / count) / m) * m  # the same number of tiles, evened out (still <= rows)
     return [(j0, min(rh, j0 + rows)) for j0 in range(0, rh, rows)]
 
 
@@ -245,6 +287,7 @@ class _TraceContext:
     total: int
     spp: int = 1    #: docs/EXTENSIONS.md E.5: passes per pixel (a5mi/passes.py)
     seed: int = 0   #: seed of the stochastic samples
+    only_pass: int | None = None  #: E.12: trace only this pass of ``spp`` (not averaged)
 
 
 _COUNT_NAMES = ("reflection", "refraction", "shadow")
@@ -272,7 +315,8 @@ def _trace_pass(
                     camera.center, camera.direction, camera.up, camera.angle,
                     mi.Float(aligned_float32(x_pix)), mi.Float(aligned_float32(y_pix)), rw, rh,
                 )  # fmt: skip
-                rgb, aovs = sample_passes(ctx.scene, integrator, sampler, ray, camera, j0 * rw, n, ctx.spp, ctx.seed)
+                rgb, aovs = sample_passes(ctx.scene, integrator, sampler, ray, camera, j0 * rw, n, ctx.spp, ctx.seed,
+                                          only=ctx.only_pass)
                 named = dict(zip(integrator.aov_names(), aovs, strict=True))
                 missing = [k for k in buffers.aov_names if k not in named]
                 if missing:
@@ -315,6 +359,35 @@ def _trace_pass(
     return done
 
 
+def _trace_moving(ctx: _TraceContext, tiles: Callable[[], Iterator[tuple[int, int, np.ndarray, np.ndarray]]],
+                  main: _Pass, hook: PassHook) -> None:
+    """docs/EXTENSIONS.md E.12: pass ``k`` of ``spp`` traces every tile of the scene as ``hook(k)`` left it,
+    with the camera it returns; the colours are summed in pass order and scaled by ``1/spp`` in float32 (the
+    operations of :func:`a5mi.passes.sample_passes`, so a scene that does not move renders bit for bit as
+    without the hook); AOVs and classes come from pass 0."""
+    import dataclasses
+
+    rw, rh = ctx.size
+    total: np.ndarray | None = None
+    done = 0
+    for k in range(ctx.spp):
+        camera = hook(k)
+        buf = _Pass(color=np.empty((rh, rw, 3), np.float32), normal=main.normal if k == 0 else None,
+                    dist=main.dist if k == 0 else None, classes=main.classes if k == 0 else None,
+                    counts=main.counts, kernels=main.kernels)
+        done = _trace_pass(dataclasses.replace(ctx, camera=camera, only_pass=k, total=ctx.total * ctx.spp),
+                           tiles(), buf, done)
+        total = buf.color if total is None else total + buf.color
+    assert total is not None
+    if ctx.spp > 1:
+        total = total * np.float32(1.0 / ctx.spp)
+    if main.stream is not None:
+        main.stream.push(total)
+    else:
+        assert main.color is not None
+        main.color[...] = total
+
+
 def render_scene(
     mi_scene: Any,
     camera: Any,
@@ -323,13 +396,16 @@ def render_scene(
     integrator: Any = None,
     camera_rays: CameraRays | None = None,
     progress: Progress | None = None,
+    pass_hook: PassHook | None = None,
 ) -> RenderResult:
     """Render a loaded Mitsuba scene with the a5 camera ``camera`` (``center``, ``direction``, ``up``,
     ``angle`` in degrees). ``integrator`` defaults to ``mi_scene.integrator()``; ``camera_rays`` to
     :func:`a5mi.plugins.camera.camera_rays`. With ``aov_mode="quadrant"`` the AOV images come from a second
     pass with the sample solution's own AOV rays (:func:`quadrant_coords`). With ``options.classes`` the
     integrator must list the ``class`` AOV (``a5_whitted`` ``aovs`` including ``class``); it is read from the
-    main pass into :attr:`RenderResult.classes`."""
+    main pass into :attr:`RenderResult.classes`. ``pass_hook`` (motion blur, docs/EXTENSIONS.md E.12): called
+    before each of the ``spp`` passes, which then run one after the other over the whole image
+    (:func:`_trace_moving`); its camera replaces ``camera``."""
     import drjit as dr
 
     if options.threads is not None:
@@ -337,7 +413,8 @@ def render_scene(
     integrator = integrator if integrator is not None else mi_scene.integrator()
     camera_rays = camera_rays if camera_rays is not None else _default_camera_rays()
     rw, rh = options.render_size
-    tiles = tile_rows(rw, rh, options.tile_rays)
+    # progress steps only for a caller that shows them: each extra tile re-traces the integrator (~50 ms)
+    tiles = tile_rows(rw, rh, options.tile_rays, steps=PROGRESS_STEPS if progress is not None else 1)
     want_aov = options.normals or options.depth is not None
     separate = want_aov and options.aov_mode == "quadrant"
     total = rw * rh * (2 if separate else 1)
@@ -368,7 +445,11 @@ def render_scene(
     t_start = time.perf_counter()
     ctx = _TraceContext(mi_scene, camera, integrator, camera_rays, (rw, rh), timings, progress, total,
                         options.spp, options.seed or 0)
-    done = _trace_pass(ctx, main_tiles(), main, 0)
+    if pass_hook is None:
+        done = _trace_pass(ctx, main_tiles(), main, 0)
+    else:
+        _trace_moving(ctx, main_tiles, main, pass_hook)
+        done = total * ctx.spp
     if separate:
         _trace_pass(ctx, quadrant_tiles(), aov, done)
     timings["render"] = time.perf_counter() - t_start - timings["filter"]  # the streamed filter is its own stage

@@ -25,7 +25,8 @@ def thin_lens(ray: Any, camera: Any, sample: Any) -> Any:
 
     from a5mi.plugins.camera import camera_basis
 
-    w, u, v = (mi.Vector3f(*(float(c) for c in a)) for a in camera_basis(camera.direction, camera.up))
+    # opaque: a keyframed camera (docs/EXTENSIONS.md E.11) turns without a new kernel
+    w, u, v = (dr.opaque(mi.Vector3f, [float(c) for c in a]) for a in camera_basis(camera.direction, camera.up))
     radius = dr.opaque(mi.Float, 0.5 * float(camera.aperture))
     focus = dr.opaque(mi.Float, float(camera.focus_distance))
     focal_point = ray.o + (focus / dr.dot(ray.d, w)) * ray.d
@@ -35,9 +36,10 @@ def thin_lens(ray: Any, camera: Any, sample: Any) -> Any:
 
 
 def sample_passes(scene: Any, integrator: Any, sampler: Any, ray: Any, camera: Any, first: int, n: int,
-                  spp: int, seed: int) -> tuple[Any, list[Any]]:
+                  spp: int, seed: int, only: int | None = None) -> tuple[Any, list[Any]]:
     """``(mean colour over spp passes, AOVs of pass 0)`` for the camera rays ``ray`` of samples
-    ``first .. first + n - 1`` (module docstring); each pass is evaluated as it is traced (one kernel)."""
+    ``first .. first + n - 1`` (module docstring); each pass is evaluated as it is traced (one kernel).
+    ``only = k``: pass ``k`` of ``spp`` alone, its colour not scaled (motion blur, docs/EXTENSIONS.md E.12)."""
     import drjit as dr
     import mitsuba as mi
 
@@ -46,7 +48,7 @@ def sample_passes(scene: Any, integrator: Any, sampler: Any, ray: Any, camera: A
     aperture = float(getattr(camera, "aperture", 0.0) or 0.0)
     total = None
     aovs0: list[Any] = []
-    for k in range(spp):
+    for k in range(spp) if only is None else (only,):
         if hasattr(integrator, "set_pass"):
             integrator.set_pass(first, k, spp, seed)
         traced = ray
@@ -58,12 +60,12 @@ def sample_passes(scene: Any, integrator: Any, sampler: Any, ray: Any, camera: A
             traced = thin_lens(ray, camera, u)
         sampler.seed(k, n)
         rgb, _valid, aovs = integrator.sample(scene, sampler, mi.RayDifferential3f(traced), None, mi.Bool(True))
-        if k == 0:
+        if total is None:
             aovs0 = list(aovs)
             total = rgb
         else:
             dr.eval(total, rgb)
             total = total + rgb
-    if spp > 1:
+    if spp > 1 and only is None:
         total = total * (1.0 / spp)
     return total, aovs0

@@ -37,3 +37,7 @@ def find_cube_face(folder: Path, face: str) -> Path | None:
         if (folder / f"{face}{ext}").is_file():
             return folder / f"{face}{ext}"
     return next((p for p in sorted(folder.glob(f"{face}.*")) if p.is_file()), None)
+#: docs/EXTENSIONS.md E.10 (dispersion): the sampled wavelength range (nm) and the centre wavelength, where a
+#: stock (RGB) mapping evaluates Cauchy's n(λ) = A + B/λ².
+DISPERSION_RANGE_NM: tuple[float, float] = (400.0, 700.0)
+CENTRE_WAVELENGTH_NM: float = 550.0

@@ -32,7 +32,7 @@ import numpy as np
 
 from a5mi.vecmath32 import camera_basis
 
-from . import ext_parser, transforms
+from . import ext_parser, keyframes, transforms
 from .errors import FileLoc, SceneSemanticError, SceneSyntaxError, shown
 from .lexer import NUMBER, Token, read_source, tokenize
 from .model import (
@@ -365,6 +365,8 @@ def parse_material(ts: TokenStream, start: Token) -> Material:
         elif tok.text == "shininess":
             values["shininess"] = ts.number(tok.text)
         elif tok.text == "refractionIndex":
+            if ext_parser.parse_dispersion(ts, tok, values):  # refractionIndex dispersion A B (EXTENSIONS E.10)
+                continue
             n = ts.number(tok.text)
             if n < 0.0:
                 raise ts.semantic_error(f"refractionIndex must not be negative, found {n:g}", tok.loc)
@@ -573,7 +575,7 @@ def parse_tokens(ts: TokenStream) -> Scene:
             seen["medium"] = tok
             fields["medium"] = ext_parser.MEDIA[tok.text](ts, tok)
             continue
-        if tok.text not in TOP_LEVEL:
+        if tok.text not in TOP_LEVEL and tok.text != keyframes.KEYWORD:
             raise ts.syntax_error(f"expected {_one_of(TOP_LEVEL)}, found '{shown(tok.text)}'", tok)
         if tok.text in seen and not (tok.text == "Materials" and "Group" in seen):
             ts.warn(tok.loc, f"second {tok.text} block replaces the one at line {seen[tok.text].loc.line}")
@@ -586,6 +588,8 @@ def parse_tokens(ts: TokenStream) -> Scene:
                 ts.warn(tok.loc, "no lights: the ambient light is forced to 1 1 1 (as the sample solution does)")
         elif tok.text == "Background":
             fields["background"] = parse_background(ts, tok)
+        elif tok.text == "Animation":  # docs/EXTENSIONS.md E.11
+            fields["animation"] = keyframes.parse_animation(ts, tok)
         elif tok.text == "Materials":
             fields["materials"] = parse_materials(ts, tok)
             state.num_materials = len(fields["materials"])  # type: ignore[arg-type]
@@ -603,7 +607,9 @@ def parse_tokens(ts: TokenStream) -> Scene:
             raise ts.syntax_error(f"expected a {block} block somewhere in the file, found end of file", None)
     if "Lights" not in seen:
         ts.warn(ts.eof_loc, "no Lights block: the ambient light is forced to 1 1 1 (as the sample solution does)")
-    return Scene(path=ts.path, warnings=tuple(ts.warnings), **fields)  # type: ignore[arg-type]
+    scene = Scene(path=ts.path, warnings=tuple(ts.warnings), **fields)  # type: ignore[arg-type]
+    keyframes.check(ts, scene)  # E.11: the tracks' targets exist (the whole scene is known only now)
+    return scene
 
 
 def parse_text(text: str, path: str = "<string>") -> Scene:

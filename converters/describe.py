@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from a5mi.spec import CENTRE_WAVELENGTH_NM
+
 from . import files, octree, volgrid
 from . import transforms as tf
 from .errors import FileLoc, SceneSemanticError
@@ -81,6 +83,8 @@ class MaterialDescription:
     #: docs/EXTENSIONS.md E.4: GGX alpha (0 = mirror) and glossy children per camera hit
     roughness: float = 0.0
     glossy_samples: int = 1
+    #: docs/EXTENSIONS.md E.10: Cauchy's B (µm²) of a dispersive material (``refraction_index`` is A), else None
+    dispersion: float | None = None
     #: docs/EXTENSIONS.md E.7 (``describe(bump=True)`` only; used on shapes with uv): the height field, the
     #: height of grey 1 in world units, and the tangent-space normal map
     bump: Image | None = None
@@ -260,6 +264,11 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
             if stock and mat.noise is not None:
                 warnings.append((mat.noise.loc or mat.loc,  # type: ignore[arg-type]
                                  "stock conversion: Noise (marble) replaced by its mean colour"))
+            if stock and mat.dispersion is not None:  # docs/EXTENSIONS.md E.10
+                n_c = mat.refraction_index + mat.dispersion / (CENTRE_WAVELENGTH_NM * 1e-3) ** 2
+                warnings.append((mat.loc,  # type: ignore[arg-type]
+                                 "stock conversion: dispersion replaced by the index at the centre wavelength, "
+                                 f"n({CENTRE_WAVELENGTH_NM:g} nm) = {n_c:.6g}"))
         for which in ("bump", "normal_map") if bump and with_uv else ():
             if getattr(mat, which) is not None and (index, which) not in maps:
                 maps[(index, which)], warning = files.map_image(scene, mat, which, decoded)
@@ -315,7 +324,9 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
                             mat.noise if mat.noise is not None else mat.solid if mat.solid is not None
                             else textures.get(i),
                             mat.loc, float(mat.roughness), int(mat.glossy_samples),
-                            maps.get((i, "bump")), float(mat.bump_scale), maps.get((i, "normal_map")))
+                            None if mat.dispersion is None else float(mat.dispersion),
+                            bump=maps.get((i, "bump")), bump_scale=float(mat.bump_scale),
+                            normal_map=maps.get((i, "normal_map")))
         for i, mat in enumerate(scene.materials))
     medium = describe_volume(scene, scene.medium) if isinstance(scene.medium, Volume) else scene.medium
     return SceneDescription(scene.path, scene.camera, scene.ambient, background, materials, tuple(shapes),

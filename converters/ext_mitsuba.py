@@ -24,6 +24,9 @@ of a PointLight does), so ``a5mi crosscheck`` compares like with like there and 
 * ``Volume`` (E.9) -> ``medium = volume`` and ``medium_grid``, a ``gridvolume`` placed on the box (``to_world``
   maps the unit cube onto ``[min, max]``) | a stock ``heterogeneous`` medium with that ``gridvolume`` as
   ``sigma_t``, ``scale = density``, on the sensor, with ``volpath``.
+* ``refractionIndex dispersion A B`` (E.10) -> a5: ``refraction_index = A``, ``cauchy_b = B`` on ``a5_material``
+  and ``dispersion = true`` on ``a5_whitted`` | stock: the RGB ``dielectric`` has no dispersion, so ``int_ior`` is
+  ``n(λc) = A + B/λc²`` at the centre wavelength ``λc = 550 nm`` (:func:`centre_index`).
 """
 
 from __future__ import annotations
@@ -32,6 +35,8 @@ import math
 from typing import Any
 
 import numpy as np
+
+from a5mi.spec import CENTRE_WAVELENGTH_NM
 
 from .model import AreaLight, Fog, SphereLight, SpotLight
 
@@ -118,6 +123,15 @@ def light_entry(light: ExtLight, centre: np.ndarray | None, *, stock: bool) -> d
 def thinlens_params(aperture: float, focus_distance: float) -> dict[str, Any]:
     """Stock ``thinlens`` parameters of a camera with ``aperture > 0`` (module docstring)."""
     return {"aperture_radius": 0.5 * float(aperture), "focus_distance": float(focus_distance)}
+
+
+def centre_index(a: float, b: float | None) -> float:
+    """Cauchy's ``n(λc) = A + B/λc²`` at :data:`a5mi.spec.CENTRE_WAVELENGTH_NM` (λ in µm); ``A`` when ``B`` is
+    None (a plain ``refractionIndex``). The stock index of a dispersive material (module docstring)."""
+    if b is None:
+        return float(a)
+    lam_um = CENTRE_WAVELENGTH_NM * 1e-3
+    return float(a) + float(b) / (lam_um * lam_um)
 
 
 def rough(other: dict[str, Any], roughness: float) -> dict[str, Any]:

@@ -2,16 +2,18 @@
 
 New blocks and keywords, read from the same :class:`~.a5_parser.TokenStream` with the same positioned errors
 as the course grammar (SPEC A): ``SpotLight``, ``AreaLight``, ``SphereLight`` inside ``Lights``; ``aperture`` /
-``focusDistance`` at the end of ``PerspectiveCamera``; ``roughness`` / ``glossySamples`` in ``Material``; the
-top-level ``Fog`` and ``Volume`` blocks (E.8, E.9; at most one medium per scene). A course
-scene contains none of them, so it parses to the same model as before (every new field has the default that
-means "as SPEC B"). Part 2: ``Wood`` / ``Turbulence`` / ``Veins`` blocks (E.6) and ``bumpScale`` / ``normalMap`` (E.7)
-in ``Material``.
+``focusDistance`` at the end of ``PerspectiveCamera``; ``roughness`` / ``glossySamples`` in ``Material``;
+``refractionIndex dispersion A B`` (E.10); the top-level ``Fog`` and ``Volume`` blocks (E.8, E.9; at most one
+medium per scene). A course scene contains none of them, so it parses to the same model as before (every new
+field has the default that means "as SPEC B").. Part 2: ``Wood`` / ``Turbulence`` / ``Veins`` blocks (E.6) and
+``bumpScale`` / ``normalMap`` (E.7) in ``Material``.
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Final
+
+from a5mi.spec import DISPERSION_RANGE_NM
 
 from .model import AreaLight, Fog, Solid, SphereLight, SpotLight, Vec3, Volume
 
@@ -264,3 +266,28 @@ def parse_volume(ts: TokenStream, start: Token) -> Volume:
 
 #: Top-level blocks (name -> parse function); each sets the scene's ``medium``.
 MEDIA: Final = {"Fog": parse_fog, "Volume": parse_volume}
+def parse_dispersion(ts: TokenStream, tok: Token, values: dict[str, object]) -> bool:
+    """After ``refractionIndex`` (``tok``): ``dispersion A B`` (E.10), Cauchy's ``n(λ) = A + B/λ²`` with ``λ`` in
+    µm and ``B`` in µm². Sets ``values['refraction_index'] = A`` and ``values['dispersion'] = B`` and returns
+    True; ``A > 0`` and ``n(λ) > 0`` over the sampled range (:data:`a5mi.spec.DISPERSION_RANGE_NM`), each
+    checked at its number. Any other next token: consumes nothing, forgets an earlier ``dispersion`` (the last
+    ``refractionIndex`` of a Material wins, as in SPEC A.5) and returns False."""
+    nxt = ts.peek()
+    if nxt is None or nxt.text != "dispersion":
+        values.pop("dispersion", None)
+        return False
+    ts.next()
+    a_tok = ts.peek()
+    a = ts.number("dispersion")
+    if a <= 0.0:
+        raise ts.semantic_error(f"dispersion A (the index far in the infrared) must be positive, found {a:g}",
+                                a_tok.loc)  # type: ignore[union-attr]
+    b_tok = ts.peek()
+    b = ts.number("dispersion")
+    for lam_nm in DISPERSION_RANGE_NM:
+        n = a + b / (lam_nm * 1e-3) ** 2
+        if n <= 0.0:
+            raise ts.semantic_error(f"dispersion {a:g} {b:g} gives the index {n:g} at {lam_nm:g} nm: it must stay "
+                                    "positive over the sampled range", b_tok.loc)  # type: ignore[union-attr]
+    values["refraction_index"], values["dispersion"] = a, b
+    return True

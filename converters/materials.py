@@ -10,7 +10,8 @@ Stock (:func:`stock_bsdf`, for use outside a5mi; none is needed for a5 renders):
 * ``diffuse`` (reflectance = kd) when ``|specularColor| ≤ 0.001`` (:data:`a5mi.spec.MIRROR_THRESHOLD`) and
   ``refractionIndex = 0``; otherwise the a5 sum ``kd·D + ks·M`` (D: the diffuse response, M: the mirror or
   the dielectric, SPEC B.3) as a ``blendbsdf`` of a ``diffuse`` and a perfect mirror (``conductor``,
-  ``material='none'``) or, for ``refractionIndex n > 0``, a ``dielectric`` (``int_ior = n``, ``ext_ior = 1``).
+  ``material='none'``) or, for ``refractionIndex n > 0``, a ``dielectric`` (``int_ior = n``, ``ext_ior = 1``;
+  a dispersive ``n(λ) = A + B/λ²`` uses ``n`` at 550 nm, docs/EXTENSIONS.md E.10).
   With ``d = max kd`` and ``m = max ks``: weight ``w = m/(d + m)``, diffuse reflectance ``kd·s/d``, specular
   reflectance (and transmittance) ``ks·s/m``, ``s = min(d + m, 1)``. So ``(1 − w)·kd·s/d = kd·s/(d + m)`` and
   ``w·ks·s/m = ks·s/(d + m)``: exactly the a5 sum when ``d + m ≤ 1``, else the a5 sum divided by ``d + m``
@@ -42,7 +43,7 @@ import numpy as np
 from a5mi.spec import MIRROR_THRESHOLD
 
 from .describe import MaterialDescription
-from .ext_mitsuba import rough
+from .ext_mitsuba import centre_index, rough
 from .files import Image
 from .model import Noise, Solid
 
@@ -130,6 +131,8 @@ def a5_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_p
     if mat.roughness > 0.0:  # docs/EXTENSIONS.md E.4
         d["roughness"] = float(mat.roughness)
         d["glossy_samples"] = int(mat.glossy_samples)
+    if mat.dispersion is not None:  # docs/EXTENSIONS.md E.10: refraction_index is Cauchy's A
+        d["cauchy_b"] = float(mat.dispersion)
     kd = mat.kd_on(with_uv)
     if isinstance(kd, Noise):
         d["kd"] = {"type": "a5_marble", "color1": rgb(kd.color1), "color2": rgb(kd.color2),
@@ -173,7 +176,7 @@ def _stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams) -> 
     spec_refl = reflectance(spec * scale / m)
     other: dict[str, Any]
     if mat.refraction_index > 0.0:
-        other = {"type": "dielectric", "int_ior": float(mat.refraction_index), "ext_ior": 1.0,
+        other = {"type": "dielectric", "int_ior": centre_index(mat.refraction_index, mat.dispersion), "ext_ior": 1.0,
                  "specular_reflectance": spec_refl, "specular_transmittance": spec_refl}
     else:
         other = {"type": "conductor", "material": "none", "specular_reflectance": spec_refl}

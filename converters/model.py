@@ -18,10 +18,14 @@ import stat
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import FileLoc, SceneSemanticError, shown
+
+if TYPE_CHECKING:
+    from .keyframes import Animation
 
 Vec3 = tuple[float, float, float]
 #: A 4x4 matrix as hashable row-major tuples (``m[row][col]``); :func:`.transforms.as_array` gives numpy.
@@ -198,6 +202,9 @@ class Material:
     #: glossy lobe (docs/EXTENSIONS.md E.4): GGX roughness alpha (0 = the mirror of B.3) and the children per hit
     roughness: float = 0.0
     glossy_samples: int = 1
+    #: dispersion (docs/EXTENSIONS.md E.10): Cauchy's B in µm² of ``refractionIndex dispersion A B`` (then
+    #: ``refraction_index`` is A); None when the index is a plain number
+    dispersion: float | None = None
     #: docs/EXTENSIONS.md E.6: a procedural solid (Wood, Turbulence, Veins) as kd, in place of Noise
     solid: Solid | None = None
     #: docs/EXTENSIONS.md E.7 (used with -bump only): where ``bump`` was given, the height of grey 1 in world
@@ -331,6 +338,8 @@ class Scene:
     warnings: tuple[tuple[FileLoc, str], ...] = ()
     #: the participating medium (docs/EXTENSIONS.md E.8, E.9); None in course scenes
     medium: Medium | None = None
+    #: ``Animation { ... }`` (docs/EXTENSIONS.md E.11; :mod:`.keyframes`), None for a still scene
+    animation: Animation | None = None
 
     @property
     def base_dir(self) -> Path:

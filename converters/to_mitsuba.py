@@ -91,6 +91,8 @@ def integrator_dict(desc: SceneDescription, options: RenderOptions, *, stock: bo
     glossy = max((m.glossy_samples for m in desc.materials if m.roughness > 0.0), default=1)
     if glossy > 1:  # docs/EXTENSIONS.md E.4: the stack holds 2 G children of a glossy camera hit
         d["glossy_samples"] = int(glossy)
+    if any(m.dispersion is not None for m in desc.materials):  # docs/EXTENSIONS.md E.10: wavelength per ray
+        d["dispersion"] = True
     return d
 
 

@@ -1,11 +1,15 @@
 """Scene description -> Mitsuba 3 XML, meshes beside it as PLY (the layout of :func:`.to_mitsuba.scene_entries`).
 
-``write_xml(desc, "out/scene.xml")`` writes ``out/scene.xml`` and ``out/scene_meshes/mesh_NNN.ply`` (and,
-with ``stock=True`` and a cube map, ``out/scene_envmap.exr``). The XML loads with ``mi.load_file``: with
+``write_xml(desc, "out/scene.xml")`` writes ``out/scene.xml``, ``out/scene_meshes/mesh_NNN.ply``, the textures
+as ``out/scene_images/texture_NNN_{name}.png`` and a cube map's six faces as ``out/scene_images/cubemap/{face}.png``
+(and, with ``stock=True`` and a cube map, ``out/scene_envmap.exr``). The XML loads with ``mi.load_file``: with
 ``stock=False`` once the a5mi plugins are registered (``a5mi.plugins.register_all()``), with ``stock=True``
-in plain Mitsuba (see :mod:`.to_mitsuba` and :mod:`.materials` for every stock approximation). Textures and
-cube-map folders are written as absolute paths (the a5 plugins open them and decode them with
-``a5mi.imageio.read_uint8``); PLY and EXR files relative to the XML.
+in plain Mitsuba (see :mod:`.to_mitsuba` and :mod:`.materials` for every stock approximation). Every file is
+named relative to the XML (Mitsuba's file resolver looks beside the XML first; the a5 plugins resolve through
+it too), so the folder can be moved or copied elsewhere and renders the same. Images are written from the
+pixels :func:`.describe.describe` decoded (8-bit PNG, lossless: the plugin reads back the very bytes of the
+original, which is not opened again), so a texture named ``maps/old wood.bmp`` becomes
+``scene_images/texture_000_old wood.png``.
 
 Serialisation of the scene entries: a dict with ``type`` becomes an element whose tag is its plugin kind
 (``bsdf``, ``shape``, ``emitter``, ...; see :data:`PLUGIN_TAGS`), with ``id`` = its top-level key or
@@ -16,13 +20,13 @@ elements (``mat_NNN``, ``mat_NNN_nouv`` for a textured material's untextured var
 written before the first shape that references them. Flat meshes get ``face_normals=true`` (the PLY has no
 normals; without the flag Mitsuba would compute smooth ones).
 
-Writing is all or nothing and never outside the set (issue 19): the XML, ``{stem}_meshes/`` and
-``{stem}_envmap.exr`` are written into a fresh hidden staging folder beside the XML
+Writing is all or nothing and never outside the set (issue 19): the XML, ``{stem}_meshes/``, ``{stem}_images/``
+and ``{stem}_envmap.exr`` are written into a fresh hidden staging folder beside the XML
 (``.{name}.a5mi-{pid}-...``) and then moved into place entry by entry with ``rename``, which replaces a
-symlink already there instead of writing through it; an earlier ``{stem}_meshes/`` is replaced whole (no stale
-PLY stays) and an earlier ``{stem}_envmap.exr`` that this conversion does not write is removed. The XML is
-renamed last. Any failure before the moves leaves every existing file as it was and removes the staging
-folder; signals wait for the moves (:func:`a5mi.interrupts.protected`).
+symlink already there instead of writing through it; an earlier ``{stem}_meshes/`` or ``{stem}_images/`` is
+replaced whole (no stale file stays) and an earlier ``{stem}_envmap.exr`` that this conversion does not write
+is removed. The XML is renamed last. Any failure before the moves leaves every existing file as it was and
+removes the staging folder; signals wait for the moves (:func:`a5mi.interrupts.protected`).
 """
 
 from __future__ import annotations
@@ -39,9 +43,11 @@ import numpy as np
 from a5mi import interrupts
 from a5mi.imageio import remove_stale, temp_prefix
 from a5mi.options import RenderOptions
+from a5mi.spec import CUBE_FACES
 
 from . import materials
 from .describe import CubeMapBackground, MeshShape, SceneDescription, VolumeDescription
+from .files import Image
 from .to_mitsuba import Backend, bake_cubemap_envmap, make_mesh, scene_entries
 
 PLUGIN_TAGS: dict[str, str] = {
@@ -75,12 +81,30 @@ class _XmlBackend(Backend):
         super().__init__(desc, stock=stock)
         self.xml_path = xml_path
         self.mesh_dir = xml_path.parent / set_names(xml_path)[1]
+        self.image_dir = xml_path.parent / set_names(xml_path)[3]
+        self.textures: dict[Path, str] = {}  # source path -> its copy, relative to the XML
+
+    def _write_png(self, relative: str, image: Image) -> None:
+        from a5mi.imageio import write_image
+
+        target = self.xml_path.parent / relative
+        target.parent.mkdir(parents=True, exist_ok=True)
+        write_image(target, np.ascontiguousarray(image.pixels, dtype=np.uint8))
+
+    def texture(self, image: Image) -> dict[str, Any]:
+        """``{'filename': '{stem}_images/texture_NNN_{name}.png'}``: the decoded pixels written as PNG, once
+        per source file (the same bytes reach the plugin as from the original; the file is not read again)."""
+        if image.path not in self.textures:
+            rel = f"{self.image_dir.name}/texture_{len(self.textures):03d}_{image.path.stem}.png"
+            self._write_png(rel, image)
+            self.textures[image.path] = rel
+        return {"filename": self.textures[image.path]}
 
     def bsdf(self, entries: dict[str, Any], material: int, with_uv: bool) -> Any:
         mat = self.desc.materials[material]
         key = f"mat_{material:03d}" + ("_nouv" if materials.without_texture(mat, with_uv) else "")
         if key not in entries:
-            entries[key] = materials.bsdf(mat, with_uv, stock=self.stock)
+            entries[key] = materials.bsdf(mat, with_uv, stock=self.stock, image=self.texture)
         return {"type": "ref", "id": key}
 
     def mesh(self, key: str, shape: MeshShape, bsdf: Any) -> Any:
@@ -94,7 +118,12 @@ class _XmlBackend(Backend):
         return out
 
     def cubemap(self, bg: CubeMapBackground) -> Any:
-        return {"type": "a5_cubemap", "filename": str(bg.folder)}
+        """``{stem}_images/cubemap/{face}.png``, the six decoded faces (SPEC A.4 names), and the folder by
+        its path relative to the XML."""
+        rel = f"{self.image_dir.name}/cubemap"
+        for face, image in zip(CUBE_FACES, bg.faces, strict=True):
+            self._write_png(f"{rel}/{face}.png", image)
+        return {"type": "a5_cubemap", "filename": rel}
 
     def envmap(self, bg: CubeMapBackground) -> Any:
         import mitsuba as mi
@@ -104,7 +133,15 @@ class _XmlBackend(Backend):
         return {"type": "envmap", "filename": exr.name}
 
     def grid_source(self, vol: VolumeDescription) -> dict[str, Any]:
-        return {"filename": str(vol.path)}
+        """``{'filename': '{stem}_images/grid_{name}.vol'}``: the decoded grid written back as a Mitsuba ``.vol``
+        (E.9; the source file is not read again), relative to the XML like every other file."""
+        from .volgrid import write_vol
+
+        rel = f"{self.image_dir.name}/grid_{vol.path.stem}.vol"
+        target = self.xml_path.parent / rel
+        target.parent.mkdir(parents=True, exist_ok=True)
+        write_vol(target, vol.grid)
+        return {"filename": rel}
 
 
 def _element(parent: ET.Element, key: str, value: Any, top: bool) -> None:
@@ -201,9 +238,10 @@ def write_xml(desc: SceneDescription, path: str | Path, options: RenderOptions |
     return xml_path
 
 
-def set_names(xml_path: Path) -> tuple[str, str, str]:
-    """The entries a conversion to ``xml_path`` owns beside it: the XML, ``{stem}_meshes``, ``{stem}_envmap.exr``."""
-    return xml_path.name, f"{xml_path.stem}_meshes", f"{xml_path.stem}_envmap.exr"
+def set_names(xml_path: Path) -> tuple[str, str, str, str]:
+    """The entries a conversion to ``xml_path`` owns beside it: the XML, ``{stem}_meshes``, ``{stem}_envmap.exr``,
+    ``{stem}_images``."""
+    return xml_path.name, f"{xml_path.stem}_meshes", f"{xml_path.stem}_envmap.exr", f"{xml_path.stem}_images"
 
 
 def _umask() -> int:
@@ -215,10 +253,10 @@ def _umask() -> int:
 def _commit(staging: Path, folder: Path, xml_path: Path) -> None:
     """Move the staged set into ``folder`` (module docstring): the meshes folder and the envmap first, each old
     entry moved aside into ``staging`` (so it is removed with it, without following links), the XML last."""
-    xml_name, mesh_name, env_name = set_names(xml_path)
+    xml_name, mesh_name, env_name, image_name = set_names(xml_path)
     aside = staging / ".replaced"
     aside.mkdir()
-    for name in (mesh_name, env_name):
+    for name in (mesh_name, env_name, image_name):
         new, old = staging / name, folder / name
         if os.path.lexists(old):
             os.rename(old, aside / name)  # renames the entry itself: a symlink is moved, its target untouched

@@ -19,8 +19,8 @@ values. This plugin therefore has two faces:
    * Lambert ``kd/π`` (front side only), and
    * when ``|specular_color| > 0.001`` or ``refraction_index > 0``, a delta lobe weighted by
      ``specular_color``: an ideal mirror if ``refraction_index == 0``, else a smooth dielectric with
-     interior index ``refraction_index`` and exterior 1 (exact Fresnel ``mi.fresnel``, radiance scaled by
-     ``1/η²`` on transmission, both sides).
+     interior index ``refraction_index`` (``n(550 nm)`` if ``cauchy_b ≠ 0``) and exterior 1 (exact Fresnel
+     ``mi.fresnel``, radiance scaled by ``1/η²`` on transmission, both sides).
 
    The lobe is chosen with probability ``p_s = mean(specular_color) / (mean(kd) + mean(specular_color))``;
    sampled weights are ``kd / (1 - p_s)`` (diffuse) and ``specular_color / p_s`` (delta), and ``pdf`` is
@@ -36,7 +36,8 @@ diffuse_color      rgb           (1,1,1)   raw ``diffuseColor`` (ambient term)
 kd                 texture/rgb   = diffuse Lambert colour: ``a5_marble``, ``a5_bitmap``, rgb
 specular_color     rgb           (0,0,0)   mirror / refraction weight (``specularColor``)
 shininess          float         0         Phong exponent (handout option only)
-refraction_index   float         0         ``refractionIndex``; 0 = opaque
+refraction_index   float         0         ``refractionIndex``; 0 = opaque; Cauchy's ``A`` if dispersive
+cauchy_b           float         0         Cauchy's ``B`` (µm², docs/EXTENSIONS.md E.10); 0 = no dispersion
 bump               a5_bitmap     none      height field (E.7); its grey · ``bump_scale`` = height
 bump_scale         float         1         world units of height at grey 1 (E.7 ``bumpScale``)
 normal_map         a5_bitmap     none      tangent-space normal map (E.7 ``normalMap``)
@@ -59,13 +60,13 @@ from collections.abc import Sequence
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.spec import MIRROR_THRESHOLD
+from a5mi.spec import CENTRE_WAVELENGTH_NM, MIRROR_THRESHOLD
 
 from .bump import perturb
 
 #: Attributes served through ``eval_attribute_3`` / ``eval_attribute_1`` (and ``has_attribute``).
 COLOR_ATTRIBUTES: tuple[str, ...] = ("diffuse_color", "specular_color", "shading_normal")
-FLOAT_ATTRIBUTES: tuple[str, ...] = ("shininess", "refraction_index", "roughness", "glossy_samples")
+FLOAT_ATTRIBUTES: tuple[str, ...] = ("shininess", "refraction_index", "roughness", "glossy_samples", "cauchy_b")
 
 
 def _rgb(props: mi.Properties, name: str, default: Sequence[float]) -> list[float]:
@@ -108,6 +109,12 @@ class A5Material(mi.BSDF):
                              f"{glossy_samples}")
         self.roughness = mi.Float(roughness)
         self.glossy_samples = mi.Float(float(glossy_samples))
+        # docs/EXTENSIONS.md E.10: n(λ) = refraction_index + cauchy_b/λ² (λ in µm) in a5_whitted's dispersion kernel
+        cauchy_b = float(props.get("cauchy_b", 0.0))
+        if cauchy_b != 0.0 and ior <= 0.0:
+            raise ValueError(f"a5_material: 'cauchy_b' needs refraction_index > 0, got {ior}")
+        self.cauchy_b = mi.Float(cauchy_b)
+        self._dispersive = cauchy_b != 0.0
         # docs/EXTENSIONS.md E.7: height field and normal map (a5_bitmap textures: their A.4 texel atlas)
         self.bump = self._map(props, "bump")
         self.normal_map = self._map(props, "normal_map")
@@ -145,7 +152,7 @@ class A5Material(mi.BSDF):
 
     def _make_opaque(self) -> None:
         dr.make_opaque(self.diffuse_color, self.specular_color, self.shininess, self.refraction_index,
-                       self.roughness, self.glossy_samples, self.bump_scale)
+                       self.roughness, self.glossy_samples, self.cauchy_b, self.bump_scale)
 
     # ------------------------------------------------------------------ a5 channel (SPEC B.3)
 
@@ -167,7 +174,8 @@ class A5Material(mi.BSDF):
     def eval_attribute_1(self, name: str, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Float:
         """``refraction_index`` or ``shininess``; zero for any other name."""
         value = {"refraction_index": self.refraction_index, "shininess": self.shininess,
-                 "roughness": self.roughness, "glossy_samples": self.glossy_samples}.get(name)
+                 "roughness": self.roughness, "glossy_samples": self.glossy_samples,
+                 "cauchy_b": self.cauchy_b}.get(name)
         return mi.Float(0.0) if value is None else mi.Float(value)
 
     def eval_diffuse_reflectance(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
@@ -214,7 +222,11 @@ class A5Material(mi.BSDF):
         weight_s = self.specular_color / dr.maximum(p_s, 1e-8)
         ok_s = active & choose_delta
         if self._dielectric:
-            r_i, cos_t, eta_it, eta_ti = mi.fresnel(cos_i, self.refraction_index)
+            # docs/EXTENSIONS.md E.10: a dispersive material at the centre wavelength, as the stock mapping
+            ior = self.refraction_index
+            if self._dispersive:
+                ior = ior + self.cauchy_b * (1.0 / (CENTRE_WAVELENGTH_NM * 1e-3) ** 2)
+            r_i, cos_t, eta_it, eta_ti = mi.fresnel(cos_i, ior)
             u = sample1 / dr.maximum(p_s, 1e-8)
             pick_r = u <= r_i
             wo_s = dr.select(pick_r, wo_r, mi.refract(si.wi, cos_t, eta_ti))
@@ -275,6 +287,7 @@ class A5Material(mi.BSDF):
         callback.put("refraction_index", self.refraction_index, flags)
         callback.put("roughness", self.roughness, flags)
         callback.put("glossy_samples", self.glossy_samples, flags)
+        callback.put("cauchy_b", self.cauchy_b, flags)
         callback.put("kd", self.kd, flags)
         callback.put("bump_scale", self.bump_scale, flags)
 

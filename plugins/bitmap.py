@@ -5,7 +5,7 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.plugins.imagedata import ImageAtlas, bitmap_rgb8, load_rgb8
+from a5mi.plugins.imagedata import ImageAtlas, bitmap_rgb8, load_rgb8, resolve
 
 
 class A5Bitmap(mi.Texture):
@@ -54,7 +54,7 @@ class A5Bitmap(mi.Texture):
         else:
             self.filename = str(props["filename"])
             try:
-                pixels = load_rgb8(self.filename)
+                pixels = load_rgb8(resolve(self.filename))
             except ValueError as exc:
                 raise ValueError(f"a5_bitmap: parameter 'filename' ({self.filename!r}): {exc}") from None
         self.height, self.width = pixels.shape[:2]

@@ -7,7 +7,7 @@ from pathlib import Path
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.plugins.imagedata import ImageAtlas, bitmap_rgb8, load_rgb8
+from a5mi.plugins.imagedata import ImageAtlas, bitmap_rgb8, load_rgb8, resolve
 from a5mi.spec import CUBE_FACES, IMAGE_EXTENSIONS, find_cube_face
 
 #: Face order of the atlas (image index used by :meth:`A5CubeMap.lookup`): SPEC A.4's six faces.
@@ -125,7 +125,7 @@ class A5CubeMap(mi.Emitter):
                 raise ValueError("a5_cubemap: parameter 'filename' (a folder with the six faces) or the six "
                                  "face bitmaps are required")
             self.filename = str(props["filename"])
-            folder = Path(self.filename)
+            folder = resolve(self.filename)
             if not folder.is_dir():
                 raise ValueError(f"a5_cubemap: parameter 'filename' ({self.filename!r}) is not a folder")
             for face in FACES:

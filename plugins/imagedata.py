@@ -42,6 +42,17 @@ def rgb8(pixels: np.ndarray, what: str = "image") -> np.ndarray:
     return np.ascontiguousarray(pixels[:, :, :3])
 
 
+def resolve(filename: str) -> Path:
+    """The file or folder a plugin's ``filename`` names: as Mitsuba's own plugins do, through the file resolver
+    (``mi.file_resolver()``: during ``mi.load_file`` the XML's folder comes first, so a converted scene's
+    relative names work wherever its folder lies); a name the resolver does not find stays as given."""
+    path = Path(filename)
+    if path.is_absolute():
+        return path
+    found = Path(str(mi.file_resolver().resolve(str(path))))
+    return found if found.exists() else path
+
+
 def load_rgb8(path: str | Path) -> np.ndarray:
     """Read an image file as an (H, W, 3) ``uint8`` array, row 0 = the top row of the picture (:func:`rgb8`).
 

@@ -162,3 +162,17 @@ def plane_bsdf(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool) -> mi.BSDFPtr:
 
 def plane_inv(ps, idx, active):
     return dr.gather(mi.Float, ps.inv_len, idx, active)
+
+
+def replace_planes(integrator: Any, moved: dict[str, tuple[tuple[float, float, float], float,
+                                                          tuple[float, float, float]]]) -> None:
+    """Give the planes ``moved`` (id -> (normal, offset, mirror normal)) of an ``a5_whitted`` integrator new
+    values, keeping their BSDFs (keyframed Transforms, docs/EXTENSIONS.md E.11). The device arrays keep their
+    length and are opaque (a one-plane array would be a literal of the kernel), so the compiled kernel is
+    reused."""
+    planes = [(pid, *moved[pid][:2], bsdf, moved[pid][2]) if pid in moved else (pid, n, off, bsdf, mirror)
+              for pid, n, off, bsdf, mirror in integrator.planes]
+    integrator.planes = planes
+    ps = plane_set(planes)
+    dr.make_opaque(ps.nx, ps.ny, ps.nz, ps.offset, ps.inv_len, ps.mx, ps.my, ps.mz)
+    integrator._planes = ps

@@ -58,6 +58,16 @@ class A5SpotLight(A5PointLight):
         value = dr.select(active, attenuation(self.color, self.falloff, ds.dist), 0.0)
         return value * profile(dr.dot(-ds.d, self.axis), self.angle_rad, self.beam_rad)
 
+    def traverse(self, cb: mi.TraversalCallback) -> None:
+        """The point light's parameters plus ``axis``, the unit cone axis (docs/EXTENSIONS.md E.11: keyframed
+        ``direction`` d arrives as ``d / |d|``, computed as in the constructor)."""
+        super().traverse(cb)
+        cb.put("axis", self.axis, mi.ParamFlags.NonDifferentiable)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        super().parameters_changed(keys)
+        dr.make_opaque(self.axis)
+
     def to_string(self) -> str:
         return f"A5SpotLight[position={self.position}, axis={self.axis}, angle={self.angle_rad} rad]"
 

@@ -14,7 +14,7 @@ import mitsuba as mi
 
 from a5mi.spec import FRESNEL_MODES, MIRROR_THRESHOLD, TMIN
 
-from . import media, octree_rule
+from . import media, octree_rule, spectral
 from .bump import shading_normal
 from .common import fresnel_weight, reflect, snell
 from .planes import (
@@ -53,10 +53,11 @@ def stack_size(max_depth: int, glossy_samples: int = 1) -> int:
 
 
 def _push(stacks: tuple, top: mi.UInt32, mask: mi.Bool, o: mi.Point3f, d: mi.Vector3f, w: mi.Color3f,
-          bounces: mi.UInt32, n_medium: mi.Float, t_min: mi.Float) -> mi.UInt32:
-    """Push a child ray (origin, direction, path weight, bounces left, medium index, tmin) onto the pending-ray
-    stacks of the lanes in ``mask``; returns the new stack pointer."""
-    for stack, value in zip(stacks, (o, d, w, bounces, n_medium, t_min), strict=True):
+          bounces: mi.UInt32, n_medium: mi.Float, t_min: mi.Float, *extra: object) -> mi.UInt32:
+    """Push a child ray (origin, direction, path weight, bounces left, medium index, tmin, then one value per
+    extension stack, e.g. E.10's "weighted" flag) onto the pending-ray stacks of the lanes in ``mask``; returns
+    the new stack pointer."""
+    for stack, value in zip(stacks, (o, d, w, bounces, n_medium, t_min, *extra), strict=True):
         stack.write(value, top, mask)
     return top + dr.select(mask, 1, 0)
 
@@ -82,6 +83,7 @@ def _trace(
     rng: Stochastic,
     rec: TreeRecorder | None = None,
     medium: media.MediumParams | None = None,
+    dispersion: bool = False,
     bump: bool = False,
 ) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float, mi.Float]:
     """SPEC B.3 for a batch of camera rays (unit ``ray_d``, tmin 0, index 1.0, budget ``max_depth``).
@@ -94,7 +96,8 @@ def _trace(
     kernel it leaves untouched): a :class:`~.whitted_record.TreeRecorder` that the marked ``# record`` calls
     fill with each node's values (plugins/whitted_record.py). ``medium`` (docs/EXTENSIONS.md E.8, E.9; None
     leaves the kernel as it is): the node's segment transmittance scales its contribution and its children's
-    weights, its in-scattered light is added (plugins/media.py).
+    weights, its in-scattered light is added (plugins/media.py). ``dispersion`` (docs/EXTENSIONS.md E.10): each
+    lane carries a wavelength, dispersive materials refract with n(λ) (plugins/spectral.py).
     """
     width = dr.width(ray_d)
     env = scene.environment()
@@ -114,6 +117,9 @@ def _trace(
     stack_b[zero_u] = zero_u + max_depth
     stack_n[zero_u] = dr.full(mi.Float, 1.0, width)
     stack_t[zero_u] = dr.zeros(mi.Float, width)
+    # ---- extension E.10: the lane's wavelength; per pending ray, "weighted by w(λ) already" (plugins/spectral.py)
+    lam, stack_s = spectral.start(rng, width, size) if dispersion else (None, None)
+    stacks = (*stacks, stack_s) if dispersion else stacks
 
     top = dr.select(active, zero_u + 1, zero_u)
     first = dr.full(mi.Bool, True, width)
@@ -137,6 +143,7 @@ def _trace(
         bounces = stack_b[top]
         n_medium = stack_n[top]
         t_min = stack_t[top]
+        weighted = stack_s[top] if dispersion else None
 
         # Mitsuba rays have no tmin: start at o + tmin d and add tmin back to t. Planes: analytic (SPEC A.6).
         # Meshes: as the binary's octree sees them (plugins/octree_rule.py).
@@ -169,6 +176,7 @@ def _trace(
         diffuse_color = dr.select(a5, bsdf.eval_attribute_3("diffuse_color", si, a5), kd)
         specular = bsdf.eval_attribute_3("specular_color", si, a5)
         ior = bsdf.eval_attribute_1("refraction_index", si, a5)
+        ior, dispersive = spectral.index_at(bsdf, si, a5, ior, lam) if dispersion else (ior, None)  # E.10: n(λ)
         shininess = mi.Float(0.0)
         if phong:
             shininess = bsdf.eval_attribute_1("shininess", si, a5)
@@ -279,8 +287,10 @@ def _trace(
                 exists &= ~glossy | (dr.dot(t_dir, n_side) < 0.0)
                 push_refr = refractive & exists
                 r_fresnel = dr.select(push_refr, fresnel_weight(fresnel, d, m_facing, t_dir, n_medium, nt), 1.0)
-                top = _push(stacks, top, push_refr, p, t_dir, weight * specular * (1.0 - r_fresnel) * share,
-                            bounces - 1, nt, tmin)
+                w_t = weight * specular * (1.0 - r_fresnel) * share
+                # E.10: the first dispersive refraction of a path multiplies its weight by w(λ)
+                w_t, tail_t = spectral.weigh(w_t, weighted, dispersive, lam) if dispersion else (w_t, ())
+                top = _push(stacks, top, push_refr, p, t_dir, w_t, bounces - 1, nt, tmin, *tail_t)
                 n_refr += dr.select(push_refr, 1.0, 0.0)
                 if rec is not None:  # record
                     rec.node(n_refl, n_refr, top, refractive=refractive, leaving=leaving, nt=nt, refr_exists=exists,
@@ -290,7 +300,7 @@ def _trace(
                 push_refl = go & (dr.norm(specular) > MIRROR_THRESHOLD)
                 push_refl &= ~glossy | (dr.dot(r_dir, n_side) > 0.0)
                 top = _push(stacks, top, push_refl, p, r_dir, weight * specular * r_fresnel * share, bounces - 1,
-                            n_medium, tmin)
+                            n_medium, tmin, *((weighted,) if dispersion else ()))
                 n_refl += dr.select(push_refl, 1.0, 0.0)
                 if rec is not None:  # record
                     rec.node(n_refl, n_refr, top, push_refl=push_refl, r_dir=r_dir, r_fresnel=r_fresnel,
@@ -321,6 +331,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     refraction       bool    true    trace refracted rays (``-refraction_off`` = false)
     tmin             float   0.001   tmin of secondary and shadow rays (``a5mi.spec.TMIN``)
     glossy_samples   int     1       cap on the glossy children of a camera hit (docs/EXTENSIONS.md E.4)
+    dispersion       bool    false   wavelength per camera ray, Cauchy n(λ) (docs/EXTENSIONS.md E.10)
     bump             bool    false   bump / normal-mapped shading normal (``-bump``, docs/EXTENSIONS.md E.7)
     aovs             string  ""      comma-separated AOV groups: ``normal`` (nx, ny, nz), ``depth``
                                      (t), ``class`` (class), ``counts`` (n_reflection, n_refraction,
@@ -375,7 +386,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             raise ValueError(f"a5_whitted: 'ambient' must be an rgb colour, got {ambient!r}") from None
         flags = {}
         for name, default in (("shadows", False), ("phong", False), ("reflection", True),
-                              ("refraction", True), ("bump", False)):
+                              ("refraction", True), ("dispersion", False), ("bump", False)):
             value = props.get(name, default)
             if not isinstance(value, bool):
                 raise ValueError(f"a5_whitted: '{name}' must be a boolean, got {value!r}")
@@ -388,6 +399,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         self.phong = flags["phong"]
         self.reflection = flags["reflection"]
         self.refraction = flags["refraction"]
+        self.dispersion = flags["dispersion"]  # docs/EXTENSIONS.md E.10
         self.bump = flags["bump"]  # docs/EXTENSIONS.md E.7
         aovs = props.get("aovs", "")
         groups = [g.strip() for g in aovs.split(",") if g.strip()] if isinstance(aovs, str) else None
@@ -462,6 +474,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             dr.opaque(mi.Float, self.tmin), lights, n_lights, self._planes,
             stack_size(self.max_depth, self.glossy_samples), self.shadows, self.phong, self.fresnel,
             self.reflection, self.refraction, self._stochastic(scene, sampler, width), record, self._medium,
+            self.dispersion,
             self.bump,
         )
 
@@ -488,6 +501,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         callback.put("tmin", self.tmin, flags)
         callback.put("aovs", ",".join(self.aovs), flags)
         callback.put("glossy_samples", self.glossy_samples, flags)
+        callback.put("dispersion", self.dispersion, flags)
         callback.put("bump", self.bump, flags)
 
     def to_string(self) -> str:

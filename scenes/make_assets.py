@@ -6,6 +6,9 @@
   vertices, SPEC A.6).
 * ``icosphere.obj``: an icosahedron subdivided twice and projected on the unit sphere, 162 vertices
   (> 120, so smooth area-weighted normals per SPEC A.6), with ``vt`` longitude/latitude coordinates.
+* ``prism.obj``: an equilateral triangular prism (apex angles 60°), edges parallel to y, height 2 (y in
+  [-1, 1]), cross-section vertices at unit distance from the y axis, one at +x; 6 vertices, 8 triangles, outward
+  winding (flat-shaded). The Newton prism of ``scenes/prism.txt`` (docs/EXTENSIONS.md E.10).
 * ``tex/checker.bmp``: 64 x 64 24-bit BMP, 8 x 8 checks of two colours with a red/green gradient border, so
   orientation mistakes (flipped rows, swapped u/v) show.
 * ``tile.obj``: the square [-1, 1]² in the plane y = 0, facing +y, uv (0, 0)..(1, 1) along +x and −z
@@ -51,6 +54,26 @@ def icosphere(levels: int = 2) -> tuple[list[tuple[float, float, float]], list[t
             new += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
         faces = new
     return verts, faces
+
+
+def prism() -> tuple[list[tuple[float, float, float]], list[tuple[int, int, int]]]:
+    ring = [(math.cos(a), math.sin(a)) for a in (0.0, 2 * math.pi / 3, 4 * math.pi / 3)]   # (x, z)
+    verts = [(x, y, z) for y in (-1.0, 1.0) for x, z in ring]
+    faces = [(0, 2, 1), (3, 4, 5)]                                  # caps
+    for i in range(3):
+        j = (i + 1) % 3
+        faces += [(i, i + 3, j + 3), (i, j + 3, j)]                 # side quad i -> j
+    return verts, [_outward(verts, f) for f in faces]
+
+
+def _outward(verts: list, face: tuple[int, int, int]) -> tuple[int, int, int]:
+    """``face`` wound so that ``(v1 - v0) x (v2 - v0)`` points away from the origin (the solid's centre)."""
+    a, b, c = (verts[i] for i in face)
+    e1 = [b[k] - a[k] for k in range(3)]
+    e2 = [c[k] - a[k] for k in range(3)]
+    n = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])
+    centroid = [(a[k] + b[k] + c[k]) / 3 for k in range(3)]
+    return face if sum(n[k] * centroid[k] for k in range(3)) > 0 else (face[0], face[2], face[1])
 
 
 def _midpoint(verts: list, cache: dict[tuple[int, int], int], a: int, b: int) -> int:
@@ -174,6 +197,7 @@ if __name__ == "__main__":
     HERE.mkdir(exist_ok=True)
     write_obj(HERE / "box.obj", *box())
     write_obj(HERE / "icosphere.obj", *icosphere(2), with_uv=True)
+    write_obj(HERE / "prism.obj", *prism())
     (ROOT / "tex").mkdir(exist_ok=True)
     write_bmp(ROOT / "tex" / "checker.bmp", checker())
     (HERE / "tile.obj").write_text("\n".join(tile()) + "\n")
@@ -182,4 +206,4 @@ if __name__ == "__main__":
     (ROOT / "sky").mkdir(exist_ok=True)
     for face, colour in SKY_HUES.items():
         write_bmp(ROOT / "sky" / f"{face}.bmp", sky_face(colour))
-    print("wrote meshes/, tex/*.bmp, sky/*.bmp under", ROOT)
+    print("wrote meshes/ (box, icosphere, prism, tile), tex/*.bmp, sky/*.bmp under", ROOT)

@@ -65,7 +65,7 @@ def test_files_round_trip_and_diff_montage(tmp_path) -> None:
     assert m.bbox == (0, 5, 0, 5)
     write_diff(read_levels(tmp_path / "a.png"), read_levels(tmp_path / "b.png"), m, tmp_path / "d.png", ("a", "b"))
     d = read_levels(tmp_path / "d.png")
-    assert d.shape[1] == 3 * 7 + 8
+    assert d.shape[1] == 240  # 3 * 7 + 8 panels, widened to MIN_WIDTH for the caption
     assert np.array_equal(d[:6, :7], a)  # left panel is A, unchanged
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".a5mi-")] == []
 
@@ -178,3 +178,110 @@ def test_flip_is_zero_for_identical_and_grows_with_error() -> None:
     _, small = flip_map(a, np.clip(a + 5, 0, 255))
     _, large = flip_map(a, np.clip(a + 60, 0, 255))
     assert 0 < small < large <= 1
+
+
+# ------------------------------------------------------------------------------------ the --diff picture (issue 18)
+LONG = ("reference_scene12_vase_at_300.png | my render with a long name.png | |A-B|, largest channel, colour bar "
+        "0..16/255\nPSNR 44.6 dB, mean 0.750/255, 25.00% of pixels > 2/255, max 8/255")
+
+
+@pytest.fixture(params=["oiio", "bitmap"])
+def font(request, monkeypatch):
+    """Each text backend: OpenImageIO's render_text with the wheel's font, and the embedded bitmap font."""
+    from a5mi import compare
+
+    if request.param == "bitmap":
+        monkeypatch.setattr(compare, "font_path", lambda: None)
+    elif compare.font_path() is None:
+        pytest.skip("OpenImageIO finds no font here")
+    return request.param
+
+
+@pytest.mark.parametrize("w", [20, 150, 300])
+def test_caption_is_wrapped_inside_the_picture(w, font) -> None:
+    """The caption drawn in the montage equals the same lines drawn on a canvas 8x wider, cropped: no glyph
+    column is cut off at the right edge, and every line measures within the margins."""
+    from a5mi import compare
+
+    a = np.zeros((w, w, 3))
+    img = compare.montage(a, a, LONG)
+    lay = compare.layout(w, w, LONG)
+    assert img.shape == (lay.height, lay.width, 3) and len(lay.caption_lines) >= 2
+    assert "".join(lay.caption_lines).replace(" ", "") == LONG.replace(" ", "").replace("\n", "")
+    assert all(compare.text_width(line) <= lay.width - 2 * compare.MARGIN for line in lay.caption_lines)
+    top = lay.caption_top
+    canvas = np.full((lay.height - top + 8, 8 * lay.width, 3), 32, np.uint8)
+    wide = compare.draw_text(canvas, [(compare.MARGIN, i * compare.LINE_HEIGHT, line)
+                                      for i, line in enumerate(lay.caption_lines)])
+    assert (wide[:, lay.width - compare.MARGIN:] == 32).all()  # nothing drawn past the margin
+    np.testing.assert_array_equal(img[top:], wide[: lay.height - top, : lay.width])
+    assert (img[top:] > 32).sum() > 50 * len(lay.caption_lines)  # there is ink
+
+
+def test_colour_bar_runs_black_to_red_monotonically_with_labels(font) -> None:
+    from a5mi import compare
+
+    a = np.zeros((150, 150, 3))
+    img = compare.montage(a, a, "x", scale=6.0)
+    lay = compare.layout(150, 150, "x")
+    (r0, r1), (c0, c1) = lay.bar_rows, lay.bar_cols
+    bar = img[(r0 + r1) // 2, c0:c1].astype(np.float64)
+    np.testing.assert_array_equal(bar[0], [0, 0, 0])
+    np.testing.assert_array_equal(bar[-1], [255, 0, 0])
+    table = compare.colormap(np.linspace(0.0, 1.0, 2041))
+    position = np.argmin(((bar[:, None, :] - table[None, :, :]) ** 2).sum(axis=2), axis=1)
+    assert (np.diff(position) >= 0).all() and position[-1] == 2040  # colours in scale order, 0 .. full scale
+    assert [t for _, t in compare.bar_labels(6.0, lay.bar_cols)] == ["0", "3", "6/255"]
+    assert (img[lay.labels_top : lay.caption_top, c0 : c0 + 12] > 32).any()  # "0" is drawn under the left end
+
+
+def _heat_pixel(path, h, w, y, x):
+    d = read_levels(path)
+    return d[y, 2 * (w + 4) + x]
+
+
+@pytest.mark.parametrize(("scale", "colour"), [(None, [0, 255, 0]), ("8", [255, 0, 0]), ("32", [0, 0, 255]),
+                                               ("auto", [255, 0, 0])])
+def test_cli_scale_sets_the_full_scale(tmp_path, scale, colour, capsys) -> None:
+    """A pixel 8 levels off: green at the default 16 (half scale), red with --scale 8 (error = scale: the top
+    colour), blue at 32 (a quarter); auto = the 99.9th percentile of the error, here 8: red."""
+    import os
+
+    from a5mi.cli import run_a5mi
+
+    b = np.full((20, 20, 3), 100.0)
+    b[3:, :, 1] += 8  # most pixels 8 off, so the percentile is 8
+    _write_pair(tmp_path, b)
+    args = ["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--diff", str(tmp_path / "d.png")]
+    old = os.umask(0o027)
+    try:
+        assert run_a5mi(args + ([] if scale is None else ["--scale", scale])) == 1  # exit status: the verdict
+    finally:
+        os.umask(old)
+    assert f"d.png: A | B | |A-B| heatmap, full scale {8 if scale in ('8', 'auto') else int(scale or 16)}/255" in \
+        capsys.readouterr().out
+    assert (tmp_path / "d.png").stat().st_mode & 0o777 == 0o640
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # written atomically
+    np.testing.assert_array_equal(_heat_pixel(tmp_path / "d.png", 20, 20, 10, 10), colour)
+    np.testing.assert_array_equal(_heat_pixel(tmp_path / "d.png", 20, 20, 0, 0), [0, 0, 0])  # no error: black
+
+
+def test_auto_scale_ignores_rare_outliers() -> None:
+    from a5mi.compare import auto_scale
+
+    a = np.zeros((100, 100, 3))
+    b = a.copy()
+    b[:50] = 3.0
+    b[0, 0] = 200.0  # one pixel in 10 000: above the 99.9th percentile
+    assert auto_scale(a, b) == 3.0
+    assert auto_scale(a, a) == 1.0
+
+
+@pytest.mark.parametrize("value", ["0", "-3", "abc", "nan"])
+def test_cli_bad_scale_is_a_usage_error(tmp_path, value, capsys) -> None:
+    from a5mi.cli import run_a5mi
+
+    _write_pair(tmp_path, np.full((4, 4, 3), 100.0))
+    assert run_a5mi(["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--diff",
+                     str(tmp_path / "d.png"), "--scale", value]) == 2
+    assert "--scale" in capsys.readouterr().err and not (tmp_path / "d.png").exists()

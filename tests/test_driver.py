@@ -17,6 +17,14 @@ from a5mi.driver import RenderOptions, aligned_float32, depth_gray, render_scene
 from a5mi.filters import postprocess
 from a5mi.glibc_rand import GlibcRand, jitter_offsets
 
+
+@pytest.fixture
+def unaligned(monkeypatch) -> None:
+    """Tiles of exactly ``tile_rays // width`` rows: the stand-in integrator has no SIMD packets to keep aligned
+    (:data:`a5mi.driver.PACKET_ALIGN`), and these tests count tiles of a few rows."""
+    monkeypatch.setattr(driver, "PACKET_ALIGN", 1)
+
+
 CAMERA = SimpleNamespace(center=(0.0, 0.0, 0.0), direction=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0), angle=30.0)
 
 
@@ -54,7 +62,7 @@ class _CountingProbe(_Probe):
         return rgb, valid, aovs + [one, 2 * one, 3 * one]
 
 
-def test_ray_counts_summed_over_tiles(variant) -> None:
+def test_ray_counts_summed_over_tiles(variant, unaligned) -> None:
     res = render_scene(None, CAMERA, RenderOptions(width=5, height=4, tile_rays=7), integrator=_CountingProbe(),
                        camera_rays=_probe_rays)
     assert res.tiles == 4
@@ -75,7 +83,7 @@ class _ClassProbe(_Probe):
         return rgb, valid, [ray.o.y - 3 * dr.floor(ray.o.y / 3), *aovs]
 
 
-def test_class_image_read_by_name_with_row_0_at_the_top(variant) -> None:
+def test_class_image_read_by_name_with_row_0_at_the_top(variant, unaligned) -> None:
     res = render_scene(None, CAMERA, RenderOptions(width=3, height=4, tile_rays=5, classes=True),
                        integrator=_ClassProbe(), camera_rays=_probe_rays)
     assert res.classes is not None and res.classes.dtype == np.uint8 and res.classes.shape == (4, 3)
@@ -94,11 +102,21 @@ def test_class_aov_only_on_request() -> None:
     assert RenderOptions(classes=True, normals=True).integrator_params()["aovs"] == "normal,class"
 
 
-def test_progress_callback(variant) -> None:
+def test_progress_callback(variant, unaligned) -> None:
     seen = []
     render_scene(None, CAMERA, RenderOptions(width=4, height=3, tile_rays=4), integrator=_Probe(),
                  camera_rays=_probe_rays, progress=lambda done, total: seen.append((done, total)))
     assert seen == [(4, 12), (8, 12), (12, 12)]
+
+
+def test_progress_called_once_per_aligned_tile(variant) -> None:
+    """Issue 18: with the packet alignment on, a 64-wide render in tiles of 2 rows reports 12 steps, each a
+    multiple of 64 samples, ending at the total."""
+    seen = []
+    res = render_scene(None, CAMERA, RenderOptions(width=64, height=24, tile_rays=128), integrator=_Probe(),
+                       camera_rays=_probe_rays, progress=lambda done, total: seen.append((done, total)))
+    assert res.tiles == len(seen) == 12 >= 10
+    assert [d for d, _ in seen] == list(range(128, 64 * 24 + 1, 128)) and {t for _, t in seen} == {64 * 24}
 
 
 def _render(**kw):
@@ -132,7 +150,7 @@ def test_b5_jitter_glibc_order(variant) -> None:
 
 
 @pytest.mark.parametrize("seed", [None, 7])
-def test_b5_tiles_do_not_change_the_image(variant, seed) -> None:
+def test_b5_tiles_do_not_change_the_image(variant, unaligned, seed) -> None:
     whole = _render(width=5, height=4, jitter=True, seed=seed)
     tiled = _render(width=5, height=4, jitter=True, seed=seed, tile_rays=16)  # 16 // 15 = 1 row per tile
     assert tiled.tiles == 12 and whole.tiles == 1
@@ -140,7 +158,7 @@ def test_b5_tiles_do_not_change_the_image(variant, seed) -> None:
 
 
 @pytest.mark.parametrize("rows_per_tile", [1, 2, 3, 4, 5, 7, 100])
-def test_b5_streamed_filter_matches_whole_buffer(variant, rows_per_tile) -> None:
+def test_b5_streamed_filter_matches_whole_buffer(variant, unaligned, rows_per_tile) -> None:
     """-jitter -filter on a non-square image, tiles of any row count (also not multiples of 3): the streamed
     blur + downsample equals postprocess() of the whole unfiltered 3W x 3H buffer bit for bit."""
     whole = _render(width=7, height=5, jitter=True)  # 21 x 15 render buffer, row 0 = top
@@ -215,9 +233,41 @@ def test_b6_depth_formula_edges() -> None:
 
 
 def test_tile_rows_bounded() -> None:
-    assert tile_rows(10, 7, 25) == [(0, 2), (2, 4), (4, 6), (6, 7)]
-    assert tile_rows(100, 2, 5) == [(0, 1), (1, 2)]  # at least one row per tile
+    assert tile_rows(10, 7, 25, align=1) == [(0, 2), (2, 4), (4, 6), (6, 7)]
+    assert tile_rows(100, 2, 5, align=1) == [(0, 1), (1, 2)]  # at least one row per tile
     assert all((b - a) * 1920 * 3 <= driver.TILE_RAYS for a, b in tile_rows(1920 * 3, 1080 * 3, driver.TILE_RAYS))
+
+
+@pytest.mark.parametrize("rw", [1, 15, 90, 96, 100, 128, 5760])
+@pytest.mark.parametrize("tile_rays", [1, 450, 4096, 1 << 20])
+def test_tiles_start_on_packet_boundaries(rw, tile_rays) -> None:
+    """Every tile starts on a multiple of PACKET_ALIGN samples, the tiles cover the buffer, and a tile exceeds
+    the requested size only by the alignment (align / gcd(rw, align) rows)."""
+    rh = 200
+    tiles = tile_rows(rw, rh, tile_rays)
+    assert tiles[0][0] == 0 and tiles[-1][1] == rh and all(a[1] == b[0] for a, b in zip(tiles, tiles[1:], strict=False))
+    assert all(j0 * rw % driver.PACKET_ALIGN == 0 for j0, _ in tiles)
+    m = driver.PACKET_ALIGN // np.gcd(rw, driver.PACKET_ALIGN)
+    assert all((j1 - j0) * rw <= max(tile_rays, m * rw) for j0, j1 in tiles)
+
+
+def test_progress_steps_only_when_someone_watches(variant, monkeypatch) -> None:
+    """With a progress callback the render is split into PROGRESS_STEPS tiles of at least MIN_TILE_RAYS
+    samples; without one it stays one launch (each tile re-traces the integrator); the image is the same."""
+    monkeypatch.setattr(driver, "MIN_TILE_RAYS", 64)
+    seen = []
+    watched = render_scene(None, CAMERA, RenderOptions(width=64, height=16), integrator=_Probe(),
+                           camera_rays=_probe_rays, progress=lambda done, total: seen.append(done))
+    alone = _render(width=64, height=16)
+    assert watched.tiles == len(seen) == driver.PROGRESS_STEPS and alone.tiles == 1
+    np.testing.assert_array_equal(watched.image, alone.image)
+
+
+def test_large_renders_are_split_for_progress() -> None:
+    """A render of many samples gets PROGRESS_STEPS tiles of at least MIN_TILE_RAYS samples (the bar's rate)."""
+    assert len(tile_rows(3000, 3000, driver.TILE_RAYS)) >= 9  # 9M samples: bounded by TILE_RAYS
+    assert len(tile_rows(1024, 1024, driver.TILE_RAYS)) == driver.PROGRESS_STEPS  # 1M samples: 4 x 256k
+    assert len(tile_rows(300, 300, driver.TILE_RAYS)) == 1  # 90k samples: one launch, one trace
 
 
 def test_aligned_float32_copies_onto_a_64_byte_boundary() -> None:
@@ -301,7 +351,7 @@ def _coords_at_alignment(coords, misaligned: bool):
     return placed
 
 
-def test_repeated_renders_compile_nothing(variant, monkeypatch) -> None:
+def test_repeated_renders_compile_nothing(variant, unaligned, monkeypatch) -> None:
     """Issue 7: pixel coordinates used to be mapped from numpy at whatever alignment the allocator gave, which
     changed the kernel hash and recompiled the render kernel at random. Now (with the coordinate arrays'
     alignment made to differ from the first render's) a second render of the same scene, every tile of a many-tile
@@ -326,3 +376,19 @@ def test_repeated_renders_compile_nothing(variant, monkeypatch) -> None:
     other = render_scene(_ball_scene([0.1, 0.9, 0.3], [0.3, -0.2, -1]), cam, opts)
     assert other.kernels["compiled"] == 0 and other.kernels["disk"] == 0, other.kernels
     assert not np.array_equal(other.image, first.image)
+
+
+def test_real_scene_bit_identical_for_any_tile_size(variant, scenes_dir) -> None:
+    """Issue 18: scene10 (Embree-traced cube mesh, glass sphere, cube map) at 30x30 -jitter, a 90-sample-wide
+    buffer. With tiles of 1 or 5 rows starting anywhere (PACKET_ALIGN = 1) pixels changed by up to 2.8e-5;
+    aligned tiles give the one-launch image bit for bit."""
+    from a5mi.converters.a5_parser import parse_file
+
+    desc = driver.describe_if_needed(parse_file(str(scenes_dir / "scene10_sphere.txt")))
+    kw = dict(width=30, height=30, jitter=True, bounces=4, shadows=True)
+    whole = driver.render(desc, RenderOptions(**kw))
+    assert whole.tiles == 1
+    for rows in (1, 5):
+        tiled = driver.render(desc, RenderOptions(**kw, tile_rays=90 * rows))
+        assert tiled.tiles == 3  # 32-row tiles: 32 * 90 is the first multiple of 64 samples
+        np.testing.assert_array_equal(tiled.image, whole.image)

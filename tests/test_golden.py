@@ -59,7 +59,7 @@ def _check_golden(scene: str, name: str, options, tmp_path: Path) -> None:
 
 
 #: The extension's demo scenes (docs/EXTENSIONS.md), seeded: -shadows -bounces 4 -spp 4 -seed 1.
-EXT_SCENES = ("soft_shadows", "dof", "spot", "glossy")
+EXT_SCENES = ("soft_shadows", "dof", "spot", "glossy", "prism")
 
 
 @pytest.mark.parametrize("scene", EXT_SCENES)

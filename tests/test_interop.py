@@ -101,3 +101,73 @@ def test_convert_writes_render_flags_as_mitsuba_defaults(tmp_path: Path, scenes_
     scene = mi.load_file(str(xml), width=12, height=8, spp=9)  # the stratified sampler wants a square
     assert tuple(scene.sensors()[0].film().size()) == (12, 8)
     assert scene.sensors()[0].sampler().sample_count() == 9
+
+
+QUAD_OBJ = """v -1 -1 0
+v 1 -1 0
+v 1 1 0
+v -1 1 0
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+f 1/1 2/2 3/3
+f 1/1 3/3 4/4
+"""
+
+TEXTURED_SCENE = """PerspectiveCamera { center 0.3 0.2 4 direction -0.1 -0.05 -1 up 0 1 0 angle 45 }
+Lights { numLights 1 DirectionalLight { direction -0.3 -0.5 -1 color 0.9 0.9 0.9 } }
+Background { color 0 0 0 ambientLight 0.2 0.2 0.2 cubeMap maps/sky }
+Materials { numMaterials 2
+  PhongMaterial { diffuseColor 1 1 1 texture maps/wood/char.bmp }
+  PhongMaterial { diffuseColor 0.1 0.1 0.1 specularColor 0.8 0.8 0.8 }
+}
+Group { numObjects 2
+  MaterialIndex 0 TriangleMesh { obj_file meshes/quad.obj }
+  MaterialIndex 1 Sphere { center 0.9 0.6 0.5 radius 0.35 }
+}
+"""
+
+
+def test_converted_folder_can_be_moved(tmp_path: Path, scenes_dir: Path) -> None:
+    """Issue 18: textures, cube-map faces and meshes are written beside the XML and named relative to it, so
+    the folder renders the same after a move, with the scene's own files gone; the picture is the a5 render."""
+    import shutil
+    import xml.etree.ElementTree as ET
+
+    src = tmp_path / "in"
+    (src / "maps" / "wood").mkdir(parents=True)
+    (src / "meshes").mkdir()
+    shutil.copy(scenes_dir / "tex" / "char.bmp", src / "maps" / "wood" / "char.bmp")
+    shutil.copytree(scenes_dir / "tex" / "church", src / "maps" / "sky")
+    (src / "meshes" / "quad.obj").write_text(QUAD_OBJ)
+    (src / "s.txt").write_text(TEXTURED_SCENE)
+    flags = ["-size", "24", "24", "-shadows"]
+    assert run(["-input", str(src / "s.txt"), "-output", str(tmp_path / "a5.png"), *flags]) == 0
+    out = tmp_path / "out dir"
+    out.mkdir()
+    xml = out / "my scene.xml"
+    assert run_a5mi(["convert", str(src / "s.txt"), "-o", str(xml), *flags]) == 0
+    names = sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file())
+    assert names == ["my scene.xml", "my scene_images/cubemap/back.png", "my scene_images/cubemap/down.png",
+                     "my scene_images/cubemap/front.png", "my scene_images/cubemap/left.png",
+                     "my scene_images/cubemap/right.png", "my scene_images/cubemap/up.png",
+                     "my scene_images/texture_000_char.png", "my scene_meshes/mesh_000.ply"]
+    files = [e.get("value") for e in ET.parse(xml).getroot().iter("string") if e.get("name") == "filename"]
+    assert files and all(not Path(f).is_absolute() and str(tmp_path) not in f for f in files), files
+    assert run_a5mi(["render-xml", str(xml), "-o", str(tmp_path / "before.png")]) == 0
+    assert run_a5mi(["convert", str(src / "s.txt"), "-o", str(out / "stock.xml"), "--stock", *flags]) == 0
+    assert run_a5mi(["render-xml", str(out / "stock.xml"), "-o", str(tmp_path / "stock_before.png")]) == 0
+
+    moved = tmp_path / "elsewhere" / "moved here"
+    moved.parent.mkdir()
+    shutil.move(out, moved)
+    shutil.rmtree(src)  # nothing may still point at the scene's own files
+    assert run_a5mi(["render-xml", str(moved / "my scene.xml"), "-o", str(tmp_path / "after.png")]) == 0
+    after = read_levels(tmp_path / "after.png")
+    np.testing.assert_array_equal(after, read_levels(tmp_path / "before.png"))
+    np.testing.assert_array_equal(after, read_levels(tmp_path / "a5.png"))  # texture and sky really loaded
+    assert after.std() > 10
+    assert run_a5mi(["render-xml", str(moved / "stock.xml"), "-o", str(tmp_path / "stock_after.png")]) == 0
+    np.testing.assert_array_equal(read_levels(tmp_path / "stock_after.png"),
+                                  read_levels(tmp_path / "stock_before.png"))  # the stock bitmap and envmap too

@@ -223,8 +223,8 @@ def test_stock_mapping_uses_volpath_media(mi: Any, tmp_path: Path) -> None:
 
 
 def test_xml_carries_the_medium(mi: Any, tmp_path: Path) -> None:
-    """a5 XML: the integrator's ``medium_grid`` is a ``gridvolume`` on the .vol file; stock XML: the sensor's
-    ``heterogeneous`` medium and ``volpath``; both load in Mitsuba."""
+    """a5 XML: the integrator's ``medium_grid`` is a ``gridvolume`` on the grid written beside it;
+    stock XML: the sensor's ``heterogeneous`` medium and ``volpath``; both load in Mitsuba."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
     from a5mi.converters.to_xml import write_xml
@@ -236,7 +236,10 @@ def test_xml_carries_the_medium(mi: Any, tmp_path: Path) -> None:
     a5 = write_xml(desc, tmp_path / "a5.xml")
     stock = write_xml(desc, tmp_path / "stock.xml", stock=True)
     text = a5.read_text()
-    assert '<volume type="gridvolume" name="medium_grid">' in text and str(tmp_path / "g.vol") in text
+    assert '<volume type="gridvolume" name="medium_grid">' in text
+    assert '<string name="filename" value="a5_images/grid_g.vol" />' in text   # relative: the folder can move
+    np.testing.assert_array_equal(volgrid.read_vol(tmp_path / "a5_images" / "grid_g.vol"),
+                                  volgrid.read_vol(tmp_path / "g.vol"))
     assert '<string name="medium" value="volume" />' in text
     text = stock.read_text()
     assert '<integrator type="volpath"' in text and '<medium type="heterogeneous" name="medium">' in text

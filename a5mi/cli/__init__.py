@@ -29,6 +29,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "completion": ("a5mi.cli.completion:COMPLETION", "print a bash/zsh completion script"),
     "difftest": ("a5mi.cli.difftest:DIFFTEST", "random scenes rendered by a5mi and another a5 binary, compared"),
     "trace": ("a5mi.cli.trace:TRACE", "the ray tree of one pixel with every term, checked against the render"),
+    "animate": ("a5mi.cli.animate:ANIMATE", "render an Animation block's frames (here or on Dask) + a video"),
 }
 
 A5MI_USAGE = """\

@@ -4,6 +4,10 @@ The verdict is :func:`a5mi.grade.verdict.judge` on the share of pixels beyond th
 ``--noise SIGMA.npy`` (the per-pixel jitter standard deviation ``a5mi grade`` caches beside each reference)
 the band is ``4 sigma + 1`` levels, without it 1 level. Exit status: 0 match, 1 differ (close, wrong, wrong
 size), 2 user error (unreadable image, bad flag), so the command can gate a script or CI job.
+
+``--diff OUT.png`` writes :func:`a5mi.compare.montage`: A | B | heatmap of the largest channel error, full scale
+``--scale`` levels (default 16; ``auto``: :func:`a5mi.compare.auto_scale`, the 99.9th percentile of the error,
+at least 1), a colour bar labelled in /255 units and the metrics as a caption; ``--json`` then has ``diff_scale``.
 """
 
 from __future__ import annotations
@@ -12,12 +16,25 @@ import json
 import os
 
 from a5mi.cli.app import Command, Console
-from a5mi.cli.flags import Args, Flag, Positional, real, text
+from a5mi.cli.flags import Args, Flag, Positional, number, real, text
 from a5mi.errors import UsageError
+
+
+def _scale(flag: str, values: list[str]) -> float | str:
+    """``--scale``: ``auto`` or a positive number of levels (1/255 units)."""
+    if values[0] == "auto":
+        return "auto"
+    value = number(flag, values[0])
+    if value <= 0:
+        raise UsageError(f"{flag} expects a positive number of levels or 'auto', found '{values[0]}'")
+    return value
+
 
 FLAGS: tuple[Flag, ...] = (
     Flag(("--diff",), "diff", "also write A | B | heatmap of the largest channel error", 1, text,
          metavar="OUT.png"),
+    Flag(("--scale",), "scale", "--diff heatmap full scale in levels (red at N/255 and beyond), or auto: the "
+         "99.9th percentile of the error", 1, _scale, 16.0, "N|auto"),
     Flag(("--json",), "json", "print the metrics and the verdict as JSON", default=False, show_default=False),
     Flag(("--threshold",), "threshold", "levels (of 255) a pixel may be off before it counts", 1, real, 2.0, "L"),
     Flag(("--flip",), "flip", "also compute NVIDIA FLIP (mean, LDR)",
@@ -66,19 +83,26 @@ def run_compare(args: Args, console: Console) -> int:
     want_flip = bool(args.flip) or args.flip_map is not None
     graded, heat = verdict.measure(b_img, a_img, _noise(args.noise, a_img.shape), flip=want_flip)
     decided = verdict.judge(graded, verdict.Thresholds(args.match, args.close))
+    scale = None
     if args.diff is not None:
-        compare.write_diff(a_img, b_img, metrics, args.diff, (os.path.basename(a_path), os.path.basename(b_path)))
+        scale = compare.auto_scale(a_img, b_img) if args.scale == "auto" else float(args.scale)
+        compare.write_diff(a_img, b_img, metrics, args.diff, (os.path.basename(a_path), os.path.basename(b_path)),
+                           scale)
     if args.flip_map is not None and heat is not None:
         write_image(args.flip_map, heat / 255.0 + 0.5 / 255.0)
     if args.json:
         doc = json.loads(metrics.to_json())
         doc.update(verdict=decided, beyond_noise=graded.beyond_noise, flip=graded.flip)
+        if scale is not None:
+            doc["diff_scale"] = scale
         console.result(json.dumps(doc))
     else:
         console.result(f"{a_path} vs {b_path} ({metrics.width}x{metrics.height}): {metrics.summary()}")
         if metrics.bbox is not None:
             x0, y0, x1, y1 = metrics.bbox
             console.result(f"pixels over {metrics.threshold:g}/255 lie in x {x0}..{x1}, y {y0}..{y1} (row 0 = top)")
+        if scale is not None:
+            console.result(f"{args.diff}: A | B | |A-B| heatmap, full scale {scale:g}/255")
         flip = "" if graded.flip is None else f", FLIP {graded.flip:.4f}"
         console.result(f"verdict: {decided} ({100 * graded.beyond_noise:.2f}% of pixels beyond "
                        f"{'the noise band' if args.noise else f'{verdict.NOISE_FLOOR:g}/255'}{flip})")

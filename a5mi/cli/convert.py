@@ -1,4 +1,5 @@
-"""``a5mi convert SCENE.txt -o OUT.xml [--stock] [render flags]``: the scene as Mitsuba XML (+ PLY meshes).
+"""``a5mi convert SCENE.txt -o OUT.xml [--stock] [render flags]``: the scene as Mitsuba XML (+ PLY meshes, PNG
+textures and cube-map faces beside it, named relative to the XML: the folder can be moved).
 
 The XML is written from the same scene description the renderer uses (:func:`a5mi.cli.app.load_scene`) and
 the same :class:`~a5mi.options.RenderOptions` (film size, integrator parameters), by
@@ -20,8 +21,8 @@ from a5mi.errors import UsageError
 
 _SHARED = ("width", "bounces", "shadows", "phong", "fresnel", "reflection", "refraction", "bump")
 FLAGS: tuple[Flag, ...] = (
-    Flag(("-o", "--output", "-output"), "output", "the XML file to write (meshes go to OUT_meshes/ beside it)", 1,
-         text, metavar="OUT.xml"),
+    Flag(("-o", "--output", "-output"), "output", "the XML file to write (meshes go to OUT_meshes/, images to "
+         "OUT_images/ beside it)", 1, text, metavar="OUT.xml"),
     Flag(("--stock",), "stock", "stock Mitsuba plugins only (path integrator; approximations are warned)",
          default=False, show_default=False),
     Flag(("--spp",), "spp", "the sampler's samples per pixel, the XML default $spp (mitsuba -Dspp=N overrides it)",
@@ -30,10 +31,11 @@ FLAGS: tuple[Flag, ...] = (
 )
 
 
-def check_convert_outputs(xml: str) -> tuple[str, str, str]:
+def check_convert_outputs(xml: str) -> tuple[str, str, str, str]:
     """Before the scene is read: the XML's folder exists and is writable, the XML is not a folder or special
-    file, ``{stem}_meshes`` is not a file and ``{stem}_envmap.exr`` not a folder (a symlink there is replaced,
-    never followed). Returns the paths of the XML, the meshes folder and the envmap."""
+    file, ``{stem}_meshes`` and ``{stem}_images`` are not files and ``{stem}_envmap.exr`` not a folder (a symlink
+    there is replaced, never followed). Returns the paths of the XML, the meshes folder, the envmap and the
+    images folder."""
     from a5mi.imageio import file_kind
 
     if not xml.endswith(".xml"):
@@ -46,18 +48,20 @@ def check_convert_outputs(xml: str) -> tuple[str, str, str]:
         raise UsageError(f"{xml}: output folder '{folder}' is not writable")
     stem = os.path.splitext(os.path.basename(xml))[0]
     meshes, envmap = os.path.join(folder, f"{stem}_meshes"), os.path.join(folder, f"{stem}_envmap.exr")
-    for path, want in ((xml, "regular file"), (meshes, "folder"), (envmap, "regular file")):
+    images = os.path.join(folder, f"{stem}_images")
+    for path, want in ((xml, "regular file"), (meshes, "folder"), (envmap, "regular file"), (images, "folder")):
         if os.path.exists(path) and not os.path.islink(path) and file_kind(path) != want:
             raise UsageError(f"{path}: exists and is a {file_kind(path)}, not a {want}: remove or rename it")
-    return xml, meshes, envmap
+    return xml, meshes, envmap, images
 
 
 def run_convert(args: Args, console: Console) -> int:
-    xml, meshes, envmap = check_convert_outputs(args.output)
+    xml, meshes, envmap, images = check_convert_outputs(args.output)
     inputs: list[Any] = []
     desc = load_scene(args.scene, console, stock=bool(args.stock), inputs=inputs, bump=bool(args.get("bump")))
     clobber.check_outputs([("-o", xml), ("the envmap", envmap)], inputs)
     clobber.check_folder_holds_no_input("the meshes folder", meshes, inputs)
+    clobber.check_folder_holds_no_input("the images folder", images, inputs)
     activate_variant(None)  # the XML writer builds meshes (PLY) through Mitsuba
     from a5mi.converters.to_xml import write_xml
 
@@ -65,5 +69,6 @@ def run_convert(args: Args, console: Console) -> int:
     return 0
 
 
-CONVERT = Command("convert", "Write a scene as Mitsuba 3 XML, meshes as PLY beside it.", FLAGS, run_convert,
+CONVERT = Command("convert", "Write a scene as Mitsuba 3 XML, meshes (PLY) and images (PNG) beside it, by "
+                  "relative path (the folder can be moved).", FLAGS, run_convert,
                   (Positional("scene", "SCENE.txt", "the scene file"),), required=("output",))

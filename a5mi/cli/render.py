@@ -151,7 +151,8 @@ def run_render(args: Args, console: Console) -> int:
     # second, untimed pass afterwards.
     options = render_options(args, count_rays=False)
     interactive = console.err.isatty()  # never a \r bar in a log file
-    result = driver.render(desc, options, progress=console.progress(enabled=interactive))
+    with console.progress(enabled=interactive) as bar:  # progress steps cost a trace each: only when shown
+        result = driver.render(desc, options, progress=bar if interactive else None)
     timings.update(result.timings)
     if args.verbose:
         counting = dataclasses.replace(options, count_rays=True, normals=False, depth=None, filter=False)
