@@ -490,12 +490,12 @@ def build_scene(desc: Any, options: RenderOptions) -> Any:
         return mi.load_dict(scene_dict)
 
 
-def describe_if_needed(desc_or_model: Any) -> Any:
+def describe_if_needed(desc_or_model: Any, *, bump: bool = False) -> Any:
     """A scene description: ``desc_or_model`` itself, or :func:`~a5mi.converters.describe.describe` of a parsed
-    scene (``a5mi.converters.a5_parser.parse_file``)."""
+    scene (``a5mi.converters.a5_parser.parse_file``; ``bump``: with its bump and normal maps, EXTENSIONS E.7)."""
     from a5mi.converters.describe import SceneDescription, describe
 
-    return desc_or_model if isinstance(desc_or_model, SceneDescription) else describe(desc_or_model)
+    return desc_or_model if isinstance(desc_or_model, SceneDescription) else describe(desc_or_model, bump=bump)
 
 
 def render(desc_or_model: Any, options: RenderOptions, *, progress: Progress | None = None) -> RenderResult:
@@ -504,7 +504,7 @@ def render(desc_or_model: Any, options: RenderOptions, *, progress: Progress | N
     Needs an active JIT variant with the a5mi plugins registered (:func:`a5mi.variant.activate`).
     """
     t0 = time.perf_counter()
-    desc = describe_if_needed(desc_or_model)
+    desc = describe_if_needed(desc_or_model, bump=options.bump)
     mi_scene = build_scene(desc, options)
     t_build = time.perf_counter() - t0
     result = render_scene(mi_scene, desc.camera, options, progress=progress)

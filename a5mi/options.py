@@ -66,6 +66,8 @@ class RenderOptions:
     aov_mode: str = "main"
     #: docs/EXTENSIONS.md E.5: passes per render-buffer pixel over the stochastic dimensions (lights, lens, gloss)
     spp: int = 1
+    #: docs/EXTENSIONS.md E.7: bump / normal maps perturb the shading normal (off: the course's ``bump`` is ignored)
+    bump: bool = False
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -96,6 +98,9 @@ class RenderOptions:
     def integrator_params(self) -> dict[str, Any]:
         """The ``a5_whitted`` parameters these options set (ARCHITECTURE.md, plugin contract); the scene
         adds ``ambient``. ``aovs`` is a comma-separated list of :data:`AOV_GROUPS` (empty: colour only)."""
-        return {"max_depth": int(self.bounces), "shadows": bool(self.shadows), "phong": bool(self.phong),
-                "fresnel": str(self.fresnel), "reflection": bool(self.reflection),
-                "refraction": bool(self.refraction), "aovs": ",".join(self.aov_groups)}
+        params = {"max_depth": int(self.bounces), "shadows": bool(self.shadows), "phong": bool(self.phong),
+                  "fresnel": str(self.fresnel), "reflection": bool(self.reflection),
+                  "refraction": bool(self.refraction), "aovs": ",".join(self.aov_groups)}
+        if self.bump:  # docs/EXTENSIONS.md E.7; absent otherwise, so course dicts and XML are unchanged
+            params["bump"] = True
+        return params

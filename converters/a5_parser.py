@@ -374,9 +374,13 @@ def parse_material(ts: TokenStream, start: Token) -> Material:
         elif tok.text == "texture":
             name = ts.name(tok.text)
             values["texture"], values["texture_loc"] = name.text, name.loc
-        elif tok.text == "bump":
-            values["bump"] = ts.name(tok.text).text
+        elif tok.text == "bump":  # a5soln ignores it; docs/EXTENSIONS.md E.7 with -bump
+            name = ts.name(tok.text)
+            values["bump"], values["bump_loc"] = name.text, name.loc
         elif tok.text == "Noise":
+            if "solid" in values:  # docs/EXTENSIONS.md E.6: one procedural colour source
+                raise ts.semantic_error("a Material takes one of Noise, Wood, Turbulence, Veins; found 'Noise' "
+                                        "after another", tok.loc)
             values["noise"] = parse_noise(ts, tok)
         elif tok.text in ext_parser.MATERIAL_KEYWORDS:
             ext_parser.parse_material_keyword(ts, tok, values)

@@ -11,8 +11,11 @@ Materials (A.5, B.3): the Lambert colour ``kd`` is the ``Noise`` (marble, B.4), 
 shapes with uv, else the diffuse colour: SPEC B.3's "texture(uv) only if the hit has uv". A textured
 material's image is read (and a missing or unreadable one is an error at its ``texture`` keyword) whenever a
 shape uses the material; on a shape without uv it cannot show, which is a warning at the shape. ``bump`` is parsed
-and ignored. The ambient term is ``Background.ambientLight``, (1,1,1) without lights (A.1). A ``Volume``'s
-``.vol`` grid (docs/EXTENSIONS.md E.9) is read here once (:mod:`.volgrid`); a ``Fog`` passes as it is (E.8).
+and ignored unless ``describe(bump=True)`` (``-bump``, docs/EXTENSIONS.md E.7): then the ``bump`` height field and the
+``normalMap`` of materials used on shapes with uv are read too. A procedural solid (``Wood``, ``Turbulence``,
+``Veins``, E.6) is kd like the ``Noise``. The ambient term is ``Background.ambientLight``, (1,1,1) without lights
+(A.1). A ``Volume``'s ``.vol`` grid (docs/EXTENSIONS.md E.9) is read here once (:mod:`.volgrid`); a ``Fog`` passes
+as it is (E.8).
 """
 
 from __future__ import annotations
@@ -38,7 +41,7 @@ from .geometry import (
     plane_rectangle_to_world,
     world_plane,
 )
-from .model import Camera, Fog, Light, Noise, Plane, Scene, Sphere, Triangle, TriangleMesh, Vec3, Volume
+from .model import Camera, Fog, Light, Noise, Plane, Scene, Solid, Sphere, Triangle, TriangleMesh, Vec3, Volume
 from .obj import NormalMode, ObjMesh
 
 SceneWarning = tuple[FileLoc, str]
@@ -75,17 +78,27 @@ class MaterialDescription:
     specular_color: Vec3
     shininess: float
     refraction_index: float
-    kd: Noise | Image | None
+    kd: Noise | Solid | Image | None
     loc: FileLoc | None = None
     #: docs/EXTENSIONS.md E.4: GGX alpha (0 = mirror) and glossy children per camera hit
     roughness: float = 0.0
     glossy_samples: int = 1
     #: docs/EXTENSIONS.md E.10: Cauchy's B (µm²) of a dispersive material (``refraction_index`` is A), else None
     dispersion: float | None = None
+    #: docs/EXTENSIONS.md E.7 (``describe(bump=True)`` only; used on shapes with uv): the height field, the
+    #: height of grey 1 in world units, and the tangent-space normal map
+    bump: Image | None = None
+    bump_scale: float = 1.0
+    normal_map: Image | None = None
 
-    def kd_on(self, with_uv: bool) -> Noise | Image | None:
+    def kd_on(self, with_uv: bool) -> Noise | Solid | Image | None:
         """The kd source on a shape with (``with_uv``) or without texture coordinates."""
         return None if isinstance(self.kd, Image) and not with_uv else self.kd
+
+    @property
+    def has_maps(self) -> bool:
+        """A bump height field or a normal map (E.7): looked up on shapes with uv only, like a texture."""
+        return self.bump is not None or self.normal_map is not None
 
 
 @dataclass(frozen=True, eq=False)
@@ -196,7 +209,8 @@ class SceneDescription:
     medium: MediumDescription | None = None
 
 
-def describe(scene: Scene, *, stock: bool = False, normals: NormalMode = "auto") -> SceneDescription:
+def describe(scene: Scene, *, stock: bool = False, normals: NormalMode = "auto", bump: bool = False
+             ) -> SceneDescription:
     """The :class:`SceneDescription` of ``scene``: every file read once, geometry in world space.
 
     Raises :class:`SceneSemanticError` for missing or unreadable meshes, textures or cube-map faces, at the
@@ -205,10 +219,10 @@ def describe(scene: Scene, *, stock: bool = False, normals: NormalMode = "auto")
     conversion's approximations (:mod:`.to_mitsuba`). ``normals``: :func:`.obj.vertex_normals`' rule. numpy's
     floating-point warnings are silenced here: such overflows are checked and reported as errors instead."""
     with np.errstate(all="ignore"):
-        return _describe(scene, stock=stock, normals=normals)
+        return _describe(scene, stock=stock, normals=normals, bump=bump)
 
 
-def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescription:
+def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = False) -> SceneDescription:
     warnings: list[SceneWarning] = []
     if stock and any(scene.ambient):
         warnings.append((scene.background.loc or scene.camera.loc,  # type: ignore[arg-type]
@@ -241,6 +255,7 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
     # Materials on first use, in shape order (so errors and warnings come in the order of the objects).
     used: set[int] = set()
     textures: dict[int, Image] = {}
+    maps: dict[tuple[int, str], Image] = {}  # E.7: (material, 'bump' | 'normal_map') -> image, with -bump
 
     def use_material(index: int, with_uv: bool, shape: object) -> None:
         mat = scene.materials[index]
@@ -254,11 +269,16 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
                 warnings.append((mat.loc,  # type: ignore[arg-type]
                                  "stock conversion: dispersion replaced by the index at the centre wavelength, "
                                  f"n({CENTRE_WAVELENGTH_NM:g} nm) = {n_c:.6g}"))
+        for which in ("bump", "normal_map") if bump and with_uv else ():
+            if getattr(mat, which) is not None and (index, which) not in maps:
+                maps[(index, which)], warning = files.map_image(scene, mat, which, decoded)
+                if warning is not None:
+                    warnings.append((mat.bump_loc or mat.loc, warning))  # type: ignore[arg-type]
         if mat.texture is None:
             return
         # A referenced file is checked wherever it is used, shown or not (issue 12).
         image = files.texture_image(scene, mat, decoded)
-        if mat.noise is None:
+        if mat.noise is None and mat.solid is None:
             textures.setdefault(index, image)
             if not with_uv:
                 warnings.append((shape.loc, f"texture '{mat.texture}' cannot show on this "  # type: ignore[attr-defined]
@@ -300,9 +320,13 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode) -> SceneDescrip
 
     materials = tuple(
         MaterialDescription(mat.diffuse_color, mat.specular_color, float(mat.shininess),
-                            float(mat.refraction_index), mat.noise if mat.noise is not None else textures.get(i),
+                            float(mat.refraction_index),
+                            mat.noise if mat.noise is not None else mat.solid if mat.solid is not None
+                            else textures.get(i),
                             mat.loc, float(mat.roughness), int(mat.glossy_samples),
-                            None if mat.dispersion is None else float(mat.dispersion))
+                            None if mat.dispersion is None else float(mat.dispersion),
+                            bump=maps.get((i, "bump")), bump_scale=float(mat.bump_scale),
+                            normal_map=maps.get((i, "normal_map")))
         for i, mat in enumerate(scene.materials))
     medium = describe_volume(scene, scene.medium) if isinstance(scene.medium, Volume) else scene.medium
     return SceneDescription(scene.path, scene.camera, scene.ambient, background, materials, tuple(shapes),

@@ -1,11 +1,12 @@
-"""Parser rules of the distribution-ray-tracing extension (docs/EXTENSIONS.md E.1-E.4).
+"""Parser rules of the scene-language extensions (docs/EXTENSIONS.md E.1-E.4, E.6, E.7).
 
 New blocks and keywords, read from the same :class:`~.a5_parser.TokenStream` with the same positioned errors
 as the course grammar (SPEC A): ``SpotLight``, ``AreaLight``, ``SphereLight`` inside ``Lights``; ``aperture`` /
 ``focusDistance`` at the end of ``PerspectiveCamera``; ``roughness`` / ``glossySamples`` in ``Material``;
 ``refractionIndex dispersion A B`` (E.10); the top-level ``Fog`` and ``Volume`` blocks (E.8, E.9; at most one
 medium per scene). A course scene contains none of them, so it parses to the same model as before (every new
-field has the default that means "as SPEC B").
+field has the default that means "as SPEC B").. Part 2: ``Wood`` / ``Turbulence`` / ``Veins`` blocks (E.6) and
+``bumpScale`` / ``normalMap`` (E.7) in ``Material``.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from typing import TYPE_CHECKING, Final
 
 from a5mi.spec import DISPERSION_RANGE_NM
 
-from .model import AreaLight, Fog, SphereLight, SpotLight, Vec3, Volume
+from .model import AreaLight, Fog, Solid, SphereLight, SpotLight, Vec3, Volume
 
 if TYPE_CHECKING:
     from .a5_parser import TokenStream
@@ -24,7 +25,14 @@ if TYPE_CHECKING:
 MAX_LIGHT_SAMPLES: Final = 4096
 MAX_GLOSSY_SAMPLES: Final = 64
 #: The keywords this module adds to ``Material`` (for the parser's error message).
-MATERIAL_KEYWORDS: Final = ("roughness", "glossySamples")
+MATERIAL_KEYWORDS: Final = ("roughness", "glossySamples", "Wood", "Turbulence", "Veins", "bumpScale", "normalMap")
+#: The procedural solid blocks (E.6) -> the ``a5_solid`` kind, and the keywords each takes besides ``color``.
+SOLIDS: Final = {"Wood": "wood", "Turbulence": "turbulence", "Veins": "veins"}
+SOLID_KEYWORDS: Final = {
+    "Wood": ("octaves", "frequency", "amplitude", "scale", "axis", "center"),
+    "Turbulence": ("octaves", "amplitude", "scale"),
+    "Veins": ("octaves", "frequency", "amplitude", "scale", "axis"),
+}
 
 #: Upper bound of a medium's ``steps`` (EXTENSIONS E.8, E.9): a kernel loop bound.
 MAX_MEDIUM_STEPS: Final = 1024
@@ -150,9 +158,65 @@ def parse_camera_lens(ts: TokenStream) -> tuple[float, float]:
             focus = value
 
 
+def parse_solid(ts: TokenStream, start: Token) -> Solid:
+    """``Wood { color V3 color V3 [octaves I] [frequency F] [amplitude F] [scale F] [axis V3] [center V3] }``,
+    ``Turbulence { color V3 color V3 [octaves I] [amplitude F] [scale F] }``, ``Veins { color V3 color V3
+    [octaves I] [frequency F] [amplitude F] [scale F] [axis V3] }`` (E.6): any order, each keyword at most once,
+    exactly two colours; ``0 <= octaves <= 31``, ``scale > 0``, ``axis`` not zero."""
+    block = start.text
+    keys = SOLID_KEYWORDS[block]
+    ts.expect("{", f"after '{block}'")
+    colors: list[Vec3] = []
+    v: dict[str, object] = {}
+    while True:
+        tok = ts.next()
+        if tok is not None and tok.text == "}":
+            break
+        if tok is None or (tok.text != "color" and tok.text not in keys):
+            found = "end of file" if tok is None else f"'{tok.text}'"
+            raise ts.syntax_error(f"expected color, {', '.join(keys)} or '}}' in {block}, found {found}", tok)
+        if tok.text == "color":
+            if len(colors) == 2:
+                raise ts.syntax_error(f"{block} takes two colors, found a third 'color'", tok)
+            colors.append(ts.vec3("color"))
+            continue
+        if tok.text in v:
+            raise ts.syntax_error(f"{block} gives '{tok.text}' twice", tok)
+        if tok.text == "octaves":
+            n, n_tok = ts.integer("octaves")
+            if not 0 <= n <= 31:
+                raise ts.semantic_error(f"{block} octaves must be between 0 and 31, found {n}", n_tok.loc)
+            v["octaves"] = n
+        elif tok.text in ("axis", "center"):
+            vec = ts.vec3(tok.text)
+            if tok.text == "axis" and not _nonzero(vec):
+                raise ts.semantic_error(f"{block} axis must not be the zero vector", tok.loc)
+            v[tok.text] = vec
+        else:
+            x = ts.number(tok.text)
+            if tok.text == "scale" and x <= 0.0:
+                raise ts.semantic_error(f"{block} scale must be positive, found {x:g}", tok.loc)
+            v[tok.text] = x
+    if len(colors) < 2:
+        raise ts.semantic_error(f"{block} needs two colors, found {len(colors)}", start.loc)
+    return Solid(SOLIDS[block], colors[0], colors[1], loc=start.loc, **v)  # type: ignore[arg-type]
+
+
 def parse_material_keyword(ts: TokenStream, tok: Token, values: dict[str, object]) -> None:
-    """``roughness F`` (GGX alpha, 0 <= alpha <= 1) or ``glossySamples I`` (1..64) inside ``Material`` (E.4)."""
-    if tok.text == "roughness":
+    """Inside ``Material``: ``roughness F`` (GGX alpha, 0 <= alpha <= 1) or ``glossySamples I`` (1..64) (E.4);
+    a ``Wood`` / ``Turbulence`` / ``Veins`` block (E.6; one colour source: not with ``Noise`` or another solid);
+    ``bumpScale F`` (finite, E.7) or ``normalMap NAME`` (E.7)."""
+    if tok.text in SOLIDS:
+        if "noise" in values or "solid" in values:
+            raise ts.semantic_error(f"a Material takes one of Noise, {', '.join(SOLIDS)}; found '{tok.text}' "
+                                    "after another", tok.loc)
+        values["solid"] = parse_solid(ts, tok)
+    elif tok.text == "bumpScale":
+        values["bump_scale"] = ts.number(tok.text)
+    elif tok.text == "normalMap":
+        name = ts.name(tok.text)
+        values["normal_map"], values["normal_map_loc"] = name.text, name.loc
+    elif tok.text == "roughness":
         alpha = ts.number(tok.text)
         if not 0.0 <= alpha <= 1.0:
             raise ts.semantic_error(f"roughness must be between 0 and 1, found {alpha:g}", tok.loc)

@@ -82,6 +82,34 @@ def texture_image(scene: Scene, mat: Material, decoded: Decoded | None = None) -
     return read_image(resolve_path(mat.texture, scene.base_dir, loc, "texture"), loc, "texture", decoded)
 
 
+def map_image(scene: Scene, mat: Material, which: str, decoded: Decoded | None = None
+              ) -> tuple[Image, str | None]:
+    """The material's ``bump`` or ``normalMap`` file (docs/EXTENSIONS.md E.7; ``which`` = ``bump`` |
+    ``normal_map``), resolved and decoded, and a warning or None. A ``bump`` that is not found falls back to
+    ``STEM-bump.EXT`` beside the material's ``texture`` (the layout the course's sibenik scene ships: its
+    ``bump bump/kamen.bmp`` names a folder it does not have, the height field is ``tex/kamen-bump.bmp``), with
+    a warning; otherwise the error of :func:`~.model.resolve_path` at the keyword's file name."""
+    name = getattr(mat, which)
+    loc = getattr(mat, f"{which}_loc") or mat.loc
+    assert name is not None and loc is not None
+    what = "bump" if which == "bump" else "normalMap"
+    try:
+        path = resolve_path(name, scene.base_dir, loc, what)
+        warning = None
+    except SceneSemanticError:
+        if which != "bump" or mat.texture is None:
+            raise
+        tex, stem = Path(mat.texture), Path(name)
+        sibling = str(tex.parent / f"{stem.stem}-bump{stem.suffix}")
+        try:
+            path = resolve_path(sibling, scene.base_dir, loc, what)
+        except SceneSemanticError:
+            raise SceneSemanticError(f"bump file '{name}' not found (nor '{sibling}' beside the texture)",
+                                     loc) from None
+        warning = f"bump file '{name}' not found; using '{sibling}' beside the texture"
+    return read_image(path, loc, what, decoded), warning
+
+
 def cube_map_folder(scene: Scene, warnings: list[tuple[FileLoc, str]]) -> Path:
     """The ``cubeMap`` folder (SPEC A.4; scene folder first, then cwd). A small regular file whose content is a
     relative path to an existing folder (a git symlink checked out as text, like extras/sibenik/tex/church) is

@@ -18,9 +18,16 @@ Stock (:func:`stock_bsdf`, for use outside a5mi; none is needed for a5 renders):
   (energy conservation); both colours survive (a coloured diffuse under a white mirror keeps its hue).
   ``d = 0`` (clear glass, black mirrors) gives the mirror/dielectric alone. A texture (``d`` = its largest
   texel) is kept unscaled, so its diffuse part is ``kd·d/(d + m)`` instead;
-* textures: stock ``bitmap`` with ``raw=True``, ``filter_type='bilinear'``, ``wrap_mode='clamp'``: it has
-  Mitsuba's half-texel offset, unlike A.4; Noise (3D marble): the mean colour ``(color1 + color2)/2`` (the
-  mean of ``t`` over a period of the sine; :func:`.describe.describe` warns with ``stock=True``).
+* textures: stock ``bitmap`` with ``raw=True``, ``filter_type='bilinear'``, ``wrap_mode='clamp'`` and ``to_uv`` =
+  ``(u, v) -> (u, 1 − v)`` (:data:`FLIP_V`: Mitsuba's bitmap puts v = 0 on the top row, A.4 on the bottom one, and
+  Mitsuba's own OBJ loader flips v to compensate, which these meshes built from the OBJ's numbers do not): it
+  has Mitsuba's half-texel offset, unlike A.4; Noise (3D marble): the mean colour ``(color1 + color2)/2`` (the
+  mean of ``t`` over a period of the sine; :func:`.describe.describe` warns with ``stock=True``);
+  procedural solids (docs/EXTENSIONS.md E.6): the same ``a5_solid`` texture as the reflectance of the stock
+  BSDF (so the a5mi plugins must be registered to load it), unscaled like a bitmap texture;
+* bump and normal maps (E.7, with ``-bump``, on shapes with uv): the BSDF wrapped in stock ``bumpmap``
+  (``scale = bumpScale``, the height field as a grey ``bitmap``, ``raw``) / ``normalmap`` (the map as a raw
+  ``bitmap``); both use Mitsuba's bilinear lookup with its half-texel offset and ``2c − 1`` decoding.
 
 Images enter the dicts through an ``image`` callback (:data:`ImageParams`): the XML names the file
 (:func:`file_params`), ``to_dict`` hands the decoded pixels over as an ``mi.Bitmap``.
@@ -38,10 +45,19 @@ from a5mi.spec import MIRROR_THRESHOLD
 from .describe import MaterialDescription
 from .ext_mitsuba import centre_index, rough
 from .files import Image
-from .model import Noise
+from .model import Noise, Solid
 
 #: ``(image) -> the image parameters of a bitmap texture`` (``{'filename': ...}`` or ``{'bitmap': ...}``).
 ImageParams = Callable[[Image], dict[str, Any]]
+
+#: The stock ``bitmap``'s ``to_uv``: ``(u, v) -> (u, 1 − v)``, A.4's rows from the bottom (module docstring).
+FLIP_V = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+
+
+def stock_bitmap(image: Image, params: ImageParams) -> dict[str, Any]:
+    """The stock ``bitmap`` texture of an A.4 image (module docstring: raw, bilinear, clamp, v flipped)."""
+    return {"type": "bitmap", **params(image), "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp",
+            "to_uv": FLIP_V.copy()}
 
 
 def rgb(c: Any) -> dict[str, Any]:
@@ -65,8 +81,42 @@ def file_params(image: Image) -> dict[str, Any]:
 
 
 def without_texture(mat: MaterialDescription, with_uv: bool) -> bool:
-    """True for the second, untextured BSDF of a textured material on a shape without uv (SPEC B.3)."""
-    return isinstance(mat.kd, Image) and not with_uv
+    """True for the second, untextured BSDF of a textured material on a shape without uv (SPEC B.3); bump and
+    normal maps (docs/EXTENSIONS.md E.7) are textures in this sense."""
+    return (isinstance(mat.kd, Image) or mat.has_maps) and not with_uv
+
+
+def solid_texture(solid: Solid) -> dict[str, Any]:
+    """The ``a5_solid`` texture of a ``Wood`` / ``Turbulence`` / ``Veins`` block (docs/EXTENSIONS.md E.6)."""
+    return {"type": "a5_solid", "kind": solid.kind, "color1": rgb(solid.color1), "color2": rgb(solid.color2),
+            "octaves": int(solid.octaves), "frequency": float(solid.frequency), "amplitude": float(solid.amplitude),
+            "scale": float(solid.scale), "axis": [float(x) for x in solid.axis],
+            "center": [float(x) for x in solid.center]}
+
+
+def map_params(mat: MaterialDescription, with_uv: bool, image: ImageParams) -> dict[str, Any]:
+    """``a5_material``'s ``bump`` (+ ``bump_scale``) and ``normal_map`` textures (E.7), on shapes with uv."""
+    if not with_uv:
+        return {}
+    d: dict[str, Any] = {}
+    if mat.bump is not None:
+        d["bump"] = {"type": "a5_bitmap", **image(mat.bump)}
+        d["bump_scale"] = float(mat.bump_scale)
+    if mat.normal_map is not None:
+        d["normal_map"] = {"type": "a5_bitmap", **image(mat.normal_map)}
+    return d
+
+
+def stock_maps(mat: MaterialDescription, with_uv: bool, bsdf: dict[str, Any], image: ImageParams) -> dict[str, Any]:
+    """``bsdf`` wrapped in the stock ``normalmap`` and then ``bumpmap`` adapters of the module docstring."""
+    if not with_uv:
+        return bsdf
+    if mat.normal_map is not None:
+        bsdf = {"type": "normalmap", "normalmap": stock_bitmap(mat.normal_map, image), "bsdf": bsdf}
+    if mat.bump is not None:
+        bsdf = {"type": "bumpmap", "scale": float(mat.bump_scale), "bsdf": bsdf,
+                "height": stock_bitmap(mat.bump, image)}
+    return bsdf
 
 
 def a5_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_params) -> dict[str, Any]:
@@ -87,20 +137,31 @@ def a5_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_p
     if isinstance(kd, Noise):
         d["kd"] = {"type": "a5_marble", "color1": rgb(kd.color1), "color2": rgb(kd.color2),
                    "octaves": int(kd.octaves), "frequency": float(kd.frequency), "amplitude": float(kd.amplitude)}
+    elif isinstance(kd, Solid):  # docs/EXTENSIONS.md E.6
+        d["kd"] = solid_texture(kd)
     elif isinstance(kd, Image):
         d["kd"] = {"type": "a5_bitmap", **image(kd)}
+    d.update(map_params(mat, with_uv, image))  # E.7 (-bump)
     return d
 
 
 def stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_params) -> dict[str, Any]:
-    """Stock approximation (module docstring): diffuse, blended with a mirror or a dielectric."""
+    """Stock approximation (module docstring): diffuse, blended with a mirror or a dielectric; bump / normal
+    maps as the stock adapters around it."""
+    return stock_maps(mat, with_uv, _stock_bsdf(mat, with_uv, image), image)
+
+
+def _stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams) -> dict[str, Any]:
     kd_src = mat.kd_on(with_uv)
     texture: dict[str, Any] | None = None
     if isinstance(kd_src, Noise):
         kd = (np.asarray(kd_src.color1, dtype=np.float64) + np.asarray(kd_src.color2, dtype=np.float64)) / 2
+    elif isinstance(kd_src, Solid):  # E.6: the a5 texture itself, unscaled
+        kd = np.ones(3)
+        texture = solid_texture(kd_src)
     elif isinstance(kd_src, Image):
         kd = np.ones(3)
-        texture = {"type": "bitmap", **image(kd_src), "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp"}
+        texture = stock_bitmap(kd_src, image)
     else:
         kd = np.asarray(mat.diffuse_color, dtype=np.float64)
     spec = np.asarray(mat.specular_color, dtype=np.float64)
@@ -125,13 +186,15 @@ def stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = fil
     return {"type": "blendbsdf", "weight": w, "bsdf_0": diffuse, "bsdf_1": other}
 
 
-def _max_diffuse(kd_src: Noise | Image | None, mat: MaterialDescription) -> float:
+def _max_diffuse(kd_src: Noise | Solid | Image | None, mat: MaterialDescription) -> float:
     """``d = max kd``: the largest channel of the diffuse colour, of the texture's pixels (/255) or of the
     marble's mean colour."""
     if isinstance(kd_src, Image):
         return float(kd_src.pixels[..., :3].max()) / 255.0
     if isinstance(kd_src, Noise):
         return float(max(0.0, ((np.asarray(kd_src.color1) + np.asarray(kd_src.color2)) / 2).max()))
+    if isinstance(kd_src, Solid):  # the largest channel either colour reaches
+        return float(max(0.0, *kd_src.color1, *kd_src.color2))
     return float(max(0.0, max(mat.diffuse_color)))
 
 

@@ -165,6 +165,27 @@ class Noise:
     loc: FileLoc | None = None
 
 
+#: docs/EXTENSIONS.md E.7: default ``bumpScale``, the height (world units) of grey 1 in a bump height field
+BUMP_SCALE = 0.2
+
+
+@dataclass(frozen=True)
+class Solid:
+    """``Wood`` / ``Turbulence`` / ``Veins { color V3 color V3 ... }`` (docs/EXTENSIONS.md E.6): a procedural solid
+    texture on the marble's noise; ``kind`` is ``wood``, ``turbulence`` or ``veins``."""
+
+    kind: str
+    color1: Vec3
+    color2: Vec3
+    octaves: int = 4
+    frequency: float = 1.0
+    amplitude: float = 1.0
+    scale: float = 1.0
+    axis: Vec3 = (0.0, 1.0, 0.0)
+    center: Vec3 = (0.0, 0.0, 0.0)
+    loc: FileLoc | None = None
+
+
 @dataclass(frozen=True)
 class Material:
     """``Material`` / ``PhongMaterial`` (SPEC A.5). ``shininess`` is parsed but unused by a5soln (SPEC B.3)."""
@@ -184,6 +205,14 @@ class Material:
     #: dispersion (docs/EXTENSIONS.md E.10): Cauchy's B in µm² of ``refractionIndex dispersion A B`` (then
     #: ``refraction_index`` is A); None when the index is a plain number
     dispersion: float | None = None
+    #: docs/EXTENSIONS.md E.6: a procedural solid (Wood, Turbulence, Veins) as kd, in place of Noise
+    solid: Solid | None = None
+    #: docs/EXTENSIONS.md E.7 (used with -bump only): where ``bump`` was given, the height of grey 1 in world
+    #: units (``bumpScale``), and the tangent-space ``normalMap``
+    bump_loc: FileLoc | None = None
+    bump_scale: float = BUMP_SCALE
+    normal_map: str | None = None
+    normal_map_loc: FileLoc | None = None
 
 
 # ------------------------------------------------------------------------------------------------------ objects

@@ -296,7 +296,7 @@ class _DictBackend(Backend):
         key = (material, materials.without_texture(mat, with_uv))
         if key not in self.bsdfs:
             d = materials.bsdf(mat, with_uv, stock=self.stock, image=lambda img: {"bitmap": self.image(img)})
-            self.bsdfs[key] = mi.load_dict(d)
+            self.bsdfs[key] = mi.load_dict(_transforms(d))  # the stock bitmaps' to_uv (materials.FLIP_V)
         return self.bsdfs[key]
 
     def mesh(self, key: str, shape: MeshShape, bsdf: Any) -> Any:

@@ -14,6 +14,7 @@ import importlib
 PLUGIN_MODULES: tuple[str, ...] = (
     "marble",           # a5_marble texture (noise functions in perlin.py)
     "bitmap",           # a5_bitmap texture
+    "solids",           # a5_solid textures: wood, turbulence, veins (docs/EXTENSIONS.md E.6)
     "point_light",      # a5_point emitter
     "spot_light",       # a5_spot emitter (docs/EXTENSIONS.md E.1)
     "area_light",       # a5_area emitter (docs/EXTENSIONS.md E.2)

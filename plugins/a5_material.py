@@ -10,7 +10,9 @@ values. This plugin therefore has two faces:
    * ``eval_diffuse_reflectance(si)``: ``kd``, the Lambert colour (marble, bitmap texture, or diffuseColor);
    * ``eval_attribute_3("specular_color", si)``: mirror / Fresnel weight;
    * ``eval_attribute_1("refraction_index", si)``: 0 = not transparent;
-   * ``eval_attribute_1("shininess", si)``: only used by the integrator's ``phong`` option.
+   * ``eval_attribute_1("shininess", si)``: only used by the integrator's ``phong`` option;
+   * ``eval_attribute_3("shading_normal", si)``: the bump / normal-mapped shading normal (docs/EXTENSIONS.md E.7,
+     :mod:`.bump`; ``si.sh_frame.n`` without maps), only read by the integrator's ``bump`` option.
 
 2. **A sensible physical BSDF** for stock integrators (``path``, ``direct``...), a mixture of
 
@@ -36,6 +38,9 @@ specular_color     rgb           (0,0,0)   mirror / refraction weight (``specula
 shininess          float         0         Phong exponent (handout option only)
 refraction_index   float         0         ``refractionIndex``; 0 = opaque; Cauchy's ``A`` if dispersive
 cauchy_b           float         0         Cauchy's ``B`` (µm², docs/EXTENSIONS.md E.10); 0 = no dispersion
+bump               a5_bitmap     none      height field (E.7); its grey · ``bump_scale`` = height
+bump_scale         float         1         world units of height at grey 1 (E.7 ``bumpScale``)
+normal_map         a5_bitmap     none      tangent-space normal map (E.7 ``normalMap``)
 ================== ============= ========= ==================================================
 
 Dict form::
@@ -57,8 +62,10 @@ import mitsuba as mi
 
 from a5mi.spec import CENTRE_WAVELENGTH_NM, MIRROR_THRESHOLD
 
+from .bump import perturb
+
 #: Attributes served through ``eval_attribute_3`` / ``eval_attribute_1`` (and ``has_attribute``).
-COLOR_ATTRIBUTES: tuple[str, ...] = ("diffuse_color", "specular_color")
+COLOR_ATTRIBUTES: tuple[str, ...] = ("diffuse_color", "specular_color", "shading_normal")
 FLOAT_ATTRIBUTES: tuple[str, ...] = ("shininess", "refraction_index", "roughness", "glossy_samples", "cauchy_b")
 
 
@@ -108,6 +115,10 @@ class A5Material(mi.BSDF):
             raise ValueError(f"a5_material: 'cauchy_b' needs refraction_index > 0, got {ior}")
         self.cauchy_b = mi.Float(cauchy_b)
         self._dispersive = cauchy_b != 0.0
+        # docs/EXTENSIONS.md E.7: height field and normal map (a5_bitmap textures: their A.4 texel atlas)
+        self.bump = self._map(props, "bump")
+        self.normal_map = self._map(props, "normal_map")
+        self.bump_scale = mi.Float(float(props.get("bump_scale", 1.0)))
         self._make_opaque()
 
         spec_len = sum(c * c for c in specular) ** 0.5
@@ -129,9 +140,19 @@ class A5Material(mi.BSDF):
         self.m_components = components
         self.m_flags = flags
 
+    @staticmethod
+    def _map(props: mi.Properties, name: str) -> mi.Texture | None:
+        """The ``bump`` / ``normal_map`` texture, which must be an ``a5_bitmap`` (its texels are read)."""
+        if name not in props:
+            return None
+        tex = props.get_texture(name)
+        if not hasattr(tex, "atlas"):
+            raise ValueError(f"a5_material: '{name}' must be an a5_bitmap texture, got {tex}")
+        return tex
+
     def _make_opaque(self) -> None:
         dr.make_opaque(self.diffuse_color, self.specular_color, self.shininess, self.refraction_index,
-                       self.roughness, self.glossy_samples, self.cauchy_b)
+                       self.roughness, self.glossy_samples, self.cauchy_b, self.bump_scale)
 
     # ------------------------------------------------------------------ a5 channel (SPEC B.3)
 
@@ -140,7 +161,13 @@ class A5Material(mi.BSDF):
         return mi.Bool(name in COLOR_ATTRIBUTES or name in FLOAT_ATTRIBUTES)
 
     def eval_attribute_3(self, name: str, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
-        """``diffuse_color`` or ``specular_color`` (raw, untextured); zero for any other name."""
+        """``diffuse_color`` or ``specular_color`` (raw, untextured), ``shading_normal`` (E.7); zero for any
+        other name."""
+        if name == "shading_normal":
+            if self.bump is None and self.normal_map is None:
+                return mi.Color3f(si.sh_frame.n)
+            return mi.Color3f(perturb(si, None if self.bump is None else self.bump.atlas, self.bump_scale,
+                                      None if self.normal_map is None else self.normal_map.atlas, active))
         value = {"diffuse_color": self.diffuse_color, "specular_color": self.specular_color}.get(name)
         return mi.Color3f(0.0) if value is None else mi.Color3f(value)
 
@@ -262,6 +289,7 @@ class A5Material(mi.BSDF):
         callback.put("glossy_samples", self.glossy_samples, flags)
         callback.put("cauchy_b", self.cauchy_b, flags)
         callback.put("kd", self.kd, flags)
+        callback.put("bump_scale", self.bump_scale, flags)
 
     def parameters_changed(self, keys: list[str] | None = None) -> None:
         self._make_opaque()

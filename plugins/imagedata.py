@@ -150,3 +150,32 @@ class ImageAtlas:
         c += (1.0 - a) * b * px(x0, y1)
         c += a * b * px(x1, y1)
         return dr.select(active, c / 255.0, 0.0)
+
+    def texels(self, u: mi.Float, v: mi.Float, image: mi.UInt32 | int = 0, active: mi.Bool | bool = True
+               ) -> tuple[tuple[mi.Color3f, mi.Color3f, mi.Color3f, mi.Color3f], mi.Float, mi.Float, mi.Int32,
+                          mi.Int32]:
+        """The four texels of the :meth:`sample` lookup at (u, v) as bytes 0..255, ``(P00, P10, P01, P11)``
+        (``P10`` = ``P[ix+1, iy]``, ...), the weights ``a``, ``b`` and the image size ``(W, H)``: the pieces
+        of the module docstring's formula, for lookups that need more than the blend (docs/EXTENSIONS.md E.7:
+        the height gradient, normal maps decoded per texel)."""
+        idx = mi.UInt32(image)
+        off = dr.gather(mi.UInt32, self.offsets, idx, active)
+        w = dr.gather(mi.Int32, self.widths, idx, active)
+        h = dr.gather(mi.Int32, self.heights, idx, active)
+        x = u * mi.Float(w)
+        y = (1.0 - v) * mi.Float(h)
+        ix = mi.Int32(x)
+        iy = mi.Int32(y)
+        a = x - mi.Float(ix)
+        b = y - mi.Float(iy)
+        x0 = mi.UInt32(dr.clip(ix, 0, w - 1))
+        x1 = mi.UInt32(dr.clip(ix + 1, 0, w - 1))
+        y0 = mi.UInt32(dr.clip(iy, 0, h - 1))
+        y1 = mi.UInt32(dr.clip(iy + 1, 0, h - 1))
+        wu = mi.UInt32(w)
+
+        def px(xi: mi.UInt32, yi: mi.UInt32) -> mi.Color3f:
+            p = dr.gather(mi.UInt32, self.data, off + yi * wu + xi, active)
+            return mi.Color3f(mi.Float(p & 0xFF), mi.Float((p >> 8) & 0xFF), mi.Float(p >> 16))
+
+        return (px(x0, y0), px(x1, y0), px(x0, y1), px(x1, y1)), a, b, w, h

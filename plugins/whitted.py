@@ -15,6 +15,7 @@ import mitsuba as mi
 from a5mi.spec import FRESNEL_MODES, MIRROR_THRESHOLD, TMIN
 
 from . import media, octree_rule, spectral
+from .bump import shading_normal
 from .common import fresnel_weight, reflect, snell
 from .planes import (
     PlaneSet,
@@ -83,6 +84,7 @@ def _trace(
     rec: TreeRecorder | None = None,
     medium: media.MediumParams | None = None,
     dispersion: bool = False,
+    bump: bool = False,
 ) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float, mi.Float]:
     """SPEC B.3 for a batch of camera rays (unit ``ray_d``, tmin 0, index 1.0, budget ``max_depth``).
 
@@ -178,6 +180,8 @@ def _trace(
         shininess = mi.Float(0.0)
         if phong:
             shininess = bsdf.eval_attribute_1("shininess", si, a5)
+        if bump:  # docs/EXTENSIONS.md E.7: the bump / normal-mapped N for lights, mirror and refraction
+            n = shading_normal(bsdf, si, n, a5)
         # The binary mirrors (and refracts) off a plane with its normal as written (plugins/planes.py).
         r_view = reflect(d, dr.select(on_plane, plane_mirror_normal(planes, plane_idx, on_plane), n))
         # ---- extension E.2: the emitter seen by this ray (an AreaLight / SphereLight shape), E.4: gloss
@@ -328,6 +332,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     tmin             float   0.001   tmin of secondary and shadow rays (``a5mi.spec.TMIN``)
     glossy_samples   int     1       cap on the glossy children of a camera hit (docs/EXTENSIONS.md E.4)
     dispersion       bool    false   wavelength per camera ray, Cauchy n(λ) (docs/EXTENSIONS.md E.10)
+    bump             bool    false   bump / normal-mapped shading normal (``-bump``, docs/EXTENSIONS.md E.7)
     aovs             string  ""      comma-separated AOV groups: ``normal`` (nx, ny, nz), ``depth``
                                      (t), ``class`` (class), ``counts`` (n_reflection, n_refraction,
                                      n_shadow)
@@ -381,7 +386,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             raise ValueError(f"a5_whitted: 'ambient' must be an rgb colour, got {ambient!r}") from None
         flags = {}
         for name, default in (("shadows", False), ("phong", False), ("reflection", True),
-                              ("refraction", True), ("dispersion", False)):
+                              ("refraction", True), ("dispersion", False), ("bump", False)):
             value = props.get(name, default)
             if not isinstance(value, bool):
                 raise ValueError(f"a5_whitted: '{name}' must be a boolean, got {value!r}")
@@ -395,6 +400,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         self.reflection = flags["reflection"]
         self.refraction = flags["refraction"]
         self.dispersion = flags["dispersion"]  # docs/EXTENSIONS.md E.10
+        self.bump = flags["bump"]  # docs/EXTENSIONS.md E.7
         aovs = props.get("aovs", "")
         groups = [g.strip() for g in aovs.split(",") if g.strip()] if isinstance(aovs, str) else None
         if groups is None or any(g not in AOV_CHANNELS for g in groups):
@@ -469,6 +475,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             stack_size(self.max_depth, self.glossy_samples), self.shadows, self.phong, self.fresnel,
             self.reflection, self.refraction, self._stochastic(scene, sampler, width), record, self._medium,
             self.dispersion,
+            self.bump,
         )
 
     def sample(
@@ -495,6 +502,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         callback.put("aovs", ",".join(self.aovs), flags)
         callback.put("glossy_samples", self.glossy_samples, flags)
         callback.put("dispersion", self.dispersion, flags)
+        callback.put("bump", self.bump, flags)
 
     def to_string(self) -> str:
         return (

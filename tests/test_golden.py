@@ -70,6 +70,18 @@ def test_golden_extension(scene: str, variant: str, tmp_path: Path) -> None:
     _check_golden(scene, f"{scene}.ext-spp4", options, tmp_path)
 
 
+#: Extra credit part 2 demo scenes (docs/EXTENSIONS.md E.6, E.7) at 64 x 64, -shadows -bounces 4; bumps with -bump.
+PART2 = {"solids": ("solids.b4", {}), "bumps": ("bumps.b4-bump", {"bump": True})}
+
+
+@pytest.mark.parametrize("scene", list(PART2))
+def test_golden_part2(scene: str, variant: str, tmp_path: Path) -> None:
+    from a5mi.driver import RenderOptions
+
+    name, extra = PART2[scene]
+    _check_golden(scene, name, RenderOptions(width=64, height=64, shadows=True, bounces=4, **extra), tmp_path)
+
+
 def test_golden_fog(variant: str, tmp_path: Path) -> None:
     """The fog demo (docs/EXTENSIONS.md E.8): 64 x 64, -shadows -bounces 4 -spp 2 -seed 1."""
     from a5mi.driver import RenderOptions

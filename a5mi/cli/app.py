@@ -313,12 +313,14 @@ def exception_summary(exc: BaseException) -> str:
 
 
 # ------------------------------------------------------------------------------------------ the scene prologue
-def load_scene(path: str, console: Console, *, stock: bool = False, inputs: list[Any] | None = None) -> Any:
+def load_scene(path: str, console: Console, *, stock: bool = False, inputs: list[Any] | None = None,
+               bump: bool = False) -> Any:
     """Parse ``path`` (SPEC A), print the parser's warnings, build the scene description once (every mesh,
     texture and cube-map face read and checked) and print its warnings; raises positioned scene errors.
     Mitsuba is not imported. Returns the description that the renderers and writers take. ``inputs``, when
     given, receives every file the scene reads or names (:func:`a5mi.clobber.input_files`, plus textures
-    the renderer does not look up), for the output checks."""
+    the renderer does not look up), for the output checks. ``bump`` (``-bump``): also read the bump and
+    normal maps (docs/EXTENSIONS.md E.7)."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
 
@@ -329,7 +331,7 @@ def load_scene(path: str, console: Console, *, stock: bool = False, inputs: list
     except OSError as exc:
         raise UserError(f"cannot read '{path}': {exc.strerror or exc}") from None
     console.warnings(model.warnings)
-    desc = describe(model, stock=stock)
+    desc = describe(model, stock=stock, bump=bump)
     console.warnings(desc.warnings)
     if inputs is not None:
         from a5mi.clobber import input_files

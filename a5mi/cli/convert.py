@@ -19,7 +19,7 @@ from a5mi.cli.flags import Args, Flag, Positional, integer, text
 from a5mi.cli.render import RENDER_FLAGS, render_options
 from a5mi.errors import UsageError
 
-_SHARED = ("width", "bounces", "shadows", "phong", "fresnel", "reflection", "refraction")
+_SHARED = ("width", "bounces", "shadows", "phong", "fresnel", "reflection", "refraction", "bump")
 FLAGS: tuple[Flag, ...] = (
     Flag(("-o", "--output", "-output"), "output", "the XML file to write (meshes go to OUT_meshes/, images to "
          "OUT_images/ beside it)", 1, text, metavar="OUT.xml"),
@@ -58,7 +58,7 @@ def check_convert_outputs(xml: str) -> tuple[str, str, str, str]:
 def run_convert(args: Args, console: Console) -> int:
     xml, meshes, envmap, images = check_convert_outputs(args.output)
     inputs: list[Any] = []
-    desc = load_scene(args.scene, console, stock=bool(args.stock), inputs=inputs)
+    desc = load_scene(args.scene, console, stock=bool(args.stock), inputs=inputs, bump=bool(args.get("bump")))
     clobber.check_outputs([("-o", xml), ("the envmap", envmap)], inputs)
     clobber.check_folder_holds_no_input("the meshes folder", meshes, inputs)
     clobber.check_folder_holds_no_input("the images folder", images, inputs)

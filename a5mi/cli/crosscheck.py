@@ -16,6 +16,8 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--spp", "-spp"), "spp", "path samples per pixel", 1, integer(1, 1 << 20), 256, "N"),
     Flag(("--bounces", "-bounces"), "bounces", "Whitted bounce budget (path: max_depth = N + 2)", 1,
          integer(0, 64), 4, "N"),
+    Flag(("--bump", "-bump"), "bump", "bump and normal maps on both sides (docs/EXTENSIONS.md E.7)", default=False,
+         show_default=False),
     Flag(("--json",), "json", "print the table as JSON", default=False, show_default=False),
     Flag(("--explain",), "explain", "also split (stock path - exact Whitted) into terms, each isolated by a render "
          "(slow: three more path renders)", default=False, show_default=False),
@@ -33,9 +35,10 @@ def run_crosscheck(args: Args, console: Console) -> int:
 
     out = args.output or f"{Path(args.scene).stem}_crosscheck.png"
     check_output_path(out)
-    desc = load_scene(args.scene, console)
+    desc = load_scene(args.scene, console, bump=bool(args.bump))
     activate_variant(None)
-    options = xc.CrosscheckOptions(width=args.width, height=args.height, bounces=args.bounces, spp=args.spp)
+    options = xc.CrosscheckOptions(width=args.width, height=args.height, bounces=args.bounces, spp=args.spp,
+                                   bump=bool(args.bump))
     result = xc.crosscheck(desc, options)
     xc.write_montage(result, out)
     console.result(xc.to_json(result) if args.json else f"{args.scene}\n{xc.table(result)}\nmontage: {out}")

@@ -60,6 +60,8 @@ RENDER_FLAGS: tuple[Flag, ...] = (
     Flag(("-variant", "--variant"), "variant", "llvm (default; or $A5MI_VARIANT), cuda or auto", 1,
          choice(("llvm", "cuda", "auto")), metavar="V"),
     Flag(("-threads", "--threads"), "threads", "Dr.Jit worker threads", 1, integer(1, 1024), metavar="N"),
+    Flag(("-bump", "--bump"), "bump", "bump and normal maps perturb the shading normal (docs/EXTENSIONS.md E.7; "
+         "a5soln ignores 'bump')", default=False, show_default=False),
     Flag(("-phong", "--phong"), "phong", "add the handout's Phong highlight (a5soln has none)", default=False,
          show_default=False),
     Flag(("-fresnel", "--fresnel"), "fresnel", "a5 (the binary's R0), schlick or exact", 1, choice(FRESNEL_MODES),
@@ -138,7 +140,7 @@ def run_render(args: Args, console: Console) -> int:
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     inputs: list[Any] = []
-    desc = load_scene(args.input, console, inputs=inputs)
+    desc = load_scene(args.input, console, inputs=inputs, bump=bool(args.get("bump")))
     clobber.check_outputs(outputs, inputs)  # no output may overwrite a mesh, texture or cube-map face
     timings["parse"] = time.perf_counter() - t0
     t0 = time.perf_counter()

@@ -42,6 +42,8 @@ class CrosscheckOptions:
     spp: int = 256
     seed: int = 0
     shadows: bool = True
+    #: docs/EXTENSIONS.md E.7: bump and normal maps on both sides (a5_whitted's bump; stock bumpmap/normalmap)
+    bump: bool = False
 
     def __post_init__(self) -> None:
         from a5mi.options import check_size_and_bounces
@@ -299,13 +301,13 @@ def _render_options(options: CrosscheckOptions) -> Any:
     from a5mi.options import RenderOptions
 
     return RenderOptions(width=options.width, height=options.height, bounces=options.bounces,
-                         shadows=options.shadows)
+                         shadows=options.shadows, bump=options.bump)
 
 
-def _description(desc_or_model: Any) -> Any:
+def _description(desc_or_model: Any, bump: bool = False) -> Any:
     from a5mi.converters.describe import SceneDescription, describe
 
-    return desc_or_model if isinstance(desc_or_model, SceneDescription) else describe(desc_or_model)
+    return desc_or_model if isinstance(desc_or_model, SceneDescription) else describe(desc_or_model, bump=bump)
 
 
 def crosscheck(desc_or_model: Any, options: CrosscheckOptions) -> CrosscheckResult:
@@ -315,6 +317,6 @@ def crosscheck(desc_or_model: Any, options: CrosscheckOptions) -> CrosscheckResu
     (:func:`a5mi.variant.activate`)."""
     from a5mi.converters.to_mitsuba import to_dict
 
-    desc = _description(desc_or_model)
+    desc = _description(desc_or_model, options.bump)
     ro = _render_options(options)
     return crosscheck_dicts(to_dict(desc, ro), to_dict(desc, ro, stock=True), desc.camera, options)
