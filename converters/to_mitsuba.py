@@ -84,6 +84,8 @@ def integrator_dict(desc: SceneDescription, options: RenderOptions, *, stock: bo
     glossy = max((m.glossy_samples for m in desc.materials if m.roughness > 0.0), default=1)
     if glossy > 1:  # docs/EXTENSIONS.md E.4: the stack holds 2 G children of a glossy camera hit
         d["glossy_samples"] = int(glossy)
+    if not any(m.roughness > 0.0 for m in desc.materials):
+        d["glossy"] = False  # no glossy material: the kernel leaves the E.4 lobe sampling out (issue 20)
     return d
 
 
