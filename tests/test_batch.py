@@ -138,3 +138,18 @@ def test_second_scene_of_the_same_kind_compiles_no_kernel(tmp_path: Path, varian
     assert np.array_equal(again.image, b.image)
     back = session.render(first, options)  # one scene kept (max_scenes=1): built again, same kernels
     assert session.scenes_built == 3 and back.kernels["compiled"] == 0 and np.array_equal(back.image, a.image)
+
+
+def test_bench_batch_ratio_and_table() -> None:
+    """The bench's batch figures: ratio = median wall / median (kernel + filter + write), recompiles counted."""
+    from a5mi.bench.batch import BatchScene
+    from a5mi.bench.report import _batch_tables
+
+    extra = [{"wall": w, "kernel": 0.2, "filter": 0.05, "write": 0.05, "trace_etc": 0.03, "compiled": c}
+             for w, c in ((0.36, 0.0), (0.33, 1.0), (0.5, 0.0))]
+    b = BatchScene("scene11_cube", first=0.9, extra=extra)
+    assert b.median("wall") == 0.36 and abs(b.base - 0.3) < 1e-12 and abs(b.ratio - 1.2) < 1e-12
+    assert b.recompiled == 1
+    text = "\n".join(_batch_tables({"batch": [b]}))
+    assert "| scene11_cube |" in text and "1.200" in text and "1/3" in text
+    assert BatchScene("empty").ratio is None
