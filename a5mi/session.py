@@ -22,9 +22,13 @@ is the Python trace of the integrator (it builds the kernel's IR before the hash
 the camera rays and the buffer copies: ``a5mi bench`` measures the cost per extra render against its
 kernel + filter + write time.
 
-At most ``max_scenes`` built scenes are kept (least recently used dropped first), so a long job list has
-bounded memory. The session never prints and never writes a file; it returns data
-(:class:`~a5mi.driver.RenderResult`).
+At most ``max_scenes`` built scenes are kept (least recently used dropped first, and freed *before* the next
+one is built), so a long job list has bounded memory. The default is one: while a scene is alive, the next
+scene's plugins get new registry IDs and the vcall tables' offsets baked into the render kernel change, so
+the next scene would compile its kernel again (measured, BENCHMARKS.md run E item 7); freed first, the IDs are
+reused and the kernel is found in the cache. (Mitsuba's own ``sphere`` bakes its centre into the kernel: a
+moved sphere compiles again whatever the session does.) The session never prints and never writes a file; it
+returns data (:class:`~a5mi.driver.RenderResult`).
 """
 
 from __future__ import annotations

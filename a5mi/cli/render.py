@@ -162,7 +162,7 @@ def render_job(args: Args, console: Console, session: Any, scenes: dict[Any, Any
     return _render_and_write(args, console, lambda: session.variant, session.render, load)
 
 
-#: Scene descriptions a batch keeps loaded (the session keeps as many built scenes).
+#: Scene descriptions a batch keeps loaded (parsed, files checked); the session keeps one built scene.
 SCENES_KEPT = 4
 
 
