@@ -93,6 +93,8 @@ def integrator_dict(desc: SceneDescription, options: RenderOptions, *, stock: bo
         d["glossy_samples"] = int(glossy)
     if any(m.dispersion is not None for m in desc.materials):  # docs/EXTENSIONS.md E.10: wavelength per ray
         d["dispersion"] = True
+    if not any(m.roughness > 0.0 for m in desc.materials):
+        d["glossy"] = False  # no glossy material: the kernel leaves the E.4 lobe sampling out (issue 20)
     return d
 
 

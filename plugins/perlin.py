@@ -35,12 +35,16 @@ PERMUTATION: tuple[int, ...] = (
 _TABLES: dict[str, object] = {}
 
 
-def _table():
-    """The 512-entry table ``p[i] = PERMUTATION[i & 255]`` as a device array (one per variant, cached)."""
+def _pair_table():
+    """The 512-entry table ``p[i] = PERMUTATION[i & 255]`` as pairs, ``pairs[i] = p[i] | p[i + 1] << 32``
+    (``p[512]`` taken as ``p[0]``), a device array (one per variant, cached): the hash chain reads ``p[i]``
+    and ``p[i + 1]`` together, so one 64-bit gather gives both (its indices stay <= 510). Seven gathers per
+    noise instead of fourteen: the vase's kernel -12..-25% (issue 20, BENCHMARKS.md), bit for bit the same."""
     key = mi.variant()
     table = _TABLES.get(key)
     if table is None:
-        table = mi.UInt32(list(PERMUTATION) * 2)
+        p = list(PERMUTATION) * 2 + [PERMUTATION[0]]
+        table = mi.UInt64([p[i] | (p[i + 1] << 32) for i in range(512)])
         dr.make_opaque(table)
         _TABLES[key] = table
     return table
@@ -75,7 +79,6 @@ def noise(x: mi.Float64, y: mi.Float64, z: mi.Float64) -> mi.Float64:
     A = p[X]+Y, AA = p[A]+Z, AB = p[A+1]+Z, B = p[X+1]+Y, BA = p[B]+Z, BB = p[B+1]+Z; trilinear ``lerp`` of
     the eight corner ``grad`` values. Zero at every integer lattice point. Range about [−1, 1].
     """
-    p = _table()
     fx, fy, fz = dr.floor(x), dr.floor(y), dr.floor(z)
     X = mi.UInt32(mi.Int32(fx) & 255)  # two's-complement AND, as (int)floor(x) & 255
     Y = mi.UInt32(mi.Int32(fy) & 255)
@@ -83,27 +86,34 @@ def noise(x: mi.Float64, y: mi.Float64, z: mi.Float64) -> mi.Float64:
     x, y, z = x - fx, y - fy, z - fz
     u, v, w = fade(x), fade(y), fade(z)
 
-    def P(i: mi.UInt32) -> mi.UInt32:
-        return dr.gather(mi.UInt32, p, i)
+    pairs = _pair_table()
 
-    A = P(X) + Y
-    AA = P(A) + Z
-    AB = P(A + 1) + Z
-    B = P(X + 1) + Y
-    BA = P(B) + Z
-    BB = P(B + 1) + Z
+    def P2(i: mi.UInt32) -> tuple[mi.UInt32, mi.UInt32]:
+        """``(p[i], p[i + 1])`` in one 64-bit gather."""
+        both = dr.gather(mi.UInt64, pairs, i)
+        return mi.UInt32(both & 0xFFFFFFFF), mi.UInt32(both >> 32)
+
+    pX, pX1 = P2(X)
+    A, B = pX + Y, pX1 + Y
+    pA, pA1 = P2(A)
+    pB, pB1 = P2(B)
+    AA, AB, BA, BB = pA + Z, pA1 + Z, pB + Z, pB1 + Z
+    gAA, gAA1 = P2(AA)
+    gBA, gBA1 = P2(BA)
+    gAB, gAB1 = P2(AB)
+    gBB, gBB1 = P2(BB)
     x1, y1, z1 = x - 1.0, y - 1.0, z - 1.0
     return lerp(
         w,
         lerp(
             v,
-            lerp(u, grad(P(AA), x, y, z), grad(P(BA), x1, y, z)),
-            lerp(u, grad(P(AB), x, y1, z), grad(P(BB), x1, y1, z)),
+            lerp(u, grad(gAA, x, y, z), grad(gBA, x1, y, z)),
+            lerp(u, grad(gAB, x, y1, z), grad(gBB, x1, y1, z)),
         ),
         lerp(
             v,
-            lerp(u, grad(P(AA + 1), x, y, z1), grad(P(BA + 1), x1, y, z1)),
-            lerp(u, grad(P(AB + 1), x, y1, z1), grad(P(BB + 1), x1, y1, z1)),
+            lerp(u, grad(gAA1, x, y, z1), grad(gBA1, x1, y, z1)),
+            lerp(u, grad(gAB1, x, y1, z1), grad(gBB1, x1, y1, z1)),
         ),
     )
 

@@ -108,7 +108,7 @@ def plane_set(planes: list[Plane]) -> PlaneSet:
     mirror = list(zip(*[p[4] for p in planes], strict=True))
     arrays = [mi.Float(c) for c in cols] + [mi.Float([p[2] for p in planes]), mi.Float(inv)] + \
         [mi.Float(c) for c in mirror]
-    dr.eval(ptrs, *arrays)
+    dr.make_opaque(ptrs, *arrays)  # literals of a one-plane scene would bake its values into the kernel
     return PlaneSet(*arrays, ptrs, dr.opaque(mi.UInt32, len(planes)), len(planes))
 
 

@@ -85,6 +85,8 @@ def _trace(
     medium: media.MediumParams | None = None,
     dispersion: bool = False,
     bump: bool = False,
+    sample_lights: bool = True,
+    sample_gloss: bool = True,
 ) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float, mi.Float]:
     """SPEC B.3 for a batch of camera rays (unit ``ray_d``, tmin 0, index 1.0, budget ``max_depth``).
 
@@ -98,6 +100,8 @@ def _trace(
     leaves the kernel as it is): the node's segment transmittance scales its contribution and its children's
     weights, its in-scattered light is added (plugins/media.py). ``dispersion`` (docs/EXTENSIONS.md E.10): each
     lane carries a wavelength, dispersive materials refract with n(λ) (plugins/spectral.py).
+    ``sample_lights`` / ``sample_gloss`` (False when the scene has no area light / no glossy material): leave
+    the E.2 / E.4 sampling out of the kernel.
     """
     width = dr.width(ray_d)
     env = scene.environment()
@@ -185,11 +189,15 @@ def _trace(
         # The binary mirrors (and refracts) off a plane with its normal as written (plugins/planes.py).
         r_view = reflect(d, dr.select(on_plane, plane_mirror_normal(planes, plane_idx, on_plane), n))
         # ---- extension E.2: the emitter seen by this ray (an AreaLight / SphereLight shape), E.4: gloss
-        emitter_hit = si.emitter(scene, hit & ~on_plane)
-        sees_light = hit & ~on_plane & (emitter_hit != None)  # noqa: E711 - a Dr.Jit pointer comparison
-        alpha = bsdf.eval_attribute_1("roughness", si, a5)
-        n_gloss = dr.minimum(mi.UInt32(dr.maximum(bsdf.eval_attribute_1("glossy_samples", si, a5), 1.0)),
-                             rng.glossy_cap)
+        sees_light, emitter_hit = mi.Bool(False), dr.zeros(mi.EmitterPtr, 1)
+        if sample_lights:
+            emitter_hit = si.emitter(scene, hit & ~on_plane)
+            sees_light = hit & ~on_plane & (emitter_hit != None)  # noqa: E711 - a Dr.Jit pointer comparison
+        alpha, n_gloss = mi.Float(0.0), mi.UInt32(1)
+        if sample_gloss:
+            alpha = bsdf.eval_attribute_1("roughness", si, a5)
+            n_gloss = dr.minimum(mi.UInt32(dr.maximum(bsdf.eval_attribute_1("glossy_samples", si, a5), 1.0)),
+                                 rng.glossy_cap)
 
         # ---- local shading: ambient ⊙ diffuseColor + Σ S clamp(L·N) lightColor ⊙ kd
         local = ambient * diffuse_color
@@ -202,8 +210,10 @@ def _trace(
             acc = dr.zeros(mi.Color3f, width)
             j = dr.zeros(mi.UInt32, width)
             while hit & (j < n_samples):
-                u = stratified_2d(pixel_key, pass_key, node * 256 + k, rng.pass_index * n_samples + j,
-                                  rng.passes * n_samples, counter)
+                u = mi.Point2f(0.5)
+                if sample_lights:
+                    u = stratified_2d(pixel_key, pass_key, node * 256 + k, rng.pass_index * n_samples + j,
+                                      rng.passes * n_samples, counter)
                 counter += 2
                 ds, light_color = emitter.sample_direction(si, u, hit)
                 d_light = ds.d                                   # SPEC L
@@ -234,7 +244,8 @@ def _trace(
                 j += 1
             local += acc * (1.0 / mi.Float(dr.maximum(n_samples, 1)))
             k += 1
-        local = dr.select(sees_light, local + mi.Color3f(emitter_hit.eval(si, sees_light)), local)
+        if sample_lights:
+            local = dr.select(sees_light, local + mi.Color3f(emitter_hit.eval(si, sees_light)), local)
 
         if medium is not None:  # ---- extensions E.8, E.9: the segment o -> p (o -> infinity on a miss), in air
             seg_t, seg_light, counter = media.segment(scene, planes, medium, o, d, t_min, t_hit, n_medium == 1.0,
@@ -271,8 +282,10 @@ def _trace(
         while go & (g < n_children):
             m_facing = n_side
             r_dir = r_view
-            u_g = stratified_2d(pixel_key, pass_key, node * 256 + GLOSSY_SLOT, rng.pass_index * n_children + g,
-                                rng.passes * n_children, counter)   # E.4 lobe sample (unused for alpha = 0)
+            u_g = mi.Point2f(0.5)
+            if sample_gloss:
+                u_g = stratified_2d(pixel_key, pass_key, node * 256 + GLOSSY_SLOT, rng.pass_index * n_children + g,
+                                    rng.passes * n_children, counter)   # E.4 lobe sample (unused for alpha = 0)
             counter += dr.select(glossy, 2, 0)
             m_facing = dr.select(glossy, ggx_normal(n_side, alpha, u_g), n_side)
             r_dir = dr.select(glossy, reflect(d, m_facing), r_view)
@@ -333,6 +346,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     glossy_samples   int     1       cap on the glossy children of a camera hit (docs/EXTENSIONS.md E.4)
     dispersion       bool    false   wavelength per camera ray, Cauchy n(λ) (docs/EXTENSIONS.md E.10)
     bump             bool    false   bump / normal-mapped shading normal (``-bump``, docs/EXTENSIONS.md E.7)
+    glossy           bool    true    false: no material has roughness > 0 (the E.4 lobe sampling is
+                                     left out of the kernel; the converter says so for its scenes)
     aovs             string  ""      comma-separated AOV groups: ``normal`` (nx, ny, nz), ``depth``
                                      (t), ``class`` (class), ``counts`` (n_reflection, n_refraction,
                                      n_shadow)
@@ -386,7 +401,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             raise ValueError(f"a5_whitted: 'ambient' must be an rgb colour, got {ambient!r}") from None
         flags = {}
         for name, default in (("shadows", False), ("phong", False), ("reflection", True),
-                              ("refraction", True), ("dispersion", False), ("bump", False)):
+                              ("refraction", True), ("dispersion", False), ("bump", False), ("glossy", True)):
             value = props.get(name, default)
             if not isinstance(value, bool):
                 raise ValueError(f"a5_whitted: '{name}' must be a boolean, got {value!r}")
@@ -401,6 +416,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         self.refraction = flags["refraction"]
         self.dispersion = flags["dispersion"]  # docs/EXTENSIONS.md E.10
         self.bump = flags["bump"]  # docs/EXTENSIONS.md E.7
+        self.glossy = flags["glossy"]  # False: no glossy material (E.4), its lobe sampling stays out of the kernel
         aovs = props.get("aovs", "")
         groups = [g.strip() for g in aovs.split(",") if g.strip()] if isinstance(aovs, str) else None
         if groups is None or any(g not in AOV_CHANNELS for g in groups):
@@ -474,8 +490,9 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             dr.opaque(mi.Float, self.tmin), lights, n_lights, self._planes,
             stack_size(self.max_depth, self.glossy_samples), self.shadows, self.phong, self.fresnel,
             self.reflection, self.refraction, self._stochastic(scene, sampler, width), record, self._medium,
-            self.dispersion,
-            self.bump,
+            dispersion=self.dispersion, bump=self.bump,
+            sample_lights=any(hasattr(e, "samples") or e.get_shape() is not None for e in scene.emitters()),
+            sample_gloss=self.glossy,
         )
 
     def sample(
@@ -503,6 +520,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         callback.put("glossy_samples", self.glossy_samples, flags)
         callback.put("dispersion", self.dispersion, flags)
         callback.put("bump", self.bump, flags)
+        callback.put("glossy", self.glossy, flags)
 
     def to_string(self) -> str:
         return (

@@ -63,7 +63,7 @@ def test_b3_integrator_and_a1_ambient(scenes_dir: Path) -> None:
     options = RenderOptions(width=30, height=20, bounces=2, shadows=True, fresnel="exact")
     assert integrator_dict(desc, options, stock=False) == {
         "type": "a5_whitted", "max_depth": 2, "shadows": True, "ambient": {"type": "rgb", "value": [0.1, 0.1, 0.1]},
-        "phong": False, "fresnel": "exact", "reflection": True, "refraction": True, "aovs": ""}
+        "phong": False, "fresnel": "exact", "reflection": True, "refraction": True, "aovs": "", "glossy": False}
     s = sensor_dict(desc, options, stock=False)
     assert (s["type"], s["center"], s["direction"], s["up"], s["angle"]) == (
         "a5_camera", [-5.3, 7.0, 8.3], [0.4, -0.5, -0.75], [0.0, 1.0, 0.0], 25.0)

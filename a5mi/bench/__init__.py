@@ -31,6 +31,10 @@ at the assignment's test command ``-size 300 300 -shadows -bounces 4 -jitter -fi
 * **a5soln**: with ``--a5soln PATH`` the sample-solution binary is timed the same way; otherwise the
   published single-core figures of ``reference/README.md`` are printed with ``a5soln / warm``.
 
+**batch** (:mod:`a5mi.bench.batch`, issue 20): per test scene, ``--batch-renders`` extra renders in one
+:class:`a5mi.session.RenderSession`, each written, their wall time against kernel + filter + write; and one
+``a5mi render`` process over the test scenes against the sum of their warm ``a5`` processes.
+
 ``--4k`` adds one ``-size 3840 2160 -jitter -filter`` process run (peak memory is bounded by the tiles: the
 driver streams the blur + downsample per tile and keeps only the W x H output). Output: markdown tables on
 stdout, or JSON with ``--json``.
@@ -189,6 +193,7 @@ class BenchSettings:
     verbose_runs: int = 2
     wait_idle: float = 30.0
     timeout: float = 600.0
+    batch_renders: int = 3
 
     def __post_init__(self) -> None:
         if min(self.size) <= 0 or self.bounces < 0 or self.repeat < 1 or self.warm_runs < 1 or self.verbose_runs < 0:
@@ -206,7 +211,9 @@ class BenchRun:
 
     @property
     def failed(self) -> bool:
-        return any(r.errors for r in self.results) or ("4k" in self.extra and self.extra["4k"].returncode != 0)
+        return (any(r.errors for r in self.results) or ("4k" in self.extra and self.extra["4k"].returncode != 0)
+                or "batch_error" in self.extra
+                or ("batch_process" in self.extra and self.extra["batch_process"]["warm"].returncode != 0))
 
     def report(self) -> str:
         return report(self.results, self.info, self.extra)
@@ -214,6 +221,16 @@ class BenchRun:
     def to_json(self) -> str:
         doc: dict[str, Any] = {"machine": self.info, "flags": self.extra["flags"], "bench_peak_mb": self.self_peak_mb,
                                "scenes": [r.to_json() for r in self.results]}
+        if "batch" in self.extra:
+            doc["batch"] = [{"name": b.name, "first": b.first, "extra": b.extra, "ratio": b.ratio}
+                            for b in self.extra["batch"]]
+        if "batch_process" in self.extra:
+            bp = dict(self.extra["batch_process"])
+            for key in ("cold", "warm"):
+                run = asdict(bp[key])
+                run.pop("stderr")
+                bp[key] = run
+            doc["batch_process"] = bp
         if "4k" in self.extra:
             k4 = asdict(self.extra["4k"])
             k4.pop("stderr")
@@ -229,12 +246,39 @@ def find_executable(path: str) -> str:
     return os.path.abspath(found)
 
 
+def _bench_batch(results: list[SceneResult], settings: BenchSettings, extra: dict[str, Any], log: Any) -> None:
+    """The batch figures (module docstring) over the test scenes among ``results``, into ``extra``."""
+    from a5mi.bench.batch import measure_batch, measure_batch_process
+    from a5mi.options import RenderOptions
+
+    tests = [r for r in results if r.name in TEST_SCENES] or results
+    paths = [Path(r.path).resolve() for r in tests]
+    w, h = settings.size
+    if not settings.no_inprocess:
+        options = RenderOptions(width=w, height=h, bounces=settings.bounces, shadows=True, jitter=True, filter=True)
+        try:
+            extra["batch"] = measure_batch(paths, options, settings.batch_renders, log)
+        except Exception as exc:  # noqa: BLE001 - a benchmark reports what failed and goes on
+            extra["batch_error"] = f"{type(exc).__name__}: {exc}"
+    if not settings.no_process:
+        log("batch process ...")
+        with tempfile.TemporaryDirectory(prefix="a5bench-bcache-") as cache:
+            runs = [measure_batch_process(paths, render_flags(w, h, settings.bounces), cache_env(cache),
+                                          settings.timeout) for _ in range(1 + settings.warm_runs)]
+        best = min((r for r, _ in runs[1:]), key=lambda r: r.wall)  # the first run fills the kernel cache
+        extra["batch_process"] = {"cmd": runs[0][1], "cold": runs[0][0], "warm": best,
+                                  "separate_warm": [r.warm.wall if r.warm else None for r in tests],
+                                  "scenes": [r.name for r in tests]}
+
+
 def run_benchmark(paths: Sequence[Path], settings: BenchSettings, log: Any) -> BenchRun:
     """Measure every scene of ``paths`` (and the 4K run) as the module docstring says; ``log(msg)`` receives
     progress lines. Needs the variant active unless ``no_inprocess``."""
     published = load_published()
     results = [bench_scene(p, settings, published, log) for p in paths]
     extra: dict[str, Any] = {"flags": render_flags(*settings.size, settings.bounces)}
+    if settings.batch_renders > 0:
+        _bench_batch(results, settings, extra, log)
     if settings.k4:
         (p4,) = resolve_scenes([settings.k4_scene])
         with tempfile.TemporaryDirectory(prefix="a5bench-4k-") as tmp:

@@ -66,6 +66,31 @@ def _ratio(a: float | None, b: float | None) -> float | None:
     return a / b if a is not None and b else None
 
 
+def _batch_tables(extra: dict[str, Any]) -> list[str]:
+    """The batch figures of :mod:`a5mi.bench.batch` (issue 20), when measured."""
+    from a5mi.bench.batch import TARGET_BATCH_RATIO
+
+    out: list[str] = []
+    if extra.get("batch"):
+        rows = [[b.name, b.first, len(b.extra), b.median("wall"), b.median("kernel"), b.median("filter"),
+                 b.median("write"), b.median("trace_etc"), b.base, b.ratio, f"{b.recompiled}/{len(b.extra)}"]
+                for b in extra["batch"]]
+        out += [f"Batch renders in one session (in-process, each render written; medians of the extra renders, s; "
+                f"ratio = wall / (kernel + filter + write), target <= {TARGET_BATCH_RATIO}; `other` = render - "
+                "kernel - filter: Python trace, jitter, camera rays, copies)", "",
+                format_table(["scene", "first", "extra", "wall", "kernel", "filter", "write", "other",
+                              "kernel+filter+write", "ratio", "recompiled"], rows), ""]
+    bp = extra.get("batch_process")
+    if bp:
+        separate = [w for w in bp["separate_warm"] if w is not None]
+        total = sum(separate) if len(separate) == len(bp["separate_warm"]) else None
+        out += [f"Batch process: `{bp['cmd']}`: cold {bp['cold'].wall:.3f} s, warm {bp['warm'].wall:.3f} s "
+                f"(peak {bp['warm'].peak_mb:.0f} MB, exit {bp['warm'].returncode}) for {len(bp['scenes'])} scenes"
+                + (f"; separate warm a5 processes {total:.3f} s in all ({total / bp['warm'].wall:.2f}x)"
+                   if total else ""), ""]
+    return out
+
+
 def report(results: Sequence[SceneResult], info: dict[str, Any], extra: dict[str, Any]) -> str:
     """The markdown tables of a run."""
     out = [f"machine: {info.get('cpu')}, {info.get('cores')} logical cores, LLVM {info.get('llvm')}, "
@@ -133,7 +158,10 @@ def report(results: Sequence[SceneResult], info: dict[str, Any], extra: dict[str
         run = extra["4k"]
         out += [f"4K: `{extra['4k_cmd']}`: wall {run.wall:.1f} s, peak {run.peak_mb:.0f} MB, exit {run.returncode}"
                 + (f"; stages {run.stages}" if run.stages else ""), ""]
+    out += _batch_tables(extra)
     errors = [f"- {r.name}: {e}" for r in results for e in r.errors]
+    if "batch_error" in extra:
+        errors.append(f"- batch: {extra['batch_error']}")
     if errors:
         out += ["Errors:", *errors, ""]
     return "\n".join(out)

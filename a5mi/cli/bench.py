@@ -24,6 +24,8 @@ FLAGS: tuple[Flag, ...] = (
          integer(0, 100), 2, "N"),
     Flag(("--wait-idle",), "wait_idle", "before each scene, wait up to S s for other processes to leave the CPUs",
          1, real, 30.0, "S"),
+    Flag(("--batch-renders",), "batch_renders", "extra renders per test scene in one session (0: no batch figures)",
+         1, integer(0, 100), 3, "N"),
     Flag(("--timeout",), "timeout", "limit per child process (s)", 1, real, 600.0, "S"),
 )
 
@@ -38,7 +40,7 @@ def run_bench(args: Args, console: Console) -> int:
             a5soln=bench.find_executable(args.a5soln) if args.a5soln else None, k4=args.k4, k4_scene=args.k4_scene,
             no_process=args.no_process, no_inprocess=args.no_inprocess, no_stock=args.no_stock,
             warm_runs=args.warm_runs, verbose_runs=args.verbose_runs, wait_idle=args.wait_idle,
-            timeout=args.timeout)  # fmt: skip
+            timeout=args.timeout, batch_renders=args.batch_renders)  # fmt: skip
         paths = bench.resolve_scenes(args.scenes)
     except ValueError as exc:
         raise UsageError(str(exc)) from None

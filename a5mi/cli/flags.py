@@ -149,9 +149,10 @@ COMMON: tuple[Flag, ...] = (QUIET, DEBUG, VERSION, HELP)
 
 # ------------------------------------------------------------------------------------------ the parser
 def parse(argv: Sequence[str], flags: Sequence[Flag], positionals: Sequence[Positional] = (), *,
-          grammar: Literal["a5", "gnu"] = "gnu", see: str = "-h") -> Args:
+          grammar: Literal["a5", "gnu"] = "gnu", see: str = "-h", given: set[str] | None = None) -> Args:
     """Parse ``argv`` against ``flags`` (module docstring for the two grammars). Raises :class:`UsageError`
-    with a one-line message; ``see`` names where the user finds help (``a5 -h``)."""
+    with a one-line message; ``see`` names where the user finds help (``a5 -h``). ``given``, when passed,
+    receives the dests that ``argv`` set explicitly (to lay one argument list over another)."""
     table: dict[str, Flag] = {}
     for f in flags:
         for name in f.names:
@@ -179,6 +180,8 @@ def parse(argv: Sequence[str], flags: Sequence[Flag], positionals: Sequence[Posi
         f = table.get(name)
         if f is None:
             raise UsageError(f"unknown flag '{_excerpt(name)}' (see {see})")
+        if given is not None:
+            given.update(f.dests)
         if eq and f.nargs != 1:
             raise UsageError(f"{name} takes {'no value' if f.nargs == 0 else f'{f.nargs} values'}, "
                              f"not '{name}={_excerpt(inline)}'")

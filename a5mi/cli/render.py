@@ -15,7 +15,7 @@ from typing import Any
 
 from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
-from a5mi.cli.flags import Args, Flag, choice, integer, number, text
+from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, text
 from a5mi.errors import UsageError
 from a5mi.options import AOV_MODES, KERNELS, RenderOptions
 from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR, MAX_SIZE
@@ -133,18 +133,58 @@ def outputs_of(args: Args) -> list[tuple[str, str]]:
 
 
 def run_render(args: Args, console: Console) -> int:
+    """One scene (``a5``, ``a5mi render -input -output``), or the jobs of ``a5mi render`` with several scenes or
+    ``--jobs`` (:mod:`a5mi.cli.batch`: one process, one :class:`a5mi.session.RenderSession`)."""
+    from a5mi.cli import batch
+
+    if batch.is_batch(args):
+        return batch.run_batch(batch.make_jobs(args, RENDER_FLAGS, check_render_args), console, render_job)
+    from a5mi import driver
+
+    return _render_and_write(args, console, lambda: activate_variant(args.variant), driver.render,
+                             lambda: _load(args.input, console, bool(args.get("bump"))))
+
+
+def render_job(args: Args, console: Console, session: Any, scenes: dict[Any, Any]) -> int:
+    """One job of a batch: as :func:`run_render` for one scene, through ``session`` (built scenes and
+    integrators reused), with the scene's description taken from ``scenes`` when an earlier job loaded it
+    (its warnings were printed then). At most :data:`SCENES_KEPT` descriptions are kept."""
+    import os
+
+    key = (os.path.abspath(args.input), os.getcwd(), bool(args.get("bump")))
+
+    def load() -> tuple[Any, list[Any]]:
+        if key not in scenes:
+            scenes[key] = _load(args.input, console, bool(args.get("bump")))
+            while len(scenes) > SCENES_KEPT:
+                dropped = scenes.pop(next(iter(scenes)))
+                session.forget(dropped[0])
+        return scenes[key]
+
+    return _render_and_write(args, console, lambda: session.variant, session.render, load)
+
+
+#: Scene descriptions a batch keeps loaded (parsed, files checked); the session keeps one built scene.
+SCENES_KEPT = 4
+
+
+def _load(path: str, console: Console, bump: bool) -> tuple[Any, list[Any]]:
+    inputs: list[Any] = []
+    return load_scene(path, console, inputs=inputs, bump=bump), inputs
+
+
+def _render_and_write(args: Args, console: Console, activate: Any, render: Any, load: Any) -> int:
     """Check outputs, load the scene once, activate the variant, render, then write every image atomically."""
-    from a5mi import driver, imageio
+    from a5mi import imageio
 
     outputs = outputs_of(args)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
-    inputs: list[Any] = []
-    desc = load_scene(args.input, console, inputs=inputs, bump=bool(args.get("bump")))
+    desc, inputs = load()
     clobber.check_outputs(outputs, inputs)  # no output may overwrite a mesh, texture or cube-map face
     timings["parse"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    variant = activate_variant(args.variant)
+    variant = activate()
     timings["variant"] = time.perf_counter() - t0
 
     # -v times the plain render kernel; the ray counts (a different kernel: three more outputs) come from a
@@ -152,11 +192,11 @@ def run_render(args: Args, console: Console) -> int:
     options = render_options(args, count_rays=False)
     interactive = console.err.isatty()  # never a \r bar in a log file
     with console.progress(enabled=interactive) as bar:  # progress steps cost a trace each: only when shown
-        result = driver.render(desc, options, progress=bar if interactive else None)
+        result = render(desc, options, progress=bar if interactive else None)
     timings.update(result.timings)
     if args.verbose:
         counting = dataclasses.replace(options, count_rays=True, normals=False, depth=None, filter=False)
-        result.ray_counts = driver.render(desc, counting).ray_counts
+        result.ray_counts = render(desc, counting).ray_counts
 
     t0 = time.perf_counter()
     images = {"-output": result.image, "-normals": result.normals, "-depth": result.depth}
@@ -190,6 +230,29 @@ A5 = Command("a5", _SUMMARY, RENDER_FLAGS, run_render, grammar="a5", required=("
              check=check_render_args,
              epilog="Flags in any order; a flag given twice keeps its last value. Exit status: 0 written, "
                     "1 internal error, 2 user error.")
-#: ``a5mi render``: the same flags, GNU style (the a5 spellings are aliases).
-RENDER = Command("render", "render a scene (the a5 flags; see 'a5 -h')", RENDER_FLAGS, run_render,
-                 required=("input", "output"), epilog=A5.epilog, check=check_render_args)
+
+def check_render_command(args: Args) -> None:
+    """``a5mi render``: one scene needs ``-input`` and ``-output`` and the a5 checks; a batch's jobs are
+    checked one by one (:func:`a5mi.cli.batch.make_jobs`)."""
+    from a5mi.cli import batch
+
+    if batch.is_batch(args):
+        return
+    for dest, name in (("input", "-input SCENE.txt"), ("output", "-output IMG")):
+        if args.get(dest) is None:
+            raise UsageError(f"missing {name}")
+    check_render_args(args)
+
+
+def _render_command() -> Command:
+    from a5mi.cli.batch import BATCH_FLAGS, EPILOG
+
+    return Command("render", "render a scene, or several in one process (the a5 flags; see 'a5 -h')",
+                   RENDER_FLAGS + BATCH_FLAGS, run_render,
+                   (Positional("scenes", "SCENE.txt", "scenes to render with the same flags (with --output-dir)",
+                               "*"),),
+                   epilog=A5.epilog + " " + EPILOG, check=check_render_command)
+
+
+#: ``a5mi render``: the same flags, GNU style (the a5 spellings are aliases), plus batches (a5mi.cli.batch).
+RENDER = _render_command()
