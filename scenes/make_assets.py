@@ -16,6 +16,9 @@
 * ``tex/bumps.bmp``: 64 x 64 grey height field, a 4 x 4 grid of round domes (height 1 − (r/R)², R = 6 texels);
   ``tex/ripples.bmp``: 64 x 64 tangent-space normal map of the ripples h = sin(2π·3 (u + v)) / 12, encoded
   ``128 + 127 t`` (the E.7 decoding).
+* ``volumes/cloud.vol``: a 24 x 24 x 24 Mitsuba ``.vol`` density grid (docs/EXTENSIONS.md E.9: ``VOL`` 3,
+  float32, x fastest), three overlapping Gaussian puffs ``exp(-|x - c|²/(2 s²))``, summed and clamped to 1, so
+  the ``Volume`` of ``scenes/volume.txt`` shows a varying density.
 * ``sky/{left,right,up,down,front,back}.bmp``: a 32 x 32 cube map, each face its own hue with a vertical
   gradient and a dark mark in its top-left corner (SPEC A.4's face/uv table is visible in a render).
 """
@@ -23,6 +26,7 @@
 from __future__ import annotations
 
 import math
+import struct
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent
@@ -193,6 +197,30 @@ def ripples(n: int = 64, waves: int = 3, amp: float = 1.0 / 12.0) -> list[list[t
     return rows  # type: ignore[return-value]
 
 
+#: The puffs of ``cloud.vol``: centre (unit cube) and standard deviation.
+PUFFS = (((0.35, 0.45, 0.5), 0.16), ((0.62, 0.55, 0.45), 0.14), ((0.5, 0.35, 0.6), 0.12))
+
+
+def cloud(n: int = 24) -> list[float]:
+    """Density of ``cloud.vol`` at the cell centres ``((i + ½)/n, ...)``, x fastest (E.9 order)."""
+    values = []
+    for z in range(n):
+        for y in range(n):
+            for x in range(n):
+                p = ((x + 0.5) / n, (y + 0.5) / n, (z + 0.5) / n)
+                d = sum(math.exp(-sum((a - b) ** 2 for a, b in zip(p, c, strict=True)) / (2 * s * s))
+                        for c, s in PUFFS)
+                values.append(min(1.0, d))
+    return values
+
+
+def write_vol(path: Path, n: int, values: list[float]) -> None:
+    """A Mitsuba ``.vol`` file (docs/EXTENSIONS.md E.9): ``VOL`` 3, encoding 1, n³ cells, 1 channel, the unit
+    bounding box, float32 values."""
+    head = b"VOL" + bytes([3]) + struct.pack("<iiiii6f", 1, n, n, n, 1, 0, 0, 0, 1, 1, 1)
+    path.write_bytes(head + struct.pack(f"<{len(values)}f", *values))
+
+
 if __name__ == "__main__":
     HERE.mkdir(exist_ok=True)
     write_obj(HERE / "box.obj", *box())
@@ -203,7 +231,9 @@ if __name__ == "__main__":
     (HERE / "tile.obj").write_text("\n".join(tile()) + "\n")
     write_bmp(ROOT / "tex" / "bumps.bmp", domes())
     write_bmp(ROOT / "tex" / "ripples.bmp", ripples())
+    (ROOT / "volumes").mkdir(exist_ok=True)
+    write_vol(ROOT / "volumes" / "cloud.vol", 24, cloud(24))
     (ROOT / "sky").mkdir(exist_ok=True)
     for face, colour in SKY_HUES.items():
         write_bmp(ROOT / "sky" / f"{face}.bmp", sky_face(colour))
-    print("wrote meshes/ (box, icosphere, prism, tile), tex/*.bmp, sky/*.bmp under", ROOT)
+    print("wrote meshes/ (box, icosphere, prism, tile), tex/*.bmp, volumes/cloud.vol, sky/*.bmp under", ROOT)

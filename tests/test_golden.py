@@ -88,3 +88,12 @@ def test_golden_fog(variant: str, tmp_path: Path) -> None:
 
     options = RenderOptions(width=64, height=64, shadows=True, bounces=4, spp=2, seed=1)
     _check_golden("fog_shafts", "fog_shafts.fog-spp2", options, tmp_path)
+
+
+def test_golden_volume(variant: str, tmp_path: Path) -> None:
+    """The Volume demo (docs/EXTENSIONS.md E.9, grid ``scenes/volumes/cloud.vol``): 64 x 64, -shadows -bounces 2
+    -spp 2 -seed 1."""
+    from a5mi.driver import RenderOptions
+
+    options = RenderOptions(width=64, height=64, shadows=True, bounces=2, spp=2, seed=1)
+    _check_golden("volume", "volume.vol-spp2", options, tmp_path)
