@@ -321,3 +321,23 @@ def test_cli_animate_writes_frames_and_a_gif(mi, tmp_path: Path, capsys: pytest.
     assert execute(command("animate"), [str(still), "-o", str(tmp_path / "g")]) == 2
     assert "has no Animation block" in capsys.readouterr().err
     assert execute(command("animate"), [str(scene), "-o", str(tmp_path / "g"), "--frames", "3:99"]) == 2
+
+
+def test_bump_flag_reaches_the_warm_scene(mi, tmp_path: Path) -> None:
+    """``-bump`` (E.7) in an animation: frame 0 of ``scenes/bumps.txt`` with a light track equals the still
+    ``-bump`` render bit for bit, and differs from the frame without ``-bump`` (the flag is not ignored)."""
+    from a5mi import driver
+    from a5mi.animate.warm import WarmScene
+    from a5mi.converters.a5_parser import parse_file
+
+    still = (ROOT / "scenes" / "bumps.txt").read_text()
+    still = still.replace("tex/", f"{ROOT / 'scenes' / 'tex'}/").replace("meshes/", f"{ROOT / 'scenes' / 'meshes'}/")
+    (tmp_path / "still.txt").write_text(still)
+    (tmp_path / "anim.txt").write_text(
+        still + "Animation { frames 2 fps 1 Track { Light 1 position linear key 0 1.5 2.5 2 key 1 -1.5 2.5 2 } }\n")
+    on = RenderOptions(width=24, height=24, shadows=True, bump=True)
+    off = dataclasses.replace(on, bump=False)
+    frame_on = WarmScene(parse_file(tmp_path / "anim.txt"), on).render(0).image
+    frame_off = WarmScene(parse_file(tmp_path / "anim.txt"), off).render(0).image
+    assert np.array_equal(frame_on, driver.render(parse_file(tmp_path / "still.txt"), on).image)
+    assert not np.array_equal(frame_on, frame_off)

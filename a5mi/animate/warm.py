@@ -94,7 +94,7 @@ class WarmScene:
 
         self.model, self.options = model, options
         self.animation = model.animation
-        self.desc = describe(model)
+        self.desc = describe(model, bump=options.bump)  # -bump: the maps of docs/EXTENSIONS.md E.7
         d = to_dict(self.desc, options)
         self.bsdfs: dict[int, list[Any]] = {}  # material -> its a5_material objects
         for i, shape in enumerate(self.desc.shapes):
