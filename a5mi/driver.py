@@ -45,6 +45,7 @@ import numpy as np
 import numpy.typing as npt
 
 from a5mi import interrupts
+from a5mi.arrays import aligned_float32  # noqa: F401 - re-exported (warm scenes, trace, bench)
 from a5mi.filters import FilterStream, postprocess
 from a5mi.glibc_rand import glibc_stream, jitter_offsets
 from a5mi.options import TILE_RAYS, RenderOptions  # noqa: F401 - re-exported
@@ -163,21 +164,6 @@ def tile_rows(rw: int, rh: int, tile_rays: int, *, align: int | None = None,
     count = math.ceil(rh / rows)
     rows = math.ceil(math.ceil(rh / count) / m) * m  # the same number of tiles, evened out (still <= rows)
     return [(j0, min(rh, j0 + rows)) for j0 in range(0, rh, rows)]
-
-
-def aligned_float32(a: npt.ArrayLike, align: int = 64) -> npt.NDArray[np.float32]:
-    """A float32 copy of ``a`` whose data starts on an ``align``-byte boundary.
-
-    Dr.Jit maps numpy memory zero-copy and bakes the pointer's alignment into the kernel IR (``align 64`` or
-    ``align 4``), so the same kernel would hash differently, and recompile, depending on where numpy's
-    allocator put the array.
-    """
-    src = np.asarray(a, dtype=np.float32).ravel()
-    raw = np.empty(src.nbytes + align, np.uint8)
-    offset = (-raw.ctypes.data) % align
-    out = raw[offset : offset + src.nbytes].view(np.float32)
-    out[:] = src
-    return out
 
 
 def _pixel_coords(

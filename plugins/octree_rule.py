@@ -70,49 +70,72 @@ def binary_sees(si: mi.SurfaceInteraction3f, d: mi.Vector3f, active: mi.Bool) ->
     return ~unseen
 
 
-def _rejected(si: mi.SurfaceInteraction3f, o: mi.Point3f, d: mi.Vector3f, offset: mi.Float, t_min: mi.Float,
-              active: mi.Bool) -> tuple[mi.Bool, mi.Float, mi.Vector3f]:
-    """``(rejected, t, N)`` for the hit ``si`` of a ray started at ``o + offset d``: a hit the binary does
-    not see (octree rule), a mesh triangle the binary's own test refuses (:mod:`.triangle_rule`; then
-    ``t`` and ``N`` are the binary's), or any other shape's hit at ``t <= t_min``."""
+def _rejected(table: triangle_rule.RuleTable | None, si: mi.SurfaceInteraction3f, o: mi.Point3f,
+              d: mi.Vector3f, offset: mi.Float, t_min: mi.Float,
+              active: mi.Bool) -> tuple[mi.Bool, mi.UInt32, mi.Float, mi.Vector3f]:
+    """``(rejected, row, t, N)`` for the hit ``si`` of a ray started at ``o + offset d``: a hit the binary
+    does not see (octree rule), a mesh triangle the binary's own test refuses (:mod:`.triangle_rule`; ``row``
+    is that face's table row, 0 off rule meshes, and ``t`` and ``N`` are the binary's), or any other shape's
+    hit at ``t <= t_min``."""
     valid = mi.Bool(active) & si.is_valid()
-    rule = triangle_rule.carries_rule(si, valid)
-    hit_b, t_b, n_b = triangle_rule.evaluate(si, o, d, t_min, rule)
-    out = valid & ((rule & ~hit_b) | (~rule & (offset < t_min) & (si.t + offset <= t_min)))
+    row = mi.UInt32(0)
+    t_b, n_b = mi.Float(0.0), mi.Vector3f(0.0)
+    out = valid & (offset < t_min) & (si.t + offset <= t_min)
+    if table is not None:
+        row = triangle_rule.row_of(table, si, valid)
+        hit_b, t_b, n_b = triangle_rule.evaluate(table, row, o, d, t_min, row > 0)
+        out = dr.select(row > 0, ~hit_b, out)
     zero = valid & has_zero(d)
     out |= zero & ~binary_sees(si, d, zero)
-    return out, t_b, n_b
+    return out, row, t_b, n_b
 
 
 @dr.syntax
-def intersect(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float,
-              active: mi.Bool) -> tuple[mi.SurfaceInteraction3f, mi.Float]:
-    """Nearest hit with ``t > t_min`` that the binary sees: ``(si, offset)``, ``si.t`` measured from
-    ``o + offset d`` (so the hit distance is ``si.t + offset``). Mitsuba rays have no tmin: the ray starts
-    at ``o + SEARCH_FROM t_min d``; a hit the binary does not see (the octree rule, or a mesh triangle that
-    fails the binary's own test, plugins/triangle_rule.py) restarts it just past that hit. On meshes that
-    carry the binary's triangle data the hit distance and shading normal are the binary's (offset 0,
-    ``si.t`` = its t, ``si.sh_frame`` about its N)."""
+def intersect(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, active: mi.Bool,
+              table: triangle_rule.RuleTable | None = None,
+              origin: mi.UInt32 | None = None) -> tuple[mi.SurfaceInteraction3f, mi.Float, mi.UInt32]:
+    """Nearest hit with ``t > t_min`` that the binary sees: ``(si, offset, row)``, ``si.t`` measured from
+    ``o + offset d`` (so the hit distance is ``si.t + offset``); ``row``: the hit face's row of ``table``
+    (:func:`.triangle_rule.rule_table` of ``scene``; 0 off rule meshes, and everywhere when ``table`` is
+    None). Mitsuba rays have no tmin: a hit the binary does not see (the octree rule, or a mesh triangle
+    that fails the binary's own test, plugins/triangle_rule.py) restarts the ray just past that hit. On
+    meshes that carry the binary's triangle data the hit distance and shading normal are the binary's
+    (offset 0, ``si.t`` = its t, ``si.sh_frame`` about its N).
+
+    Where the ray starts: a ray leaving a rule mesh may re-meet the triangle it leaves, because that
+    triangle's float32 ``t`` is rounding noise of either sign. ``origin`` (per lane: the row of the face the
+    ray leaves, 0 for none) lets that triangle be tested directly: where the binary re-hits it, the Mitsuba
+    ray starts ``SEARCH_FROM`` tmin behind the origin (so the triangle is found and evaluated), elsewhere at
+    ``o + t_min d``. Without ``origin`` every lane starts behind (the rule's first form: one more Mitsuba
+    ray cast for each ray leaving any surface, since it first meets that surface again; BENCHMARKS.md run
+    G measures the difference)."""
     offset = t_min * SEARCH_FROM
+    if table is None:
+        offset = mi.Float(t_min)
+    elif origin is not None:
+        rehit, _, _ = triangle_rule.evaluate(table, origin, o, d, t_min, mi.Bool(active) & (origin > 0))
+        offset = dr.select(rehit, offset, t_min)
     si = scene.ray_intersect(mi.Ray3f(o + offset * d, d), active)
-    skip, t_b, n_b = _rejected(si, o, d, offset, t_min, active)
+    skip, row, t_b, n_b = _rejected(table, si, o, d, offset, t_min, active)
     n = mi.UInt32(0)
     while skip & (n < MAX_SKIPS):
         step = offset + si.t + dr.maximum(1e-6, (offset + si.t) * 1e-6)
         # Past any other shape's hit below tmin the search resumes at tmin itself, as it always did.
-        offset = dr.select(triangle_rule.carries_rule(si, skip), step, dr.maximum(step, t_min))
+        offset = dr.select(row > 0, step, dr.maximum(step, t_min))
         si = scene.ray_intersect(mi.Ray3f(o + offset * d, d), skip)
-        again, t_again, n_again = _rejected(si, o, d, offset, t_min, skip)
+        again, row_again, t_again, n_again = _rejected(table, si, o, d, offset, t_min, skip)
+        row = dr.select(skip, row_again, row)
         t_b = dr.select(skip, t_again, t_b)
         n_b = dr.select(skip, n_again, n_b)
         skip &= again
         n += 1
-    binary = triangle_rule.carries_rule(si, active) & ~skip
+    row = dr.select(skip, 0, row)
+    binary = row > 0
     si.t = dr.select(binary, t_b, si.t)
     offset = dr.select(binary, 0.0, offset)
     si.sh_frame = dr.select(binary, mi.Frame3f(n_b), si.sh_frame)
     si.wi = dr.select(binary, si.sh_frame.to_local(-d), si.wi)
-    return si, offset
+    return si, offset, row
 
 
 @dr.syntax

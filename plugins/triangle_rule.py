@@ -24,17 +24,88 @@ world ray ``(o, d)`` and ``tmin``::
 with ``normalize(v) = v / sqrtf((x² + y²) + z²)`` and no fused multiply-add anywhere (Dr.Jit's ``dr.dot``
 and ``dr.norm`` fuse, so they are not used). Not modelled: the binary composes nested ``Transform`` levels
 one by one, and inverts M in float32 (here: the composed float64 inverse rounded once).
+
+Inside the render kernel the face data is not read through the mesh's ``eval_attribute_3`` (a virtual call
+per attribute: eight per evaluated hit) but from one :class:`RuleTable` per scene: the eleven vectors of
+every rule mesh's faces (:data:`ROW_ATTRIBUTES`) copied into one array, found by the hit shape's registry ID
+and ``prim_index`` with plain gathers (BENCHMARKS.md run G). A *row* names a face of the table: its index
+plus one, 0 for "not a rule-mesh face".
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import drjit as dr
 import mitsuba as mi
+import numpy as np
+
+from a5mi.arrays import aligned_float32
 
 from .common import dot32 as dot
 
 #: The face attribute that marks a mesh carrying the data above.
 MARKER = "face_a5_v0"
+#: The face attributes of one table row, in row order (vectors of 3 floats each).
+ROW_ATTRIBUTES = ("face_a5_inv0", "face_a5_inv1", "face_a5_inv2", "face_a5_octree", "face_a5_inv_t",
+                  "face_a5_v0", "face_a5_v1", "face_a5_v2", "face_a5_n0", "face_a5_n1", "face_a5_n2")
+_SLOT = {name: k for k, name in enumerate(ROW_ATTRIBUTES)}
+#: Floats per table row: the 33 of the eleven vectors, padded to whole packets of four, so that a row is
+#: read with nine 4-float packet gathers (one vector load per lane each; a ``Vector3f`` gather is three
+#: scalar gathers in Dr.Jit's LLVM backend).
+ROW_FLOATS = 36
+
+
+@dataclass
+class RuleTable:
+    """The rule meshes' face data of one scene (module docstring): ``rows`` holds one row of
+    :data:`ROW_FLOATS` floats (the :data:`ROW_ATTRIBUTES` vectors, then zeros) per face, every rule mesh's
+    faces in turn; ``base[id]`` is the row of face 0 of the shape with registry ID ``id`` (0: that shape
+    carries no rule data). ``key`` identifies the attribute buffers it was copied from (a warm animated
+    scene updates them, and the table is copied again)."""
+
+    rows: mi.Float
+    base: mi.UInt32
+    last: mi.UInt32   # len(base) - 1, opaque (a literal would differ between scenes and recompile the kernel)
+    key: tuple
+
+
+def _shape_id(shape: mi.Shape) -> int:
+    return int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0])
+
+
+def rule_table(scene: mi.Scene, cached: RuleTable | None = None) -> RuleTable | None:
+    """The :class:`RuleTable` of ``scene`` (None when no shape carries the binary's triangle data);
+    ``cached`` is returned as it is when its attribute buffers are still the scene's."""
+    meshes = [s for s in scene.shapes() if isinstance(s, mi.Mesh) and s.has_attribute(MARKER)]
+    if not meshes:
+        return None
+    buffers = [[mi.traverse(m)[name] for name in ROW_ATTRIBUTES] for m in meshes]
+    key = tuple((_shape_id(m), *(b.index for b in bufs)) for m, bufs in zip(meshes, buffers, strict=True))
+    if cached is not None and cached.key == key:
+        return cached
+    blocks, first = [], 1
+    base = np.zeros(max(_shape_id(s) for s in scene.shapes()) + 2, dtype=np.uint32)
+    for m, bufs in zip(meshes, buffers, strict=True):
+        faces = m.face_count()
+        block = np.zeros((faces, ROW_FLOATS), dtype=np.float32)
+        block[:, :3 * len(ROW_ATTRIBUTES)] = np.concatenate(
+            [np.asarray(b, dtype=np.float32).reshape(faces, 3) for b in bufs], axis=1)
+        blocks.append(block)
+        base[_shape_id(m)] = first
+        first += faces
+    rows = mi.Float(aligned_float32(np.concatenate(blocks)))  # (unaligned: a random recompile, a5mi/arrays.py)
+    ids = mi.UInt32(base.tolist())   # a few entries: a Dr.Jit-owned copy, not numpy memory
+    dr.make_opaque(rows, ids)
+    return RuleTable(rows, ids, dr.opaque(mi.UInt32, len(base) - 1), key)
+
+
+def row_of(table: RuleTable, si: mi.SurfaceInteraction3f, active: mi.Bool) -> mi.UInt32:
+    """The table row of the face ``si`` hit (0 where ``si`` is a miss, inactive or not on a rule mesh)."""
+    m = mi.Bool(active) & si.is_valid()
+    sid = dr.minimum(dr.reinterpret_array(mi.UInt32, si.shape), table.last)
+    first = dr.gather(mi.UInt32, table.base, sid, m)
+    return dr.select(m & (first > 0), first + si.prim_index, 0)
 
 
 def normalize(v: mi.Vector3f) -> mi.Vector3f:
@@ -65,24 +136,22 @@ def solve(a: mi.Vector3f, b: mi.Vector3f, c: mi.Vector3f, o: mi.Vector3f,
     return beta, gamma, t
 
 
-def carries_rule(si: mi.SurfaceInteraction3f, active: mi.Bool) -> mi.Bool:
-    """True where ``si`` is a hit on a mesh that carries the binary's triangle data."""
-    return mi.Bool(active) & si.is_valid() & si.shape.has_attribute(MARKER, active)
-
-
-def evaluate(si: mi.SurfaceInteraction3f, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float,
+def evaluate(table: RuleTable, row: mi.UInt32, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float,
              active: mi.Bool) -> tuple[mi.Bool, mi.Float, mi.Vector3f]:
-    """The binary's verdict on the triangle of ``si`` for the world ray ``(o, d)``: ``(hit, t, N)`` with
-    the binary's hit distance and world shading normal (module docstring). Only lanes in ``active`` (hits
-    on meshes that :func:`carries_rule`) are meaningful."""
-    shape = si.shape
-    m = mi.Bool(active)
+    """The binary's verdict on face ``row`` of ``table`` for the world ray ``(o, d)``: ``(hit, t, N)`` with
+    the binary's hit distance and world shading normal (module docstring). Only lanes in ``active`` with
+    ``row > 0`` are meaningful."""
+    m = mi.Bool(active) & (row > 0)
+    first = (row - 1) * (ROW_FLOATS // 4)
+    packets = [dr.gather(mi.Vector4f, table.rows, first + j, m) for j in range(ROW_FLOATS // 4)]
+    floats = [packets[i // 4][i % 4] for i in range(ROW_FLOATS)]
 
     def attr(name: str) -> mi.Vector3f:
-        return mi.Vector3f(shape.eval_attribute_3(name, si, m))
+        k = 3 * _SLOT[name]
+        return mi.Vector3f(floats[k], floats[k + 1], floats[k + 2])
 
     a0, a1, a2, tr = attr("face_a5_inv0"), attr("face_a5_inv1"), attr("face_a5_inv2"), attr("face_a5_inv_t")
-    transformed = mi.Vector3f(shape.eval_attribute_3("face_a5_octree", si, m)).z != 0.0
+    transformed = attr("face_a5_octree").z != 0.0
     ov, dv = mi.Vector3f(o), mi.Vector3f(d)
     o_obj = mi.Vector3f(dot(a0, ov) + tr.x, dot(a1, ov) + tr.y, dot(a2, ov) + tr.z)
     d_obj = mi.Vector3f(dot(a0, dv), dot(a1, dv), dot(a2, dv))

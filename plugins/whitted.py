@@ -14,7 +14,7 @@ import mitsuba as mi
 
 from a5mi.spec import FRESNEL_MODES, MIRROR_THRESHOLD, TMIN
 
-from . import media, octree_rule, spectral
+from . import media, octree_rule, spectral, triangle_rule
 from .bump import shading_normal
 from .common import fresnel_weight, reflect, snell
 from .planes import (
@@ -53,11 +53,12 @@ def stack_size(max_depth: int, glossy_samples: int = 1) -> int:
 
 
 def _push(stacks: tuple, top: mi.UInt32, mask: mi.Bool, o: mi.Point3f, d: mi.Vector3f, w: mi.Color3f,
-          bounces: mi.UInt32, n_medium: mi.Float, t_min: mi.Float, *extra: object) -> mi.UInt32:
-    """Push a child ray (origin, direction, path weight, bounces left, medium index, tmin, then one value per
-    extension stack, e.g. E.10's "weighted" flag) onto the pending-ray stacks of the lanes in ``mask``; returns
-    the new stack pointer."""
-    for stack, value in zip(stacks, (o, d, w, bounces, n_medium, t_min, *extra), strict=True):
+          bounces: mi.UInt32, n_medium: mi.Float, t_min: mi.Float, origin: mi.UInt32, *extra: object) -> mi.UInt32:
+    """Push a child ray (origin, direction, path weight, bounces left, medium index, tmin, the rule-table row
+    of the mesh face it leaves (0: none; plugins/triangle_rule.py), then one value per extension stack, e.g.
+    E.10's "weighted" flag) onto the pending-ray stacks of the lanes in ``mask``; returns the new stack
+    pointer."""
+    for stack, value in zip(stacks, (o, d, w, bounces, n_medium, t_min, origin, *extra), strict=True):
         stack.write(value, top, mask)
     return top + dr.select(mask, 1, 0)
 
@@ -87,6 +88,7 @@ def _trace(
     bump: bool = False,
     sample_lights: bool = True,
     sample_gloss: bool = True,
+    rules: triangle_rule.RuleTable | None = None,
 ) -> tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float, mi.Float]:
     """SPEC B.3 for a batch of camera rays (unit ``ray_d``, tmin 0, index 1.0, budget ``max_depth``).
 
@@ -101,7 +103,8 @@ def _trace(
     weights, its in-scattered light is added (plugins/media.py). ``dispersion`` (docs/EXTENSIONS.md E.10): each
     lane carries a wavelength, dispersive materials refract with n(λ) (plugins/spectral.py).
     ``sample_lights`` / ``sample_gloss`` (False when the scene has no area light / no glossy material): leave
-    the E.2 / E.4 sampling out of the kernel.
+    the E.2 / E.4 sampling out of the kernel. ``rules``: the scene's :class:`~.triangle_rule.RuleTable` (None:
+    no mesh carries the binary's triangle data, and the kernel has no triangle rule).
     """
     width = dr.width(ray_d)
     env = scene.environment()
@@ -112,7 +115,8 @@ def _trace(
     stack_b = dr.alloc_local(mi.UInt32, size)   # remaining bounces
     stack_n = dr.alloc_local(mi.Float, size)    # index of the medium the ray travels in
     stack_t = dr.alloc_local(mi.Float, size)    # the ray's tmin
-    stacks = (stack_o, stack_d, stack_w, stack_b, stack_n, stack_t)
+    stack_m = dr.alloc_local(mi.UInt32, size)   # rule-table row of the mesh face the ray leaves (0: none)
+    stacks = (stack_o, stack_d, stack_w, stack_b, stack_n, stack_t, stack_m)
 
     zero_u = dr.zeros(mi.UInt32, width)
     stack_o[zero_u] = mi.Point3f(ray_o)
@@ -121,6 +125,7 @@ def _trace(
     stack_b[zero_u] = zero_u + max_depth
     stack_n[zero_u] = dr.full(mi.Float, 1.0, width)
     stack_t[zero_u] = dr.zeros(mi.Float, width)
+    stack_m[zero_u] = zero_u
     # ---- extension E.10: the lane's wavelength; per pending ray, "weighted by w(λ) already" (plugins/spectral.py)
     lam, stack_s = spectral.start(rng, width, size) if dispersion else (None, None)
     stacks = (*stacks, stack_s) if dispersion else stacks
@@ -147,15 +152,17 @@ def _trace(
         bounces = stack_b[top]
         n_medium = stack_n[top]
         t_min = stack_t[top]
+        origin = stack_m[top]
         weighted = stack_s[top] if dispersion else None
 
         # Mitsuba rays have no tmin: start at o + tmin d and add tmin back to t. Planes: analytic (SPEC A.6).
         # Meshes: as the binary's octree sees them (plugins/octree_rule.py).
-        si, offset = octree_rule.intersect(scene, o, d, t_min, dr.full(mi.Bool, True, width))
+        si, offset, row = octree_rule.intersect(scene, o, d, t_min, dr.full(mi.Bool, True, width), rules, origin)
         shape_hit = si.is_valid()
         t_hit = dr.select(shape_hit, si.t + offset, dr.inf)
         on_plane, t_hit, plane_idx = intersect_planes(planes, o, d, t_min, t_hit, dr.full(mi.Bool, True, width))
         hit = shape_hit | on_plane
+        row = dr.select(on_plane, 0, row)                   # the face the children leave (plugins/octree_rule.py)
         p = o + t_hit * d                                   # SPEC: p = o + t d
         n = dr.select(on_plane, plane_normal(planes, plane_idx, on_plane),
                       mi.Vector3f(si.sh_frame.n))           # SPEC N: not flipped toward the viewer
@@ -303,7 +310,7 @@ def _trace(
                 w_t = weight * specular * (1.0 - r_fresnel) * share
                 # E.10: the first dispersive refraction of a path multiplies its weight by w(λ)
                 w_t, tail_t = spectral.weigh(w_t, weighted, dispersive, lam) if dispersion else (w_t, ())
-                top = _push(stacks, top, push_refr, p, t_dir, w_t, bounces - 1, nt, tmin, *tail_t)
+                top = _push(stacks, top, push_refr, p, t_dir, w_t, bounces - 1, nt, tmin, row, *tail_t)
                 n_refr += dr.select(push_refr, 1.0, 0.0)
                 if rec is not None:  # record
                     rec.node(n_refl, n_refr, top, refractive=refractive, leaving=leaving, nt=nt, refr_exists=exists,
@@ -313,7 +320,7 @@ def _trace(
                 push_refl = go & (dr.norm(specular) > MIRROR_THRESHOLD)
                 push_refl &= ~glossy | (dr.dot(r_dir, n_side) > 0.0)
                 top = _push(stacks, top, push_refl, p, r_dir, weight * specular * r_fresnel * share, bounces - 1,
-                            n_medium, tmin, *((weighted,) if dispersion else ()))
+                            n_medium, tmin, row, *((weighted,) if dispersion else ()))
                 n_refl += dr.select(push_refl, 1.0, 0.0)
                 if rec is not None:  # record
                     rec.node(n_refl, n_refr, top, push_refl=push_refl, r_dir=r_dir, r_fresnel=r_fresnel,
@@ -430,6 +437,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         self.glossy_samples = glossy_samples
         self._pass: tuple[int, int, int, int] | None = None
         self._medium = media.params_from_props(props)   # docs/EXTENSIONS.md E.8, E.9 (None: no medium)
+        self._rules: dict[int, triangle_rule.RuleTable] = {}   # id(scene) -> its rule table (the last scene only)
 
     def set_pass(self, first_pixel: int, index: int, count: int, seed: int) -> None:
         """Extension E.5 (called by ``a5mi.driver`` before each ``sample``): lane ``i`` of the next batch is
@@ -473,6 +481,13 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         dr.eval(ptrs)
         return ptrs, dr.opaque(mi.UInt32, len(idx))
 
+    def _rule_table(self, scene: mi.Scene) -> triangle_rule.RuleTable | None:
+        """The scene's triangle-rule table (plugins/triangle_rule.py), kept while its buffers are unchanged."""
+        cached = self._rules.get(id(scene))
+        table = triangle_rule.rule_table(scene, cached)
+        self._rules = {id(scene): table} if table is not None else {}
+        return table
+
     def trace(
         self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True, sampler: mi.Sampler | None = None,
         record: TreeRecorder | None = None,
@@ -492,7 +507,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             self.reflection, self.refraction, self._stochastic(scene, sampler, width), record, self._medium,
             dispersion=self.dispersion, bump=self.bump,
             sample_lights=any(hasattr(e, "samples") or e.get_shape() is not None for e in scene.emitters()),
-            sample_gloss=self.glossy,
+            sample_gloss=self.glossy, rules=self._rule_table(scene),
         )
 
     def sample(

@@ -126,7 +126,7 @@ class TreeRecorder:
                  far: mi.Bool, active: mi.Bool) -> None:
         """The first shape or plane between ``p`` and the light (``tmin < t < dist``; planes up to +inf for a
         directional light, as the kernel's shadow test): its id and ``t``, for naming the occluder."""
-        si, offset = octree_rule.intersect(scene, p, d_light, tmin, active)
+        si, offset, _ = octree_rule.intersect(scene, p, d_light, tmin, active)
         t_shape = dr.select(si.is_valid() & (si.t + offset < dist), si.t + offset, dr.inf)
         on_plane, t_plane, plane_idx = intersect_planes(planes, p, d_light, tmin,
                                                         dr.select(far, dr.inf, dist), active)

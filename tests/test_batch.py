@@ -153,3 +153,46 @@ def test_bench_batch_ratio_and_table() -> None:
     text = "\n".join(_batch_tables({"batch": [b]}))
     assert "| scene11_cube |" in text and "1.200" in text and "1/3" in text
     assert BatchScene("empty").ratio is None
+
+
+MESHES = """
+PerspectiveCamera {{ center 0 1 8 direction 0 -0.1 -1 up 0 1 0 angle 30 }}
+Lights {{ numLights 1 PointLight {{ position {light} color 0.9 0.9 0.9 }} }}
+Background {{ color 0.1 0.2 0.3 ambientLight 0.2 0.2 0.2 }}
+Materials {{ numMaterials 2
+  PhongMaterial {{ diffuseColor 1 0 0 specularColor 0.5 0.5 0.5 }}
+  PhongMaterial {{ diffuseColor 0 1 0 }} }}
+Group {{ numObjects 2
+  MaterialIndex 0 Transform {{ Translate {t} TriangleMesh {{ obj_file cube.obj }} }}
+  MaterialIndex 1 Plane {{ normal 0 1 0 offset -1.2 }} }}
+"""
+
+
+def test_mesh_scenes_of_the_same_kind_share_the_kernel_with_the_triangle_rule(tmp_path: Path, scenes_dir: Path,
+                                                                               variant: str) -> None:
+    """The binary's triangle test reads a per-scene table (plugins/triangle_rule.py) whose values and length
+    are kernel inputs: another placement of the mesh and another light position launch the cached kernel;
+    the images are those of separate ``a5`` runs. (Not the same kind, measured: another number of shapes,
+    whose vcalls Mitsuba compiles per shape; and, in mesh scenes only, another *directional* light, which
+    compiles again without the triangle rule too.)"""
+    from a5mi.options import RenderOptions
+    from a5mi.session import RenderSession, describe_file
+
+    shutil.copy(scenes_dir / "cube.obj", tmp_path / "cube.obj")
+    a_txt, b_txt = tmp_path / "a.txt", tmp_path / "b.txt"
+    a_txt.write_text(MESHES.format(light="-2 3 4", t="0 0 0"))
+    b_txt.write_text(MESHES.format(light="1 4 3", t="0.5 0.2 -1"))
+    session = RenderSession()
+    options = RenderOptions(width=20, height=20, shadows=True, bounces=3)
+    a = session.render(describe_file(str(a_txt))[0], options)
+    b = session.render(describe_file(str(b_txt))[0], options)
+    assert b.kernels["compiled"] == 0 and b.kernels["disk"] == 0 and b.kernels["memory"] > 0, b.kernels
+    from a5mi.imageio import write_images
+
+    for txt, result in ((a_txt, a), (b_txt, b)):
+        out, ours = tmp_path / f"{txt.stem}.png", tmp_path / f"{txt.stem}.session.png"
+        assert cli.run(["-input", str(txt), "-output", str(out), "-size", "20", "20", "-shadows",
+                        "-bounces", "3"]) == 0
+        write_images([(ours, result.image)])
+        assert np.array_equal(read_uint8(out), read_uint8(ours))
+    assert not np.array_equal(read_uint8(tmp_path / "a.png"), read_uint8(tmp_path / "b.png"))

@@ -32,13 +32,17 @@ def _scene(vertices, faces, m=None, normals="auto", transformed=False):
     return mi.load_dict({"type": "scene", "m": make_mesh("m", data)})
 
 
-def _intersect(scene, o, d, t_min):
+def _intersect(scene, o, d, t_min, origin=None):
+    """``(valid, t, N)`` of ``octree_rule.intersect`` with the scene's rule table; ``origin``: the table row of
+    the face the ray leaves (None: every ray starts behind its origin, the rule's first form)."""
     import mitsuba as mi
 
-    from a5mi.plugins import octree_rule
+    from a5mi.plugins import octree_rule, triangle_rule
 
-    si, offset = octree_rule.intersect(scene, mi.Point3f(*[float(x) for x in o]),
-                                       mi.Vector3f(*[float(x) for x in d]), mi.Float(float(t_min)), mi.Bool(True))
+    table = triangle_rule.rule_table(scene)
+    si, offset, _ = octree_rule.intersect(scene, mi.Point3f(*[float(x) for x in o]),
+                                          mi.Vector3f(*[float(x) for x in d]), mi.Float(float(t_min)),
+                                          mi.Bool(True), table, None if origin is None else mi.UInt32(origin))
     valid = bool(si.is_valid()[0])
     t = F(np.array(si.t + offset)[0])
     n = np.array(si.sh_frame.n, dtype=np.float32).ravel()
@@ -105,6 +109,54 @@ def test_grazing_ray_re_hits_the_triangle_it_leaves(variant: str) -> None:
     assert t_binary == F(0.0234375) and beta >= 0 and gamma >= 0 and beta + gamma <= 1
     valid, t, _ = _intersect(_scene(tri.astype(np.float64), [[0, 1, 2]]), o, d, TMIN)
     assert valid and t == t_binary
+    # The render kernel's form: the ray names the face it leaves (table row 1), which is tested directly.
+    valid, t, _ = _intersect(_scene(tri.astype(np.float64), [[0, 1, 2]]), o, d, TMIN, origin=1)
+    assert valid and t == t_binary
+
+
+def test_origin_face_that_is_not_re_hit_leaves_the_ray_to_mitsuba(variant: str) -> None:
+    """A ray leaving face 1 of two parallel triangles (z = 0 and z = -1) straight down: the binary's t for
+    the face it leaves is 0 < tmin, so the ray starts at tmin and finds the lower face at t = 1 (its row, 2)."""
+    import mitsuba as mi
+
+    from a5mi.plugins import octree_rule, triangle_rule
+
+    v = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, -1], [1, 0, -1], [0, 1, -1]]
+    scene = _scene(v, [[0, 1, 2], [3, 4, 5]])
+    table = triangle_rule.rule_table(scene)
+    o, d = mi.Point3f(0.25, 0.25, 0.0), mi.Vector3f(0.0, 0.0, -1.0)
+    rehit, t0, _ = triangle_rule.evaluate(table, mi.UInt32(1), o, d, mi.Float(TMIN), mi.Bool(True))
+    assert not rehit[0] and t0[0] == 0.0
+    si, offset, row = octree_rule.intersect(scene, o, d, mi.Float(TMIN), mi.Bool(True), table, mi.UInt32(1))
+    assert row[0] == 2 and (si.t + offset)[0] == 1.0
+    assert _intersect(scene, (0.25, 0.25, 0.0), (0, 0, -1), TMIN, origin=1)[:2] == (True, F(1.0))
+
+
+def test_rule_table_rows_are_the_face_attributes(variant: str) -> None:
+    """Row r of the table holds face r-1's eleven attribute vectors; shapes without them map to row 0."""
+    import mitsuba as mi
+
+    from a5mi.converters.to_mitsuba import make_mesh
+    from a5mi.plugins import triangle_rule
+
+    v = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, -1], [1, 0, -1], [0, 1, -1]]
+    mesh = _scene(v, [[0, 1, 2], [3, 4, 5]]).shapes()[0]
+    shifted = np.asarray(v, float) + [3.0, 0.0, 0.0]
+    plain = make_mesh("plain", mesh_from_obj(ObjMesh("p.obj", shifted, np.array([[0, 1, 2]])),
+                                             np.eye(4), "auto", None, False))
+    scene = mi.load_dict({"type": "scene", "a": plain, "m": mesh, "s": {"type": "sphere", "center": [10, 0, 0]}})
+    table = triangle_rule.rule_table(scene)
+    rows = np.asarray(table.rows).reshape(-1, triangle_rule.ROW_FLOATS)
+    params = mi.traverse(mesh)
+    for k, name in enumerate(triangle_rule.ROW_ATTRIBUTES):
+        assert rows[:, 3 * k:3 * k + 3].ravel().tolist() == np.asarray(params[name]).tolist()
+    assert not rows[:, 3 * len(triangle_rule.ROW_ATTRIBUTES):].any()
+    assert triangle_rule.rule_table(scene, table) is table
+    hits = scene.ray_intersect(mi.Ray3f(mi.Point3f([3.2, 0.2, 0.2, 10, 0.2], [0.2, 0.2, 0.2, 0, 0.2],
+                                                   [5, 0.5, -0.5, 5, -5]),
+                                        mi.Vector3f([0] * 5, [0] * 5, [-1, -1, -1, -1, -1])))
+    rows = np.asarray(triangle_rule.row_of(table, hits, mi.Bool(True))).tolist()
+    assert rows == [0, 1, 2, 0, 0] and np.asarray(hits.is_valid()).tolist() == [True, True, True, True, False]
 
 
 def test_smooth_normal_is_the_binarys_interpolation(variant: str) -> None:
