@@ -15,6 +15,16 @@ __version__ = "0.1.0"
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
 
 
+def cache_dir() -> Path:
+    """Where a5mi keeps files it can always recompute (the glibc ``rand()`` prefix, the octree reach masks):
+    ``$A5MI_CACHE_DIR``, else ``$XDG_CACHE_HOME/a5mi``, else ``~/.cache/a5mi``."""
+    env = os.environ.get("A5MI_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "a5mi"
+
+
 def data_candidates() -> list[Path]:
     """Where the course data (SPEC.md, scenes/, reference/) is looked for, in order: ``$A5_DATA`` alone when
     it is set; else ``../shared/a5`` beside the project checkout (when a5mi runs from one), then

@@ -36,6 +36,8 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from a5mi import cache_dir  # noqa: F401 - re-exported: glibc_rand.cache_dir is where the prefix lives
+
 _MASK32 = np.uint64(0xFFFFFFFF)
 _LAG = 31  # r[i] = r[i-3] + r[i-31]
 _SHORT = 3
@@ -165,15 +167,6 @@ PREFIX_VALUES = 1 << 21
 #: Draws below this many values are computed directly (cheaper than reading the cache).
 SMALL_DRAW = 1 << 16
 _CHECK_VALUES = 1024  # how many cached values are also compared with freshly computed ones on load
-
-
-def cache_dir() -> Path:
-    """``$A5MI_CACHE_DIR``, else ``$XDG_CACHE_HOME/a5mi``, else ``~/.cache/a5mi``."""
-    env = os.environ.get("A5MI_CACHE_DIR")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "a5mi"
 
 
 class CachedStream:

@@ -24,10 +24,17 @@ on a triangle whose slot bit is 0 is one the binary does not see.
 
 from __future__ import annotations
 
+import hashlib
 import math
+import os
+import stat
+import zlib
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
+
+from a5mi import cache_dir
 
 MAX_TRIG = 7
 MAX_LEVEL = 8
@@ -188,9 +195,70 @@ def reachable_trigs(root: _Node, zmask: int, neg: int) -> set[int]:
     return out
 
 
-def reach_masks(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+def reach_masks(vertices: np.ndarray, faces: np.ndarray, folder: Path | None | bool = None) -> np.ndarray:
     """(F, 2) float32: per triangle, bit ``s`` of ``lo + hi·2^24`` says the traversal reaches it in pattern
-    slot ``s`` (module docstring); both words are integers below 2^24, exact in float32."""
+    slot ``s`` (module docstring); both words are integers below 2^24, exact in float32.
+
+    The masks depend on the mesh alone and cost ~1 s for the vase (5,762 lines) and several for sibenik, so
+    they are kept on disk: ``folder`` (default :func:`a5mi.cache_dir`; ``False``: no cache) holds one file
+    per mesh named by the SHA-256 of :data:`CACHE_VERSION`, the float64 vertices and the int64 faces, with a
+    CRC of its words; a missing, unreadable or mismatching file is recomputed and rewritten atomically, and
+    a folder that cannot be written just means the masks are computed (BENCHMARKS.md run G)."""
+    path = None
+    if folder is not False:
+        path = _cache_path(Path(cache_dir()) if folder is None or folder is True else Path(folder), vertices, faces)
+        cached = _load_masks(path, len(faces))
+        if cached is not None:
+            return cached
+    masks = _compute_masks(vertices, faces)
+    if path is not None:
+        _save_masks(path, masks)
+    return masks
+
+
+#: Part of every cache key: bump it when the traversal model above changes.
+CACHE_VERSION = "a5mi-octree-reach-1"
+
+
+def _cache_path(folder: Path, vertices: np.ndarray, faces: np.ndarray) -> Path:
+    h = hashlib.sha256(CACHE_VERSION.encode())
+    for a in (np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int64)):
+        h.update(repr(a.shape).encode())
+        h.update(a.tobytes())
+    return folder / "octree" / f"{h.hexdigest()}.npy"
+
+
+def _load_masks(path: Path, n_faces: int) -> np.ndarray | None:
+    """The cached masks, or None when the file is missing or fails a check (never raises)."""
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):  # np.load of a FIFO would block
+            return None
+        words = np.load(path, allow_pickle=False)
+        if words.dtype != np.uint32 or words.shape != (2 * n_faces + 1,):
+            return None
+        body = words[:-1]
+        if int(words[-1]) != zlib.crc32(body.tobytes()) or int(body.max(initial=0)) >= 1 << 24:
+            return None
+    except Exception:  # noqa: BLE001 - a cache must never be fatal (empty, truncated, garbage files)
+        return None
+    return body.reshape(n_faces, 2).astype(np.float32)
+
+
+def _save_masks(path: Path, masks: np.ndarray) -> None:
+    from a5mi.imageio import atomic_file
+
+    body = masks.astype(np.uint32).ravel()
+    words = np.concatenate([body, np.array([zlib.crc32(body.tobytes())], dtype=np.uint32)])
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_file(path, "wb") as f:
+            np.save(f, words)
+    except OSError:
+        pass
+
+
+def _compute_masks(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """:func:`reach_masks` without the cache."""
     root = build(vertices, faces)
     words = np.zeros((len(faces), 2), dtype=np.int64)
     for zmask in range(1, 7):

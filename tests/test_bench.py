@@ -18,7 +18,7 @@ VERBOSE = """\
 a5: llvm_ad_rgb, render 900x900 (810000 camera rays, 1 tiles), saved 300x300
 a5: secondary rays reflection 2252268, refraction 1140699, shadow 5618298
 a5: times parse 0.016 s, variant 0.177 s, build 0.308 s, compile 0.290 s, execute 0.604 s, render 0.780 s, \
-jitter 0.076 s, filter 0.035 s, write 0.027 s
+jitter 0.076 s, filter 0.035 s, write 0.027 s, counts 0.500 s
 a5: peak memory 328 MB
 """
 
@@ -26,7 +26,7 @@ a5: peak memory 328 MB
 def test01_parse_verbose() -> None:
     stages, rays = bench.parse_verbose(VERBOSE)
     assert stages == {"parse": 0.016, "variant": 0.177, "build": 0.308, "compile": 0.290, "execute": 0.604,
-                      "render": 0.780, "jitter": 0.076, "filter": 0.035, "write": 0.027}
+                      "render": 0.780, "jitter": 0.076, "filter": 0.035, "write": 0.027, "counts": 0.5}
     assert rays == {"camera": 810000, "reflection": 2252268, "refraction": 1140699, "shadow": 5618298}
     assert bench.parse_verbose("a5: error: nothing\n") == ({}, {})
 
@@ -34,8 +34,9 @@ def test01_parse_verbose() -> None:
 def test02_startup_is_wall_minus_verbose_stages() -> None:
     stages, rays = bench.parse_verbose(VERBOSE)
     run = bench.ProcessRun(wall=2.0, peak_mb=1.0, returncode=0, stderr=VERBOSE, stages=stages, rays=rays)
-    # parse + variant + build + render + filter + write (compile/execute/jitter are inside render)
-    assert run.startup == pytest.approx(2.0 - (0.016 + 0.177 + 0.308 + 0.780 + 0.035 + 0.027))
+    # parse + variant + build + render + filter + write + the -v count pass (compile/execute/jitter are inside
+    # render)
+    assert run.startup == pytest.approx(2.0 - (0.016 + 0.177 + 0.308 + 0.780 + 0.035 + 0.027 + 0.5))
     assert bench.ProcessRun(wall=1.0, peak_mb=1.0, returncode=0, stderr="").startup is None
 
 
@@ -149,7 +150,8 @@ def test13_floor_replays_the_render_ray_counts(
 
 
 def test14_report_has_the_process_stage_table() -> None:
-    """The ``-v`` run's stages go into their own table; ``startup`` = wall - the six reported stages."""
+    """The ``-v`` run's stages go into their own table; ``startup`` = wall - the seven reported stages (the
+    six of the command and the -v count pass)."""
     stages, rays = bench.parse_verbose(VERBOSE)
     res = bench.SceneResult(name="scene10_sphere", path="x",
                             verbose=bench.ProcessRun(wall=2.0, peak_mb=1.0, returncode=0, stderr=VERBOSE,
@@ -160,9 +162,10 @@ def test14_report_has_the_process_stage_table() -> None:
     cells = [c.strip() for c in row.strip("|").split("|")]
     names = [c.strip() for c in header.strip("|").split("|")]
     assert names == ["scene", "wall", "startup", *bench.VERBOSE_STAGES, "compile", "execute", "jitter"]
-    assert float(cells[2]) == pytest.approx(2.0 - (0.016 + 0.177 + 0.308 + 0.780 + 0.035 + 0.027), abs=1e-3)
+    assert float(cells[2]) == pytest.approx(2.0 - (0.016 + 0.177 + 0.308 + 0.780 + 0.035 + 0.027 + 0.5), abs=1e-3)
     assert cells[names.index("variant")] == "0.177" and cells[names.index("jitter")] == "0.076"
-    assert res.to_json()["verbose"]["startup"] == pytest.approx(0.657)
+    assert cells[names.index("counts")] == "0.500"
+    assert res.to_json()["verbose"]["startup"] == pytest.approx(0.157)
     assert "Warm process by stage" not in bench.report([bench.SceneResult(name="a", path="x")], {}, {})
 
 

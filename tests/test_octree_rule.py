@@ -122,6 +122,42 @@ def test_reach_masks_follow_the_traversal() -> None:
     assert (tri[reach[0] == 1, :, 0].min(axis=1) <= (lo + hi) / 2).all()
 
 
+def test_reach_masks_are_cached_by_mesh_content(tmp_path, monkeypatch, a5_data) -> None:
+    """The masks are computed once per mesh and read back from the cache folder: equal to a fresh
+    computation, found without running the traversal again, keyed by the mesh's content (another mesh
+    gets its own file), and recomputed when the file is damaged or does not fit."""
+    mesh = load_obj(a5_data / "scenes" / "diamond.obj")
+    fresh = octree.reach_masks(mesh.vertices, mesh.faces, folder=False)
+    assert not list(tmp_path.iterdir())
+    first = octree.reach_masks(mesh.vertices, mesh.faces, folder=tmp_path)
+    files = list((tmp_path / "octree").glob("*.npy"))
+    assert len(files) == 1 and np.array_equal(first, fresh) and first.dtype == np.float32
+
+    def no_traversal(*_args):
+        raise AssertionError("the traversal ran although the masks are cached")
+
+    monkeypatch.setattr(octree, "_compute_masks", no_traversal)
+    assert np.array_equal(octree.reach_masks(mesh.vertices, mesh.faces, folder=tmp_path), fresh)
+    monkeypatch.undo()
+    moved = mesh.vertices + [0.0, 0.0, 1e-3]
+    octree.reach_masks(moved, mesh.faces, folder=tmp_path)
+    assert len(list((tmp_path / "octree").glob("*.npy"))) == 2
+    for damage in (b"", b"garbage", files[0].read_bytes()[:-4] + b"\0\0\0\0"):
+        files[0].write_bytes(damage)
+        assert np.array_equal(octree.reach_masks(mesh.vertices, mesh.faces, folder=tmp_path), fresh)
+        assert np.array_equal(np.load(files[0])[:-1].reshape(-1, 2), fresh.astype(np.uint32))  # rewritten
+
+
+def test_reach_masks_without_a_writable_cache_are_computed(tmp_path) -> None:
+    """A cache folder that cannot be created (a file stands in its way) only means no cache."""
+    blocker = tmp_path / "cache"
+    blocker.write_text("not a folder")
+    cube = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    faces = np.array([[0, 1, 2], [0, 1, 3]])
+    assert np.array_equal(octree.reach_masks(cube, faces, folder=blocker),
+                          octree.reach_masks(cube, faces, folder=False))
+
+
 def _low_leaves(node: octree._Node, child_ok) -> set[int]:
     if node.is_leaf:
         return {int(t) for t in node.trigs}

@@ -114,9 +114,10 @@ def report(results: Sequence[SceneResult], info: dict[str, Any], extra: dict[str
             for r in results if r.verbose is not None and r.verbose.stages]
     if rows:
         out += ["Warm process by stage (`a5 ... -v`, best of the -v runs; s): `parse` includes the file checks "
-                "(meshes read, images decoded); `startup` = wall - parse - variant - build - render - filter - "
-                "write (interpreter, imports before the parse, exit); compile, execute and jitter are inside "
-                "render; -v adds the ray-count AOVs to the kernel", "",
+                "(meshes read, images decoded); `counts` = the second pass -v renders for the ray counts (its own "
+                "kernel: not part of the command without -v); `startup` = wall - parse - variant - build - "
+                "render - filter - write - counts (interpreter, imports before the parse, exit); compile, "
+                "execute and jitter are inside render", "",
                 format_table(["scene", "wall", "startup", *VERBOSE_STAGES, "compile", "execute", "jitter"], rows),
                 ""]
     rows = []

@@ -32,7 +32,7 @@ TARGET_PEAK_MB = 300.0
 TARGET_SPEEDUP_SCENE12 = 100.0
 
 #: Stages printed by ``a5 -v`` (its ``render`` = compile + execute + the tile loop's Python work).
-VERBOSE_STAGES: tuple[str, ...] = ("parse", "variant", "build", "render", "filter", "write")
+VERBOSE_STAGES: tuple[str, ...] = ("parse", "variant", "build", "render", "filter", "write", "counts")
 #: Stages measured in-process for the table (``render`` split into kernel compile and execution).
 STAGES: tuple[str, ...] = ("parse", "build", "compile", "execute", "filter", "write")
 RAY_KINDS: tuple[str, ...] = ("camera", "reflection", "refraction", "shadow")

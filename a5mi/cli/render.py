@@ -188,15 +188,17 @@ def _render_and_write(args: Args, console: Console, activate: Any, render: Any, 
     timings["variant"] = time.perf_counter() - t0
 
     # -v times the plain render kernel; the ray counts (a different kernel: three more outputs) come from a
-    # second, untimed pass afterwards.
+    # second pass afterwards, timed on its own ("counts": not part of the command without -v).
     options = render_options(args, count_rays=False)
     interactive = console.err.isatty()  # never a \r bar in a log file
     with console.progress(enabled=interactive) as bar:  # progress steps cost a trace each: only when shown
         result = render(desc, options, progress=bar if interactive else None)
     timings.update(result.timings)
     if args.verbose:
+        t0 = time.perf_counter()
         counting = dataclasses.replace(options, count_rays=True, normals=False, depth=None, filter=False)
         result.ray_counts = render(desc, counting).ray_counts
+        timings["counts"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     images = {"-output": result.image, "-normals": result.normals, "-depth": result.depth}
@@ -218,7 +220,7 @@ def _report(console: Console, variant: str, result: Any, timings: dict[str, floa
                  f"saved {w}x{h}")
     if result.ray_counts:
         console.note(f"{p}: secondary rays " + ", ".join(f"{k} {v}" for k, v in result.ray_counts.items()))
-    order = ("parse", "variant", "build", "compile", "execute", "render", "jitter", "filter", "write")
+    order = ("parse", "variant", "build", "compile", "execute", "render", "jitter", "filter", "write", "counts")
     console.note(f"{p}: times " + ", ".join(f"{k} {timings[k]:.3f} s" for k in order if k in timings))
     console.note(f"{p}: peak memory {peak_mb:.0f} MB")
 
