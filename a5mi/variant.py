@@ -62,9 +62,12 @@ def activate(requested: str | None = None) -> str:
 
     import mitsuba as mi
 
+    from a5mi.plugins.syntax import cached_drjit_syntax
+
     if mi.variant() != name:
         try:
-            mi.set_variant(name)
+            with cached_drjit_syntax():  # Mitsuba's Python integrators, transformed again by every set_variant
+                mi.set_variant(name)
         except Exception as exc:  # noqa: BLE001 - Mitsuba raises plain exceptions here
             raise VariantError(f"cannot load Mitsuba variant {name}: {exc}") from None
     if name.startswith("llvm"):

@@ -3,7 +3,8 @@
 Each module holds one plugin and registers it at its bottom through a ``register()`` function. Import
 this package only after ``mi.set_variant`` has selected a JIT variant (``llvm_ad_rgb`` or ``cuda_ad_rgb``),
 then call :func:`register_all`; after that ``mi.load_dict({'type': 'a5_whitted', ...})`` and the XML form
-work like any stock plugin.
+work like any stock plugin. (``syntax.py`` is the one module that needs no variant: the ``@dr.syntax``
+cache the plugins decorate with, which :func:`a5mi.variant.activate` also applies to ``mi.set_variant``.)
 """
 
 from __future__ import annotations

@@ -36,6 +36,7 @@ import mitsuba as mi
 from . import octree_rule
 from .planes import PlaneSet, intersect_planes
 from .sampling import Stochastic, stratified_2d
+from .syntax import syntax
 
 #: ``π · 1/(4π)``: the isotropic phase function on the a5 lights' scale (module docstring).
 PHASE = 0.25
@@ -99,7 +100,7 @@ def _box_span(med: MediumParams, o: mi.Point3f, d: mi.Vector3f, t0: mi.Float,
     return ta, tb
 
 
-@dr.syntax
+@syntax
 def _light_at(scene: mi.Scene, planes: PlaneSet, x: mi.Point3f, live: mi.Bool, lights: mi.EmitterPtr,
               n_lights: mi.UInt32, tmin: mi.Float, shadows: bool, rng: Stochastic, dim: mi.UInt32,
               index: mi.UInt32, count: mi.UInt32, counter: mi.UInt32) -> tuple[mi.Color3f, mi.UInt32]:
@@ -147,7 +148,7 @@ def _step(med: MediumParams, o: mi.Point3f, d: mi.Vector3f, ta: mi.Float, u: mi.
     return t, dr.exp(-tau) * (1.0 - dr.exp(-step_tau)), tau + step_tau
 
 
-@dr.syntax
+@syntax
 def segment(scene: mi.Scene, planes: PlaneSet, med: MediumParams, o: mi.Point3f, d: mi.Vector3f, t0: mi.Float,
             t1: mi.Float, active: mi.Bool, lights: mi.EmitterPtr, n_lights: mi.UInt32, tmin: mi.Float,
             shadows: bool, rng: Stochastic, node: mi.UInt32,

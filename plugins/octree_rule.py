@@ -23,6 +23,7 @@ import drjit as dr
 import mitsuba as mi
 
 from . import triangle_rule
+from .syntax import syntax
 
 #: Rays skipped past hits the binary does not see, at most, per query.
 MAX_SKIPS = 16
@@ -90,7 +91,7 @@ def _rejected(table: triangle_rule.RuleTable | None, si: mi.SurfaceInteraction3f
     return out, row, t_b, n_b
 
 
-@dr.syntax
+@syntax
 def intersect(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, active: mi.Bool,
               table: triangle_rule.RuleTable | None = None,
               origin: mi.UInt32 | None = None) -> tuple[mi.SurfaceInteraction3f, mi.Float, mi.UInt32]:
@@ -138,7 +139,7 @@ def intersect(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, a
     return si, offset, row
 
 
-@dr.syntax
+@syntax
 def occluded(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, t_max: mi.Float,
              active: mi.Bool) -> mi.Bool:
     """SPEC B.3's shadow test against the Mitsuba scene: a hit the binary sees with ``t_min < t < t_max``."""

@@ -16,6 +16,8 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
+from .syntax import syntax
+
 #: The 256-entry permutation of Perlin's 2002 reference (``ImprovedNoise.permutation``).
 PERMUTATION: tuple[int, ...] = (
     151, 160, 137, 91, 90, 15, 131, 13, 201, 95, 96, 53, 194, 233, 7, 225, 140, 36, 103, 30, 69, 142,
@@ -118,7 +120,7 @@ def noise(x: mi.Float64, y: mi.Float64, z: mi.Float64) -> mi.Float64:
     )
 
 
-@dr.syntax
+@syntax
 def octave_noise(p: mi.Point3f, octaves: mi.UInt32) -> mi.Float64:
     """perlinOctaveNoise (SPEC B.4): N = Σ_{i=0}^{octaves−1} noise(2^i · p) / 2^i, in double.
 
@@ -140,7 +142,7 @@ def octave_noise(p: mi.Point3f, octaves: mi.UInt32) -> mi.Float64:
     return n
 
 
-@dr.syntax
+@syntax
 def turbulence(p: mi.Point3f, octaves: mi.UInt32) -> mi.Float64:
     """Perlin's turbulence (docs/EXTENSIONS.md E.6): T = Σ_{i=0}^{octaves−1} |noise(2^i · p)| / 2^i, in double.
 

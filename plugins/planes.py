@@ -30,6 +30,8 @@ from typing import Any
 import drjit as dr
 import mitsuba as mi
 
+from .syntax import syntax
+
 _KEY = re.compile(r"^plane_(.+?)_(normal|offset|bsdf|mirror_normal)$")
 
 
@@ -117,7 +119,7 @@ def _dot(ax: mi.Float, ay: mi.Float, az: mi.Float, v: mi.Vector3f) -> mi.Float:
     return (ax * v.x + ay * v.y) + az * v.z
 
 
-@dr.syntax
+@syntax
 def intersect_planes(ps: PlaneSet, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, t_max: mi.Float,
                      active: mi.Bool) -> tuple[mi.Bool, mi.Float, mi.UInt32]:
     """Nearest plane hit with ``t_min < t < t_max`` (SPEC A.6): ``(hit, t, plane index)``; ``t = t_max``

@@ -27,6 +27,7 @@ from .planes import (
     planes_from_props,
 )
 from .sampling import GLOSSY_SLOT, Stochastic, ggx_normal, pixel_keys, stratified_2d
+from .syntax import syntax
 from .whitted_record import TreeRecorder, shape_id
 
 #: AOV groups of the ``aovs`` parameter (a5mi.options.AOV_GROUPS) and the channels each adds, in order:
@@ -63,7 +64,7 @@ def _push(stacks: tuple, top: mi.UInt32, mask: mi.Bool, o: mi.Point3f, d: mi.Vec
     return top + dr.select(mask, 1, 0)
 
 
-@dr.syntax
+@syntax
 def _trace(
     scene: mi.Scene,
     ray_o: mi.Point3f,
