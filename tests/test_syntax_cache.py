@@ -49,7 +49,8 @@ def test_damaged_or_foreign_cache_files_are_transformed_again(tmp_path, monkeypa
     _folder(tmp_path, monkeypatch)
     path = syntax_cache.cache_path(countdown)
     path.parent.mkdir(parents=True)
-    for content in (b"", b"\x00garbage", marshal.dumps(test_damaged_or_foreign_cache_files_are_transformed_again.__code__)):
+    foreign = marshal.dumps(test_damaged_or_foreign_cache_files_are_transformed_again.__code__)
+    for content in (b"", b"\x00garbage", foreign):
         path.write_bytes(content)
         f = syntax_cache.syntax(countdown)
         assert f.__code__.co_name == "countdown" and list(f(mi.UInt32([2]))) == [2]
