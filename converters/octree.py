@@ -203,7 +203,7 @@ def reach_masks(vertices: np.ndarray, faces: np.ndarray, folder: Path | None | b
     they are kept on disk: ``folder`` (default :func:`a5mi.cache_dir`; ``False``: no cache) holds one file
     per mesh named by the SHA-256 of :data:`CACHE_VERSION`, the float64 vertices and the int64 faces, with a
     CRC of its words; a missing, unreadable or mismatching file is recomputed and rewritten atomically, and
-    a folder that cannot be written just means the masks are computed (BENCHMARKS.md run G)."""
+    a folder that cannot be written just means the masks are computed (BENCHMARKS.md, run H, item 4)."""
     path = None
     if folder is not False:
         path = _cache_path(Path(cache_dir()) if folder is None or folder is True else Path(folder), vertices, faces)

@@ -4,7 +4,7 @@
 when the decorator runs: it reads the source back (``inspect.getsource``), parses it, transforms the tree
 and compiles it, in every process. For the a5mi plugins' eight decorated functions that is ~0.13 s of each
 ``a5`` run, and ``mi.set_variant`` pays the same again for Mitsuba's own Python integrators (``prb``,
-``prbvolpath``, ...), which it imports and decorates anew in every process (measured, BENCHMARKS.md run H).
+``prbvolpath``, ...), which it imports and decorates anew in every process (measured: BENCHMARKS.md, run H, item 5).
 
 :func:`syntax` returns exactly the function ``dr.syntax`` returns (the same transformed code object, the
 original globals and defaults) but keeps that code object in ``cache_dir()/syntax/`` (:func:`a5mi.cache_dir`),
