@@ -118,7 +118,9 @@ def test_cli_reports_a_table_and_json(a5_data: Path, tmp_path: Path) -> None:
     import json
 
     data = json.loads(report.read_text())
-    assert [s["psnr"] for s in data["scenes"]] == [None, None] and data["summary"]["identical"] == 2
+    assert [s["psnr"] for s in data["scenes"]] == ["inf", "inf"] and data["summary"]["identical"] == 2
+    assert data["summary"]["median_psnr"] == "inf" and data["passed"] is True
+    assert "median PSNR inf dB" in proc.stdout
 
 
 def test_missing_binary_is_a_user_error(tmp_path: Path) -> None:

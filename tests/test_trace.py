@@ -323,3 +323,44 @@ def test_many_samples_are_traced_in_chunks(variant: str, scenes_dir: Path, monke
     (chunked,) = tracer.pixels([(2, 3)])
     assert [t.nodes[-1].color for t in chunked.trees] == [t.nodes[-1].color for t in one.trees]
     assert chunked.max_error == 0.0 and chunked.value == one.value
+
+
+@pytest.mark.parametrize("off", [0, 2])
+def test_diff_names_nothing_within_the_noise(variant: str, scenes_dir: Path, tmp_path: Path, off: int,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    """The reference image itself (``off`` 0), and the same image with every channel moved by a random
+    -off..off levels (a correct jittered render, <= 2/255 off): nothing differs, no term is named; one pixel
+    moved by 40 levels is then named (it is beyond the noise threshold)."""
+    from a5mi.imageio import read_levels, write_image
+    from a5mi.trace.report import DIFF_NOISE
+
+    assert off <= DIFF_NOISE
+    scene = str(scenes_dir / "scene10_sphere.txt")
+    flags = ["-size", "24", "24", "-shadows", "-jitter", "-filter"]
+    student = tmp_path / "student.png"
+    assert run_a5mi(["render", "-input", scene, *flags, "-output", str(student)]) == 0
+    img = read_levels(student)
+    noise = np.random.default_rng(3).integers(-off, off + 1, img.shape)
+    img = np.clip(img + noise, 0, 255)
+    assert np.abs(img - read_levels(student)).max() == off
+    write_image(student, (img + 0.5) / 255)
+    rc, out, _ = _a5mi(["trace", "-input", scene, *flags, "--diff", str(student)], capsys)
+    assert rc == 0 and out.strip() == (f"nothing differs: no pixel is off by more than 2/255 (the noise threshold; "
+                                       f"largest difference {off}/255)")
+    assert "look at" not in out
+    rc, out, _ = _a5mi(["trace", "-input", scene, *flags, "--diff", str(student), "--json"], capsys)
+    assert rc == 0 and json.loads(out) == []
+    img[12, 5] = np.where(img[12, 5] > 127, img[12, 5] - 40, img[12, 5] + 40)
+    write_image(student, (img + 0.5) / 255)
+    rc, out, _ = _a5mi(["trace", "-input", scene, *flags, "--diff", str(student), "--worst", "3"], capsys)
+    assert rc == 0 and out.startswith("pixel (5, 12) (top-left)") and out.count("(top-left)") == 1
+
+
+def test_explain_names_no_term_for_an_identical_pixel(variant: str, scenes_dir: Path) -> None:
+    """:func:`explain` against the reference pixel itself lists no term (every term moves away from it)."""
+    from a5mi.trace.report import explain
+
+    tracer = tracer_for(scenes_dir / "scene10_sphere.txt", width=20, height=20, shadows=True)
+    (pt,) = tracer.pixels([(10, 10)])
+    assert explain(pt, np.asarray(pt.value)) == []
+    assert explain(pt, np.zeros(3))  # a black pixel: the reference's terms explain it

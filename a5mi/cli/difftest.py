@@ -11,7 +11,7 @@ from pathlib import Path
 
 from a5mi.cli.app import Command, Console, activate_variant
 from a5mi.cli.flags import Args, Flag, integer, real, text
-from a5mi.errors import UsageError
+from a5mi.errors import ExitStatus, UsageError
 
 FLAGS: tuple[Flag, ...] = (
     Flag(("--binary", "-binary"), "binary", "the other renderer: an executable with the a5 command line "
@@ -57,14 +57,16 @@ def run_difftest(args: Args, console: Console) -> int:
         timeout=args.timeout, out_dir=Path(args.out) if args.out else None, minimise_budget=args.budget,
         start=args.start, on_row=lambda r: console.result(campaign.table_line(r)))
     s = campaign.summary(rows, args.threshold)
-    console.result(f"\n{s['scenes']} scenes (seed {args.seed}): median PSNR {s['median_psnr']:.1f} dB, "
-                   f"{100 * s['share_at_least_50']:.1f}% at >= 50 dB, {s['identical']} identical, "
-                   f"{s['failed_runs']} failed runs")
+    console.result(f"\n{s['scenes']} scenes (seed {args.seed}): median PSNR {campaign.psnr_text(s['median_psnr'])} "
+                   f"dB, {100 * s['share_at_least_50']:.1f}% at >= 50 dB, {s['identical']} identical, "
+                   f"{s['failed_runs']} failed runs, {s['below_threshold']} below {args.threshold:g} dB")
     if args.json:
         with atomic_file(args.json, "w") as f:
             f.write(campaign.report_json(rows, args.threshold, args.seed))
-    return 0
+    return ExitStatus.OK if campaign.passed(rows, args.threshold) else ExitStatus.DIFFER
 
 
 DIFFTEST = Command("difftest", "Differential testing against another a5 executable on seeded random scenes.",
-                   FLAGS, run_difftest)
+                   FLAGS, run_difftest,
+                   epilog="Exit status: 0 every scene at or above --threshold (identical counts as inf dB), 1 a "
+                          "scene below it or a run that failed, 2 user error.")

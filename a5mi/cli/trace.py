@@ -4,7 +4,8 @@
 [--svg OUT.svg]`` prints every node of the pixel's ray tree (the render kernel in record mode, :mod:`a5mi.trace`)
 and checks that the contributions sum to the pixel of the real render. ``--diff STUDENT.png [--worst N]``
 renders the reference, picks the N pixels where the student's image is furthest off and names, for each,
-the term of the reference tree that best accounts for the difference.
+the term of the reference tree that best accounts for the difference; pixels within the noise threshold
+(:data:`a5mi.trace.report.DIFF_NOISE` levels) are not named, so an identical image prints "nothing differs".
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--json",), "json", "print the trace as JSON", default=False, show_default=False),
     Flag(("--svg",), "svg", "also write a diagram of the (first shown) ray tree", 1, text, metavar="OUT.svg"),
     Flag(("--diff",), "diff", "find the pixels where this student image is furthest from the reference and name "
-         "the term to look at", 1, text, metavar="STUDENT.png"),
+         "the term to look at (pixels off by at most 2/255 are noise: none named)", 1, text, metavar="STUDENT.png"),
     Flag(("--worst",), "worst", "with --diff: how many pixels", 1, integer(1, 1000), 3, "N"),
 )
 
@@ -97,7 +98,11 @@ def _run_diff(args: Args, console: Console, tracer: Any, desc: Any) -> int:
     ref_bytes = quantize(ref)[..., :3].astype(np.float64)
     err = np.abs(student - ref_bytes).max(axis=-1)
     order = np.argsort(-err, axis=None, kind="stable")[: args.worst]
-    pixels = [(int(k % err.shape[1]), int(k // err.shape[1])) for k in order]
+    pixels = [(int(k % err.shape[1]), int(k // err.shape[1])) for k in order if report.differs(err.flat[k])]
+    if not pixels:
+        console.result("[]" if args.json else f"nothing differs: no pixel is off by more than {report.DIFF_NOISE}/255 "
+                       f"(the noise threshold; largest difference {int(err.max())}/255)")
+        return 0
     traces = tracer.pixels(pixels)
     out_json = []
     blocks = []
@@ -114,7 +119,9 @@ def _run_diff(args: Args, console: Console, tracer: Any, desc: Any) -> int:
             continue
         lines = [f"pixel ({pt.x}, {pt.y}) (top-left): student {tuple(int(v) for v in student[pt.y, pt.x])}, "
                  f"reference {pt.image_byte} (off by {int(err[pt.y, pt.x])}/255)"]
-        if ranked:
+        if not ranked:
+            lines.append("  no single term of the reference tree accounts for the difference")
+        else:
             best, resid = ranked[0]
             lines.append(f"  look at: {best.label}: {report.v3(best.value, 4)} "
                          f"({'the student adds it' if best.sign > 0 else 'the student lacks it'}; leaves "

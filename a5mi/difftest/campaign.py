@@ -5,6 +5,11 @@ requested one (``size - 10 .. size + 10``, the binary asserts on non-square imag
 below ``threshold`` dB, or where the other executable fails, is minimised (:mod:`.minimise`) and both the
 scene and its smallest reproducer are written to ``out_dir`` (``scene_NNN.txt``, ``scene_NNN.min.txt``, each
 with a ``.cmd`` file holding the a5 command line), linked course files beside them.
+
+PSNR of two identical images is ``inf``: statistics take it as the largest value (the median of PSNRs of which
+more than half are ``inf`` is ``inf``, :func:`median_psnr`), tables print ``inf`` and the JSON report the string
+``"inf"`` (``float()`` reads it); ``null`` means that nothing was compared (a run failed). A campaign
+*passes* (:func:`passed`) when every scene was compared and none is below ``threshold``.
 """
 
 from __future__ import annotations
@@ -75,29 +80,61 @@ def write_reproducer(out_dir: Path, stem: str, scene: GenScene, data: Path) -> P
     return final
 
 
-def summary(rows: list[Row], threshold: float) -> dict[str, float | int]:
-    """Counts and PSNR statistics (``inf`` counts as above every threshold)."""
+def median_psnr(psnrs: list[float]) -> float | None:
+    """The median of PSNR values in dB, ``inf`` (identical images) ordered above every finite value: the middle
+    value, or the mean of the two middle ones (``inf`` when either is), so never a stand-in number; None for
+    no values."""
+    if not psnrs:
+        return None
+    return float(statistics.median(sorted(psnrs)))
+
+
+def psnr_text(psnr: float | None, digits: int = 1) -> str:
+    """``inf`` for identical images, ``-`` for none, else the value with ``digits`` decimals."""
+    if psnr is None:
+        return "-"
+    return "inf" if math.isinf(psnr) and psnr > 0 else f"{psnr:.{digits}f}"
+
+
+def _json_psnr(psnr: float | None, digits: int = 2) -> float | str | None:
+    return None if psnr is None else "inf" if math.isinf(psnr) and psnr > 0 else round(psnr, digits)
+
+
+def below(row: Row, threshold: float) -> bool:
+    """The scene fails: a side did not produce an image, or its PSNR is below ``threshold``."""
+    return row.outcome.metrics is None or row.outcome.psnr < threshold
+
+
+def passed(rows: list[Row], threshold: float) -> bool:
+    """Every scene compared at or above ``threshold`` dB (the ``a5mi difftest`` exit status 0)."""
+    return not any(below(r, threshold) for r in rows)
+
+
+def summary(rows: list[Row], threshold: float) -> dict[str, float | int | None]:
+    """Counts and PSNR statistics (``inf`` counts as above every threshold; module docstring)."""
     ok = [r.outcome.psnr for r in rows if r.outcome.metrics is not None]
-    finite = [p if math.isfinite(p) else 1e9 for p in ok]
     return {
         "scenes": len(rows), "compared": len(ok), "failed_runs": len(rows) - len(ok),
-        "median_psnr": statistics.median(finite) if finite else float("nan"),
-        "share_at_least_50": sum(p >= 50 for p in finite) / len(rows) if rows else 0.0,
-        "share_at_least_threshold": sum(p >= threshold for p in finite) / len(rows) if rows else 0.0,
+        "median_psnr": median_psnr(ok),
+        "share_at_least_50": sum(p >= 50 for p in ok) / len(rows) if rows else 0.0,
+        "share_at_least_threshold": sum(p >= threshold for p in ok) / len(rows) if rows else 0.0,
         "identical": sum(math.isinf(p) for p in ok),
+        "below_threshold": sum(below(r, threshold) for r in rows),
     }
 
 
 def _metrics_json(o: Outcome) -> dict[str, object]:
     m = o.metrics
     return {"status": o.status, "binary_s": round(o.binary_s, 3), "a5mi_s": round(o.a5mi_s, 3),
-            "psnr": None if m is None or math.isinf(m.psnr) else round(m.psnr, 2),
+            "psnr": None if m is None else _json_psnr(m.psnr),
             "share_over": None if m is None else m.share_over, "max_error": None if m is None else m.max_error}
 
 
 def report_json(rows: list[Row], threshold: float, seed: int) -> str:
     """The campaign as JSON: settings, :func:`summary`, one entry per scene (minimised scenes included)."""
-    out = {"seed": seed, "threshold": threshold, "summary": summary(rows, threshold), "scenes": []}
+    summ = summary(rows, threshold)
+    summ["median_psnr"] = _json_psnr(summ["median_psnr"])  # type: ignore[arg-type]
+    out = {"seed": seed, "threshold": threshold, "summary": summ, "passed": passed(rows, threshold), "scenes": []}
     for r in rows:
         entry: dict[str, object] = {"index": r.index, "flags": r.scene.flags.argv(), "files": list(r.scene.files),
                                     **_metrics_json(r.outcome)}
@@ -114,12 +151,12 @@ def table_line(r: Row) -> str:
     flags = " ".join(r.scene.flags.argv()[3:])
     if m is None:
         return f"| {r.index} | {r.scene.flags.size} | `{flags}` | - | - | - | {r.outcome.status} |"
-    psnr = "inf" if math.isinf(m.psnr) else f"{m.psnr:.1f}"
+    psnr = psnr_text(m.psnr)
     mini = ""
     if r.minimised is not None:
         s = r.minimised.scene
         mini = (f"; minimised to {len(s.objects)} object(s), {len(s.lights)} light(s), "
-                f"`{' '.join(s.flags.argv()[3:])}`, {r.minimised.outcome.psnr:.1f} dB")
+                f"`{' '.join(s.flags.argv()[3:])}`, {psnr_text(r.minimised.outcome.psnr)} dB")
     return (f"| {r.index} | {r.scene.flags.size} | `{flags}` | {psnr} | {100 * m.share_over:.2f}% | "
             f"{m.max_error:g} | {r.outcome.status}{mini} |")
 

@@ -12,6 +12,12 @@ The text prints each node of the SPEC B.3 ray tree as the kernel computed it::
 then ``Σ contributions`` against the rendered sample (float and 8-bit). :func:`explain` ranks the terms of a
 tree by how much of ``student - reference`` each one accounts for (a blocked light term the student adds, or
 a term / child subtree of the reference the student lacks).
+
+Noise: a pixel whose largest channel difference is at most :data:`DIFF_NOISE` levels (of 255) does not differ
+(:func:`differs`): a correct renderer drawing other jitter samples or rounding floats otherwise lands there,
+and nothing is named for it. A term is named only if it explains part of the difference: its residual must be
+below the residual of the reference pixel itself, ``|student - reference|`` (an identical pixel has no
+culprit).
 """
 
 from __future__ import annotations
@@ -161,6 +167,14 @@ def dumps(obj: Any) -> str:
 
 
 # ------------------------------------------------------------------------------------------------ --diff
+#: Largest per-channel difference, in levels of 255, that ``trace --diff`` takes as noise (module docstring).
+DIFF_NOISE = 2
+
+
+def differs(error_levels: float) -> bool:
+    """A pixel differs when its largest channel difference exceeds :data:`DIFF_NOISE` levels."""
+    return float(error_levels) > DIFF_NOISE
+
 @dataclass(frozen=True)
 class Term:
     """A candidate explanation: ``value`` (RGB, already times the path weight) enters the student's pixel
@@ -236,9 +250,11 @@ def _aggregates(terms: list[Term]) -> list[Term]:
 def explain(pt: PixelTrace, student: Any) -> list[tuple[Term, float]]:
     """Terms ranked by how well the reference with that term changed, ``clamp(reference + sign · value, 0,
     1)``, matches the student's pixel (float, /255, so saturated pixels compare fairly): the residual
-    ``|student - clamp(...)|`` (smallest first; ties: the larger term)."""
+    ``|student - clamp(...)|`` (smallest first; ties: the larger term). Only terms whose residual is below
+    ``|student - reference|`` are listed (module docstring): empty for an identical pixel."""
     student = np.asarray(student, np.float64)
     ref = np.asarray(pt.value, np.float64)
+    base = float(np.linalg.norm(student - np.clip(ref, 0.0, 1.0)))
     terms = pixel_terms(pt)
     scored = []
     for term in terms + _aggregates(terms):
@@ -246,6 +262,8 @@ def explain(pt: PixelTrace, student: Any) -> list[tuple[Term, float]]:
         if not np.any(v):
             continue
         predicted = np.clip(ref + term.sign * v, 0.0, 1.0)
-        scored.append((term, float(np.linalg.norm(student - predicted)), -float(np.linalg.norm(v))))
+        residual = float(np.linalg.norm(student - predicted))
+        if residual < base:
+            scored.append((term, residual, -float(np.linalg.norm(v))))
     scored.sort(key=lambda s: (s[1], s[2]))
     return [(t, r) for t, r, _ in scored]
