@@ -13,7 +13,7 @@ from pathlib import Path
 
 from a5mi.cli.app import Command, Console
 from a5mi.cli.flags import Args, Flag, Positional, integer, real, text
-from a5mi.errors import UsageError
+from a5mi.errors import UsageError, UserError
 
 FLAGS: tuple[Flag, ...] = (
     Flag(("-o", "--output"), "output", "report folder (report.html, results.csv, results.json, journal.jsonl)",
@@ -24,8 +24,16 @@ FLAGS: tuple[Flag, ...] = (
          metavar="DIR"),
     Flag(("--scenes",), "scenes", "scenes folder (default: the course data's scenes/)", 1, text, metavar="DIR"),
     Flag(("--workers",), "workers", "local Dask worker processes", 1, integer(1, 512), 2, "N"),
-    Flag(("--scheduler",), "scheduler", "join an existing Dask cluster instead of starting one", 1, text,
-         metavar="tcp://HOST:PORT"),
+    Flag(("--scheduler",), "scheduler", "join an existing Dask cluster instead of starting one (its workers must "
+         "see every path on a shared filesystem)", 1, text, metavar="tls://HOST:PORT"),
+    Flag(("--tls-ca",), "tls_ca", "with --scheduler tls://: the CA certificate of the cluster (PEM)", 1, text,
+         metavar="FILE"),
+    Flag(("--tls-cert",), "tls_cert", "with --scheduler tls://: this client's certificate (PEM)", 1, text,
+         metavar="FILE"),
+    Flag(("--tls-key",), "tls_key", "with --scheduler tls://: this client's private key (PEM)", 1, text,
+         metavar="FILE"),
+    Flag(("--insecure-scheduler",), "insecure_scheduler", "allow a plain tcp:// --scheduler (anyone who reaches "
+         "it can run code on its workers)", default=False, show_default=False),
     Flag(("--timeout",), "timeout", "wall-clock seconds per case", 1, real, 120.0, "S"),
     Flag(("--memory",), "memory", "address-space limit per case", 1, integer(64, 1 << 22), 4096, "MB"),
     Flag(("--resume",), "resume", "skip the cases already in REPORT_DIR/journal.jsonl", default=False,
@@ -47,6 +55,24 @@ def _options_of(argv: list[str]):  # noqa: ANN202 - RenderOptions, imported lazi
     return render_options(parse_a5_args(argv))
 
 
+def _scheduler_security(args: Args):  # noqa: ANN202 - distributed.security.Security or None
+    """The client credentials of ``--scheduler`` (:func:`a5mi.cluster.check_scheduler`); TLS flags without
+    ``--scheduler`` are a usage error."""
+    from a5mi.cluster import check_scheduler
+
+    given = [f for f, v in (("--tls-ca", args.tls_ca), ("--tls-cert", args.tls_cert), ("--tls-key", args.tls_key))
+             if v is not None]
+    if args.scheduler is None:
+        if given or args.insecure_scheduler:
+            raise UsageError(f"{(given or ['--insecure-scheduler'])[0]} needs --scheduler")
+        return None
+    if given and len(given) < 3:
+        missing = [f for f in ("--tls-ca", "--tls-cert", "--tls-key") if f not in given]
+        raise UsageError(f"{given[0]} needs {' and '.join(missing)} as well")
+    tls = (args.tls_ca, args.tls_cert, args.tls_key) if given else None
+    return check_scheduler(args.scheduler, tls, args.insecure_scheduler)
+
+
 def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     """The :class:`~a5mi.grade.batch.GradeSettings` of the flags (raises user errors for bad values)."""
     from a5mi import require_data_dir
@@ -59,8 +85,7 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     if not 0 <= args.match <= args.close <= 1:
         raise UsageError(f"--match and --close must satisfy 0 <= match <= close <= 1 (found {args.match:g}, "
                          f"{args.close:g})")
-    if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://", "inproc://")):
-        raise UsageError(f"--scheduler expects tcp://HOST:PORT, found '{args.scheduler[:40]}'")
+    security = _scheduler_security(args)
     scenes = args.scenes or str(require_data_dir() / "scenes")
     if not Path(scenes).is_dir():
         raise UsageError(f"--scenes: '{scenes}' is not a folder")
@@ -71,8 +96,8 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     return GradeSettings(
         submissions=args.submissions, report_dir=args.output, cases=cases, scenes=os.path.abspath(scenes),
         cache_dir=args.cache or str(default_cache_dir()), reference_dir=args.reference, workers=args.workers,
-        scheduler=args.scheduler, limits=Limits(timeout=args.timeout, memory_mb=args.memory), resume=args.resume,
-        read_only=allow, thresholds=Thresholds(args.match, args.close), flip=args.flip)
+        scheduler=args.scheduler, security=security, limits=Limits(timeout=args.timeout, memory_mb=args.memory),
+        resume=args.resume, read_only=allow, thresholds=Thresholds(args.match, args.close), flip=args.flip)
 
 
 def run_grade(args: Args, console: Console) -> int:
@@ -115,6 +140,10 @@ def run_grade(args: Args, console: Console) -> int:
     errors = [r for r in outcome.records if "error" in r and "verdict" not in r]
     for r in errors[:5]:
         console.error(f"{r['key']}: grader error: {r['error']}")
+    if outcome.nothing_graded:
+        raise UserError(f"nothing could be graded: every case of all {len(outcome.students)} students is 'no "
+                        f"output' or a grader error (check SUBMISSIONS, the cases' -output names and --scheduler's "
+                        f"filesystem; report in {outcome.files['html']})")
     return 1 if errors else 0
 
 
@@ -122,4 +151,6 @@ GRADE = Command("grade", "Grade every student folder of SUBMISSIONS (an executab
                 "sandboxed, on a Dask cluster; writes an HTML report, CSV and JSON.", FLAGS, run_grade,
                 (Positional("submissions", "SUBMISSIONS", "folder with one sub-folder per student"),),
                 required=("output",),
-                epilog="Exit status: 0 graded, 1 a case could not be graded (grader error), 2 user error.")
+                epilog="Exit status: 0 graded, 1 a case could not be graded (grader error), 2 user error, also when "
+                       "nothing could be graded (every case 'no output' or a grader error) or a --scheduler worker "
+                       "cannot see a path.")

@@ -1,9 +1,13 @@
-"""The grading report: ``report.html`` (one offline page), ``results.csv`` and ``results.json`` (issue 13).
+"""The grading report: ``report.html`` (one offline page), ``results.csv`` and ``results.json``.
 
 The page has no external resource (inline CSS and script; images are relative files under ``img/``): a class
 summary table, student x case, with coloured verdicts, points and totals, sortable by clicking a column
 header; then one section per student with, per case, reference | submission | FLIP heatmap | |diff| x8, the
 metrics, the verdict's detail and the tail of stderr. Every file is written atomically.
+
+PSNR of an image identical to its reference is infinite: it is written ``inf`` in the CSV and the string
+``"inf"`` in the JSON (``float()`` reads both), never left empty or ``null``: an empty CSV cell and a JSON
+``"metrics": null`` mean that no image was measured (``no output``, ``crash``, ...).
 """
 
 from __future__ import annotations
@@ -67,7 +71,20 @@ def _split_key(rec: dict[str, Any]) -> dict[str, Any]:
         student, _, case = rec["key"].partition("/")
         rec = {**rec, "student": student, "case": case, "verdict": "error", "points": 0.0, "max_points": 0.0,
                "detail": rec.get("error", "grader error")}
+    return _inf_psnr(rec)
+
+
+def _inf_psnr(rec: dict[str, Any]) -> dict[str, Any]:
+    """``rec`` with an identical image's PSNR (``None`` or ``inf`` in measured metrics) as ``"inf"`` (module
+    docstring)."""
+    m = rec.get("metrics")
+    if m and (m.get("psnr") is None or (isinstance(m["psnr"], float) and math.isinf(m["psnr"]))):
+        rec = {**rec, "metrics": {**m, "psnr": "inf"}}
     return rec
+
+
+def _psnr_text(psnr: Any) -> str:
+    return "inf" if psnr is None or psnr == "inf" else format(float(psnr), ".1f")
 
 
 def csv_text(records: Sequence[dict[str, Any]]) -> str:
@@ -75,6 +92,7 @@ def csv_text(records: Sequence[dict[str, Any]]) -> str:
     w = csv.DictWriter(buf, CSV_FIELDS, extrasaction="ignore", lineterminator="\n")
     w.writeheader()
     for r in records:
+        r = _inf_psnr(r)
         row = {**r, **(r.get("metrics") or {})}
         w.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in CSV_FIELDS})
     return buf.getvalue()
@@ -118,8 +136,7 @@ def html_page(cases: Sequence[Case], students: Sequence[str], records: Sequence[
                            f"</figure>" for label, src in imgs)
             m = r.get("metrics") or {}
             metrics = ("" if not m else
-                       f"<br>beyond noise {100 * m['beyond_noise']:.2f}%, PSNR "
-                       f"{'inf' if m['psnr'] is None else format(m['psnr'], '.1f')} dB, mean "
+                       f"<br>beyond noise {100 * m['beyond_noise']:.2f}%, PSNR {_psnr_text(m['psnr'])} dB, mean "
                        f"{m['mean_error']:.3f}/255, &gt; 2/255 {100 * m['share_over_2']:.2f}%, FLIP "
                        f"{_fmt(m.get('flip'), '.4f')}")
             stderr = r.get("stderr_tail") or ""
