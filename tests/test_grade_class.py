@@ -221,7 +221,14 @@ def test_cli_errors_are_one_line_exit_2(tmp_path, capsys) -> None:
         (["grade", str(tmp_path / "subs"), "-o", str(tmp_path / "r"), "--cases", str(bad)],
          f"{bad}:2:12: error: case 'a': -size expects an integer in [1, 16384], found 0"),
         (["grade", str(tmp_path / "subs"), "-o", str(tmp_path / "r"), "--scheduler", "localhost:8786"],
-         "a5mi grade: error: --scheduler expects tcp://HOST:PORT, found 'localhost:8786'"),
+         "a5mi grade: error: --scheduler expects tls://HOST:PORT, found 'localhost:8786'"),
+        (["grade", str(tmp_path / "subs"), "-o", str(tmp_path / "r"), "--scheduler", "tcp://127.0.0.1:8786"],
+         "a5mi grade: error: --scheduler tcp://127.0.0.1:8786: a plain tcp:// scheduler lets anyone who reaches it "
+         "run code on its workers; use tls:// with --tls-ca/--tls-cert/--tls-key, or --insecure-scheduler"),
+        (["grade", str(tmp_path / "subs"), "-o", str(tmp_path / "r"), "--scheduler", "tls://127.0.0.1:8786",
+          "--tls-ca", str(bad)], "a5mi grade: error: --tls-ca needs --tls-cert and --tls-key as well"),
+        (["grade", str(tmp_path / "subs"), "-o", str(tmp_path / "r"), "--insecure-scheduler"],
+         "a5mi grade: error: --insecure-scheduler needs --scheduler"),
     ]
     for argv, message in cases:
         assert run_a5mi(argv) == 2, argv
@@ -262,11 +269,31 @@ def test_journal_ignores_a_torn_last_line(tmp_path) -> None:
     assert [r["verdict"] for r in j.records()] == ["close", "wrong"]
 
 
-def test_joins_an_existing_cluster_and_reads_given_references(tmp_path, scenes_dir, capsys) -> None:
-    """--scheduler: a cluster started here (127.0.0.1) is joined, not started; --reference DIR supplies the
-    reference images (a5mi's noise band is still rendered for them)."""
+def _tls_files(folder: Path):  # noqa: ANN202 - (Security, (ca, cert, key))
+    """Throwaway TLS credentials of a cluster started by a test, and the same as PEM files for ``--tls-*``."""
+    from distributed.security import Security
+
+    sec = Security.temporary()
+    folder.mkdir(mode=0o700)
+    files = []
+    for name, pem in (("ca.pem", sec.tls_ca_file), ("cert.pem", sec.tls_client_cert), ("key.pem", sec.tls_client_key)):
+        (folder / name).write_text(pem)
+        files.append(str(folder / name))
+    return sec, tuple(files)
+
+
+def _tls_cluster(sec, n_workers: int = 1):  # noqa: ANN001, ANN202 - a distributed.LocalCluster
     from distributed import LocalCluster
 
+    return LocalCluster(n_workers=n_workers, threads_per_worker=1, host="127.0.0.1", protocol="tls://",
+                        security=sec, dashboard_address=None, silence_logs=50)
+
+
+def test_joins_an_existing_cluster_and_reads_given_references(tmp_path, scenes_dir, capsys, monkeypatch) -> None:
+    """--scheduler tls://: a cluster started here (127.0.0.1, its workers in another folder) is joined with
+    --tls-ca/--tls-cert/--tls-key, not started; every path is given relative to this folder and still reaches
+    the workers; --reference DIR supplies the reference images (a5mi's noise band is still rendered for them);
+    the identical image's PSNR is "inf" in the JSON and the CSV."""
     from a5mi.cli import run_a5mi
     from a5mi.cli.grade import _options_of
     from a5mi.grade.cases import load_cases
@@ -292,19 +319,145 @@ def test_joins_an_existing_cluster_and_reads_given_references(tmp_path, scenes_d
     for name, img in (("same", given), ("other", other), ("noshadows", dark)):
         (tmp_path / "subs" / name).mkdir(parents=True)
         write_image(tmp_path / "subs" / name / "11f.png", (img + 0.5) / 255)
-    with LocalCluster(n_workers=1, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
-                      silence_logs=50) as cluster:
-        argv = ["grade", str(tmp_path / "subs"), "-o", str(tmp_path / "report"), "--cases", str(toml),
-                "--reference", str(tmp_path / "refs"), "--scheduler", cluster.scheduler_address,
-                "--cache", str(tmp_path / "cache")]
-        assert run_a5mi(argv) == 0
+    sec, (ca, cert, key) = _tls_files(tmp_path / "tls")
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")  # the workers' folder
+    with _tls_cluster(sec) as cluster:
+        monkeypatch.chdir(tmp_path)
+        assert cluster.scheduler_address.startswith("tls://")
+        argv = ["grade", "subs", "-o", "report", "--cases", "cases.toml", "--reference", "refs", "--scheduler",
+                cluster.scheduler_address, "--tls-ca", ca, "--tls-cert", cert, "--tls-key", key, "--cache", "cache"]
+        assert run_a5mi(argv) == 0, capsys.readouterr().err
     doc = json.loads((tmp_path / "report" / "results.json").read_text())
     assert {r["student"]: r["verdict"] for r in doc["results"]} == {"same": "match", "other": "match",
                                                                    "noshadows": "wrong"}
     assert doc["references"] == {"11f": str(tmp_path / "refs" / "scene11.given.png")}
     by = {r["student"]: r for r in doc["results"]}
-    assert by["same"]["metrics"]["psnr"] is None  # identical to the given reference
+    assert by["same"]["metrics"]["psnr"] == "inf" and float(by["same"]["metrics"]["psnr"]) == float("inf")
+    assert isinstance(by["other"]["metrics"]["psnr"], float)
+    import csv
+
+    rows = {r["student"]: r for r in csv.DictReader(open(tmp_path / "report" / "results.csv"))}
+    assert rows["same"]["psnr"] == "inf" and float(rows["other"]["psnr"]) > 0
     capsys.readouterr()
     (tmp_path / "refs" / "scene11.given.png").unlink()
-    assert run_a5mi(argv[:-2] + ["--workers", "1"]) == 2
+    assert run_a5mi(argv[:8] + ["--workers", "1"] + argv[-2:]) == 2
     assert "reference image" in capsys.readouterr().err
+
+
+def test_identical_and_unmeasured_images_differ_in_the_csv_and_json(tmp_path) -> None:
+    """PSNR of an identical image is ``inf`` (CSV) / ``"inf"`` (JSON); no metrics is an empty cell / null."""
+    from a5mi.grade.cases import make_case
+    from a5mi.grade.report import csv_text, write_all
+
+    case = make_case("-input scene10_sphere.txt -output 10f.png", points=10)
+    metrics = {"beyond_noise": 0.0, "psnr": None, "mean_error": 0.0, "share_over_2": 0.0, "max_error": 0.0,
+               "flip": 0.0}
+    records = [{"key": "a/10f", "student": "a", "case": "10f", "verdict": "match", "points": 10.0,
+                "max_points": 10.0, "detail": "", "metrics": metrics, "images": {}},
+               {"key": "b/10f", "student": "b", "case": "10f", "verdict": "no output", "points": 0.0,
+                "max_points": 10.0, "detail": "", "metrics": None, "images": {}}]
+    import csv
+    import io
+
+    rows = list(csv.DictReader(io.StringIO(csv_text(records))))
+    assert [r["psnr"] for r in rows] == ["inf", ""]
+    files = write_all(tmp_path, [case], ["a", "b"], records, {})
+    doc = json.loads(Path(files["json"]).read_text())
+    assert [r["metrics"] for r in doc["results"]][1] is None
+    assert doc["results"][0]["metrics"]["psnr"] == "inf"
+    assert "PSNR inf dB" in Path(files["html"]).read_text()
+
+
+def test_a_worker_that_cannot_see_the_submissions_is_an_error(tmp_path, capsys, klass) -> None:
+    """A worker (``dask worker`` in its own mount namespace, where the folder holding the submissions is an
+    empty tmpfs: another machine without the shared filesystem) makes the run a one-line error, exit 2."""
+    import shutil
+    import subprocess
+
+    from a5mi.cli import run_a5mi
+
+    if shutil.which("bwrap") is None:
+        pytest.skip("bubblewrap is installed by make setup")
+    hidden = tmp_path / "hidden"
+    shutil.copytree(klass / "subs" / "athome", hidden / "subs" / "athome")
+    sec, (ca, cert, key) = _tls_files(tmp_path / "tls")
+    with _tls_cluster(sec, n_workers=0) as cluster:
+        worker = subprocess.Popen(["bwrap", "--dev-bind", "/", "/", "--tmpfs", str(hidden), "--die-with-parent",
+                                   sys.executable, "-m", "distributed.cli.dask_worker", cluster.scheduler_address,
+                                   "--tls-ca-file", ca, "--tls-cert", cert, "--tls-key", key, "--nthreads", "1",
+                                   "--no-dashboard", "--no-nanny", "--host", "127.0.0.1"],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            from distributed import Client
+
+            with Client(cluster) as client:
+                client.wait_for_workers(1, timeout=60)
+                (address,) = client.scheduler_info()["workers"]
+            argv = ["grade", str(hidden / "subs"), "-o", str(tmp_path / "report"), "--cases",
+                    str(klass / "cases.toml"), "--cache", str(klass / "cache"), "--scheduler",
+                    cluster.scheduler_address, "--tls-ca", ca, "--tls-cert", cert, "--tls-key", key]
+            assert run_a5mi(argv) == 2
+        finally:
+            worker.terminate()
+            worker.wait(30)
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"a5mi grade: error: worker {address} cannot see {hidden / 'subs'}: the scheduler's workers need a shared "
+        f"filesystem"]
+
+
+def test_nothing_graded_is_an_error_not_a_class_of_zeros(tmp_path, capsys, klass) -> None:
+    """Every student's image under a name no case asks for: every case is 'no output', which is a set-up
+    mistake: the report is written, the exit status is 2 with one line."""
+    from a5mi.cli import run_a5mi
+
+    for student in ("ann", "bob"):
+        (tmp_path / "subs" / student).mkdir(parents=True)
+        for case in ("10f", "11f"):
+            (tmp_path / "subs" / student / f"{case}.bmp").write_bytes(
+                (klass / "subs" / "athome" / f"{case}.png").read_bytes())
+    argv = ["grade", str(tmp_path / "subs"), "-o", str(tmp_path / "report"), "--cases", str(klass / "cases.toml"),
+            "--cache", str(klass / "cache"), "--workers", "1", "--no-flip"]
+    assert run_a5mi(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("a5mi grade: error: nothing could be graded: every case of all 2 students is 'no "
+                              "output' or a grader error")
+    assert (tmp_path / "report" / "report.html").is_file()
+
+
+def test_resume_regrades_what_changed(tmp_path, capsys, klass) -> None:
+    """--resume re-grades a (student, case) whose case command, reference or submission folder changed since it
+    was journaled, and only those: a case's -bounces 4 made 0, then one of a student's images replaced."""
+    import shutil
+
+    from a5mi.cli import run_a5mi
+
+    for student in ("athome", "nearly"):
+        shutil.copytree(klass / "subs" / student, tmp_path / "subs" / student)
+    cases = tmp_path / "cases.toml"
+    cases.write_text(CASES)
+    report = tmp_path / "report"
+    argv = ["grade", str(tmp_path / "subs"), "-o", str(report), "--cases", str(cases), "--cache",
+            str(klass / "cache"), "--workers", "1", "--no-flip"]
+
+    def verdicts() -> dict[tuple[str, str], str]:
+        doc = json.loads((report / "results.json").read_text())
+        return {(r["student"], r["case"]): r["verdict"] for r in doc["results"]}
+
+    assert run_a5mi(argv) == 0
+    first = {("athome", "10f"): "match", ("athome", "cube"): "match", ("nearly", "10f"): "close",
+             ("nearly", "cube"): "close"}
+    assert verdicts() == first
+    capsys.readouterr()
+    assert run_a5mi([*argv, "--resume"]) == 0  # nothing changed: nothing re-graded
+    assert "4 cases taken from the journal" in capsys.readouterr().err and verdicts() == first
+
+    cases.write_text(CASES.replace("-output 10f.png -shadows -bounces 4", "-output 10f.png -shadows -bounces 0"))
+    assert run_a5mi([*argv, "--resume"]) == 0
+    assert "2 cases taken from the journal" in capsys.readouterr().err
+    assert verdicts() == {**first, ("athome", "10f"): "wrong", ("nearly", "10f"): "wrong"}
+
+    shutil.copyfile(tmp_path / "subs" / "nearly" / "11f.png", tmp_path / "subs" / "athome" / "11f.png")
+    assert run_a5mi([*argv, "--resume"]) == 0  # athome's folder changed: both its cases are graded again
+    assert "2 cases taken from the journal" in capsys.readouterr().err
+    assert verdicts() == {**first, ("athome", "10f"): "wrong", ("nearly", "10f"): "wrong", ("athome", "cube"): "close"}
