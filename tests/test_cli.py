@@ -1,4 +1,4 @@
-"""The a5 / a5mi commands: flags (SPEC B.1), the error policy (issue 8), outputs written last and atomically.
+"""The a5 / a5mi commands: flags (SPEC B.1), the error policy (docs/CLI.md), outputs written last and atomically.
 
 Rendering is replaced by a stand-in ``driver.render`` (and ``variant.activate``) in most tests so they run
 without a JIT; ``test_b1_real_render_*`` goes through the real converter, plugins and driver.
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from a5mi import cli, driver, imageio
-from a5mi.errors import UsageError
+from a5mi.errors import ExitStatus, UsageError
 
 
 @pytest.fixture
@@ -152,11 +152,11 @@ def test_b1_internal_error_keeps_old_outputs(tmp_path, scene, monkeypatch, capsy
 
     monkeypatch.setattr(driver, "render", broken)
     monkeypatch.setattr("a5mi.variant.activate", lambda requested=None: "stand-in")
-    assert cli.run(["-input", scene, "-output", str(out)]) == 1
+    assert cli.run(["-input", scene, "-output", str(out)]) == ExitStatus.SOFTWARE == 70
     line = _one_error_line(capsys.readouterr().err)
     assert line == "a5: internal error: RuntimeError: kernel exploded (re-run with --debug for the traceback)"
     assert out.read_bytes() == b"previous"
-    assert cli.run(["-input", scene, "-output", str(out), "--debug"]) == 1
+    assert cli.run(["-input", scene, "-output", str(out), "--debug"]) == ExitStatus.SOFTWARE
     assert "Traceback" in capsys.readouterr().err
 
 
@@ -265,7 +265,7 @@ def test_a5mi_convert_real(tmp_path, scenes_dir, monkeypatch, variant) -> None:
     assert text.lstrip().startswith("<") and "a5_whitted" in text
 
 
-# ---------------------------------------------------------------- the command layer (issue 11)
+# ---------------------------------------------------------------- the command layer
 
 
 @pytest.mark.parametrize("name", ["a5", *cli.SUBCOMMANDS])
@@ -378,7 +378,7 @@ def test_bash_completion_is_generated_from_the_flag_tables(tmp_path) -> None:
 
 def test_verbose_times_the_plain_kernel_and_counts_rays_in_a_second_pass(tmp_path, scenes_dir, monkeypatch,
                                                                          variant, capsys) -> None:
-    """Issue 18: -v must not change the timed kernel (counting is a different kernel), and a log that is not a
+    """-v must not change the timed kernel (counting is a different kernel), and a log that is not a
     terminal never gets a carriage-return progress bar."""
     seen: list[driver.RenderOptions] = []
     real = driver.render
