@@ -283,6 +283,48 @@ def test_every_command_has_help_with_one_line_per_flag(name: str, capsys) -> Non
             assert "(default: " in spelled[0], spelled[0]
 
 
+def test_help_command_prints_that_commands_help(capsys) -> None:
+    """``a5mi help convert`` is ``a5mi convert -h``; ``a5mi help`` alone is the top-level usage."""
+    assert cli.run_a5mi(["help", "convert"]) == ExitStatus.OK
+    via_help = capsys.readouterr().out
+    assert cli.run_a5mi(["convert", "-h"]) == ExitStatus.OK
+    assert via_help == capsys.readouterr().out and via_help.startswith("usage: a5mi convert ")
+    assert cli.run_a5mi(["help"]) == ExitStatus.OK
+    assert capsys.readouterr().out.startswith("usage: a5mi COMMAND")
+
+
+def test_trace_offers_no_image_outputs(capsys) -> None:
+    """trace writes no image: -h offers neither -output nor -normals / -depth / -normals_mode, and they are
+    refused as unknown flags."""
+    from a5mi.cli.trace import TRACE
+
+    names = {n for f in TRACE.all_flags for n in f.names}
+    assert names.isdisjoint({"-output", "--output", "-normals", "-depth", "-normals_mode"})
+    assert {"-input", "-size", "-jitter", "-filter", "--pixel"} <= names
+    assert cli.run_a5mi(["trace", "-h"]) == ExitStatus.OK
+    assert "-output" not in capsys.readouterr().out
+    assert cli.run_a5mi(["trace", "-input", "s.txt", "-pixel", "0", "0", "-output", "o.png"]) == ExitStatus.USAGE
+    assert "unknown flag '-output'" in _one_error_line(capsys.readouterr().err)
+
+
+def test_shared_flags_mean_one_thing(capsys) -> None:
+    """--size is W H (<= MAX_SIZE) wherever it exists, --json a switch, --json-file a FILE (docs/CLI.md)."""
+    from a5mi.spec import MAX_SIZE
+
+    for name in ["a5", *cli.SUBCOMMANDS]:
+        cmd = __import__("a5mi.cli.render", fromlist=["A5"]).A5 if name == "a5" else cli.command(name)
+        for f in cmd.all_flags:
+            if "--size" in f.names:
+                assert (f.nargs, f.dests, f.metavar) == (2, ("width", "height"), "W H"), name
+                f.convert("--size", ["1", str(MAX_SIZE)])
+                with pytest.raises(UsageError):
+                    f.convert("--size", ["1", str(MAX_SIZE + 1)])
+            if "--json" in f.names:
+                assert f.nargs == 0, name
+            if "--json-file" in f.names:
+                assert f.nargs == 1 and f.metavar == "FILE", name
+
+
 def test_version_from_the_one_version_source(capsys) -> None:
     from importlib.metadata import version
 
