@@ -35,7 +35,7 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--scheduler",), "scheduler", "render on an existing Dask cluster", 1, text, metavar="tcp://HOST:PORT"),
     Flag(("--resume",), "resume", "render only the frames that are missing or fail their checksum",
          default=False, show_default=False),
-    *render_flags_except(IMAGE_OUTPUT_DESTS),
+    *render_flags_except(IMAGE_OUTPUT_DESTS | {"input"}),  # the scene is the positional SCENE.txt
 )
 
 

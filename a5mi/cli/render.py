@@ -233,7 +233,7 @@ A5 = Command("a5", _SUMMARY, RENDER_FLAGS, run_render, grammar="a5", required=("
 
 #: Render flags that name an image to write or say how its AOV rays are cast: not offered by the commands
 #: that write no a5 image (trace) or write their own (animate).
-IMAGE_OUTPUT_DESTS = frozenset({"input", "output", "normals_output", "depth", "depth_output", "aov_mode"})
+IMAGE_OUTPUT_DESTS = frozenset({"output", "normals_output", "depth", "depth_output", "aov_mode"})
 
 
 def render_flags_except(dests: frozenset[str] | set[str]) -> tuple[Flag, ...]:

@@ -17,12 +17,11 @@ import numpy as np
 
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, choice, integer, json_flag, text
-from a5mi.cli.render import IMAGE_OUTPUT_DESTS, RENDER_FLAGS, check_render_args, render_flags_except, render_options
+from a5mi.cli.render import IMAGE_OUTPUT_DESTS, check_render_args, render_flags_except, render_options
 from a5mi.errors import ExitStatus, ImageWriteError
 from a5mi.spec import MAX_SIZE
 
 FLAGS: tuple[Flag, ...] = (
-    next(f for f in RENDER_FLAGS if f.dests == ("input",)),
     *render_flags_except(IMAGE_OUTPUT_DESTS),
     Flag(("--pixel", "-pixel"), ("px", "py"), "the pixel to trace (x right, y down from the top-left; see "
          "--origin)", 2, integer(0, MAX_SIZE), (None, None), "X Y"),
