@@ -1,4 +1,4 @@
-"""The a5 / a5mi commands: flags (SPEC B.1), the error policy (issue 8), outputs written last and atomically.
+"""The a5 / a5mi commands: flags (SPEC B.1), the error policy (docs/CLI.md), outputs written last and atomically.
 
 Rendering is replaced by a stand-in ``driver.render`` (and ``variant.activate``) in most tests so they run
 without a JIT; ``test_b1_real_render_*`` goes through the real converter, plugins and driver.
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from a5mi import cli, driver, imageio
-from a5mi.errors import UsageError
+from a5mi.errors import ExitStatus, UsageError
 
 
 @pytest.fixture
@@ -152,11 +152,11 @@ def test_b1_internal_error_keeps_old_outputs(tmp_path, scene, monkeypatch, capsy
 
     monkeypatch.setattr(driver, "render", broken)
     monkeypatch.setattr("a5mi.variant.activate", lambda requested=None: "stand-in")
-    assert cli.run(["-input", scene, "-output", str(out)]) == 1
+    assert cli.run(["-input", scene, "-output", str(out)]) == ExitStatus.SOFTWARE == 70
     line = _one_error_line(capsys.readouterr().err)
     assert line == "a5: internal error: RuntimeError: kernel exploded (re-run with --debug for the traceback)"
     assert out.read_bytes() == b"previous"
-    assert cli.run(["-input", scene, "-output", str(out), "--debug"]) == 1
+    assert cli.run(["-input", scene, "-output", str(out), "--debug"]) == ExitStatus.SOFTWARE
     assert "Traceback" in capsys.readouterr().err
 
 
@@ -265,7 +265,7 @@ def test_a5mi_convert_real(tmp_path, scenes_dir, monkeypatch, variant) -> None:
     assert text.lstrip().startswith("<") and "a5_whitted" in text
 
 
-# ---------------------------------------------------------------- the command layer (issue 11)
+# ---------------------------------------------------------------- the command layer
 
 
 @pytest.mark.parametrize("name", ["a5", *cli.SUBCOMMANDS])
@@ -281,6 +281,48 @@ def test_every_command_has_help_with_one_line_per_flag(name: str, capsys) -> Non
         default = flag.default if not isinstance(flag.default, tuple) else flag.default[0]
         if flag.show_default and flag.nargs and default is not None:
             assert "(default: " in spelled[0], spelled[0]
+
+
+def test_help_command_prints_that_commands_help(capsys) -> None:
+    """``a5mi help convert`` is ``a5mi convert -h``; ``a5mi help`` alone is the top-level usage."""
+    assert cli.run_a5mi(["help", "convert"]) == ExitStatus.OK
+    via_help = capsys.readouterr().out
+    assert cli.run_a5mi(["convert", "-h"]) == ExitStatus.OK
+    assert via_help == capsys.readouterr().out and via_help.startswith("usage: a5mi convert ")
+    assert cli.run_a5mi(["help"]) == ExitStatus.OK
+    assert capsys.readouterr().out.startswith("usage: a5mi COMMAND")
+
+
+def test_trace_offers_no_image_outputs(capsys) -> None:
+    """trace writes no image: -h offers neither -output nor -normals / -depth / -normals_mode, and they are
+    refused as unknown flags."""
+    from a5mi.cli.trace import TRACE
+
+    names = {n for f in TRACE.all_flags for n in f.names}
+    assert names.isdisjoint({"-output", "--output", "-normals", "-depth", "-normals_mode"})
+    assert {"-input", "-size", "-jitter", "-filter", "--pixel"} <= names
+    assert cli.run_a5mi(["trace", "-h"]) == ExitStatus.OK
+    assert "-output" not in capsys.readouterr().out
+    assert cli.run_a5mi(["trace", "-input", "s.txt", "-pixel", "0", "0", "-output", "o.png"]) == ExitStatus.USAGE
+    assert "unknown flag '-output'" in _one_error_line(capsys.readouterr().err)
+
+
+def test_shared_flags_mean_one_thing(capsys) -> None:
+    """--size is W H (<= MAX_SIZE) wherever it exists, --json a switch, --json-file a FILE (docs/CLI.md)."""
+    from a5mi.spec import MAX_SIZE
+
+    for name in ["a5", *cli.SUBCOMMANDS]:
+        cmd = __import__("a5mi.cli.render", fromlist=["A5"]).A5 if name == "a5" else cli.command(name)
+        for f in cmd.all_flags:
+            if "--size" in f.names:
+                assert (f.nargs, f.dests, f.metavar) == (2, ("width", "height"), "W H"), name
+                f.convert("--size", ["1", str(MAX_SIZE)])
+                with pytest.raises(UsageError):
+                    f.convert("--size", ["1", str(MAX_SIZE + 1)])
+            if "--json" in f.names:
+                assert f.nargs == 0, name
+            if "--json-file" in f.names:
+                assert f.nargs == 1 and f.metavar == "FILE", name
 
 
 def test_version_from_the_one_version_source(capsys) -> None:
@@ -378,7 +420,7 @@ def test_bash_completion_is_generated_from_the_flag_tables(tmp_path) -> None:
 
 def test_verbose_times_the_plain_kernel_and_counts_rays_in_a_second_pass(tmp_path, scenes_dir, monkeypatch,
                                                                          variant, capsys) -> None:
-    """Issue 18: -v must not change the timed kernel (counting is a different kernel), and a log that is not a
+    """-v must not change the timed kernel (counting is a different kernel), and a log that is not a
     terminal never gets a carriage-return progress bar."""
     seen: list[driver.RenderOptions] = []
     real = driver.render

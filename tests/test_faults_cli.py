@@ -1,4 +1,4 @@
-"""Issue 19, items 3, 4, 5, 6 and 11 through the real commands: each hostile input ends with a correct render or
+"""Hostile inputs through the real commands: each ends with a correct render or
 one line, exit 2 and nothing written; outputs never destroy inputs; ``a5mi convert`` writes only its set."""
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""``a5mi difftest --binary PATH [--count N] [--seed S] [--size N] [--threshold DB] [--out DIR] [--json F]``.
+"""``a5mi difftest --binary PATH [--count N] [--seed S] [--mean-size N] [--threshold DB] [--out DIR]
+[--json-file F]``.
 
 Differential testing of a5mi against another executable with the a5 command line (:mod:`a5mi.difftest`):
 prints one table row per scene as it is done, then the summary; failures are minimised and written to
@@ -10,8 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from a5mi.cli.app import Command, Console, activate_variant
-from a5mi.cli.flags import Args, Flag, integer, real, text
-from a5mi.errors import UsageError
+from a5mi.cli.flags import Args, Flag, integer, json_file_flag, real, text
+from a5mi.errors import ExitStatus, UsageError
 
 FLAGS: tuple[Flag, ...] = (
     Flag(("--binary", "-binary"), "binary", "the other renderer: an executable with the a5 command line "
@@ -20,8 +21,8 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--seed", "-seed"), "seed", "series of scenes (scene i of seed s is always the same)", 1,
          integer(0, 2**31 - 1), 0, "S"),
     Flag(("--start",), "start", "first scene index", 1, integer(0, 10**9), 0, "I"),
-    Flag(("--size", "-size"), "size", "square image size (each scene draws size-10 .. size+10)", 1,
-         integer(16, 1000), 100, "N"),
+    Flag(("--mean-size",), "size", "scenes are squares of a side drawn from N-10 .. N+10 (the binary asserts on "
+         "non-square images)", 1, integer(16, 1000), 100, "N"),
     Flag(("--threshold",), "threshold", "PSNR (dB) below which a scene fails and is minimised", 1, real, 50.0,
          "DB"),
     Flag(("--timeout",), "timeout", "seconds one run of the binary may take", 1, real, 60.0, "S"),
@@ -29,7 +30,7 @@ FLAGS: tuple[Flag, ...] = (
          integer(1, 10_000), 80, "N"),
     Flag(("--out", "-o"), "out", "folder for failing scenes and their minimised reproducers", 1, text,
          metavar="DIR"),
-    Flag(("--json",), "json", "also write the whole report as JSON to FILE", 1, text, metavar="FILE"),
+    json_file_flag("the whole report"),
 )
 
 
@@ -60,11 +61,11 @@ def run_difftest(args: Args, console: Console) -> int:
     console.result(f"\n{s['scenes']} scenes (seed {args.seed}): median PSNR {s['median_psnr']:.1f} dB, "
                    f"{100 * s['share_at_least_50']:.1f}% at >= 50 dB, {s['identical']} identical, "
                    f"{s['failed_runs']} failed runs")
-    if args.json:
-        with atomic_file(args.json, "w") as f:
+    if args.json_file:
+        with atomic_file(args.json_file, "w") as f:
             f.write(campaign.report_json(rows, args.threshold, args.seed))
-    return 0
+    return ExitStatus.OK
 
 
 DIFFTEST = Command("difftest", "Differential testing against another a5 executable on seeded random scenes.",
-                   FLAGS, run_difftest)
+                   FLAGS, run_difftest, exit_ok="the campaign ran (its table and summary printed)")
