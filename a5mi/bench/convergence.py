@@ -22,7 +22,8 @@ def convergence(scene: str | Path, *, size: int = 300, spps: tuple[int, ...] = (
     """``{'rows': [{'spp', 'seconds', 'rmse'}], 'slope', 'reference_spp', 'reference_seconds'}``."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
-    from a5mi.driver import RenderOptions, render
+    from a5mi.options import RenderOptions
+    from a5mi.session import render
 
     desc = describe(parse_file(scene))
 
