@@ -80,7 +80,7 @@ def render_reference(case: ReferenceCase) -> np.ndarray:
     model = parse_file(case.scene_file)
     flags = SUFFIX_FLAGS[case.suffix]
     opts = RenderOptions(width=SIZE, height=SIZE, **flags)  # type: ignore[arg-type]
-    result = render(describe(model), opts)
+    result = render(describe(model, bump=opts.bump), opts)
     return quantize(result.image).astype(np.float64)
 
 

@@ -43,7 +43,7 @@ def _check_golden(scene: str, name: str, options, tmp_path: Path) -> None:
     from a5mi.imageio import quantize, write_image
     from a5mi.session import describe_file, render
 
-    result = render(describe_file(str(ROOT / "scenes" / f"{scene}.txt"))[0], options)
+    result = render(describe_file(str(ROOT / "scenes" / f"{scene}.txt"), bump=options.bump)[0], options)
     ours = quantize(result.image).astype(np.float64)
     golden = GOLDEN / f"{name}.png"
     if os.environ.get("A5MI_UPDATE_GOLDEN") == "1":

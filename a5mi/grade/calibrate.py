@@ -62,7 +62,7 @@ def _box_not_blur(scene: Path, options: RenderOptions) -> np.ndarray:
     from a5mi.session import render
 
     variant.activate(None)
-    big = render(describe(parse_file(str(scene))), dataclasses.replace(options, filter=False)).image
+    big = render(describe(parse_file(str(scene)), bump=options.bump), dataclasses.replace(options, filter=False)).image
     return quantize(downsample3(big)).astype(np.float64)
 
 
