@@ -1,6 +1,6 @@
 """The a5 / a5mi commands: flags (SPEC B.1), the error policy (docs/CLI.md), outputs written last and atomically.
 
-Rendering is replaced by a stand-in ``driver.render`` (and ``variant.activate``) in most tests so they run
+Rendering is replaced by a stand-in ``session.render`` (and ``variant.activate``) in most tests so they run
 without a JIT; ``test_b1_real_render_*`` goes through the real converter, plugins and driver.
 """
 
@@ -13,8 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from a5mi import cli, driver, imageio
+from a5mi import cli, driver, imageio, session
 from a5mi.errors import ExitStatus, UsageError
+from a5mi.filters import postprocess
+from a5mi.options import RenderOptions
 
 
 @pytest.fixture
@@ -24,15 +26,15 @@ def scene(scenes_dir: Path) -> str:
 
 @pytest.fixture
 def fake_render(monkeypatch):
-    """Stand-in for driver.render: a gradient image of the saved size, AOVs at render size."""
-    calls: list[driver.RenderOptions] = []
+    """Stand-in for session.render: a gradient image of the saved size, AOVs at render size."""
+    calls: list[RenderOptions] = []
 
     def render(scene_model, options, *, progress=None):
         calls.append(options)
         rw, rh = options.render_size
         color = np.zeros((rh, rw, 3), np.float32)
         color[..., 0] = np.linspace(0, 1, rw, dtype=np.float32)[None, :]
-        image = driver.postprocess(color, filter=options.filter, kernel=options.kernel)
+        image = postprocess(color, filter=options.filter, kernel=options.kernel)
         if progress:
             progress(rw * rh, rw * rh)
         return driver.RenderResult(
@@ -41,7 +43,7 @@ def fake_render(monkeypatch):
             render_size=(rw, rh), camera_rays=rw * rh, tiles=1, timings={"render": 0.0},
         )
 
-    monkeypatch.setattr(driver, "render", render)
+    monkeypatch.setattr(session, "render", render)
     monkeypatch.setattr("a5mi.variant.activate", lambda requested=None: "stand-in")
     return calls
 
@@ -150,7 +152,7 @@ def test_b1_internal_error_keeps_old_outputs(tmp_path, scene, monkeypatch, capsy
     def broken(*a, **kw):
         raise RuntimeError("kernel exploded\nsecond line")
 
-    monkeypatch.setattr(driver, "render", broken)
+    monkeypatch.setattr(session, "render", broken)
     monkeypatch.setattr("a5mi.variant.activate", lambda requested=None: "stand-in")
     assert cli.run(["-input", scene, "-output", str(out)]) == ExitStatus.SOFTWARE == 70
     line = _one_error_line(capsys.readouterr().err)
@@ -422,14 +424,14 @@ def test_verbose_times_the_plain_kernel_and_counts_rays_in_a_second_pass(tmp_pat
                                                                          variant, capsys) -> None:
     """-v must not change the timed kernel (counting is a different kernel), and a log that is not a
     terminal never gets a carriage-return progress bar."""
-    seen: list[driver.RenderOptions] = []
-    real = driver.render
+    seen: list[RenderOptions] = []
+    real = session.render
 
     def spy(desc, options, **kw):
         seen.append(options)
         return real(desc, options, **kw)
 
-    monkeypatch.setattr(driver, "render", spy)
+    monkeypatch.setattr(session, "render", spy)
     monkeypatch.chdir(scenes_dir)
     out = tmp_path / "o.png"
     assert cli.run(["-input", "scene10_sphere.txt", "-size", "12", "12", "-output", str(out), "-shadows",
@@ -437,6 +439,5 @@ def test_verbose_times_the_plain_kernel_and_counts_rays_in_a_second_pass(tmp_pat
     err = capsys.readouterr().err
     assert "\r" not in err and "secondary rays reflection" in err
     assert [o.count_rays for o in seen] == [False, True]  # the timed render, then the counting pass
-    counted = real(driver.describe_if_needed(__import__("a5mi.converters.a5_parser", fromlist=["x"]).parse_file(
-        "scene10_sphere.txt")), seen[1])
+    counted = real(session.describe_file("scene10_sphere.txt")[0], seen[1])
     assert f"reflection {counted.ray_counts['reflection']}," in err

@@ -158,10 +158,10 @@ def bench_scene(path: Path, args: BenchSettings, published: dict[str, float], lo
                 res.errors.append(f"a5soln exited {run.returncode}: {run.stderr.strip()[-300:]}")
     if args.no_inprocess:
         return res
-    from a5mi import driver
     from a5mi.converters.a5_parser import parse_file
+    from a5mi.options import RenderOptions
 
-    options = driver.RenderOptions(width=w, height=h, bounces=args.bounces, shadows=True, jitter=True, filter=True)
+    options = RenderOptions(width=w, height=h, bounces=args.bounces, shadows=True, jitter=True, filter=True)
     with _chdir(path.parent):
         log(f"{name}: stages and floor ...")
         try:

@@ -138,9 +138,9 @@ def run_render(args: Args, console: Console) -> int:
 
     if batch.is_batch(args):
         return batch.run_batch(batch.make_jobs(args, RENDER_FLAGS, check_render_args), console, render_job)
-    from a5mi import driver
+    from a5mi import session
 
-    return _render_and_write(args, console, lambda: activate_variant(args.variant), driver.render,
+    return _render_and_write(args, console, lambda: activate_variant(args.variant), session.render,
                              lambda: _load(args.input, console, bool(args.get("bump"))))
 
 
