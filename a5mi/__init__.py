@@ -1,8 +1,9 @@
 """a5mi: the MIT 6.837 Assignment 5 ray tracer as Mitsuba 3 plugins.
 
-Data flows one way: scene text -> :mod:`a5mi.converters` (tokens, typed model, Mitsuba dict) ->
-:mod:`a5mi.plugins` (integrator, BSDF, textures, emitters) -> :mod:`a5mi.driver` (camera rays, jitter,
-filter) -> :mod:`a5mi.imageio` (image file). Only :mod:`a5mi.cli` prints.
+Data flows one way: scene text -> :mod:`a5mi.converters` (tokens, typed model, scene description, Mitsuba
+dict) -> :mod:`a5mi.session` (``mi.load_dict``: :mod:`a5mi.plugins` objects, the integrator, BSDFs, textures,
+emitters) -> :mod:`a5mi.driver` (camera rays, jitter, tiles, filter) -> :mod:`a5mi.imageio` (image file). Only
+:mod:`a5mi.cli` prints.
 """
 
 from __future__ import annotations
@@ -16,8 +17,9 @@ PROJECT_ROOT = Path(__file__).resolve().parent.parent
 
 
 def cache_dir() -> Path:
-    """Where a5mi keeps files it can always recompute (the glibc ``rand()`` prefix, the octree reach masks):
-    ``$A5MI_CACHE_DIR``, else ``$XDG_CACHE_HOME/a5mi``, else ``~/.cache/a5mi``."""
+    """Where a5mi keeps files it can always recompute (deleting the folder costs only time; each module that
+    writes there names its own file or sub-folder): ``$A5MI_CACHE_DIR``, else ``$XDG_CACHE_HOME/a5mi``, else
+    ``~/.cache/a5mi``."""
     env = os.environ.get("A5MI_CACHE_DIR")
     if env:
         return Path(env)

@@ -2,7 +2,8 @@
 
 The scripts import this small module instead of :mod:`a5mi.cli` so that SIGINT, SIGTERM and SIGHUP are routed
 before the ~50 ms of imports of the command layer: a Ctrl-C at any moment after the interpreter has started
-ends with one line and ``128 + signal`` (issue 19), never a traceback.
+ends with one line and ``128 + signal`` (:meth:`a5mi.errors.ExitStatus.signal`; docs/CLI.md "Exit status"),
+never a traceback. The console scripts exit with the status the command layer returns.
 """
 
 from __future__ import annotations

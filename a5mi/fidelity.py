@@ -72,13 +72,15 @@ def cases() -> Iterator[ReferenceCase]:
 def render_reference(case: ReferenceCase) -> np.ndarray:
     """Our render of ``case`` in levels (H, W, 3), row 0 = top, quantised as the binary does (SPEC B.1)."""
     from a5mi.converters.a5_parser import parse_file
-    from a5mi.driver import RenderOptions, render
+    from a5mi.converters.describe import describe
     from a5mi.imageio import quantize
+    from a5mi.options import RenderOptions
+    from a5mi.session import render
 
     model = parse_file(case.scene_file)
     flags = SUFFIX_FLAGS[case.suffix]
     opts = RenderOptions(width=SIZE, height=SIZE, **flags)  # type: ignore[arg-type]
-    result = render(model, opts)
+    result = render(describe(model, bump=opts.bump), opts)
     return quantize(result.image).astype(np.float64)
 
 

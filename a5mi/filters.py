@@ -41,7 +41,7 @@ FloatImage = npt.NDArray[np.float32]
 def _ieee(fn: Callable[P, R]) -> Callable[P, R]:
     """Run ``fn`` with numpy's floating-point warnings off: colours may be any finite float (SPEC A.5), and
     their float32 blur overflowing to inf (quantised to 255) is the sample solution's arithmetic too, not a
-    message for the user (issue 19)."""
+    message for the user (SPEC B.1: quantisation clamps)."""
 
     @functools.wraps(fn)
     def wrapped(*args: P.args, **kwargs: P.kwargs) -> R:

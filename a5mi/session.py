@@ -1,8 +1,13 @@
-"""A warm render session: Mitsuba loaded once, scenes built once, kernels reused (issue 20, batch renders).
+"""Scene building and warm render sessions: description -> dict -> Mitsuba objects -> driver (SPEC B.1, B.5).
+
+The caller's side of the driver. :func:`build_scene` is the one place a :class:`SceneDescription` becomes Mitsuba
+objects (:func:`a5mi.converters.to_mitsuba.to_dict`, then ``mi.load_dict``); :func:`render` is one render of a
+description (build, then :func:`a5mi.driver.render_scene`); the driver itself only renders loaded scenes.
 
 One ``a5`` process pays ~0.5 s of fixed cost (interpreter, ``import mitsuba``, variant, plugin registration,
-parse with file checks, scene build) besides the kernel. A :class:`RenderSession` pays the import and the
-variant once, and for each scene description it keeps
+parse with file checks, scene build) besides the kernel. A :class:`RenderSession` (batch renders: ``a5mi
+render`` with several scenes or ``--jobs``) pays the import and the variant once, and for each scene
+description it keeps
 
 * the loaded Mitsuba scene (``mi.load_dict`` of :func:`a5mi.converters.to_mitsuba.to_dict`): its shapes,
   materials and lights do not depend on the render options, only the integrator and the film do, and the
@@ -25,10 +30,10 @@ kernel + filter + write time.
 At most ``max_scenes`` built scenes are kept (least recently used dropped first, and freed *before* the next
 one is built), so a long job list has bounded memory. The default is one: while a scene is alive, the next
 scene's plugins get new registry IDs and the vcall tables' offsets baked into the render kernel change, so
-the next scene would compile its kernel again (measured, BENCHMARKS.md run E item 7); freed first, the IDs are
-reused and the kernel is found in the cache. (Mitsuba's own ``sphere`` bakes its centre into the kernel: a
-moved sphere compiles again whatever the session does.) The session never prints and never writes a file; it
-returns data (:class:`~a5mi.driver.RenderResult`).
+the next scene would compile its kernel again; freed first, the IDs are reused and the kernel is found in the
+cache (``kernels["compiled"] == 0``, tests/test_batch.py). (Mitsuba's own ``sphere`` bakes its
+centre into the kernel: a moved sphere compiles again whatever the session does.) Nothing here prints or
+writes a file; it returns data (:class:`~a5mi.driver.RenderResult`).
 """
 
 from __future__ import annotations
@@ -37,9 +42,54 @@ import gc
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from a5mi.driver import Progress, RenderResult, render_scene
 from a5mi.options import RenderOptions
+
+if TYPE_CHECKING:
+    import mitsuba as mi
+
+    from a5mi.converters.describe import SceneDescription, SceneWarning
+
+
+def scene_dict(desc: SceneDescription, options: RenderOptions) -> dict[str, Any]:
+    """The ``mi.load_dict`` dict of ``desc`` with ``a5_whitted`` set up by ``options``
+    (:func:`a5mi.converters.to_mitsuba.to_dict`; no file is read here)."""
+    from a5mi.converters.to_mitsuba import to_dict
+
+    return to_dict(desc, options)
+
+
+def load(entry: dict[str, Any]) -> Any:
+    """``mi.load_dict(entry)`` (a scene, or one plugin such as an integrator), a signal waiting for its end:
+    the plugin constructors run inside Mitsuba's C++ loader (:mod:`a5mi.interrupts`)."""
+    import mitsuba as mi
+
+    from a5mi import interrupts
+
+    with interrupts.deferred():
+        return mi.load_dict(entry)
+
+
+def build_scene(desc: SceneDescription, options: RenderOptions) -> mi.Scene:
+    """The Mitsuba scene of ``desc``, its integrator ``a5_whitted`` with ``options``' parameters:
+    ``load(scene_dict(desc, options))``."""
+    return load(scene_dict(desc, options))
+
+
+def render(desc: SceneDescription, options: RenderOptions, *, progress: Progress | None = None) -> RenderResult:
+    """Render a scene description as ``a5soln`` would (SPEC B.2, B.5): :func:`build_scene`, then
+    :func:`a5mi.driver.render_scene` with ``desc.camera``; ``timings["build"]`` is the build's seconds.
+
+    Needs an active JIT variant with the a5mi plugins registered (:func:`a5mi.variant.activate`).
+    """
+    t0 = time.perf_counter()
+    mi_scene = build_scene(desc, options)
+    t_build = time.perf_counter() - t0
+    result = render_scene(mi_scene, desc.camera, options, progress=progress)
+    result.timings["build"] = t_build
+    return result
 
 
 @dataclass
@@ -47,10 +97,10 @@ class _Built:
     """A scene description with its loaded Mitsuba scene, the scene dict's ``integrator`` entry (the
     template of the others) and the integrators made for it so far (by :func:`_integrator_key`)."""
 
-    desc: Any
-    scene: Any
+    desc: SceneDescription
+    scene: mi.Scene
     template: dict[str, Any]
-    integrators: dict[str, Any] = field(default_factory=dict)
+    integrators: dict[str, mi.SamplingIntegrator] = field(default_factory=dict)
 
 
 def _integrator_key(options: RenderOptions) -> str:
@@ -73,13 +123,8 @@ class RenderSession:
         self.scenes_built = 0
         self.integrators_loaded = 0
 
-    def _entry(self, desc: Any, options: RenderOptions) -> tuple[_Built, float]:
+    def _entry(self, desc: SceneDescription, options: RenderOptions) -> tuple[_Built, float]:
         """The cached scene of ``desc`` (built now if absent) and the seconds spent building."""
-        import mitsuba as mi
-
-        from a5mi import interrupts
-        from a5mi.converters.to_mitsuba import to_dict
-
         key = id(desc)
         entry = self._built.get(key)
         if entry is not None and entry.desc is desc:
@@ -89,57 +134,53 @@ class RenderSession:
         if len(self._built) >= self.max_scenes:  # free first: the new scene's plugins then reuse the registry IDs
             self._built.popitem(last=False)
             gc.collect()
-        scene_dict = to_dict(desc, options)
-        template = dict(scene_dict["integrator"])
-        with interrupts.deferred():  # plugin constructors run inside Mitsuba's C++ loader
-            scene = mi.load_dict(scene_dict)
+        whole = scene_dict(desc, options)
+        template = dict(whole["integrator"])
+        scene = load(whole)
         entry = _Built(desc, scene, template, {_integrator_key(options): scene.integrator()})
         self.scenes_built += 1
         self._built[key] = entry
         return entry, time.perf_counter() - t0
 
-    def integrator(self, desc: Any, options: RenderOptions) -> tuple[Any, Any, float]:
+    def integrator(self, desc: SceneDescription, options: RenderOptions
+                   ) -> tuple[mi.Scene, mi.SamplingIntegrator, float]:
         """``(mitsuba scene, a5_whitted integrator, build seconds)`` for ``desc`` rendered with ``options``:
         the scene built once per description, the integrator once per distinct set of its parameters."""
-        import mitsuba as mi
-
-        from a5mi import interrupts
         entry, spent = self._entry(desc, options)
         ikey = _integrator_key(options)
         integ = entry.integrators.get(ikey)
         if integ is None:
             t0 = time.perf_counter()
-            with interrupts.deferred():
-                integ = mi.load_dict({**entry.template, **options.integrator_params()})
+            integ = load({**entry.template, **options.integrator_params()})
             entry.integrators[ikey] = integ
             self.integrators_loaded += 1
             spent += time.perf_counter() - t0
         return entry.scene, integ, spent
 
-    def render(self, desc: Any, options: RenderOptions, *, progress: Any = None) -> Any:
-        """:func:`a5mi.driver.render` of a scene description (:func:`a5mi.converters.describe.describe`)
-        through the session's caches; ``timings["build"]`` is 0 when the scene and integrator were cached."""
-        from a5mi.driver import render_scene
-
+    def render(self, desc: SceneDescription, options: RenderOptions, *,
+               progress: Progress | None = None) -> RenderResult:
+        """:func:`render` of a scene description (:func:`a5mi.converters.describe.describe`) through the
+        session's caches; ``timings["build"]`` is 0 when the scene and integrator were cached."""
         scene, integ, spent = self.integrator(desc, options)
         result = render_scene(scene, desc.camera, options, integrator=integ, progress=progress)
         result.timings["build"] = spent
         return result
 
-    def forget(self, desc: Any) -> None:
+    def forget(self, desc: SceneDescription) -> None:
         """Drop the built scene of ``desc`` (its kernels stay in Dr.Jit's cache)."""
         self._built.pop(id(desc), None)
 
 
-def describe_file(path: str) -> tuple[Any, list[Any]]:
+def describe_file(path: str, *, bump: bool = False) -> tuple[SceneDescription, list[SceneWarning]]:
     """``(scene description, warnings)`` of a scene file: parse (SPEC A) + describe (every file it names read
-    and checked once). Raises the parser's positioned :class:`~a5mi.converters.errors.SceneError`."""
+    and checked once; ``bump``: with its bump and normal maps, EXTENSIONS E.7); warnings are ``(FileLoc,
+    message)`` pairs. Raises the parser's positioned :class:`~a5mi.converters.errors.SceneError`."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
 
     model = parse_file(path)
-    desc = describe(model)
+    desc = describe(model, bump=bump)
     return desc, [*model.warnings, *desc.warnings]
 
 
-__all__ = ["RenderSession", "describe_file"]
+__all__ = ["RenderSession", "build_scene", "describe_file", "load", "render", "scene_dict"]

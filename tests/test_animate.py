@@ -152,8 +152,9 @@ def test_parser_errors_are_positioned(tail: str, where: str, message: str) -> No
 def test_warm_frames_equal_fresh_still_renders_and_compile_nothing(mi) -> None:
     """Frame 0 (after other frames) equals the still render of the file; frame k equals a fresh render of
     scene_at(k / fps); after the first frame no kernel is compiled or even loaded from the disk cache."""
-    from a5mi import driver
     from a5mi.animate.warm import FrameTiming, WarmScene
+    from a5mi.converters.describe import describe
+    from a5mi.session import render
 
     scene = parse_text(animated())
     opts = RenderOptions(width=20, height=20, spp=2, shadows=True)
@@ -163,10 +164,10 @@ def test_warm_frames_equal_fresh_still_renders_and_compile_nothing(mi) -> None:
     images = {f: warm.render(f, later).image for f in (9, 0, 5)}
     assert later.kernels.get("compiled", 0) == 0 and later.kernels.get("disk", 0) == 0, later.kernels
     assert later.kernels.get("memory", 0) > 0
-    still = driver.render(parse_text(STILL), opts).image
+    still = render(describe(parse_text(STILL)), opts).image
     assert np.array_equal(images[0], still)
     for f in (5, 9):
-        fresh = driver.render(keyframes.scene_at(scene, f / 12), opts).image
+        fresh = render(describe(keyframes.scene_at(scene, f / 12)), opts).image
         assert np.array_equal(images[f], fresh), f
     assert not np.array_equal(images[5], images[9])
 
@@ -326,9 +327,10 @@ def test_cli_animate_writes_frames_and_a_gif(mi, tmp_path: Path, capsys: pytest.
 def test_bump_flag_reaches_the_warm_scene(mi, tmp_path: Path) -> None:
     """``-bump`` (E.7) in an animation: frame 0 of ``scenes/bumps.txt`` with a light track equals the still
     ``-bump`` render bit for bit, and differs from the frame without ``-bump`` (the flag is not ignored)."""
-    from a5mi import driver
     from a5mi.animate.warm import WarmScene
     from a5mi.converters.a5_parser import parse_file
+    from a5mi.converters.describe import describe
+    from a5mi.session import render
 
     still = (ROOT / "scenes" / "bumps.txt").read_text()
     still = still.replace("tex/", f"{ROOT / 'scenes' / 'tex'}/").replace("meshes/", f"{ROOT / 'scenes' / 'meshes'}/")
@@ -339,5 +341,5 @@ def test_bump_flag_reaches_the_warm_scene(mi, tmp_path: Path) -> None:
     off = dataclasses.replace(on, bump=False)
     frame_on = WarmScene(parse_file(tmp_path / "anim.txt"), on).render(0).image
     frame_off = WarmScene(parse_file(tmp_path / "anim.txt"), off).render(0).image
-    assert np.array_equal(frame_on, driver.render(parse_file(tmp_path / "still.txt"), on).image)
+    assert np.array_equal(frame_on, render(describe(parse_file(tmp_path / "still.txt"), bump=True), on).image)
     assert not np.array_equal(frame_on, frame_off)

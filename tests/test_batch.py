@@ -1,4 +1,4 @@
-"""Batch renders (issue 20): ``a5mi render`` with several scenes or ``--jobs`` in one process, through
+"""Batch renders: ``a5mi render`` with several scenes or ``--jobs`` in one process, through
 :class:`a5mi.session.RenderSession`: images bit-identical to separate ``a5`` runs, a failing job reported in
 one line without stopping the others, and kernels reused across scenes of the same kind."""
 

@@ -134,12 +134,12 @@ def test13_floor_replays_the_render_ray_counts(
     variant: str, scenes_dir: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The in-process pass casts exactly as many rays of each kind as the driver counts for the same render."""
-    from a5mi import driver
-    from a5mi.converters.a5_parser import parse_file
+    from a5mi.options import RenderOptions
+    from a5mi.session import describe_file, render
 
     monkeypatch.chdir(scenes_dir)
-    options = driver.RenderOptions(width=20, height=20, bounces=4, shadows=True, jitter=True, filter=True)
-    counted = driver.render(parse_file("scene10_sphere.txt"), driver.RenderOptions(
+    options = RenderOptions(width=20, height=20, bounces=4, shadows=True, jitter=True, filter=True)
+    counted = render(describe_file("scene10_sphere.txt")[0], RenderOptions(
         width=20, height=20, bounces=4, shadows=True, jitter=True, filter=True, count_rays=True))
     result = bench.measure_in_process(Path("scene10_sphere.txt"), options, repeat=1)
     assert result.rays == {"camera": 60 * 60, **counted.ray_counts}

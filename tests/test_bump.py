@@ -54,8 +54,8 @@ def _render(scene: Path, bump: bool, **kw: object) -> np.ndarray:
 
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
-    from a5mi.driver import build_scene
     from a5mi.options import RenderOptions
+    from a5mi.session import build_scene
 
     options = RenderOptions(**{"width": W, "height": W, "bump": bump, "normals": True, "shadows": True, "bounces": 2,
                                **kw})

@@ -1,6 +1,6 @@
-"""The a5 / a5mi commands: flags (SPEC B.1), the error policy (issue 8), outputs written last and atomically.
+"""The a5 / a5mi commands: flags (SPEC B.1), the error policy (docs/CLI.md), outputs written last and atomically.
 
-Rendering is replaced by a stand-in ``driver.render`` (and ``variant.activate``) in most tests so they run
+Rendering is replaced by a stand-in ``session.render`` (and ``variant.activate``) in most tests so they run
 without a JIT; ``test_b1_real_render_*`` goes through the real converter, plugins and driver.
 """
 
@@ -13,8 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from a5mi import cli, driver, imageio
-from a5mi.errors import UsageError
+from a5mi import cli, driver, imageio, session
+from a5mi.errors import ExitStatus, UsageError
+from a5mi.filters import postprocess
+from a5mi.options import RenderOptions
 
 
 @pytest.fixture
@@ -24,15 +26,15 @@ def scene(scenes_dir: Path) -> str:
 
 @pytest.fixture
 def fake_render(monkeypatch):
-    """Stand-in for driver.render: a gradient image of the saved size, AOVs at render size."""
-    calls: list[driver.RenderOptions] = []
+    """Stand-in for session.render: a gradient image of the saved size, AOVs at render size."""
+    calls: list[RenderOptions] = []
 
     def render(scene_model, options, *, progress=None):
         calls.append(options)
         rw, rh = options.render_size
         color = np.zeros((rh, rw, 3), np.float32)
         color[..., 0] = np.linspace(0, 1, rw, dtype=np.float32)[None, :]
-        image = driver.postprocess(color, filter=options.filter, kernel=options.kernel)
+        image = postprocess(color, filter=options.filter, kernel=options.kernel)
         if progress:
             progress(rw * rh, rw * rh)
         return driver.RenderResult(
@@ -41,7 +43,7 @@ def fake_render(monkeypatch):
             render_size=(rw, rh), camera_rays=rw * rh, tiles=1, timings={"render": 0.0},
         )
 
-    monkeypatch.setattr(driver, "render", render)
+    monkeypatch.setattr(session, "render", render)
     monkeypatch.setattr("a5mi.variant.activate", lambda requested=None: "stand-in")
     return calls
 
@@ -150,13 +152,13 @@ def test_b1_internal_error_keeps_old_outputs(tmp_path, scene, monkeypatch, capsy
     def broken(*a, **kw):
         raise RuntimeError("kernel exploded\nsecond line")
 
-    monkeypatch.setattr(driver, "render", broken)
+    monkeypatch.setattr(session, "render", broken)
     monkeypatch.setattr("a5mi.variant.activate", lambda requested=None: "stand-in")
-    assert cli.run(["-input", scene, "-output", str(out)]) == 1
+    assert cli.run(["-input", scene, "-output", str(out)]) == ExitStatus.SOFTWARE == 70
     line = _one_error_line(capsys.readouterr().err)
     assert line == "a5: internal error: RuntimeError: kernel exploded (re-run with --debug for the traceback)"
     assert out.read_bytes() == b"previous"
-    assert cli.run(["-input", scene, "-output", str(out), "--debug"]) == 1
+    assert cli.run(["-input", scene, "-output", str(out), "--debug"]) == ExitStatus.SOFTWARE
     assert "Traceback" in capsys.readouterr().err
 
 
@@ -265,7 +267,7 @@ def test_a5mi_convert_real(tmp_path, scenes_dir, monkeypatch, variant) -> None:
     assert text.lstrip().startswith("<") and "a5_whitted" in text
 
 
-# ---------------------------------------------------------------- the command layer (issue 11)
+# ---------------------------------------------------------------- the command layer
 
 
 @pytest.mark.parametrize("name", ["a5", *cli.SUBCOMMANDS])
@@ -281,6 +283,48 @@ def test_every_command_has_help_with_one_line_per_flag(name: str, capsys) -> Non
         default = flag.default if not isinstance(flag.default, tuple) else flag.default[0]
         if flag.show_default and flag.nargs and default is not None:
             assert "(default: " in spelled[0], spelled[0]
+
+
+def test_help_command_prints_that_commands_help(capsys) -> None:
+    """``a5mi help convert`` is ``a5mi convert -h``; ``a5mi help`` alone is the top-level usage."""
+    assert cli.run_a5mi(["help", "convert"]) == ExitStatus.OK
+    via_help = capsys.readouterr().out
+    assert cli.run_a5mi(["convert", "-h"]) == ExitStatus.OK
+    assert via_help == capsys.readouterr().out and via_help.startswith("usage: a5mi convert ")
+    assert cli.run_a5mi(["help"]) == ExitStatus.OK
+    assert capsys.readouterr().out.startswith("usage: a5mi COMMAND")
+
+
+def test_trace_offers_no_image_outputs(capsys) -> None:
+    """trace writes no image: -h offers neither -output nor -normals / -depth / -normals_mode, and they are
+    refused as unknown flags."""
+    from a5mi.cli.trace import TRACE
+
+    names = {n for f in TRACE.all_flags for n in f.names}
+    assert names.isdisjoint({"-output", "--output", "-normals", "-depth", "-normals_mode"})
+    assert {"-input", "-size", "-jitter", "-filter", "--pixel"} <= names
+    assert cli.run_a5mi(["trace", "-h"]) == ExitStatus.OK
+    assert "-output" not in capsys.readouterr().out
+    assert cli.run_a5mi(["trace", "-input", "s.txt", "-pixel", "0", "0", "-output", "o.png"]) == ExitStatus.USAGE
+    assert "unknown flag '-output'" in _one_error_line(capsys.readouterr().err)
+
+
+def test_shared_flags_mean_one_thing(capsys) -> None:
+    """--size is W H (<= MAX_SIZE) wherever it exists, --json a switch, --json-file a FILE (docs/CLI.md)."""
+    from a5mi.spec import MAX_SIZE
+
+    for name in ["a5", *cli.SUBCOMMANDS]:
+        cmd = __import__("a5mi.cli.render", fromlist=["A5"]).A5 if name == "a5" else cli.command(name)
+        for f in cmd.all_flags:
+            if "--size" in f.names:
+                assert (f.nargs, f.dests, f.metavar) == (2, ("width", "height"), "W H"), name
+                f.convert("--size", ["1", str(MAX_SIZE)])
+                with pytest.raises(UsageError):
+                    f.convert("--size", ["1", str(MAX_SIZE + 1)])
+            if "--json" in f.names:
+                assert f.nargs == 0, name
+            if "--json-file" in f.names:
+                assert f.nargs == 1 and f.metavar == "FILE", name
 
 
 def test_version_from_the_one_version_source(capsys) -> None:
@@ -378,16 +422,16 @@ def test_bash_completion_is_generated_from_the_flag_tables(tmp_path) -> None:
 
 def test_verbose_times_the_plain_kernel_and_counts_rays_in_a_second_pass(tmp_path, scenes_dir, monkeypatch,
                                                                          variant, capsys) -> None:
-    """Issue 18: -v must not change the timed kernel (counting is a different kernel), and a log that is not a
+    """-v must not change the timed kernel (counting is a different kernel), and a log that is not a
     terminal never gets a carriage-return progress bar."""
-    seen: list[driver.RenderOptions] = []
-    real = driver.render
+    seen: list[RenderOptions] = []
+    real = session.render
 
     def spy(desc, options, **kw):
         seen.append(options)
         return real(desc, options, **kw)
 
-    monkeypatch.setattr(driver, "render", spy)
+    monkeypatch.setattr(session, "render", spy)
     monkeypatch.chdir(scenes_dir)
     out = tmp_path / "o.png"
     assert cli.run(["-input", "scene10_sphere.txt", "-size", "12", "12", "-output", str(out), "-shadows",
@@ -395,6 +439,5 @@ def test_verbose_times_the_plain_kernel_and_counts_rays_in_a_second_pass(tmp_pat
     err = capsys.readouterr().err
     assert "\r" not in err and "secondary rays reflection" in err
     assert [o.count_rays for o in seen] == [False, True]  # the timed render, then the counting pass
-    counted = real(driver.describe_if_needed(__import__("a5mi.converters.a5_parser", fromlist=["x"]).parse_file(
-        "scene10_sphere.txt")), seen[1])
+    counted = real(session.describe_file("scene10_sphere.txt")[0], seen[1])
     assert f"reflection {counted.ray_counts['reflection']}," in err

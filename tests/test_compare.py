@@ -180,7 +180,7 @@ def test_flip_is_zero_for_identical_and_grows_with_error() -> None:
     assert 0 < small < large <= 1
 
 
-# ------------------------------------------------------------------------------------ the --diff picture (issue 18)
+# ------------------------------------------------------------------------------------ the --diff picture
 LONG = ("reference_scene12_vase_at_300.png | my render with a long name.png | |A-B|, largest channel, colour bar "
         "0..16/255\nPSNR 44.6 dB, mean 0.750/255, 25.00% of pixels > 2/255, max 8/255")
 

@@ -111,7 +111,7 @@ def test_cli_reports_a_table_and_json(a5_data: Path, tmp_path: Path) -> None:
     assert a5 is not None
     report = tmp_path / "r.json"
     proc = subprocess.run([_a5mi(), "difftest", "--binary", a5, "--count", "2",
-                           "--size", "40", "--seed", "4", "--json", str(report)],
+                           "--mean-size", "40", "--seed", "4", "--json-file", str(report)],
                           capture_output=True, text=True, timeout=300, check=False)
     assert proc.returncode == 0, proc.stderr
     assert "| scene | size |" in proc.stdout and "2 scenes (seed 4)" in proc.stdout

@@ -51,7 +51,7 @@ def test_cli_exits_1_when_every_scene_fails(a5_data: Path, tmp_path: Path) -> No
     broken = tmp_path / "broken"
     broken.write_text("#!/bin/sh\necho 'no image today' >&2\nexit 3\n")
     broken.chmod(0o755)
-    proc = subprocess.run([a5mi, "difftest", "--binary", str(broken), "--count", "1", "--size", "16",
+    proc = subprocess.run([a5mi, "difftest", "--binary", str(broken), "--count", "1", "--mean-size", "16",
                            "--budget", "1", "--seed", "2"], capture_output=True, text=True, timeout=300,
                           check=False)
     assert proc.returncode == ExitStatus.DIFFER, proc.stderr

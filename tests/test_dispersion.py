@@ -153,10 +153,11 @@ def test_prism_exit_angles_follow_snell_with_cauchy_index(mi: Any) -> None:
     import drjit as dr
 
     from a5mi.converters.describe import describe
-    from a5mi.driver import RenderOptions, build_scene
+    from a5mi.options import RenderOptions
     from a5mi.plugins import spectral
     from a5mi.plugins.sampling import pixel_keys
     from a5mi.plugins.whitted_record import NODE_LAYOUT, TreeRecorder
+    from a5mi.session import build_scene
 
     text = _scene_text(f"dispersion {A} {B}", _prism_text(), 9)
     scene = build_scene(describe(parse_text(text)), RenderOptions(reflection=False, bounces=4))
@@ -207,9 +208,11 @@ def test_prism_exit_angles_follow_snell_with_cauchy_index(mi: Any) -> None:
 
 # ------------------------------------------------------------------------------------------------ B = 0, paths
 def _render(text: str, **opts: Any) -> np.ndarray:
-    from a5mi.driver import RenderOptions, render
+    from a5mi.converters.describe import describe
+    from a5mi.options import RenderOptions
+    from a5mi.session import render
 
-    return np.asarray(render(parse_text(text), RenderOptions(width=32, height=32, shadows=True, bounces=4,
+    return np.asarray(render(describe(parse_text(text)), RenderOptions(width=32, height=32, shadows=True, bounces=4,
                                                              **opts)).image)
 
 
@@ -232,12 +235,14 @@ def test_b_zero_renders_the_non_dispersive_image_bit_for_bit(mi: Any) -> None:
 def test_paths_without_a_dispersive_refraction_are_unchanged(mi: Any) -> None:
     """With a dispersive prism in the scene, every pixel whose ray tree never meets glass (class AOV < 2) is
     bit for bit the render without dispersion: only dispersively refracted paths carry w(λ)."""
-    from a5mi.driver import RenderOptions, render
+    from a5mi.converters.describe import describe
+    from a5mi.options import RenderOptions
+    from a5mi.session import render
 
     objects = _prism_text() + " MaterialIndex 0 Sphere { center -2.2 0.4 0 radius 0.6 }"
     opts = RenderOptions(width=40, height=40, shadows=True, bounces=4, spp=2, classes=True)
-    disp = render(parse_text(_scene_text(f"dispersion {A} {B}", objects, 10)), opts)
-    plain = render(parse_text(_scene_text(f"{A}", objects, 10)), opts)
+    disp = render(describe(parse_text(_scene_text(f"dispersion {A} {B}", objects, 10))), opts)
+    plain = render(describe(parse_text(_scene_text(f"{A}", objects, 10))), opts)
     assert plain.classes is not None and plain.classes.shape == plain.image.shape[:2]
     opaque = plain.classes < 2
     assert 0.2 < opaque.mean() < 0.9
@@ -301,8 +306,9 @@ def test_one_lane_launch_without_passes(mi: Any) -> None:
     table is built before the kernel's loop: built inside it, this launch aborted the process) and gives the
     colour of a lane of a wider launch with the same keys."""
     from a5mi.converters.describe import describe
-    from a5mi.driver import RenderOptions, build_scene
+    from a5mi.options import RenderOptions
     from a5mi.plugins.whitted_record import TreeRecorder
+    from a5mi.session import build_scene
 
     text = _scene_text(f"dispersion {A} {B}", _prism_text(), 9)
     scene = build_scene(describe(parse_text(text)), RenderOptions(bounces=4))

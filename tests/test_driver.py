@@ -1,4 +1,6 @@
-"""The driver's sample order, jitter, tiling, orientation and AOVs (SPEC B.2, B.5, B.6).
+"""The driver's sample order, jitter, tiling, orientation and AOVs (SPEC B.2, B.5, B.6); its modules
+(:mod:`a5mi.driver`, :mod:`a5mi.render_pass`, :mod:`a5mi.tiles`) and the scene build beside it
+(:mod:`a5mi.session`).
 
 Stand-ins: ``_probe_rays`` encodes each sample's ``(x_pix, y_pix)`` into the ray origin, and ``_Probe``
 (an integrator with the ``a5_whitted.sample`` signature) returns it as the colour, so the tests see exactly
@@ -12,17 +14,20 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from a5mi import driver
-from a5mi.driver import RenderOptions, aligned_float32, depth_gray, render_scene, tile_rows
+from a5mi import driver, tiles
+from a5mi.arrays import aligned_float32
+from a5mi.driver import depth_gray, render_scene
 from a5mi.filters import postprocess
 from a5mi.glibc_rand import GlibcRand, jitter_offsets
+from a5mi.options import TILE_RAYS, RenderOptions
+from a5mi.tiles import tile_rows
 
 
 @pytest.fixture
 def unaligned(monkeypatch) -> None:
     """Tiles of exactly ``tile_rays // width`` rows: the stand-in integrator has no SIMD packets to keep aligned
-    (:data:`a5mi.driver.PACKET_ALIGN`), and these tests count tiles of a few rows."""
-    monkeypatch.setattr(driver, "PACKET_ALIGN", 1)
+    (:data:`a5mi.tiles.PACKET_ALIGN`), and these tests count tiles of a few rows."""
+    monkeypatch.setattr(tiles, "PACKET_ALIGN", 1)
 
 
 CAMERA = SimpleNamespace(center=(0.0, 0.0, 0.0), direction=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0), angle=30.0)
@@ -110,7 +115,7 @@ def test_progress_callback(variant, unaligned) -> None:
 
 
 def test_progress_called_once_per_aligned_tile(variant) -> None:
-    """Issue 18: with the packet alignment on, a 64-wide render in tiles of 2 rows reports 12 steps, each a
+    """SPEC B.5 tiles: with the packet alignment on, a 64-wide render in tiles of 2 rows reports 12 steps, each a
     multiple of 64 samples, ending at the total."""
     seen = []
     res = render_scene(None, CAMERA, RenderOptions(width=64, height=24, tile_rays=128), integrator=_Probe(),
@@ -235,7 +240,7 @@ def test_b6_depth_formula_edges() -> None:
 def test_tile_rows_bounded() -> None:
     assert tile_rows(10, 7, 25, align=1) == [(0, 2), (2, 4), (4, 6), (6, 7)]
     assert tile_rows(100, 2, 5, align=1) == [(0, 1), (1, 2)]  # at least one row per tile
-    assert all((b - a) * 1920 * 3 <= driver.TILE_RAYS for a, b in tile_rows(1920 * 3, 1080 * 3, driver.TILE_RAYS))
+    assert all((b - a) * 1920 * 3 <= TILE_RAYS for a, b in tile_rows(1920 * 3, 1080 * 3, TILE_RAYS))
 
 
 @pytest.mark.parametrize("rw", [1, 15, 90, 96, 100, 128, 5760])
@@ -244,30 +249,87 @@ def test_tiles_start_on_packet_boundaries(rw, tile_rays) -> None:
     """Every tile starts on a multiple of PACKET_ALIGN samples, the tiles cover the buffer, and a tile exceeds
     the requested size only by the alignment (align / gcd(rw, align) rows)."""
     rh = 200
-    tiles = tile_rows(rw, rh, tile_rays)
-    assert tiles[0][0] == 0 and tiles[-1][1] == rh and all(a[1] == b[0] for a, b in zip(tiles, tiles[1:], strict=False))
-    assert all(j0 * rw % driver.PACKET_ALIGN == 0 for j0, _ in tiles)
-    m = driver.PACKET_ALIGN // np.gcd(rw, driver.PACKET_ALIGN)
-    assert all((j1 - j0) * rw <= max(tile_rays, m * rw) for j0, j1 in tiles)
+    rows = tile_rows(rw, rh, tile_rays)
+    assert rows[0][0] == 0 and rows[-1][1] == rh and all(a[1] == b[0] for a, b in zip(rows, rows[1:], strict=False))
+    assert all(j0 * rw % tiles.PACKET_ALIGN == 0 for j0, _ in rows)
+    m = tiles.PACKET_ALIGN // np.gcd(rw, tiles.PACKET_ALIGN)
+    assert all((j1 - j0) * rw <= max(tile_rays, m * rw) for j0, j1 in rows)
 
 
 def test_progress_steps_only_when_someone_watches(variant, monkeypatch) -> None:
     """With a progress callback the render is split into PROGRESS_STEPS tiles of at least MIN_TILE_RAYS
     samples; without one it stays one launch (each tile re-traces the integrator); the image is the same."""
-    monkeypatch.setattr(driver, "MIN_TILE_RAYS", 64)
+    monkeypatch.setattr(tiles, "MIN_TILE_RAYS", 64)
     seen = []
     watched = render_scene(None, CAMERA, RenderOptions(width=64, height=16), integrator=_Probe(),
                            camera_rays=_probe_rays, progress=lambda done, total: seen.append(done))
     alone = _render(width=64, height=16)
-    assert watched.tiles == len(seen) == driver.PROGRESS_STEPS and alone.tiles == 1
+    assert watched.tiles == len(seen) == tiles.PROGRESS_STEPS and alone.tiles == 1
     np.testing.assert_array_equal(watched.image, alone.image)
 
 
 def test_large_renders_are_split_for_progress() -> None:
     """A render of many samples gets PROGRESS_STEPS tiles of at least MIN_TILE_RAYS samples (the bar's rate)."""
-    assert len(tile_rows(3000, 3000, driver.TILE_RAYS)) >= 9  # 9M samples: bounded by TILE_RAYS
-    assert len(tile_rows(1024, 1024, driver.TILE_RAYS)) == driver.PROGRESS_STEPS  # 1M samples: 4 x 256k
-    assert len(tile_rows(300, 300, driver.TILE_RAYS)) == 1  # 90k samples: one launch, one trace
+    assert len(tile_rows(3000, 3000, TILE_RAYS)) >= 9  # 9M samples: bounded by TILE_RAYS
+    assert len(tile_rows(1024, 1024, TILE_RAYS)) == tiles.PROGRESS_STEPS  # 1M samples: 4 x 256k
+    assert len(tile_rows(300, 300, TILE_RAYS)) == 1  # 90k samples: one launch, one trace
+
+
+class _ThreadProbe(_Probe):
+    """Records Dr.Jit's worker-thread count while the render traces."""
+
+    def __init__(self) -> None:
+        self.seen: list[int] = []
+
+    def sample(self, scene, sampler, ray, medium, active):
+        import drjit as dr
+
+        self.seen.append(dr.thread_count())
+        return super().sample(scene, sampler, ray, medium, active)
+
+
+def test_thread_count_set_for_the_render_and_restored(variant) -> None:
+    """``RenderOptions.threads`` holds while the render traces; afterwards (also after a failed render) the
+    process-wide count is what it was; ``threads=None`` leaves it alone."""
+    import drjit as dr
+
+    before = dr.thread_count()
+    outside = before + 1
+    dr.set_thread_count(outside)
+    try:
+        probe = _ThreadProbe()
+        render_scene(None, CAMERA, RenderOptions(width=3, height=2, threads=1), integrator=probe,
+                     camera_rays=_probe_rays)
+        assert probe.seen and set(probe.seen) == {1}
+        assert dr.thread_count() == outside
+        with pytest.raises(RuntimeError, match="no AOV class"):  # fails inside the tile loop
+            render_scene(None, CAMERA, RenderOptions(width=3, height=2, threads=1, classes=True), integrator=probe,
+                         camera_rays=_probe_rays)
+        assert dr.thread_count() == outside
+        probe.seen.clear()
+        render_scene(None, CAMERA, RenderOptions(width=3, height=2), integrator=probe, camera_rays=_probe_rays)
+        assert set(probe.seen) == {outside} and dr.thread_count() == outside
+    finally:
+        dr.set_thread_count(before)
+
+
+def test_the_driver_builds_no_scene() -> None:
+    """Data flows one way (description -> dict -> Mitsuba objects -> driver -> image): the render modules
+    import no converter but the model's types, and not the module that builds scenes."""
+    import ast
+    from pathlib import Path
+
+    root = Path(driver.__file__).resolve().parent
+    for name in ("driver.py", "render_pass.py", "tiles.py", "passes.py"):
+        imported = set()
+        for node in ast.walk(ast.parse((root / name).read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                imported.add(node.module)
+            elif isinstance(node, ast.Import):
+                imported |= {a.name for a in node.names}
+        bad = {m for m in imported if (m.startswith("a5mi.converters") and m != "a5mi.converters.model")
+               or m == "a5mi.session"}
+        assert not bad, (name, bad)
 
 
 def test_aligned_float32_copies_onto_a_64_byte_boundary() -> None:
@@ -334,8 +396,8 @@ def _ball_scene(color, light):
 
 
 def _coords_at_alignment(coords, misaligned: bool):
-    """Wrap ``_pixel_coords``: arrays on a 64-byte boundary, or with ``misaligned`` every other tile's arrays
-    4 bytes past one (what numpy's allocator did at random)."""
+    """Wrap :func:`a5mi.tiles.pixel_coords`: arrays on a 64-byte boundary, or with ``misaligned`` every other
+    tile's arrays 4 bytes past one (what numpy's allocator did at random)."""
     calls = []
 
     def placed(rw, j0, j1, jit):
@@ -352,7 +414,7 @@ def _coords_at_alignment(coords, misaligned: bool):
 
 
 def test_repeated_renders_compile_nothing(variant, unaligned, monkeypatch) -> None:
-    """Issue 7: pixel coordinates used to be mapped from numpy at whatever alignment the allocator gave, which
+    """Pixel coordinates used to be mapped from numpy at whatever alignment the allocator gave, which
     changed the kernel hash and recompiled the render kernel at random. Now (with the coordinate arrays'
     alignment made to differ from the first render's) a second render of the same scene, every tile of a many-tile
     render, and a scene of the same structure with other values all reuse the in-memory kernels."""
@@ -362,11 +424,11 @@ def test_repeated_renders_compile_nothing(variant, unaligned, monkeypatch) -> No
     cam = SimpleNamespace(center=(0.0, 0.0, 5.0), direction=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0), angle=30.0)
     opts = RenderOptions(width=10, height=12, jitter=True, filter=True, tile_rays=30 * 2)  # 18 tiles
     scene = _ball_scene([0.5, 0.25, 1.0], [0, 0, -1])
-    coords = driver._pixel_coords
-    monkeypatch.setattr(driver, "_pixel_coords", _coords_at_alignment(coords, misaligned=False))
+    coords = tiles.pixel_coords
+    monkeypatch.setattr(tiles, "pixel_coords", _coords_at_alignment(coords, misaligned=False))
     first = render_scene(scene, cam, opts)
     assert sum(first.kernels.values()) >= first.tiles == 18
-    monkeypatch.setattr(driver, "_pixel_coords", _coords_at_alignment(coords, misaligned=True))
+    monkeypatch.setattr(tiles, "pixel_coords", _coords_at_alignment(coords, misaligned=True))
     for _ in range(3):
         again = render_scene(scene, cam, opts)
         assert again.kernels["compiled"] == 0 and again.kernels["disk"] == 0, again.kernels
@@ -379,16 +441,16 @@ def test_repeated_renders_compile_nothing(variant, unaligned, monkeypatch) -> No
 
 
 def test_real_scene_bit_identical_for_any_tile_size(variant, scenes_dir) -> None:
-    """Issue 18: scene10 (Embree-traced cube mesh, glass sphere, cube map) at 30x30 -jitter, a 90-sample-wide
+    """SPEC B.5 tiles: scene10 (Embree-traced cube mesh, glass sphere, cube map) at 30x30 -jitter, a 90-sample-wide
     buffer. With tiles of 1 or 5 rows starting anywhere (PACKET_ALIGN = 1) pixels changed by up to 2.8e-5;
     aligned tiles give the one-launch image bit for bit."""
-    from a5mi.converters.a5_parser import parse_file
+    from a5mi.session import describe_file, render
 
-    desc = driver.describe_if_needed(parse_file(str(scenes_dir / "scene10_sphere.txt")))
+    desc, _ = describe_file(str(scenes_dir / "scene10_sphere.txt"))
     kw = dict(width=30, height=30, jitter=True, bounces=4, shadows=True)
-    whole = driver.render(desc, RenderOptions(**kw))
+    whole = render(desc, RenderOptions(**kw))
     assert whole.tiles == 1
     for rows in (1, 5):
-        tiled = driver.render(desc, RenderOptions(**kw, tile_rays=90 * rows))
+        tiled = render(desc, RenderOptions(**kw, tile_rays=90 * rows))
         assert tiled.tiles == 3  # 32-row tiles: 32 * 90 is the first multiple of 64 samples
         np.testing.assert_array_equal(tiled.image, whole.image)

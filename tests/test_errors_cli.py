@@ -1,4 +1,5 @@
-"""Issue 8 through the real command line: every class of bad input is one line, exit 2, and nothing is lost.
+"""The error policy through the real command line (docs/CLI.md "Exit status"): every class of bad input is one
+line, exit 2, and nothing is lost; an internal error is one line and exit 70.
 
 Each case is its own ``python -m a5mi ...`` process (cwd = the test's tmp folder), so the real exit path is
 tested: the exit status, ``stderr`` being exactly one line (``FILE:LINE:COL: error: ...`` for scene and OBJ
@@ -297,8 +298,9 @@ def check_line(line: str, expect: str) -> None:
         assert line == expect
 
 
-def test_issue8_cases_cover_every_class() -> None:
-    """The classes listed in issue 8, each present among the case ids (a guard against a case list shrinking)."""
+def test_cases_cover_every_class() -> None:
+    """The classes of user error (SPEC A.0-A.6, B.1), each present among the case ids (a guard against a case
+    list shrinking)."""
     ids = {c.id for c in ERROR_CASES}
     required = {
         "unknown_top_level", "unknown_light", "unknown_background_keyword", "unknown_material_keyword",
@@ -323,7 +325,7 @@ def test_issue8_cases_cover_every_class() -> None:
     [(c, k % 2 == 1) for k, c in enumerate(ERROR_CASES)],
     ids=[c.id + ("+outputs" if k % 2 == 1 else "") for k, c in enumerate(ERROR_CASES)],
 )
-def test_issue8_user_error_is_one_line_exit_2_and_nothing_is_written(case: Case, preexisting: bool,
+def test_user_error_is_one_line_exit_2_and_nothing_is_written(case: Case, preexisting: bool,
                                                                       tmp_path: Path) -> None:
     """Odd-numbered cases start with out.png, n.png and d.png present (sentinel bytes), even ones without."""
     for name, data in case.files.items():
@@ -373,7 +375,7 @@ def test_errors_before_rendering_do_not_import_mitsuba(case_id: str, tmp_path: P
 
 
 # ------------------------------------------------------------------------------- accepted, with warnings
-def test_issue8_quirks_accepted_as_the_sample_solution_did_warn_and_exit_0(tmp_path: Path) -> None:
+def test_quirks_accepted_as_the_sample_solution_did_warn_and_exit_0(tmp_path: Path) -> None:
     """``numObjects`` counts objects, not ``MaterialIndex`` lines, and ``shininess 20}`` (scene01) is read as
     ``20 }``: both render (exit 0); the glued brace is the one warning, at the brace."""
     text = (HEAD + "Materials { numMaterials 2\n  Material { diffuseColor 1 0 0 shininess 20}\n"
@@ -392,7 +394,7 @@ def test_issue8_quirks_accepted_as_the_sample_solution_did_warn_and_exit_0(tmp_p
     assert read_image(tmp_path / "out.png").shape == (4, 6, 3)
 
 
-def test_issue8_zero_area_obj_faces_warn_at_the_first_and_still_render(tmp_path: Path) -> None:
+def test_zero_area_obj_faces_warn_at_the_first_and_still_render(tmp_path: Path) -> None:
     """Zero-area OBJ faces are never hit (as in a5soln): one warning at the first such face, exit 0."""
     (tmp_path / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 4\nf 2 3 1\n")
     (tmp_path / "s.txt").write_text(mesh_scene("m.obj"))
@@ -404,12 +406,13 @@ def test_issue8_zero_area_obj_faces_warn_at_the_first_and_still_render(tmp_path:
 
 
 # ------------------------------------------------------------------------------- internal errors
-def test_issue8_internal_error_exit_1_short_message_and_debug_traceback(tmp_path: Path, monkeypatch, capsys) -> None:
-    """A bug (here: the parser raising ZeroDivisionError) is exit 1 with one line and a --debug hint; an
+def test_internal_error_exit_70_short_message_and_debug_traceback(tmp_path: Path, monkeypatch, capsys) -> None:
+    """A bug (here: the parser raising ZeroDivisionError) is exit 70 (EX_SOFTWARE) with one line and a --debug hint; an
     embedded traceback in the message (as Mitsuba's load_dict reports plugin failures) is cut; ``--debug``
     prints the traceback. A pre-existing output stays as it was."""
     from a5mi import cli
     from a5mi.converters import a5_parser
+    from a5mi.errors import ExitStatus
 
     def buggy(path: object) -> None:
         raise ZeroDivisionError("float division by zero\nTraceback (most recent call last):\n  File ...")
@@ -417,18 +420,18 @@ def test_issue8_internal_error_exit_1_short_message_and_debug_traceback(tmp_path
     monkeypatch.setattr(a5_parser, "parse_file", buggy)
     (tmp_path / "out.png").write_bytes(b"previous image")
     args = ["-input", "s.txt", "-output", str(tmp_path / "out.png")]
-    assert cli.run(args) == 1
+    assert cli.run(args) == ExitStatus.SOFTWARE == 70
     err = capsys.readouterr().err
     assert err.splitlines() == ["a5: internal error: ZeroDivisionError: float division by zero (re-run with --debug "
                                 "for the traceback)"]
-    assert cli.run(args + ["--debug"]) == 1
+    assert cli.run(args + ["--debug"]) == ExitStatus.SOFTWARE
     err = capsys.readouterr().err
     assert err.startswith("Traceback (most recent call last):") and "ZeroDivisionError" in err
     assert (tmp_path / "out.png").read_bytes() == b"previous image"
 
 
 # ------------------------------------------------------------------------------- fuzz past the parser
-def test_issue8_fuzz_converter_stage_raises_only_positioned_scene_errors_and_no_warnings(scenes_dir: Path) -> None:
+def test_fuzz_converter_stage_raises_only_positioned_scene_errors_and_no_warnings(scenes_dir: Path) -> None:
     """500 mutated course scenes (delete, duplicate, swap tokens; numbers replaced by extremes such as 0, -0,
     1e-45, 3.4e38; file names swapped) through the parser *and* :func:`describe` (OBJ loading, image
     validation, world-space geometry of every primitive): each either passes or raises SceneError with a

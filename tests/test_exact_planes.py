@@ -12,9 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 from a5mi.converters.a5_parser import parse_text
-from a5mi.driver import render
+from a5mi.converters.describe import describe
 from a5mi.imageio import quantize
 from a5mi.options import RenderOptions
+from a5mi.session import render
 
 N = 64
 SCENE = """PerspectiveCamera { center 0 2 8 direction 0 -0.3 -1 up 0 1 0 angle 40 }
@@ -51,7 +52,7 @@ def _sphere_t(o: np.ndarray, d: np.ndarray, c: np.ndarray, r: float) -> np.ndarr
 
 def test_tilted_plane_has_no_false_shadow_and_matches_hand_computed_lambert(variant: str) -> None:
     model = parse_text(SCENE, "tilted.txt")
-    img = quantize(render(model, RenderOptions(width=N, height=N, shadows=True, bounces=4)).image)
+    img = quantize(render(describe(model), RenderOptions(width=N, height=N, shadows=True, bounces=4)).image)
     img = img[::-1].reshape(-1, 3).astype(int)  # row 0 = bottom, as the rays
     o, d = _camera_rays(model)
     n = np.array([0, 1, 0.05])

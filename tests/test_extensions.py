@@ -29,7 +29,8 @@ Group {{ numObjects {n} MaterialIndex 0 Plane {{ normal 0 1 0 offset 0 }} {extra
 
 def _scene(mi: Any, text: str, **opts: Any) -> Any:
     from a5mi.converters.describe import describe
-    from a5mi.driver import RenderOptions, build_scene
+    from a5mi.options import RenderOptions
+    from a5mi.session import build_scene
 
     return build_scene(describe(parse_text(text)), RenderOptions(shadows=True, **opts))
 
@@ -142,10 +143,12 @@ Group {{ numObjects 1 MaterialIndex 0 Sphere {{ center 0 0 -{z} radius 0.01 }} }
 
 
 def _render_dof(mi: Any, lens: str, z: float, spp: int, size: int = 121) -> np.ndarray:
-    from a5mi.driver import RenderOptions, render
+    from a5mi.converters.describe import describe
+    from a5mi.options import RenderOptions
+    from a5mi.session import render
 
-    return render(parse_text(DOF_SCENE.format(lens=lens, z=z)), RenderOptions(width=size, height=size, spp=spp,
-                                                                             seed=3)).image[..., 0]
+    desc = describe(parse_text(DOF_SCENE.format(lens=lens, z=z)))
+    return render(desc, RenderOptions(width=size, height=size, spp=spp, seed=3)).image[..., 0]
 
 
 def _diameter_px(img: np.ndarray) -> float:
@@ -185,9 +188,11 @@ Group {{ numObjects 3 MaterialIndex 0 Plane {{ normal 0 0 1 offset -2 }}
 
 
 def _render_glossy(mi: Any, gloss: str, bg: str = "0.2 0.3 0.5", spp: int = 16) -> np.ndarray:
-    from a5mi.driver import RenderOptions, render
+    from a5mi.converters.describe import describe
+    from a5mi.options import RenderOptions
+    from a5mi.session import render
 
-    return render(parse_text(GLOSSY_SCENE.format(gloss=gloss, bg=bg)),
+    return render(describe(parse_text(GLOSSY_SCENE.format(gloss=gloss, bg=bg))),
                   RenderOptions(width=64, height=64, spp=spp, seed=1, bounces=2)).image
 
 
@@ -204,12 +209,14 @@ def test_glossy_white_mirror_returns_constant_background(mi: Any) -> None:
     that point below the surface (dropped, EXTENSIONS E.4). For GGX at normal incidence those are the
     microfacets with θm > 45°: ``P = α²/(1 + α²)``, so the mirror returns ``B/(1 + α²)`` (1 %: the camera
     rays are up to 15° off normal)."""
-    from a5mi.driver import RenderOptions, render
+    from a5mi.converters.describe import describe
+    from a5mi.options import RenderOptions
+    from a5mi.session import render
 
     for alpha in (0.05, 0.2):
         text = GLOSSY_SCENE.format(gloss=f"roughness {alpha} glossySamples 8", bg="0.5 0.5 0.5")
         text = text.replace("numObjects 3", "numObjects 1").split("MaterialIndex 1")[0] + "}\n"
-        img = render(parse_text(text), RenderOptions(width=32, height=32, spp=8, seed=2, bounces=1)).image
+        img = render(describe(parse_text(text)), RenderOptions(width=32, height=32, spp=8, seed=2, bounces=1)).image
         expected = 0.5 / (1.0 + alpha * alpha)
         assert abs(float(img.mean()) - expected) <= 0.01 * expected, (alpha, float(img.mean()), expected)
         assert abs(float(img.mean()) - 0.5) <= 0.02 * 0.5 + 0.5 * alpha * alpha

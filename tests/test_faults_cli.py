@@ -1,4 +1,4 @@
-"""Issue 19, items 3, 4, 5, 6 and 11 through the real commands: each hostile input ends with a correct render or
+"""Hostile inputs through the real commands: each ends with a correct render or
 one line, exit 2 and nothing written; outputs never destroy inputs; ``a5mi convert`` writes only its set."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from a5mi import cli, driver, imageio
+from a5mi import cli, imageio, session
 from a5mi.cli.app import Console, load_scene
 from a5mi.options import RenderOptions
 
@@ -42,7 +42,7 @@ def _files(root: Path) -> dict[str, bytes]:
 def _render(tmp_path: Path, text: str, mi, size: int = 12) -> np.ndarray:
     (tmp_path / "s.txt").write_text(text.replace("color 0.2 0 0.6", "color 0 0 0"))  # black: only shading
     desc = load_scene(str(tmp_path / "s.txt"), Console("a5", quiet=True))
-    return driver.render(desc, RenderOptions(width=size, height=size)).image
+    return session.render(desc, RenderOptions(width=size, height=size)).image
 
 
 @pytest.mark.parametrize("color", ["1.5 1.5 1.5", "2 0 0", "1.0000001 0 0", "-0.5 3 0"])

@@ -1,4 +1,4 @@
-"""Issue 19, items 1, 7 (temporaries), 8 and 11: image writes on a full disk, stale temporaries, special files.
+"""Image writes on a full disk, stale temporaries, special files (docs/CLI.md "Exit status": 2, nothing half-written).
 
 The disk-full tests mount a small tmpfs made inside the test (root only; skipped otherwise) and fill it.
 """

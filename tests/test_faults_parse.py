@@ -1,4 +1,4 @@
-"""Issue 19, items 2, 4 (nesting, long integers), 8 (special scene files) and 11 (numbers, control characters):
+"""Nesting, long integers, special scene files, numbers and control characters (SPEC A.0):
 the lexer and parser answer hostile input with one positioned error, in time linear in its size."""
 
 from __future__ import annotations

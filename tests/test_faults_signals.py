@@ -1,4 +1,4 @@
-"""Issue 19, item 7: SIGINT, SIGTERM and SIGHUP at any moment end with one line and 128 + signal, write
+"""SIGINT, SIGTERM and SIGHUP at any moment end with one line and 128 + signal (ExitStatus.signal), write
 nothing and leave no temporary; a render that never ends (a glass ray tree at -bounces 64) stops soon after."""
 
 from __future__ import annotations

@@ -35,7 +35,8 @@ Group {{ numObjects {n} MaterialIndex 0 Plane {{ normal 0 0 1 offset 0 }} {extra
 
 def _scene(text: str, path: str = "<string>", **opts: Any) -> Any:
     from a5mi.converters.describe import describe
-    from a5mi.driver import RenderOptions, build_scene
+    from a5mi.options import RenderOptions
+    from a5mi.session import build_scene
 
     return build_scene(describe(parse_text(text, path)), RenderOptions(**{"shadows": True, **opts}))
 
@@ -157,12 +158,15 @@ def test_umbra_gains_no_light(mi: Any) -> None:
 @pytest.mark.parametrize("name", ["scene07_shine.txt", "scene10_sphere.txt", "scene13_diamond.txt"])
 def test_zero_density_is_the_course_image(mi: Any, scenes_dir: Path, name: str) -> None:
     """``Fog { density 0 }`` compiles the medium code and still renders the course scene bit for bit."""
-    from a5mi.driver import RenderOptions, render
+    from a5mi.converters.describe import describe
+    from a5mi.options import RenderOptions
+    from a5mi.session import render
 
     text = (scenes_dir / name).read_text()
     opts = RenderOptions(width=24, height=24, shadows=True, bounces=4)
-    plain = render(parse_text(text, str(scenes_dir / name)), opts).image
-    foggy = render(parse_text(text + "\nFog { color 0.7 0.8 0.9 density 0 }\n", str(scenes_dir / name)), opts).image
+    plain = render(describe(parse_text(text, str(scenes_dir / name))), opts).image
+    foggy = render(describe(parse_text(text + "\nFog { color 0.7 0.8 0.9 density 0 }\n", str(scenes_dir / name))),
+                   opts).image
     assert np.array_equal(plain, foggy)
 
 

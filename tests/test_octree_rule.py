@@ -16,10 +16,11 @@ import pytest
 
 from a5mi.converters import octree
 from a5mi.converters.a5_parser import parse_text
+from a5mi.converters.describe import describe
 from a5mi.converters.obj import load_obj
-from a5mi.driver import render
 from a5mi.imageio import quantize
 from a5mi.options import RenderOptions
+from a5mi.session import render
 
 N = 64
 
@@ -74,7 +75,7 @@ def _mi_mesh(obj) -> object:
 
 def _render(text: str, scenes_dir) -> tuple[object, np.ndarray]:
     model = parse_text(text, str(scenes_dir / "probe.txt"))
-    img = quantize(render(model, RenderOptions(width=N, height=N, shadows=True, bounces=0)).image)
+    img = quantize(render(describe(model), RenderOptions(width=N, height=N, shadows=True, bounces=0)).image)
     return model, img[::-1].reshape(-1, 3).astype(int)
 
 

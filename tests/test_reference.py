@@ -51,13 +51,13 @@ def test_b4_marble_plane_of_scene10_matches_reference_plane_pixels(variant, a5_d
     """
     import numpy as np
 
-    from a5mi.converters.a5_parser import parse_file
-    from a5mi.driver import RenderOptions, render
     from a5mi.imageio import quantize
+    from a5mi.options import RenderOptions
+    from a5mi.session import describe_file, render
 
     opts = RenderOptions(width=300, height=300, shadows=True, bounces=0, jitter=True, filter=True,
                          normals=True, depth=(0.0, 50.0))
-    result = render(parse_file(a5_data / "scenes" / "scene10_sphere.txt"), opts)
+    result = render(describe_file(str(a5_data / "scenes" / "scene10_sphere.txt"))[0], opts)
     assert result.normals is not None and result.depth is not None
     plane = (np.abs(result.normals[..., 1] - 1.0) < 1e-6) & (result.depth[..., 0] > 0.0)  # 900 x 900
     block = plane.reshape(300, 3, 300, 3).all(axis=(1, 3))

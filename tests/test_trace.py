@@ -279,10 +279,10 @@ def test_bad_input_one_line(variant: str, scenes_dir: Path, tmp_path: Path, extr
 
 def test_readme_example_is_what_trace_prints(variant: str, scenes_dir: Path,
                                              capsys: pytest.CaptureFixture[str]) -> None:
-    """The README's scene10 trace, run as written (from the scenes folder), prints exactly the README's text."""
+    """docs/TRACE.md's scene10 trace, run as written (from the scenes folder), prints exactly the page's text."""
     import re
 
-    readme = (Path(__file__).parent.parent / "README.md").read_text()
+    readme = (Path(__file__).parent.parent / "docs" / "TRACE.md").read_text()
     block = re.search(r"```\n\$ cd \.\./shared/a5/scenes && a5mi trace (.*?)\n(.*?)```", readme, re.S)
     assert block is not None
     cwd = os.getcwd()

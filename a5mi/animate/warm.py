@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from a5mi.arrays import aligned_float32
 from a5mi.converters import keyframes
 from a5mi.converters import transforms as tf
 from a5mi.converters.describe import describe
@@ -49,7 +50,7 @@ from a5mi.converters.model import (
     TriangleMesh,
 )
 from a5mi.converters.to_mitsuba import OCTREE_ATTRIBUTES, TRIANGLE_ATTRIBUTES, to_dict
-from a5mi.driver import RenderResult, aligned_float32, render_scene
+from a5mi.driver import RenderResult, render_scene
 from a5mi.options import RenderOptions
 
 

@@ -1,4 +1,4 @@
-"""``a5mi bench``: how fast the real ``a5`` command is, and how far it is from what Mitsuba can do (issue 7).
+"""``a5mi bench``: how fast the real ``a5`` command is, and how far it is from what Mitsuba can do (SPEC B.1, B.5).
 
 For each benchmark scene (the four assignment test scenes, ``scene13_diamond`` and ``extras/sibenik/s.txt``)
 at the assignment's test command ``-size 300 300 -shadows -bounces 4 -jitter -filter`` (SPEC B.1, B.5):
@@ -31,13 +31,14 @@ at the assignment's test command ``-size 300 300 -shadows -bounces 4 -jitter -fi
 * **a5soln**: with ``--a5soln PATH`` the sample-solution binary is timed the same way; otherwise the
   published single-core figures of ``reference/README.md`` are printed with ``a5soln / warm``.
 
-**batch** (:mod:`a5mi.bench.batch`, issue 20): per test scene, ``--batch-renders`` extra renders in one
-:class:`a5mi.session.RenderSession`, each written, their wall time against kernel + filter + write; and one
-``a5mi render`` process over the test scenes against the sum of their warm ``a5`` processes.
+**batch** (:mod:`a5mi.bench.batch`, ``a5mi render`` with several jobs): per test scene, ``--batch-renders``
+extra renders in one :class:`a5mi.session.RenderSession`, each written, their wall time against kernel +
+filter + write; and one ``a5mi render`` process over the test scenes against the sum of their warm ``a5``
+processes.
 
 ``--4k`` adds one ``-size 3840 2160 -jitter -filter`` process run (peak memory is bounded by the tiles: the
 driver streams the blur + downsample per tile and keeps only the W x H output). Output: markdown tables on
-stdout, or JSON with ``--json``.
+stdout, or JSON with ``--json``; ``--json-file FILE`` also writes the JSON.
 """
 
 from __future__ import annotations
@@ -81,6 +82,7 @@ from a5mi.bench.scenes import (
     resolve_scenes,
     scene_name,
 )
+from a5mi.spec import MAX_SIZE
 
 # --------------------------------------------------------------------------------------------------------
 # The benchmark
@@ -156,10 +158,10 @@ def bench_scene(path: Path, args: BenchSettings, published: dict[str, float], lo
                 res.errors.append(f"a5soln exited {run.returncode}: {run.stderr.strip()[-300:]}")
     if args.no_inprocess:
         return res
-    from a5mi import driver
     from a5mi.converters.a5_parser import parse_file
+    from a5mi.options import RenderOptions
 
-    options = driver.RenderOptions(width=w, height=h, bounces=args.bounces, shadows=True, jitter=True, filter=True)
+    options = RenderOptions(width=w, height=h, bounces=args.bounces, shadows=True, jitter=True, filter=True)
     with _chdir(path.parent):
         log(f"{name}: stages and floor ...")
         try:
@@ -198,6 +200,8 @@ class BenchSettings:
     def __post_init__(self) -> None:
         if min(self.size) <= 0 or self.bounces < 0 or self.repeat < 1 or self.warm_runs < 1 or self.verbose_runs < 0:
             raise ValueError("--size, --repeat and --warm-runs must be positive, --bounces and --verbose-runs >= 0")
+        if max(self.size) > MAX_SIZE:
+            raise ValueError(f"--size {self.size[0]} {self.size[1]}: the largest side is {MAX_SIZE} (SPEC B.1)")
 
 
 @dataclass

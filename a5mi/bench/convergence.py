@@ -17,17 +17,20 @@ from typing import Any
 import numpy as np
 
 
-def convergence(scene: str | Path, *, size: int = 300, spps: tuple[int, ...] = (1, 2, 4, 8, 16, 32),
+def convergence(scene: str | Path, *, size: int | tuple[int, int] = 300, spps: tuple[int, ...] = (1, 2, 4, 8, 16, 32),
                 reference_spp: int = 512, shadows: bool = True, bounces: int = 4) -> dict[str, Any]:
-    """``{'rows': [{'spp', 'seconds', 'rmse'}], 'slope', 'reference_spp', 'reference_seconds'}``."""
+    """``{'rows': [{'spp', 'seconds', 'rmse'}], 'slope', 'reference_spp', 'reference_seconds'}``; ``size``: the
+    side of a square image or (width, height)."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
-    from a5mi.driver import RenderOptions, render
+    from a5mi.options import RenderOptions
+    from a5mi.session import render
 
     desc = describe(parse_file(scene))
+    width, height = (size, size) if isinstance(size, int) else size
 
     def run(spp: int, seed: int) -> tuple[np.ndarray, float]:
-        options = RenderOptions(width=size, height=size, shadows=shadows, bounces=bounces, spp=spp, seed=seed)
+        options = RenderOptions(width=width, height=height, shadows=shadows, bounces=bounces, spp=spp, seed=seed)
         t0 = time.perf_counter()
         image = render(desc, options).image
         return image.astype(np.float64), time.perf_counter() - t0

@@ -93,8 +93,9 @@ def _camera_rays_for(model: Any, rw: int, rh: int) -> Any:
     """The render's camera rays, all of them, in the driver's order (SPEC B.2, B.5 glibc jitter)."""
     import mitsuba as mi
 
-    from a5mi.driver import aligned_float32, jitter_stream
+    from a5mi.arrays import aligned_float32
     from a5mi.plugins.camera import camera_rays
+    from a5mi.tiles import jitter_stream
 
     jx, jy = jitter_stream(None)(rw * rh)
     x = np.tile(np.arange(rw, dtype=np.float32), rh) + jx
@@ -199,6 +200,7 @@ def measure_in_process(scene_file: Path, options: Any, repeat: int = 3) -> InPro
     the traversal floor for the same rays (see the module docstring). Run from the scene's folder."""
     from a5mi import driver, imageio
     from a5mi.converters.a5_parser import parse_file
+    from a5mi.session import build_scene
 
     rw, rh = options.render_size
 
@@ -210,7 +212,7 @@ def measure_in_process(scene_file: Path, options: Any, repeat: int = 3) -> InPro
     stages = {"parse": time.perf_counter() - t0}
     t0 = time.perf_counter()
     desc = describe(model)  # the files are read here, once (the a5 command does the same)
-    scene = driver.build_scene(desc, options)
+    scene = build_scene(desc, options)
     stages["build"] = time.perf_counter() - t0
     recompiles = 0
     best = float("inf")
@@ -229,7 +231,7 @@ def measure_in_process(scene_file: Path, options: Any, repeat: int = 3) -> InPro
     _free()
 
     # 2. per-lane ray counts and first hits with the counting integrator, then the floor passes
-    scene = driver.build_scene(desc, replace(options, count_rays=True))
+    scene = build_scene(desc, replace(options, count_rays=True))
     rays, floor, n_lights = _floor_passes(scene, desc, rw, rh, repeat)
     del scene
     _free()

@@ -9,11 +9,11 @@ renderer). Libraries return data; only this package prints.
 from __future__ import annotations
 
 import importlib
-import sys
 from collections.abc import Sequence
 
-from a5mi.cli.app import Command, Console, exception_summary, execute
+from a5mi.cli.app import EXIT_STATUS_TABLE, Command, Console, exception_summary, execute
 from a5mi.cli.flags import Args
+from a5mi.errors import ExitStatus
 
 #: ``a5mi`` sub-command -> ("module:COMMAND", one-line summary for ``a5mi -h``).
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
@@ -33,12 +33,15 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 }
 
 A5MI_USAGE = """\
-usage: a5mi COMMAND [ARGS]   (a5mi --version; a5mi COMMAND -h for a command's flags)
+usage: a5mi COMMAND [ARGS]   (a5mi --version; a5mi COMMAND -h or a5mi help COMMAND for a command's flags)
 
 The a5mi toolbox: the MIT 6.837 assignment-5 renderer on Mitsuba 3 and the tools around it.
 
 commands:
-{commands}"""
+{commands}
+
+exit status (every command; 1 only from a command that gives a verdict):
+{statuses}"""
 
 
 def command(name: str) -> Command:
@@ -56,44 +59,37 @@ def parse_a5_args(argv: Sequence[str]) -> Args:
 
 
 def run(argv: Sequence[str]) -> int:
-    """``a5 ARGS``: render a scene (SPEC B.1). Returns the exit status (0, 1 internal error, 2 user error)."""
+    """``a5 ARGS``: render a scene (SPEC B.1). Returns the exit status (:class:`~a5mi.errors.ExitStatus`)."""
     from a5mi.cli.render import A5
 
     return execute(A5, argv)
 
 
 def run_a5mi(argv: Sequence[str]) -> int:
-    """``a5mi COMMAND ARGS``: dispatch through :data:`SUBCOMMANDS`."""
+    """``a5mi COMMAND ARGS``: dispatch through :data:`SUBCOMMANDS`; ``a5mi help COMMAND`` = ``a5mi COMMAND -h``.
+    Returns the exit status (:class:`~a5mi.errors.ExitStatus`)."""
     console = Console("a5mi")
     if argv and argv[0] == "--version":
         from a5mi import __version__
 
         console.result(f"a5mi {__version__}")
-        return 0
+        return ExitStatus.OK
+    if argv[:1] == ["help"] and len(argv) > 1:
+        argv = [argv[1], "-h", *argv[2:]]
     if not argv or argv[0] in ("-h", "--help", "-help", "help"):
         commands = "\n".join(f"  {name:<12}{summary}" for name, (_, summary) in SUBCOMMANDS.items())
-        text = A5MI_USAGE.format(commands=commands)
+        statuses = "\n".join(f"  {status:<12}{meaning}" for status, meaning in EXIT_STATUS_TABLE)
+        text = A5MI_USAGE.format(commands=commands, statuses=statuses)
         if argv:
             console.result(text)
-            return 0
+            return ExitStatus.OK
         console.note(text)
-        return 2
+        return ExitStatus.USAGE
     name, rest = argv[0], argv[1:]
     if name not in SUBCOMMANDS:
         console.error(f"unknown command '{name[:40]}' (expected one of {', '.join(SUBCOMMANDS)})")
-        return 2
+        return ExitStatus.USAGE
     return execute(command(name), rest)
 
 
-def main_a5() -> None:
-    """Console script ``a5``."""
-    sys.exit(run(sys.argv[1:]))
-
-
-def main_a5mi() -> None:
-    """Console script ``a5mi``."""
-    sys.exit(run_a5mi(sys.argv[1:]))
-
-
-__all__ = ["SUBCOMMANDS", "command", "exception_summary", "main_a5", "main_a5mi", "parse_a5_args", "run",
-           "run_a5mi"]
+__all__ = ["SUBCOMMANDS", "command", "exception_summary", "parse_a5_args", "run", "run_a5mi"]

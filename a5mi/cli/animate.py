@@ -1,4 +1,4 @@
-"""``a5mi animate SCENE.txt -o FRAMES_DIR``: the frames of an animated scene, optionally a video (issue 17).
+"""``a5mi animate SCENE.txt -o FRAMES_DIR``: the frames of an animated scene, optionally a video (EXTENSIONS E.11).
 
 The library is :mod:`a5mi.animate` (keyframes: docs/EXTENSIONS.md E.11, motion blur: E.12). This module turns
 the flags into :class:`~a5mi.options.RenderOptions` (the ``a5`` render flags, less the AOV outputs), checks
@@ -11,10 +11,8 @@ import time
 
 from a5mi.cli.app import Command, Console, activate_variant
 from a5mi.cli.flags import Args, Flag, Positional, integer, text
-from a5mi.cli.render import RENDER_FLAGS, check_render_args, render_options
-from a5mi.errors import UsageError, UserError
-
-_NOT_HERE = {"input", "output", "normals_output", "depth", "aov_mode"}
+from a5mi.cli.render import IMAGE_OUTPUT_DESTS, check_render_args, render_flags_except, render_options
+from a5mi.errors import ExitStatus, UsageError, UserError
 
 
 def frame_span(flag: str, values: list[str]) -> tuple[int, int]:
@@ -37,7 +35,7 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--scheduler",), "scheduler", "render on an existing Dask cluster", 1, text, metavar="tcp://HOST:PORT"),
     Flag(("--resume",), "resume", "render only the frames that are missing or fail their checksum",
          default=False, show_default=False),
-    *(f for f in RENDER_FLAGS if not set(f.dests) & _NOT_HERE),
+    *render_flags_except(IMAGE_OUTPUT_DESTS | {"input"}),  # the scene is the positional SCENE.txt
 )
 
 
@@ -107,15 +105,15 @@ def run_animate(args: Args, console: Console) -> int:
     missing = framefiles.missing_frames(out, range(a, b))
     if missing:
         console.error(f"{len(missing)} frames are missing (first {missing[0]}); run again with --resume")
-        return 1
+        return ExitStatus.DIFFER
     if args.video is not None:
         video.encode(args.video, [framefiles.frame_path(out, f) for f in range(a, b)], anim.fps)
         console.note(f"a5mi animate: video {args.video} ({time.perf_counter() - t0:.1f} s in all)")
-    return 0
+    return ExitStatus.OK
 
 
 ANIMATE = Command("animate", "Render the frames of a scene's Animation block (docs/EXTENSIONS.md E.11, E.12), here "
                   "or on Dask workers, each frame written atomically with its checksum; optionally a video.",
                   FLAGS, run_animate, (Positional("scene", "SCENE.txt", "scene file with an Animation block"),),
-                  required=("output",), check=check_animate_args,
-                  epilog="Exit status: 0 every frame written, 1 some frames missing (see --resume), 2 user error.")
+                  required=("output",), check=check_animate_args, exit_ok="every frame written",
+                  exit_differ="some frames are missing after the run (a worker failed; see --resume)")

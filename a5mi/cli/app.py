@@ -4,16 +4,21 @@ Every command (``a5`` and each ``a5mi`` sub-command) is a :class:`Command`: its 
 (:mod:`a5mi.cli.flags`), its positionals and a ``run(args, console)`` function that calls libraries (which
 return data) and prints through the :class:`Console`, the only printer of the project. :func:`execute` parses,
 answers ``-h`` / ``--version``, checks required flags and runs the command under :func:`guarded`, the one
-error policy (issue 8):
+error policy (docs/CLI.md "Exit status"), whose statuses are :class:`a5mi.errors.ExitStatus`:
 
 * a user error (:class:`~a5mi.errors.UserError`, a scene's :class:`~a5mi.converters.errors.SceneError`)
-  prints one line, ``FILE:LINE:COL: error: ...`` or ``PROG: error: ...``, and returns 2;
+  prints one line, ``FILE:LINE:COL: error: ...`` or ``PROG: error: ...``, and returns 2 (``USAGE``);
 * anything else is a bug: one line ``PROG: internal error: Type: message (re-run with --debug for the
-  traceback)`` and 1; ``--debug`` prints tracebacks;
+  traceback)`` and 70 (``SOFTWARE``, sysexits' EX_SOFTWARE); ``--debug`` prints tracebacks;
 * SIGINT, SIGTERM and SIGHUP (:mod:`a5mi.interrupts`, installed by :mod:`a5mi.entry`) return
   ``128 + signal`` (130 for Ctrl-C) with one line ``PROG: interrupted (SIGINT)``; nothing is written and
   no temporary is left; a closed output pipe (``a5mi compare A B | head``) ends
   quietly with 141 (128 + SIGPIPE, as a shell reports for coreutils).
+
+A command's own outcome is 0 (``OK``) or, for a command that gives a verdict, 1 (``DIFFER``: images differ,
+a check does not hold). :data:`EXIT_STATUS_TABLE` is the one table of these statuses; every command's ``-h``
+ends with one ``Exit status:`` paragraph made from it (:func:`exit_status_help`) with the command's own
+meanings of 0 and 1 (:attr:`Command.exit_ok`, :attr:`Command.exit_differ`).
 
 :func:`load_scene` is the one scene prologue: parse, print the parser's warnings, build the scene
 description once (every file checked, images decoded) and print its warnings, all before Mitsuba is imported.
@@ -24,6 +29,7 @@ from __future__ import annotations
 import os
 import re
 import sys
+import textwrap
 import time
 import traceback
 from collections.abc import Callable, Iterable, Sequence
@@ -32,7 +38,33 @@ from pathlib import Path
 from typing import Any, Literal, TextIO
 
 from a5mi.cli.flags import COMMON, Args, Flag, Positional, format_help, parse
-from a5mi.errors import UsageError, UserError
+from a5mi.errors import ExitStatus, UsageError, UserError
+
+#: The exit statuses of every command (docs/CLI.md "Exit status"): (status, meaning), one row per
+#: :class:`~a5mi.errors.ExitStatus` value (signals as one row). Each command words 0 and 1 for itself
+#: (:attr:`Command.exit_ok`, :attr:`Command.exit_differ`); 1 belongs to the commands that give a verdict.
+EXIT_STATUS_TABLE: tuple[tuple[str, str], ...] = (
+    (str(int(ExitStatus.OK)), "success; for a comparison or a check: same, match, pass"),
+    (str(int(ExitStatus.DIFFER)), "a verdict: the images differ, a check does not hold"),
+    (str(int(ExitStatus.USAGE)), "a mistake you can fix (a flag, the scene, an input or output file; one line on "
+     "stderr)"),
+    (str(int(ExitStatus.SOFTWARE)), "internal error, a bug (sysexits EX_SOFTWARE; --debug shows the traceback)"),
+    ("128+N", f"stopped by signal N ({int(ExitStatus.INTERRUPTED)} Ctrl-C, {ExitStatus.signal(15)} SIGTERM, "
+     f"{ExitStatus.signal(1)} SIGHUP)"),
+    (str(int(ExitStatus.BROKEN_PIPE)), "the output pipe was closed (128 + SIGPIPE)"),
+)
+
+
+def exit_status_help(ok: str, differ: str | None = None, note: str = "") -> str:
+    """The one ``Exit status:`` paragraph of a command's ``-h``: the command's meaning of 0 (``ok``) and of 1
+    (``differ``; None: the command gives no verdict and never exits 1), then the rows of
+    :data:`EXIT_STATUS_TABLE` shared by every command, then ``note``."""
+    parts = [f"{int(ExitStatus.OK)} {ok}"]
+    if differ is not None:
+        parts.append(f"{int(ExitStatus.DIFFER)} {differ}")
+    parts += [f"{status} {meaning}" for status, meaning in EXIT_STATUS_TABLE[2:]]
+    text = "Exit status: " + "; ".join(parts) + "." + (f" {note}" if note else "")
+    return textwrap.fill(text, width=100, break_on_hyphens=False)
 
 
 @dataclass(frozen=True)
@@ -40,7 +72,9 @@ class Command:
     """One command: ``name`` (``a5`` or the sub-command), its one-line ``summary``, ``flags`` (the common
     ``-q --debug --version -h`` are added), ``positionals``, ``run(args, console) -> exit status``, the
     ``grammar`` (:func:`a5mi.cli.flags.parse`), the dests that must be given (``required``), an ``epilog``
-    for ``-h`` and ``check(args)``: limits across several flags, raising :class:`UsageError`."""
+    for ``-h``, ``check(args)``: limits across several flags, raising :class:`UsageError`, and the command's
+    meanings of exit status 0 (``exit_ok``) and 1 (``exit_differ``: only a command that gives a verdict;
+    None: it never exits 1), with ``exit_note`` (:func:`exit_status_help`)."""
 
     name: str
     summary: str
@@ -51,6 +85,9 @@ class Command:
     required: tuple[str, ...] = ()
     epilog: str = ""
     check: Callable[[Args], None] | None = None
+    exit_ok: str = "done"
+    exit_differ: str | None = None
+    exit_note: str = ""
 
     @property
     def prog(self) -> str:
@@ -74,8 +111,11 @@ class Command:
         return args
 
     def help(self) -> str:
+        """``-h``: usage, one line per flag, the epilog and the one ``Exit status:`` paragraph."""
+        status = exit_status_help(self.exit_ok, self.exit_differ, self.exit_note)
+        epilog = f"{self.epilog}\n\n{status}" if self.epilog else status
         return format_help(self.prog, self.summary, self.all_flags, self.positionals, grammar=self.grammar,
-                           required=self.required, epilog=self.epilog)
+                           required=self.required, epilog=epilog)
 
 
 class Console:
@@ -122,7 +162,7 @@ class Console:
 class ProgressBar:
     """A one-line bar on a terminal's stderr, shown once a render has taken more than ``delay`` seconds.
 
-    A callback ``(done, total)`` for the driver, which calls it after each tile (:func:`a5mi.driver.tile_rows`:
+    A callback ``(done, total)`` for the driver, which calls it after each tile (:func:`a5mi.tiles.tile_rows`:
     a few large tiles, since each launch re-traces the integrator). Used as a context manager it also redraws
     every ``tick`` seconds from a thread, so the line moves while a tile renders: ``#`` are samples finished,
     ``-`` the estimate since the last tile at the rate measured so far (over the tiles after the first, which
@@ -234,12 +274,12 @@ def execute(command: Command, argv: Sequence[str], console: Console | None = Non
         args = command.parse(argv)
         if args.help:
             console.result(command.help().rstrip("\n"))
-            return 0
+            return ExitStatus.OK
         if args.version:
             from a5mi import __version__
 
             console.result(f"{command.prog} {__version__}")
-            return 0
+            return ExitStatus.OK
         console.quiet = bool(args.quiet)
         return command.run(args, console)
 
@@ -256,21 +296,21 @@ def guarded(console: Console, debug: bool, body: Callable[[], int]) -> int:
         if debug:
             traceback.print_exc()
         console.error(str(exc) if exc.loc is not None else exc.msg)
-        return 2
+        return ExitStatus.USAGE
     except UserError as exc:
         if debug:
             traceback.print_exc()
         console.error(str(exc))
-        return 2
+        return ExitStatus.USAGE
     except KeyboardInterrupt as exc:
         from a5mi import interrupts
 
         signum = exc.signum if isinstance(exc, interrupts.Interrupted) else 2
         interrupts.report_once(lambda: console.error(f"interrupted ({signal_name(signum)})"))
-        return 128 + signum
+        return ExitStatus.signal(signum)
     except BrokenPipeError:
         _silence_stdout()
-        return 141
+        return ExitStatus.BROKEN_PIPE
     except Exception as exc:  # noqa: BLE001 - the last line of defence: report a bug, not a traceback
         if debug:
             traceback.print_exc()
@@ -278,7 +318,7 @@ def guarded(console: Console, debug: bool, body: Callable[[], int]) -> int:
             detail = exception_summary(exc)
             console.note(f"{console.prog}: internal error: {type(exc).__name__}{': ' + detail if detail else ''} "
                          "(re-run with --debug for the traceback)")
-        return 1
+        return ExitStatus.SOFTWARE
 
 
 def signal_name(signum: int) -> str:
@@ -354,5 +394,5 @@ def activate_variant(requested: str | None = None) -> str:
         raise UserError(str(exc)) from None
 
 
-__all__ = ["Command", "Console", "ProgressBar", "activate_variant", "exception_summary", "execute", "guarded",
-           "load_scene"]
+__all__ = ["EXIT_STATUS_TABLE", "Command", "Console", "ProgressBar", "activate_variant", "exception_summary",
+           "execute", "exit_status_help", "guarded", "load_scene"]

@@ -1,4 +1,4 @@
-"""``a5mi render`` with several jobs: one process, each scene loaded once, kernels reused (issue 20).
+"""``a5mi render`` with several jobs: one process, each scene loaded once, kernels reused.
 
 Two ways to give the jobs (they may be combined; the jobs run in the order given, positionals first):
 
@@ -18,10 +18,11 @@ Each job is checked, rendered and written on its own (:func:`a5mi.cli.render.out
 :class:`a5mi.session.RenderSession`, so its images are bit-identical to a separate ``a5`` run of the same
 arguments. **Error rule**: a job that fails (a bad line, a missing file, a scene error, a write error) prints
 one line, ``a5mi render: job K (NAME): error: ...`` (or the scene's ``FILE:LINE:COL: error: ...``), writes
-nothing, and the others go on; at the end one line counts the failures. Exit status: 0 when every job was
-written, 2 when any failed with a user error, 1 when any failed with an internal error (a bug), 128 + N
-when signal N stopped the batch (the jobs already written stay). Two jobs writing the same file, or a job
-writing over another job's scene, is refused before anything renders (exit 2).
+nothing, and the others go on; at the end one line counts the failures. Exit status
+(:class:`a5mi.errors.ExitStatus`): 0 when every job was written, 70 when any failed with an internal error (a
+bug), else 2 when any failed with a user error, 128 + N when signal N stopped the batch (the jobs already
+written stay). Two jobs writing the same file, or a job writing over another job's scene, is refused before
+anything renders (exit 2).
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ from typing import Any
 from a5mi import clobber
 from a5mi.cli.app import Console, guarded
 from a5mi.cli.flags import Args, Flag, parse, text
-from a5mi.errors import UsageError
+from a5mi.errors import ExitStatus, UsageError
 
 #: Flags of ``a5mi render`` beyond the a5 ones (module docstring).
 BATCH_FLAGS: tuple[Flag, ...] = (
@@ -49,9 +50,11 @@ BATCH_FLAGS: tuple[Flag, ...] = (
 )
 
 EPILOG = ("Several scenes (positionals, --output-dir DIR) or --jobs FILE render in one process; each job is "
-          "written atomically on its own, a failing job prints one line and the others go on. Exit status: 0 "
-          "all written, 2 any job failed (1 if by an internal error), 2 before rendering when two jobs write "
-          "one file.")
+          "written atomically on its own, a failing job prints one line and the others go on.")
+#: The batch's words in the one "Exit status:" paragraph of ``a5mi render -h``.
+EXIT_NOTE = (f"A batch ends with the status of its worst failed job ({int(ExitStatus.SOFTWARE)} before "
+             f"{int(ExitStatus.USAGE)}); two jobs writing one file is a {int(ExitStatus.USAGE)} before anything "
+             "renders.")
 
 #: Dests of a job line that name an output file (relative ones go into --output-dir).
 _OUTPUTS = ("output", "normals_output", "depth_output")
@@ -177,7 +180,7 @@ def run_batch(jobs: list[Job], console: Console, render_one: Any) -> int:
                       out=console._out, err=console._err)
         if job.args is None:
             sub.error(job.error or "invalid job")
-            statuses.append(2)
+            statuses.append(ExitStatus.USAGE)
             continue
 
         def body(args: Args = job.args, sub: Console = sub) -> int:
@@ -193,8 +196,8 @@ def run_batch(jobs: list[Job], console: Console, render_one: Any) -> int:
                      f"{time.perf_counter() - t0:.2f} s" + (f"; failed: job {', '.join(map(str, failed))}"
                                                              if failed else ""))
     if not failed:
-        return 0
-    return 1 if 1 in statuses else 2
+        return ExitStatus.OK
+    return ExitStatus.SOFTWARE if ExitStatus.SOFTWARE in statuses else ExitStatus.USAGE
 
 
 def _session(holder: list[Any], args: Args) -> Any:
@@ -232,4 +235,4 @@ def _variant(args: Args) -> str:
         raise UsageError(str(exc)) from None
 
 
-__all__ = ["BATCH_FLAGS", "EPILOG", "Job", "is_batch", "make_jobs", "run_batch"]
+__all__ = ["BATCH_FLAGS", "EPILOG", "EXIT_NOTE", "Job", "is_batch", "make_jobs", "run_batch"]

@@ -4,17 +4,18 @@
 from __future__ import annotations
 
 from a5mi.cli.app import Command, Console, activate_variant
-from a5mi.cli.flags import Args, Flag, Positional, integer, real, text
-from a5mi.errors import UsageError
+from a5mi.cli.flags import Args, Flag, Positional, integer, json_file_flag, json_flag, real, size_flag, text
+from a5mi.errors import ExitStatus, UsageError
 
 FLAGS: tuple[Flag, ...] = (
-    Flag(("--size", "-size"), "size", "image size of the test command", 2, integer(1, 16384), (300, 300), "W H"),
+    size_flag((300, 300), "image size of the test command"),
     Flag(("--bounces", "-bounces"), "bounces", "bounces of the test command", 1, integer(0, 64), 4, "N"),
     Flag(("--repeat",), "repeat", "timed repetitions of in-process passes (best kept)", 1, integer(1, 1000), 3, "N"),
     Flag(("--a5soln",), "a5soln", "time the sample-solution binary too", 1, text, metavar="PATH"),
     Flag(("--4k",), "k4", "also one 3840x2160 -jitter -filter process run", default=False, show_default=False),
     Flag(("--4k-scene",), "k4_scene", "scene of the --4k run", 1, text, "scene10", "NAME"),
-    Flag(("--json",), "json", "write JSON to FILE ('-': stdout, instead of the tables)", 1, text, metavar="FILE"),
+    json_flag("the figures"),
+    json_file_flag("the figures"),
     Flag(("--no-process",), "no_process", "skip the a5 child processes", default=False, show_default=False),
     Flag(("--no-inprocess",), "no_inprocess", "skip the floor and stock measurements", default=False,
          show_default=False),
@@ -36,7 +37,7 @@ def run_bench(args: Args, console: Console) -> int:
 
     try:
         settings = bench.BenchSettings(
-            size=tuple(args.size), bounces=args.bounces, repeat=args.repeat,
+            size=(args.width, args.height), bounces=args.bounces, repeat=args.repeat,
             a5soln=bench.find_executable(args.a5soln) if args.a5soln else None, k4=args.k4, k4_scene=args.k4_scene,
             no_process=args.no_process, no_inprocess=args.no_inprocess, no_stock=args.no_stock,
             warm_runs=args.warm_runs, verbose_runs=args.verbose_runs, wait_idle=args.wait_idle,
@@ -52,16 +53,14 @@ def run_bench(args: Args, console: Console) -> int:
             console.note(f"[bench] {msg}")
 
     run = bench.run_benchmark(paths, settings, log)
-    if args.json == "-":
-        console.result(run.to_json())
-    else:
-        if args.json is not None:
-            with atomic_file(args.json, "w") as f:
-                f.write(run.to_json() + "\n")
-        console.result(run.report())
-    return 1 if run.failed else 0
+    if args.json_file is not None:
+        with atomic_file(args.json_file, "w") as f:
+            f.write(run.to_json() + "\n")
+    console.result(run.to_json() if args.json else run.report())
+    return ExitStatus.DIFFER if run.failed else ExitStatus.OK
 
 
 BENCH = Command("bench", "Time the a5 command (cold and warm processes, stages, traversal floor, stock Mitsuba) on "
                 "the benchmark scenes.", FLAGS, run_bench,
-                (Positional("scenes", "SCENE", "scene files or names (default: the six benchmark scenes)", "*"),))
+                (Positional("scenes", "SCENE", "scene files or names (default: the six benchmark scenes)", "*"),),
+                exit_ok="every measurement ran", exit_differ="a measured command failed (named in the report)")

@@ -1,9 +1,10 @@
-"""``a5mi compare A B``: the metrics of :mod:`a5mi.compare` and the grading verdict of the pair (issue 13).
+"""``a5mi compare A B``: the metrics of :mod:`a5mi.compare` and the grading verdict of the pair (docs/GRADING.md).
 
 The verdict is :func:`a5mi.grade.verdict.judge` on the share of pixels beyond the noise band: with
 ``--noise SIGMA.npy`` (the per-pixel jitter standard deviation ``a5mi grade`` caches beside each reference)
-the band is ``4 sigma + 1`` levels, without it 1 level. Exit status: 0 match, 1 differ (close, wrong, wrong
-size), 2 user error (unreadable image, bad flag), so the command can gate a script or CI job.
+the band is ``4 sigma + 1`` levels, without it 1 level. Exit status (:class:`a5mi.errors.ExitStatus`, as
+``cmp``): 0 match, 1 differ (close, wrong, wrong size), 2 user error (unreadable image, bad flag), 70 internal
+error, so the command can gate a script or CI job.
 
 ``--diff OUT.png`` writes :func:`a5mi.compare.montage`: A | B | heatmap of the largest channel error, full scale
 ``--scale`` levels (default 16; ``auto``: :func:`a5mi.compare.auto_scale`, the 99.9th percentile of the error,
@@ -16,8 +17,8 @@ import json
 import os
 
 from a5mi.cli.app import Command, Console
-from a5mi.cli.flags import Args, Flag, Positional, number, real, text
-from a5mi.errors import UsageError
+from a5mi.cli.flags import Args, Flag, Positional, json_flag, number, real, text
+from a5mi.errors import ExitStatus, UsageError
 
 
 def _scale(flag: str, values: list[str]) -> float | str:
@@ -35,7 +36,7 @@ FLAGS: tuple[Flag, ...] = (
          metavar="OUT.png"),
     Flag(("--scale",), "scale", "--diff heatmap full scale in levels (red at N/255 and beyond), or auto: the "
          "99.9th percentile of the error", 1, _scale, 16.0, "N|auto"),
-    Flag(("--json",), "json", "print the metrics and the verdict as JSON", default=False, show_default=False),
+    json_flag("the metrics and the verdict"),
     Flag(("--threshold",), "threshold", "levels (of 255) a pixel may be off before it counts", 1, real, 2.0, "L"),
     Flag(("--flip",), "flip", "also compute NVIDIA FLIP (mean, LDR)",
          default=False, show_default=False),
@@ -78,7 +79,7 @@ def run_compare(args: Args, console: Console) -> int:
         msg = f"image sizes differ: {a_img.shape[1]}x{a_img.shape[0]} vs {b_img.shape[1]}x{b_img.shape[0]}"
         console.result(json.dumps({"verdict": "wrong size", "detail": msg}) if args.json
                        else f"{a_path} vs {b_path}: {msg}\nverdict: wrong size")
-        return 1
+        return ExitStatus.DIFFER
     metrics = compare.compare_arrays(a_img, b_img, args.threshold)
     want_flip = bool(args.flip) or args.flip_map is not None
     graded, heat = verdict.measure(b_img, a_img, _noise(args.noise, a_img.shape), flip=want_flip)
@@ -106,9 +107,10 @@ def run_compare(args: Args, console: Console) -> int:
         flip = "" if graded.flip is None else f", FLIP {graded.flip:.4f}"
         console.result(f"verdict: {decided} ({100 * graded.beyond_noise:.2f}% of pixels beyond "
                        f"{'the noise band' if args.noise else f'{verdict.NOISE_FLOOR:g}/255'}{flip})")
-    return 0 if decided == "match" else 1
+    return ExitStatus.OK if decided == "match" else ExitStatus.DIFFER
 
 
 COMPARE = Command("compare", "Compare two images on the 8-bit scale (PSNR, mean error, share of pixels over the "
-                  "threshold, max error, optionally FLIP) and give the grading verdict: exit 0 match, 1 differ.",
-                  FLAGS, run_compare, (Positional("images", "A B", "reference and test image", 2),))
+                  "threshold, max error, optionally FLIP) and give the grading verdict.",
+                  FLAGS, run_compare, (Positional("images", "A B", "reference and test image", 2),),
+                  exit_ok="the images match", exit_differ="they differ (verdict close, wrong or wrong size)")

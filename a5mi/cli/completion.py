@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from a5mi.cli.app import Command, Console
 from a5mi.cli.flags import Args, Positional, choice
+from a5mi.errors import ExitStatus
 
 _TEMPLATE = """\
 # a5mi {version}: bash completion for a5 and a5mi (eval "$(a5mi completion bash)")
@@ -57,7 +58,7 @@ def run_completion(args: Args, console: Console) -> int:
     if args.shell == "zsh":
         script = "autoload -U +X bashcompinit && bashcompinit\n" + script
     console.result(script.rstrip("\n"))
-    return 0
+    return ExitStatus.OK
 
 
 def _check_shell(args: Args) -> None:
@@ -65,4 +66,5 @@ def _check_shell(args: Args) -> None:
 
 
 COMPLETION = Command("completion", 'Print a shell completion script for a5 and a5mi (eval "$(a5mi completion bash)").',
-                     (), run_completion, (Positional("shell", "SHELL", "bash or zsh"),), check=_check_shell)
+                     (), run_completion, (Positional("shell", "SHELL", "bash or zsh"),), check=_check_shell,
+                     exit_ok="the script printed")

@@ -17,7 +17,7 @@ from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, Positional, integer, text
 from a5mi.cli.render import RENDER_FLAGS, render_options
-from a5mi.errors import UsageError
+from a5mi.errors import ExitStatus, UsageError
 
 _SHARED = ("width", "bounces", "shadows", "phong", "fresnel", "reflection", "refraction", "bump")
 FLAGS: tuple[Flag, ...] = (
@@ -66,9 +66,10 @@ def run_convert(args: Args, console: Console) -> int:
     from a5mi.converters.to_xml import write_xml
 
     write_xml(desc, xml, render_options(args), stock=bool(args.stock), spp=args.spp)
-    return 0
+    return ExitStatus.OK
 
 
 CONVERT = Command("convert", "Write a scene as Mitsuba 3 XML, meshes (PLY) and images (PNG) beside it, by "
                   "relative path (the folder can be moved).", FLAGS, run_convert,
-                  (Positional("scene", "SCENE.txt", "the scene file"),), required=("output",))
+                  (Positional("scene", "SCENE.txt", "the scene file"),), required=("output",),
+                  exit_ok="the XML and its files written")

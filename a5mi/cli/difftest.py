@@ -1,4 +1,5 @@
-"""``a5mi difftest --binary PATH [--count N] [--seed S] [--size N] [--threshold DB] [--out DIR] [--json F]``.
+"""``a5mi difftest --binary PATH [--count N] [--seed S] [--mean-size N] [--threshold DB] [--out DIR]
+[--json-file F]``.
 
 Differential testing of a5mi against another executable with the a5 command line (:mod:`a5mi.difftest`):
 prints one table row per scene as it is done, then the summary; failures are minimised and written to
@@ -10,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from a5mi.cli.app import Command, Console, activate_variant
-from a5mi.cli.flags import Args, Flag, integer, real, text
+from a5mi.cli.flags import Args, Flag, integer, json_file_flag, real, text
 from a5mi.errors import ExitStatus, UsageError
 
 FLAGS: tuple[Flag, ...] = (
@@ -20,8 +21,8 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--seed", "-seed"), "seed", "series of scenes (scene i of seed s is always the same)", 1,
          integer(0, 2**31 - 1), 0, "S"),
     Flag(("--start",), "start", "first scene index", 1, integer(0, 10**9), 0, "I"),
-    Flag(("--size", "-size"), "size", "square image size (each scene draws size-10 .. size+10)", 1,
-         integer(16, 1000), 100, "N"),
+    Flag(("--mean-size",), "size", "scenes are squares of a side drawn from N-10 .. N+10 (the binary asserts on "
+         "non-square images)", 1, integer(16, 1000), 100, "N"),
     Flag(("--threshold",), "threshold", "PSNR (dB) below which a scene fails and is minimised", 1, real, 50.0,
          "DB"),
     Flag(("--timeout",), "timeout", "seconds one run of the binary may take", 1, real, 60.0, "S"),
@@ -29,7 +30,7 @@ FLAGS: tuple[Flag, ...] = (
          integer(1, 10_000), 80, "N"),
     Flag(("--out", "-o"), "out", "folder for failing scenes and their minimised reproducers", 1, text,
          metavar="DIR"),
-    Flag(("--json",), "json", "also write the whole report as JSON to FILE", 1, text, metavar="FILE"),
+    json_file_flag("the whole report"),
 )
 
 
@@ -60,13 +61,13 @@ def run_difftest(args: Args, console: Console) -> int:
     console.result(f"\n{s['scenes']} scenes (seed {args.seed}): median PSNR {campaign.psnr_text(s['median_psnr'])} "
                    f"dB, {100 * s['share_at_least_50']:.1f}% at >= 50 dB, {s['identical']} identical, "
                    f"{s['failed_runs']} failed runs, {s['below_threshold']} below {args.threshold:g} dB")
-    if args.json:
-        with atomic_file(args.json, "w") as f:
+    if args.json_file:
+        with atomic_file(args.json_file, "w") as f:
             f.write(campaign.report_json(rows, args.threshold, args.seed))
     return ExitStatus.OK if campaign.passed(rows, args.threshold) else ExitStatus.DIFFER
 
 
 DIFFTEST = Command("difftest", "Differential testing against another a5 executable on seeded random scenes.",
                    FLAGS, run_difftest,
-                   epilog="Exit status: 0 every scene at or above --threshold (identical counts as inf dB), 1 a "
-                          "scene below it or a run that failed, 2 user error.")
+                   exit_ok="every scene at or above --threshold (an identical scene counts as inf dB)",
+                   exit_differ="a scene below --threshold, or a run of the binary that failed")

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 from a5mi.errors import UsageError
+from a5mi.spec import MAX_SIZE
 
 Convert = Callable[[str, list[str]], Any]  # (spelling used, values) -> value
 
@@ -145,6 +146,26 @@ HELP = Flag(("-h", "--help", "-help"), "help", "show this help and exit", defaul
 VERSION = Flag(("--version",), "version", "print the version and exit", default=False, show_default=False)
 QUIET = Flag(("-q", "--quiet"), "quiet", "do not print warnings", default=False, show_default=False)
 COMMON: tuple[Flag, ...] = (QUIET, DEBUG, VERSION, HELP)
+
+
+# ------------------------------------------------------------------------------------------ shared flag concepts
+# One spelling, one meaning in every command: ``--size W H`` is always the image size (SPEC B.1's ``-size``),
+# ``--json`` always a switch (the result as JSON on stdout instead of text), ``--json-file FILE`` always a file.
+def size_flag(default: tuple[int, int] | tuple[None, None], help: str = "image size (width, height)",
+              names: tuple[str, ...] = ("--size", "-size")) -> Flag:
+    """``--size W H`` (alias ``-size``, SPEC B.1): two integers in [1, ``MAX_SIZE``], dests ``width``, ``height``."""
+    return Flag(names, ("width", "height"), help, 2, integer(1, MAX_SIZE), default, "W H")
+
+
+def json_flag(what: str) -> Flag:
+    """``--json``: print ``what`` as JSON on stdout instead of the text (a switch in every command)."""
+    return Flag(("--json",), "json", f"print {what} as JSON on stdout instead of text", default=False,
+                show_default=False)
+
+
+def json_file_flag(what: str) -> Flag:
+    """``--json-file FILE``: also write ``what`` as JSON to FILE (written atomically), the text still on stdout."""
+    return Flag(("--json-file",), "json_file", f"also write {what} as JSON to FILE", 1, text, metavar="FILE")
 
 
 # ------------------------------------------------------------------------------------------ the parser
@@ -272,5 +293,5 @@ def format_help(prog: str, summary: str, flags: Sequence[Flag], positionals: Seq
 
 
 __all__ = ["Args", "COMMON", "DEBUG", "Flag", "HELP", "Positional", "QUIET", "VERSION", "choice", "format_help",
-           "integer", "number", "parse", "real", "text", "usage_line"]
+           "integer", "json_file_flag", "json_flag", "number", "parse", "real", "size_flag", "text", "usage_line"]
 

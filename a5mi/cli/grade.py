@@ -1,4 +1,4 @@
-"""``a5mi grade SUBMISSIONS -o REPORT_DIR``: grade a class's ray tracers, sandboxed, on Dask (issue 13).
+"""``a5mi grade SUBMISSIONS -o REPORT_DIR``: grade a class's ray tracers, sandboxed, on Dask (docs/GRADING.md).
 
 The library is :mod:`a5mi.grade` (cases, sandbox, references, verdicts, report) and :mod:`a5mi.cluster`;
 this module turns the flags into :class:`~a5mi.grade.batch.GradeSettings`, parses each case's a5 command line
@@ -13,7 +13,7 @@ from pathlib import Path
 
 from a5mi.cli.app import Command, Console
 from a5mi.cli.flags import Args, Flag, Positional, integer, real, text
-from a5mi.errors import UsageError, UserError
+from a5mi.errors import ExitStatus, UsageError, UserError
 
 FLAGS: tuple[Flag, ...] = (
     Flag(("-o", "--output"), "output", "report folder (report.html, results.csv, results.json, journal.jsonl)",
@@ -144,13 +144,13 @@ def run_grade(args: Args, console: Console) -> int:
         raise UserError(f"nothing could be graded: every case of all {len(outcome.students)} students is 'no "
                         f"output' or a grader error (check SUBMISSIONS, the cases' -output names and --scheduler's "
                         f"filesystem; report in {outcome.files['html']})")
-    return 1 if errors else 0
+    return ExitStatus.DIFFER if errors else ExitStatus.OK
 
 
 GRADE = Command("grade", "Grade every student folder of SUBMISSIONS (an executable a5, or the images) on the cases, "
                 "sandboxed, on a Dask cluster; writes an HTML report, CSV and JSON.", FLAGS, run_grade,
                 (Positional("submissions", "SUBMISSIONS", "folder with one sub-folder per student"),),
-                required=("output",),
-                epilog="Exit status: 0 graded, 1 a case could not be graded (grader error), 2 user error, also when "
-                       "nothing could be graded (every case 'no output' or a grader error) or a --scheduler worker "
-                       "cannot see a path.")
+                required=("output",), exit_ok="every case graded",
+                exit_differ="a case could not be graded (a grader error, named on stderr)",
+                exit_note="Nothing graded (every case 'no output' or a grader error) and a --scheduler worker that "
+                          "cannot see a path are mistakes you can fix: 2.")

@@ -15,10 +15,10 @@ from typing import Any
 
 from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
-from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, text
-from a5mi.errors import UsageError
+from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, size_flag, text
+from a5mi.errors import ExitStatus, UsageError
 from a5mi.options import AOV_MODES, KERNELS, RenderOptions
-from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR, MAX_SIZE
+from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR
 
 #: Render-buffer samples (3W x 3H with -jitter) accepted at most (~16 GB by a5mi.resources' model); below it
 #: a render is refused when its estimated memory (a5mi.resources.render_bytes) exceeds what is available.
@@ -35,8 +35,7 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          "directory)", 1, text, metavar="SCENE.txt"),
     Flag(("-output", "--output"), "output", "image to write: .png .bmp .tga .ppm .tif .tiff (8-bit) or .exr",
          1, text, metavar="IMG"),
-    Flag(("-size", "--size"), ("width", "height"), "image size; non-square sizes work", 2, integer(1, MAX_SIZE),
-         DEFAULT_SIZE, "W H"),
+    size_flag(DEFAULT_SIZE, "image size; non-square sizes work", names=("-size", "--size")),
     Flag(("-shadows", "--shadows"), "shadows", "cast shadow rays", default=False, show_default=False),
     Flag(("-bounces", "--bounces"), "bounces", "reflection/refraction depth (0: ambient + diffuse only)", 1,
          integer(0, 64), DEFAULT_BOUNCES, "N"),
@@ -101,7 +100,7 @@ def check_render_args(args: Args) -> None:
 
 def check_memory(args: Args) -> None:
     """Refuse, before anything is read, a render whose estimated peak memory
-    (:func:`a5mi.resources.render_bytes`) exceeds the memory available (issue 19)."""
+    (:func:`a5mi.resources.render_bytes`) exceeds the memory available (a user error: a smaller ``-size``)."""
     from a5mi import resources
     from a5mi.options import TILE_RAYS
 
@@ -139,9 +138,9 @@ def run_render(args: Args, console: Console) -> int:
 
     if batch.is_batch(args):
         return batch.run_batch(batch.make_jobs(args, RENDER_FLAGS, check_render_args), console, render_job)
-    from a5mi import driver
+    from a5mi import session
 
-    return _render_and_write(args, console, lambda: activate_variant(args.variant), driver.render,
+    return _render_and_write(args, console, lambda: activate_variant(args.variant), session.render,
                              lambda: _load(args.input, console, bool(args.get("bump"))))
 
 
@@ -206,7 +205,7 @@ def _render_and_write(args: Args, console: Console, activate: Any, render: Any, 
     timings["write"] = time.perf_counter() - t0
     if args.verbose:
         _report(console, variant, result, timings)
-    return 0
+    return ExitStatus.OK
 
 
 def _report(console: Console, variant: str, result: Any, timings: dict[str, float]) -> None:
@@ -229,9 +228,18 @@ _SUMMARY = "Render a 6.837 assignment-5 scene as the course's sample solution a5
 
 #: ``a5``: the sample solution's command line, strict single-dash grammar.
 A5 = Command("a5", _SUMMARY, RENDER_FLAGS, run_render, grammar="a5", required=("input", "output"),
-             check=check_render_args,
-             epilog="Flags in any order; a flag given twice keeps its last value. Exit status: 0 written, "
-                    "1 internal error, 2 user error.")
+             check=check_render_args, epilog="Flags in any order; a flag given twice keeps its last value.",
+             exit_ok="every image written")
+
+#: Render flags that name an image to write or say how its AOV rays are cast: not offered by the commands
+#: that write no a5 image (trace) or write their own (animate).
+IMAGE_OUTPUT_DESTS = frozenset({"output", "normals_output", "depth", "depth_output", "aov_mode"})
+
+
+def render_flags_except(dests: frozenset[str] | set[str]) -> tuple[Flag, ...]:
+    """:data:`RENDER_FLAGS` without the flags that set any of ``dests``."""
+    return tuple(f for f in RENDER_FLAGS if not set(f.dests) & dests)
+
 
 def check_render_command(args: Args) -> None:
     """``a5mi render``: one scene needs ``-input`` and ``-output`` and the a5 checks; a batch's jobs are
@@ -247,13 +255,14 @@ def check_render_command(args: Args) -> None:
 
 
 def _render_command() -> Command:
-    from a5mi.cli.batch import BATCH_FLAGS, EPILOG
+    from a5mi.cli.batch import BATCH_FLAGS, EPILOG, EXIT_NOTE
 
     return Command("render", "render a scene, or several in one process (the a5 flags; see 'a5 -h')",
                    RENDER_FLAGS + BATCH_FLAGS, run_render,
                    (Positional("scenes", "SCENE.txt", "scenes to render with the same flags (with --output-dir)",
                                "*"),),
-                   epilog=A5.epilog + " " + EPILOG, check=check_render_command)
+                   epilog=A5.epilog + " " + EPILOG, check=check_render_command, exit_ok="every image written",
+                   exit_note=EXIT_NOTE)
 
 
 #: ``a5mi render``: the same flags, GNU style (the a5 spellings are aliases), plus batches (a5mi.cli.batch).

@@ -14,7 +14,7 @@ import os
 
 from a5mi.cli.app import Command, Console, activate_variant
 from a5mi.cli.flags import Args, Flag, Positional, choice, integer, text
-from a5mi.errors import UsageError, UserError
+from a5mi.errors import ExitStatus, UsageError, UserError
 
 
 def _define(flag: str, values: list[str]) -> tuple[str, str]:
@@ -54,9 +54,9 @@ def run_render_xml(args: Args, console: Console) -> int:
     if pixels.ndim == 3 and pixels.shape[2] > 3:
         pixels = pixels[:, :, :3]  # RGB; an integrator's AOV channels follow
     imageio.write_image(args.output, pixels)
-    return 0
+    return ExitStatus.OK
 
 
 RENDER_XML = Command("render-xml", "Render any Mitsuba 3 XML scene with the a5mi plugins registered (linear output).",
                      FLAGS, run_render_xml, (Positional("scene", "SCENE.xml", "the Mitsuba XML file"),),
-                     required=("output",))
+                     required=("output",), exit_ok="the image written")

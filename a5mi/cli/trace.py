@@ -1,7 +1,8 @@
 """``a5mi trace``: why one pixel has its colour: the SPEC B.3 ray tree as ``a5_whitted`` computes it.
 
 ``a5mi trace -input S.txt -size W H -pixel X Y [a5 render flags] [--origin bottom-left] [--sample K] [--json]
-[--svg OUT.svg]`` prints every node of the pixel's ray tree (the render kernel in record mode, :mod:`a5mi.trace`)
+[--svg OUT.svg]`` (the a5 flags less those naming images: trace writes none)
+prints every node of the pixel's ray tree (the render kernel in record mode, :mod:`a5mi.trace`)
 and checks that the contributions sum to the pixel of the real render. ``--diff STUDENT.png [--worst N]``
 renders the reference, picks the N pixels where the student's image is furthest off and names, for each,
 the term of the reference tree that best accounts for the difference; pixels within the noise threshold
@@ -16,23 +17,20 @@ from typing import Any
 import numpy as np
 
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
-from a5mi.cli.flags import Args, Flag, choice, integer, text
-from a5mi.cli.render import RENDER_FLAGS, check_render_args, render_options
-from a5mi.errors import ImageWriteError
+from a5mi.cli.flags import Args, Flag, choice, integer, json_flag, text
+from a5mi.cli.render import IMAGE_OUTPUT_DESTS, check_render_args, render_flags_except, render_options
+from a5mi.errors import ExitStatus, ImageWriteError
 from a5mi.spec import MAX_SIZE
 
-#: Render flags that name output images: accepted (so an a5 command line can be pasted), nothing is written.
-_OUTPUT_FLAGS = ("output", "normals_output", "depth_output")
-
 FLAGS: tuple[Flag, ...] = (
-    *RENDER_FLAGS,
+    *render_flags_except(IMAGE_OUTPUT_DESTS),
     Flag(("--pixel", "-pixel"), ("px", "py"), "the pixel to trace (x right, y down from the top-left; see "
          "--origin)", 2, integer(0, MAX_SIZE), (None, None), "X Y"),
     Flag(("--origin",), "origin", "where -pixel counts from: top-left (image viewers) or bottom-left (a5soln's j)",
          1, choice(("top-left", "bottom-left")), "top-left", "O"),
     Flag(("--sample",), "sample", "with -jitter: only sub-sample K (0..8, row-major from the pixel's top-left)",
          1, integer(0, 8), metavar="K"),
-    Flag(("--json",), "json", "print the trace as JSON", default=False, show_default=False),
+    json_flag("the trace"),
     Flag(("--svg",), "svg", "also write a diagram of the (first shown) ray tree", 1, text, metavar="OUT.svg"),
     Flag(("--diff",), "diff", "find the pixels where this student image is furthest from the reference and name "
          "the term to look at (pixels off by at most 2/255 are noise: none named)", 1, text, metavar="STUDENT.png"),
@@ -62,9 +60,6 @@ def run_trace(args: Args, console: Console) -> int:
     from a5mi.trace import report
     from a5mi.trace.core import Tracer, to_top_left
 
-    given = [f for f in _OUTPUT_FLAGS if args.get(f)]
-    if given:
-        console.note(f"{console.prog}: note: trace writes no images; ignoring " + ", ".join(given))
     desc = load_scene(args.input, console)
     activate_variant(args.variant)
     options = render_options(args, normals=False, depth=None, count_rays=False)
@@ -82,7 +77,7 @@ def run_trace(args: Args, console: Console) -> int:
 
         k = args.sample if args.sample is not None else 0
         write_svg(args.svg, pt.trees[k], f"{args.input} pixel ({x}, {y}) sample {k}")
-    return 0
+    return ExitStatus.OK
 
 
 def _run_diff(args: Args, console: Console, tracer: Any, desc: Any) -> int:
@@ -137,10 +132,9 @@ def _run_diff(args: Args, console: Console, tracer: Any, desc: Any) -> int:
 
         pt = traces[0]
         write_svg(args.svg, pt.trees[4 if len(pt.block) > 1 else 0], f"{args.input} pixel ({pt.x}, {pt.y})")
-    return 0
+    return ExitStatus.OK
 
 
 TRACE = Command("trace", "Print the SPEC B.3 ray tree of one pixel exactly as a5_whitted computes it, with every "
                 "term, checked against the real render; or (--diff) name the term a student image gets wrong.",
-                FLAGS, run_trace, required=("input",), check=check_trace_args,
-                epilog="Exit status: 0 printed, 1 internal error, 2 user error.")
+                FLAGS, run_trace, required=("input",), check=check_trace_args, exit_ok="the trace printed")

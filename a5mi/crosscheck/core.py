@@ -153,7 +153,8 @@ def render_whitted(
     parameters (ambient, tmin, ...); float image HxWx3, row 0 = top, through :func:`a5mi.driver.render_scene`."""
     import mitsuba as mi
 
-    from a5mi.driver import RenderOptions, render_scene
+    from a5mi.driver import render_scene
+    from a5mi.options import RenderOptions
 
     spec = {**integrator, "type": "a5_whitted", "fresnel": fresnel, "max_depth": options.bounces,
             "shadows": options.shadows, "reflection": True, "refraction": True}

@@ -6,7 +6,7 @@ without a shell, in a fresh temporary folder holding only the scene and links to
 time limit, and, when ``bwrap`` (bubblewrap) is installed, in a sandbox: no network, its own PID namespace,
 the file system read-only except that folder. It writes BMP; the image it wrote is read back with
 :func:`a5mi.imageio.read_levels`. a5mi renders the same folder's scene in this process
-(:func:`a5mi.driver.render`), so compiled kernels are reused across scenes.
+(:func:`a5mi.session.render`), so compiled kernels are reused across scenes.
 
 Metrics (:func:`a5mi.compare.compare_arrays`): PSNR ``10 log10(255² / MSE)`` over all channels, the share of
 pixels whose largest channel error is > 2/255, and the maximum error.
@@ -125,14 +125,15 @@ def run_binary(binary: Path, folder: Path, argv: list[str], timeout: float) -> t
 def render_a5mi(scene_path: Path, scene: GenScene) -> np.ndarray:
     """a5mi's 8-bit render of ``scene_path`` with the scene's flags (as the ``a5`` command writes it)."""
     from a5mi.converters.a5_parser import parse_file
-    from a5mi.driver import render
+    from a5mi.converters.describe import describe
     from a5mi.imageio import quantize
     from a5mi.options import RenderOptions
+    from a5mi.session import render
 
     f = scene.flags
     opts = RenderOptions(width=f.size, height=f.size, bounces=f.bounces, shadows=f.shadows, jitter=f.jitter,
                          filter=f.filter)
-    return quantize(render(parse_file(scene_path), opts).image).astype(np.float64)
+    return quantize(render(describe(parse_file(scene_path)), opts).image).astype(np.float64)
 
 
 def compare_scene(scene: GenScene, binary: Path, data: Path, timeout: float = DEFAULT_TIMEOUT) -> Outcome:

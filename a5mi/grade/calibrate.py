@@ -56,12 +56,13 @@ def _box_not_blur(scene: Path, options: RenderOptions) -> np.ndarray:
     """The jittered 3W x 3H render averaged over 3 x 3 blocks, without the blur (a wrong filter)."""
     from a5mi import variant
     from a5mi.converters.a5_parser import parse_file
-    from a5mi.driver import render
+    from a5mi.converters.describe import describe
     from a5mi.filters import downsample3
     from a5mi.imageio import quantize
+    from a5mi.session import render
 
     variant.activate(None)
-    big = render(parse_file(str(scene)), dataclasses.replace(options, filter=False)).image
+    big = render(describe(parse_file(str(scene)), bump=options.bump), dataclasses.replace(options, filter=False)).image
     return quantize(downsample3(big)).astype(np.float64)
 
 

@@ -1,7 +1,7 @@
 """Reference images and noise bands of grading cases, rendered by a5mi once and cached (issue 13).
 
 For a case (scene + a5 flags, :class:`~a5mi.grade.cases.Case`) the reference is a5mi's render through the
-normal library path (parse -> :func:`~a5mi.converters.describe.describe` -> :func:`a5mi.driver.render`,
+normal library path (parse -> :func:`~a5mi.converters.describe.describe` -> :func:`a5mi.session.render`,
 quantised as SPEC B.1), with the binary's glibc ``rand()`` jitter, or the file the case names in
 ``--reference DIR`` (e.g. the sample solution's renders). The **noise band** ``sigma`` is the per-pixel,
 per-channel sample standard deviation (ddof 1, levels) of the K renders {glibc, ``-seed`` s_1 .. s_{K-1}}

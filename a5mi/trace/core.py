@@ -7,7 +7,7 @@ Pixel ``(x, y)`` counts from the top-left of the **pixel grid**: the ``-size`` g
 * neither flag: the one sample ``(x, H-1-y)``;
 * ``-jitter`` and/or ``-filter``: the 3x3 block ``(3x+dx, 3(GH-1-y)+dy)``, sub-sample ``K = 3·(2-dy) + dx``
   (row-major from the block's top-left); with ``-jitter`` each ray goes through ``i + jx, j + jy`` with the
-  sample's glibc offsets (stream position ``j·RW + i``, :func:`a5mi.driver.jitter_stream`);
+  sample's glibc offsets (stream position ``j·RW + i``, :func:`a5mi.tiles.jitter_stream`);
 * ``-filter``: the output pixel is ``Σ w_s · c_s`` over the samples ``s`` the blur + 3x3 downsample reads,
   ``w_s = (1/9) Σ_block Σ_{a,b} K[a] K[b]`` over the taps whose clamped position is ``s`` (:func:`filter_weights`).
 
@@ -128,11 +128,11 @@ class Tracer:
     """A loaded scene and its integrator for tracing pixels and rendering the reference image once."""
 
     def __init__(self, desc: Any, options: RenderOptions) -> None:
-        from a5mi import driver
+        from a5mi.session import build_scene
 
         self.desc = desc
         self.options = dataclasses.replace(options, normals=False, depth=None, classes=False, count_rays=False)
-        self.scene = driver.build_scene(desc, self.options)
+        self.scene = build_scene(desc, self.options)
         self.integrator = self.scene.integrator()
         self._raw: np.ndarray | None = None
         self._image: np.ndarray | None = None
@@ -166,7 +166,7 @@ class Tracer:
         j = np.array([s[1] for s in samples], np.float32)
         if not self.options.jitter:
             return i, j
-        from a5mi.driver import jitter_stream
+        from a5mi.tiles import jitter_stream
 
         rw = self.options.render_size[0]
         pos = np.array([s[1] * rw + s[0] for s in samples], np.int64)
@@ -191,7 +191,7 @@ class Tracer:
         import drjit as dr
         import mitsuba as mi
 
-        from a5mi.driver import aligned_float32
+        from a5mi.arrays import aligned_float32
         from a5mi.plugins.camera import camera_rays
         from a5mi.plugins.whitted_record import TreeRecorder
 
