@@ -69,5 +69,5 @@ def run_difftest(args: Args, console: Console) -> int:
 
 DIFFTEST = Command("difftest", "Differential testing against another a5 executable on seeded random scenes.",
                    FLAGS, run_difftest,
-                   exit_ok="every scene at or above --threshold (an identical scene counts as inf dB)",
-                   exit_differ="a scene below --threshold, or a run of the binary that failed")
+                   exit_ok="every scene at or above --threshold (identical scenes: inf dB)",
+                   exit_differ="a scene below the threshold, or a failed run of the binary")
