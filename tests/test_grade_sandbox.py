@@ -1,9 +1,9 @@
-"""a5mi.grade.sandbox: every guarantee proved by a hostile fake submission (issue 13).
+"""a5mi.sandbox (the sandbox of grade and difftest): every guarantee proved by a hostile fake submission.
 
 Each fake is a small script in tmp_path graded through :func:`a5mi.grade.run.grade_one` against a tiny
 reference (no rendering): it must end in its verdict within seconds, with nothing written outside its private
 folder and no process of it left behind. bubblewrap is installed by ``make setup``; the rlimit fallback is
-tested with ``A5MI_NO_BWRAP=1``.
+tested with ``A5MI_NO_BWRAP=1`` (``docs/GRADING.md`` "Threat model").
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import pytest
 
 from a5mi.grade.cases import make_case
 from a5mi.grade.run import Task, grade_one
-from a5mi.grade.sandbox import UID_BASE, UID_SPAN, Limits, isolation, run_sandboxed
+from a5mi.sandbox import NOT_SANDBOXED, UID_BASE, UID_SPAN, Limits, SandboxUnavailable, isolation, run_sandboxed
 from a5mi.imageio import write_image
 
 LIMITS = Limits(timeout=3.0, memory_mb=512, nproc=48, keep_bytes=4096)
@@ -106,7 +106,8 @@ print("WROTE", ok, file=sys.stderr)
     before = (world / "ref.png").read_bytes()
     rec = _grade(world, "writer", script)
     assert rec["verdict"] == "no output"
-    assert "refused" in rec["stderr_tail"] and "WROTE []" in rec["stderr_tail"]
+    # only the private /tmp of the run is writable: the host's /tmp is untouched
+    assert "refused" in rec["stderr_tail"] and f"WROTE [{str(targets[4])!r}]" in rec["stderr_tail"]
     for t in targets[:3] + targets[4:]:
         assert not t.exists(), t
     assert (world / "ref.png").read_bytes() == before
@@ -206,9 +207,11 @@ def test_environment_is_scrubbed_and_the_pid_namespace_fresh(tmp_path, monkeypat
 
 
 def test_fallback_without_bubblewrap_still_bounds_and_cleans(monkeypatch) -> None:
-    """rlimits + own user id + process group: the fork bomb, the sleeper and the hog end in their verdicts."""
+    """--no-sandbox (``require_sandbox`` off): rlimits + own user id + process group: the fork bomb, the sleeper
+    and the hog end in their verdicts."""
     monkeypatch.setenv("A5MI_NO_BWRAP", "1")
-    assert isolation() == "rlimits"
+    assert isolation() == NOT_SANDBOXED
+    limits = Limits(timeout=3.0, memory_mb=512, nproc=48, keep_bytes=4096, require_sandbox=False)
     base = Path(tempfile.mkdtemp(prefix="a5mi-fallback-", dir="/tmp"))
     try:
         base.chmod(0o755)
@@ -218,12 +221,12 @@ def test_fallback_without_bubblewrap_still_bounds_and_cleans(monkeypatch) -> Non
         (base / "scenes" / "s.txt").write_text("x\n")
         write_image(base / "ref.png", np.full((4, 4, 3), 0.5))
         np.save(base / "sigma.npy", np.zeros((4, 4, 3), dtype=np.float32))
-        bomb = _grade(base, "bomb", "#!/bin/sh\nwhile :; do sleep 1000 & done\n")
+        bomb = _grade(base, "bomb", "#!/bin/sh\nwhile :; do sleep 1000 & done\n", limits)
         assert bomb["verdict"] == "timeout" and bomb["isolation"] == "rlimits"
-        hog = _grade(base, "hog", PY + "bytearray(20 << 30)\n")
+        hog = _grade(base, "hog", PY + "bytearray(20 << 30)\n", limits)
         assert hog["verdict"] == "over memory"
         outside = base / "outside" / "pwned"
-        writer = _grade(base, "writer", f"#!/bin/sh\necho x > {outside}; echo x > out.png\n")
+        writer = _grade(base, "writer", f"#!/bin/sh\necho x > {outside}; echo x > out.png\n", limits)
         assert not outside.exists() and writer["verdict"] == "unreadable"
         assert stat.S_IMODE((base / "outside").stat().st_mode) == 0o755
     finally:
