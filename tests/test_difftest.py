@@ -34,7 +34,8 @@ MATERIALS = (("  Material {\n    diffuseColor 0.8 0.3 0.2\n  }", ()),
 
 def _wrapper(tmp_path: Path) -> Path:
     """An executable ``a5`` that always adds ``-fresnel schlick`` (a Python script run by this venv)."""
-    exe = tmp_path / "a5schlick"
+    (tmp_path / "bin").mkdir(mode=0o755, exist_ok=True)
+    exe = tmp_path / "bin" / "a5schlick"
     exe.write_text(f"#!{sys.executable}\nimport sys\nfrom a5mi.cli import run\n"
                    "sys.exit(run(sys.argv[1:] + ['-fresnel', 'schlick']))\n")
     exe.chmod(0o755)
@@ -88,7 +89,10 @@ def test_minimiser_isolates_the_glass_object(variant: str, a5_data: Path, tmp_pa
     """With a5 vs a5 -fresnel schlick, the 4-object scene differs (glass, 4 bounces); without the glass
     sphere it is identical; minimised it is the glass sphere alone, its material alone, no shadows, and 2
     bounces (the least that takes a refracted ray out of the glass)."""
-    other = check_binary(_wrapper(tmp_path))
+    from a5mi import PROJECT_ROOT
+
+    # the sandboxed wrapper sees its interpreter and a5mi's sources (``--allow-read``)
+    other = Binary(check_binary(_wrapper(tmp_path)), (sys.prefix, sys.base_prefix, str(PROJECT_ROOT)))
     data = a5_data / "scenes"
     scene = _glass_scene()
     first = compare_scene(scene, other, data)
