@@ -314,6 +314,31 @@ def test_without_bubblewrap_a_run_is_refused_unless_asked(monkeypatch, tmp_path)
     assert r.returncode == 0 and r.isolation == "rlimits"
 
 
+def test_without_bubblewrap_images_are_still_decoded_unprivileged(monkeypatch) -> None:
+    """An image submission needs no sandbox to run: without bubblewrap its image is decoded by a child under the
+    rlimits and its own user id, and graded."""
+    monkeypatch.setenv("A5MI_NO_BWRAP", "1")
+    base = Path(tempfile.mkdtemp(prefix="a5mi-nobwrap-", dir="/tmp"))
+    try:
+        base.chmod(0o755)
+        for d in ("subs/home", "scenes", "report", "work"):
+            (base / d).mkdir(parents=True)
+            (base / d).chmod(0o755)
+        (base / "scenes" / "s.txt").write_text("x\n")
+        write_image(base / "ref.png", np.full((4, 4, 3), 0.5))
+        np.save(base / "sigma.npy", np.zeros((4, 4, 3), dtype=np.float32))
+        (base / "subs" / "home" / "out.png").write_bytes((base / "ref.png").read_bytes())
+        case = make_case("-input s.txt -size 4 4 -output out.png", points=10)
+        task = Task("home", str(base / "subs" / "home"), case, str(base / "scenes"), str(base / "ref.png"),
+                    str(base / "sigma.npy"), str(base / "work"), str(base / "report"), LIMITS)
+        rec = grade_one(task)
+        assert rec["verdict"] == "match", rec["detail"]
+    finally:
+        import shutil
+
+        shutil.rmtree(base, ignore_errors=True)
+
+
 def test_mktemp_and_an_absolute_home_work_with_a_relative_work_root(world, monkeypatch) -> None:
     """A correct program that uses ``mktemp`` and ``$HOME`` gets its points, also when the report folder
     (where the work folders are) was given as a relative path."""

@@ -102,7 +102,7 @@ def run_binary(binary: Path | Binary, folder: Path, argv: list[str], timeout: fl
     ``read_only`` paths visible besides the binary's folder); ``(levels, "ok")`` or ``(None, why)``. An image of
     more than ``max_pixels`` pixels is not decoded."""
     b = _as_binary(binary)
-    limits = Limits(timeout=timeout, require_sandbox=b.require_sandbox)
+    limits = Limits(timeout=timeout)
     run = run_sandboxed([str(b.path), "-input", "scene.txt", "-output", "out.bmp", *argv], folder, limits,
                         read_only=(str(b.path.parent), *read_only, *b.read_only))
     if run.timed_out:
@@ -116,7 +116,7 @@ def run_binary(binary: Path | Binary, folder: Path, argv: list[str], timeout: fl
             return None, f"binary failed: {tail[0][:120]}"
         return None, f"binary failed: out.bmp: {exc.reason}"
     try:
-        dec = decode_levels(fd, ".bmp", max_pixels, folder.parent, require_sandbox=b.require_sandbox)
+        dec = decode_levels(fd, ".bmp", max_pixels, folder.parent)
     finally:
         os.close(fd)
     if dec.error == TOO_LARGE:

@@ -158,8 +158,7 @@ def _judge_output(task: Task, folder: Path, rel: str, owner: int | None, run_inf
             return _record(task, "no output", f"no {out} written", **run_info)
         return _record(task, "unreadable", f"{out}: {exc.reason}", **run_info)
     try:
-        dec = decode_levels(fd, Path(out).suffix, MAX_PIXELS_FACTOR * rw * rh, task.work_root,
-                            require_sandbox=task.limits.require_sandbox)
+        dec = decode_levels(fd, Path(out).suffix, MAX_PIXELS_FACTOR * rw * rh, task.work_root)
     finally:
         os.close(fd)
     if dec.error == TOO_LARGE:
