@@ -12,6 +12,7 @@ has the default that means "as SPEC B").
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Final
 
@@ -20,7 +21,7 @@ from a5mi.spec import DISPERSION_RANGE_NM
 from .builders import MaterialBuilder, SolidBuilder
 from .errors import FileLoc
 from .lexer import Token
-from .model import AreaLight, Fog, Solid, SphereLight, SpotLight, Vec3, Volume
+from .model import AreaLight, Fog, Light, Medium, Solid, SphereLight, SpotLight, Vec3, Volume
 from .tokens import Rule, TokenStream, keyword_block, quoted_raw
 
 #: Upper bound of ``samples`` / ``glossySamples`` (one kernel loop bound / stack size, EXTENSIONS E.5).
@@ -141,7 +142,8 @@ def parse_sphere_light(ts: TokenStream, start: Token) -> SphereLight:
 
 
 #: ``Lights`` entries this module adds (name -> parse function).
-LIGHTS: Final = {"SpotLight": parse_spot_light, "AreaLight": parse_area_light, "SphereLight": parse_sphere_light}
+LIGHTS: Final[dict[str, Callable[[TokenStream, Token], Light]]] = {
+    "SpotLight": parse_spot_light, "AreaLight": parse_area_light, "SphereLight": parse_sphere_light}
 
 
 def parse_camera_lens(ts: TokenStream) -> tuple[float, float]:
@@ -347,4 +349,4 @@ def parse_volume(ts: TokenStream, start: Token) -> Volume:
 
 
 #: Top-level blocks (name -> parse function); each sets the scene's ``medium``.
-MEDIA: Final = {"Fog": parse_fog, "Volume": parse_volume}
+MEDIA: Final[dict[str, Callable[[TokenStream, Token], Medium]]] = {"Fog": parse_fog, "Volume": parse_volume}

@@ -31,7 +31,7 @@ def as_array(m: Matrix4 | np.ndarray) -> np.ndarray:
 
 def as_tuple(m: np.ndarray) -> Matrix4:
     """A (4, 4) array as the model's hashable row-major tuple form."""
-    return tuple(tuple(float(x) for x in row) for row in np.asarray(m, dtype=np.float64))
+    return tuple((float(r[0]), float(r[1]), float(r[2]), float(r[3])) for r in np.asarray(m, dtype=np.float64))
 
 
 def translate(x: float, y: float, z: float) -> np.ndarray:
