@@ -23,6 +23,7 @@ Accepted as the binary accepted it, with an entry in ``Scene.warnings``: a file 
 (A.0), a block given twice (the later one wins, A.1), no lights (ambient forced to 1, A.1), a ``PointLight``
 without ``position`` or ``color`` (0), a ``Noise`` with fewer than two colours (0).
 """
+
 from __future__ import annotations
 
 import math
