@@ -165,6 +165,8 @@ def test_converters_import_graph_is_acyclic() -> None:
              for p in paths}
     assert graph["a5mi.converters.a5_parser"] >= {"a5mi.converters.tokens", "a5mi.converters.ext_parser",
                                                   "a5mi.converters.keyframes"}  # the checker sees real edges
+    # the token stream is a leaf of the grammar: it knows the lexer and the errors, no rule of any block
+    assert graph["a5mi.converters.tokens"] <= {"a5mi.converters.lexer", "a5mi.converters.errors"}
     cycle = _cycle(graph)
     assert cycle is None, "import cycle among converters: " + " -> ".join(cycle or [])
 
