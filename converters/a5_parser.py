@@ -1,8 +1,12 @@
 """Parser for the 6.837 scene language (SPEC A.1-A.6): tokens -> :class:`~a5mi.converters.model.Scene`.
 
 One function per block (``parse_camera``, ``parse_lights``, ``parse_background``, ``parse_materials``,
-``parse_material``, ``parse_noise``, ``parse_group``, ``parse_transform``), each taking the token stream.
-Pure Python: no Mitsuba, no file access beyond the scene text (meshes and textures are the converter's).
+``parse_material``, ``parse_noise``; ``Group`` and its objects in :mod:`.group_parser`), each reading the
+:class:`~.tokens.TokenStream`. A block of keywords in any order is a table ``keyword -> rule``
+(:data:`MATERIAL_RULES`, :data:`BACKGROUND_RULES`, :data:`NOISE_RULES`, :data:`BLOCK_RULES` for the top level),
+each rule a small function that fills a typed builder (:mod:`.builders`); the extensions add their rules from
+:mod:`.ext_parser` (docs/EXTENSIONS.md) and :mod:`.keyframes` (E.11). Pure Python: no Mitsuba, no file access
+beyond the scene text (meshes and textures are the converter's).
 
 Where the sample solution asserted, exited or silently misbehaved, this parser raises a
 :class:`~a5mi.converters.errors.SceneSyntaxError` (grammar) or
@@ -23,148 +27,41 @@ without ``position`` or ``color`` (0), a ``Noise`` with fewer than two colours (
 from __future__ import annotations
 
 import math
-import re
-from collections.abc import Callable
 from pathlib import Path
-from typing import Final, TypeVar
+from typing import Final
 
 import numpy as np
 
 from a5mi.vecmath32 import camera_basis
 
-from . import ext_parser, keyframes, transforms
-from .errors import FileLoc, SceneSemanticError, SceneSyntaxError, shown
-from .lexer import NUMBER, Token, read_source, tokenize
-from .model import (
-    Background,
-    Camera,
-    DirectionalLight,
-    Group,
-    Light,
-    Material,
-    Node,
-    Noise,
-    Plane,
-    PointLight,
-    Scene,
-    Sphere,
-    Transform,
-    TransformOp,
-    Triangle,
-    TriangleMesh,
-    Vec3,
+from . import ext_parser, keyframes
+from .builders import BackgroundBuilder, MaterialBuilder, NoiseBuilder, PointLightBuilder, SceneBuilder
+from .errors import FileLoc, SceneSyntaxError, shown
+from .group_parser import MAX_NESTING, parse_group
+from .lexer import Token, read_source
+from .model import Background, Camera, DirectionalLight, Light, Material, Noise, PointLight, Scene, Vec3
+from .tokens import (
+    Rule,
+    TokenStream,
+    counted_block,
+    keyword_block,
+    nonzero,
+    one_of,
+    quoted,
+    unknown_keyword,
+    vector_then,
 )
 
-# %f accepts more (hex floats, "nan", "inf"); we accept plain decimal numbers only.
-FLOAT_RE: Final = re.compile(NUMBER)  # ASCII digits, linear (converters/lexer.py)
-INT_RE: Final = re.compile(r"[+-]?[0-9]+")
-INT_LIMIT: Final = 2**31 - 1
+__all__ = ["MAX_NESTING", "TOP_LEVEL", "parse_file", "parse_text", "parse_tokens"]
+
+#: The blocks of A.1, as the top-level error message lists them (the extensions' blocks are accepted too).
 TOP_LEVEL: Final = ("PerspectiveCamera", "Lights", "Background", "Materials", "Group")
-OBJECTS: Final = ("Group", "Sphere", "Plane", "Triangle", "TriangleMesh", "Transform")
-TRANSFORMS: Final = ("Translate", "Scale", "UniformScale", "XRotate", "YRotate", "ZRotate", "Rotate", "Matrix4f")
-
-_T = TypeVar("_T")
-
-
-def _quoted(tok: Token | None) -> str:
-    return "end of file" if tok is None else f"'{shown(tok.text)}'"
-
-
-def _one_of(words: tuple[str, ...]) -> str:
-    return ", ".join(words[:-1]) + " or " + words[-1]
-
-
-def _count(n: int, noun: str) -> str:
-    """``1 light``, ``2 lights``."""
-    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
-
-
-class TokenStream:
-    """The tokens of one scene, a cursor, the source lines (for excerpts) and the collected warnings."""
-
-    def __init__(self, text: str, path: str) -> None:
-        self.path = path
-        self.lines = text.split("\n")
-        self.tokens = tokenize(text, path)
-        self.pos = 0
-        self.warnings: list[tuple[FileLoc, str]] = []
-        self.eof_loc = FileLoc(path, len(self.lines), len(self.lines[-1]) + 1)
-        for tok in self.tokens:
-            if tok.glued:
-                self.warn(tok.loc, "'}' glued to the number before it: read as two tokens, as the sample "
-                          "solution's %f does (SPEC A.0 asks for whitespace)")
-
-    # -- errors ------------------------------------------------------------------------------------
-    def line_of(self, loc: FileLoc) -> str | None:
-        return self.lines[loc.line - 1] if 0 < loc.line <= len(self.lines) else None
-
-    def syntax_error(self, msg: str, tok: Token | None) -> SceneSyntaxError:
-        loc = self.eof_loc if tok is None else tok.loc
-        return SceneSyntaxError(msg, loc, self.line_of(loc))
-
-    def semantic_error(self, msg: str, loc: FileLoc) -> SceneSemanticError:
-        return SceneSemanticError(msg, loc, self.line_of(loc))
-
-    def warn(self, loc: FileLoc, msg: str) -> None:
-        self.warnings.append((loc, msg))
-
-    # -- cursor ------------------------------------------------------------------------------------
-    def peek(self) -> Token | None:
-        return self.tokens[self.pos] if self.pos < len(self.tokens) else None
-
-    def next(self) -> Token | None:
-        tok = self.peek()
-        if tok is not None:
-            self.pos += 1
-        return tok
-
-    def expect(self, word: str, context: str) -> Token:
-        """Consume ``word`` or fail with ``expected 'word' <context>, found ...``."""
-        tok = self.next()
-        if tok is None or tok.text != word:
-            raise self.syntax_error(f"expected '{word}' {context}, found {_quoted(tok)}", tok)
-        return tok
-
-    def number(self, after: str) -> float:
-        """One finite decimal number (``F``)."""
-        tok = self.next()
-        if tok is None or not FLOAT_RE.fullmatch(tok.text):
-            raise self.syntax_error(f"expected a number after '{after}', found {_quoted(tok)}", tok)
-        value = float(tok.text)
-        if not math.isfinite(value) or abs(value) > 3.4028234663852886e38:
-            raise self.syntax_error(f"number out of range after '{after}': '{shown(tok.text)}'", tok)
-        return value
-
-    def integer(self, after: str) -> tuple[int, Token]:
-        """One decimal integer (``I``) in the C ``int`` range, and its token."""
-        tok = self.next()
-        if tok is None or not INT_RE.fullmatch(tok.text):
-            raise self.syntax_error(f"expected an integer after '{after}', found {_quoted(tok)}", tok)
-        value = int(tok.text)
-        if abs(value) > INT_LIMIT:
-            raise self.syntax_error(f"integer out of range after '{after}': '{shown(tok.text)}'", tok)
-        return value, tok
-
-    def vec3(self, after: str) -> Vec3:
-        """Three numbers (``V3``)."""
-        return (self.number(after), self.number(after), self.number(after))
-
-    def name(self, after: str) -> Token:
-        """One word (``NAME``), which may not be a brace."""
-        tok = self.next()
-        if tok is None or tok.text in ("{", "}"):
-            raise self.syntax_error(f"expected a file name after '{after}', found {_quoted(tok)}", tok)
-        return tok
-
-
-def _nonzero(ts: TokenStream, v: Vec3, what: str, loc: FileLoc) -> None:
-    if v[0] == 0.0 and v[1] == 0.0 and v[2] == 0.0:
-        raise ts.semantic_error(f"{what} must not be the zero vector", loc)
 
 
 # -- A.2 ------------------------------------------------------------------------------------------------
 def parse_camera(ts: TokenStream, start: Token) -> Camera:
-    """``PerspectiveCamera { center V3 direction V3 up V3 angle F }`` in this fixed order (A.2)."""
+    """``PerspectiveCamera { center V3 direction V3 up V3 angle F }`` in this fixed order (A.2); then the
+    optional lens of EXTENSIONS E.3."""
     ts.expect("{", "after 'PerspectiveCamera'")
     fields: dict[str, Vec3] = {}
     tok = start
@@ -172,7 +69,7 @@ def parse_camera(ts: TokenStream, start: Token) -> Camera:
         tok = ts.expect(key, "in PerspectiveCamera (fields: center, direction, up, angle, in this order)")
         fields[key] = ts.vec3(key)
         if key != "center":
-            _nonzero(ts, fields[key], f"camera {key}", tok.loc)
+            nonzero(ts, fields[key], f"camera {key}", tok.loc)
     angle_tok = ts.expect("angle", "in PerspectiveCamera (fields: center, direction, up, angle, in this order)")
     angle = ts.number("angle")
     rad = np.float32(math.pi * float(np.float32(angle)) / 180.0)  # as the camera stores it (B.2)
@@ -195,419 +92,249 @@ def parse_camera(ts: TokenStream, start: Token) -> Camera:
     return Camera(fields["center"], fields["direction"], fields["up"], angle, start.loc, aperture, focus)
 
 
-def _vector_then(ts: TokenStream, block: str, fields: tuple[str, str], what: str,
-                 read: Callable[[str], _T]) -> tuple[Vec3, _T]:
-    """``BLOCK { FIELD0 V3 FIELD1 X }`` in this order, the vector non-zero (``what`` names it in the error)."""
-    ts.expect("{", f"after '{block}'")
-    where = f"in {block} (fields: {', '.join(fields)})"
-    tok = ts.expect(fields[0], where)
-    vector = ts.vec3(fields[0])
-    _nonzero(ts, vector, what, tok.loc)
-    ts.expect(fields[1], where)
-    value = read(fields[1])
-    ts.expect("}", f"to close {block}")
-    return vector, value
-
-
 # -- A.3 ------------------------------------------------------------------------------------------------
 def parse_directional_light(ts: TokenStream, start: Token) -> DirectionalLight:
     """``DirectionalLight { direction V3 color V3 }`` in this order (A.3)."""
-    direction, color = _vector_then(ts, "DirectionalLight", ("direction", "color"), "light direction", ts.vec3)
+    direction, color = vector_then(ts, "DirectionalLight", ("direction", "color"), "light direction", ts.vec3)
     return DirectionalLight(direction, color, start.loc)
+
+
+def _position(ts: TokenStream, tok: Token, p: PointLightBuilder) -> None:
+    p.position = ts.vec3(tok.text)
+
+
+def _light_color(ts: TokenStream, tok: Token, p: PointLightBuilder) -> None:
+    p.color = ts.vec3(tok.text)
+
+
+def _falloff(ts: TokenStream, tok: Token, p: PointLightBuilder) -> None:
+    """``falloff F >= 0``: colour / (1 + falloff d²) would grow with distance and divide by zero at
+    d = 1/sqrt(-falloff)."""
+    falloff = ts.number("falloff")
+    if falloff < 0.0:
+        raise ts.semantic_error(f"PointLight falloff must not be negative, found {falloff:g}", tok.loc)
+    p.falloff = falloff
+
+
+POINT_LIGHT_RULES: Final[dict[str, Rule[PointLightBuilder]]] = {
+    "position": _position, "color": _light_color, "falloff": _falloff}
 
 
 def parse_point_light(ts: TokenStream, start: Token) -> PointLight:
     """``PointLight { position V3 color V3 [falloff F] }``, keywords in any order until ``}`` (A.3)."""
     ts.expect("{", "after 'PointLight'")
-    values: dict[str, object] = {}
-    while True:
-        tok = ts.next()
-        if tok is not None and tok.text == "}":
-            break
-        if tok is None or tok.text not in ("position", "color", "falloff"):
-            raise ts.syntax_error(
-                f"expected position, color, falloff or '}}' in PointLight, found {_quoted(tok)}", tok
-            )
-        values[tok.text] = ts.number("falloff") if tok.text == "falloff" else ts.vec3(tok.text)
-        if tok.text == "falloff" and values["falloff"] < 0.0:  # type: ignore[operator]
-            # colour / (1 + falloff d²) would grow with distance and divide by zero at d = 1/sqrt(-falloff)
-            raise ts.semantic_error(f"PointLight falloff must not be negative, found {values['falloff']:g}",
-                                    tok.loc)
-    for key in ("position", "color"):
-        if key not in values:
+    p = PointLightBuilder()
+    keyword_block(ts, POINT_LIGHT_RULES, p, lambda tok: ts.syntax_error(
+        f"expected {', '.join(POINT_LIGHT_RULES)} or '}}' in PointLight, found {quoted(tok)}", tok))
+    for key, value in (("position", p.position), ("color", p.color)):
+        if value is None:
             ts.warn(start.loc, f"PointLight has no {key}; using 0 0 0 as the sample solution does")
-    return PointLight(
-        values.get("position", (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
-        values.get("color", (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
-        float(values.get("falloff", 0.0)),  # type: ignore[arg-type]
-        start.loc,
-    )
-
-
-def _block_count(ts: TokenStream, block: str, count_key: str) -> int:
-    """``BLOCK { COUNT_KEY I``: the declared count, never negative (A.3, A.5, A.6)."""
-    ts.expect("{", f"after '{block}'")
-    ts.expect(count_key, f"after '{block} {{'")
-    count, count_tok = ts.integer(count_key)
-    if count < 0:
-        raise ts.semantic_error(f"{count_key} must not be negative, found {count}", count_tok.loc)
-    return count
-
-
-def _check_count(ts: TokenStream, tok: Token, block: str, count_key: str, count: int, found: int, noun: str) -> None:
-    """At the block's ``}``: exactly the declared number of items (A.3, A.5, A.6)."""
-    if found != count:
-        raise ts.syntax_error(f"{block} declares {count_key} {count} but has {_count(found, noun)}, found '}}'", tok)
-
-
-def _counted_block(ts: TokenStream, block: str, count_key: str, noun: str,
-                   items: dict[str, Callable[[TokenStream, Token], _T]]) -> tuple[_T, ...]:
-    """``BLOCK { COUNT_KEY I <item>* }`` with exactly ``I`` items, each one of ``items`` (A.3, A.5)."""
-    count = _block_count(ts, block, count_key)
-    out: list[_T] = []
-    while True:
-        tok = ts.next()
-        if tok is not None and tok.text == "}":
-            _check_count(ts, tok, block, count_key, count, len(out), noun)
-            return tuple(out)
-        if tok is None or tok.text not in items:
-            raise ts.syntax_error(f"expected {', '.join(items)} or '}}' in {block}, found {_quoted(tok)}", tok)
-        if len(out) == count:
-            raise ts.syntax_error(f"{block} declares {count_key} {count} but a {noun} follows: expected '}}', "
-                                  f"found '{shown(tok.text)}'", tok)
-        out.append(items[tok.text](ts, tok))
+    return p.build(start.loc)
 
 
 def parse_lights(ts: TokenStream, start: Token) -> tuple[Light, ...]:
-    """``Lights { numLights I <light>* }`` with exactly ``numLights`` lights (A.3)."""
-    return _counted_block(ts, "Lights", "numLights", "light",
-                          {"DirectionalLight": parse_directional_light, "PointLight": parse_point_light,
-                           **ext_parser.LIGHTS})
+    """``Lights { numLights I <light>* }`` with exactly ``numLights`` lights (A.3; EXTENSIONS E.1, E.2)."""
+    return counted_block(ts, "Lights", "numLights", "light",
+                         {"DirectionalLight": parse_directional_light, "PointLight": parse_point_light,
+                          **ext_parser.LIGHTS})
 
 
 # -- A.4 ------------------------------------------------------------------------------------------------
+def _background_color(ts: TokenStream, tok: Token, b: BackgroundBuilder) -> None:
+    b.color = ts.vec3(tok.text)
+
+
+def _ambient_light(ts: TokenStream, tok: Token, b: BackgroundBuilder) -> None:
+    b.ambient_light = ts.vec3(tok.text)
+
+
+def _cube_map(ts: TokenStream, tok: Token, b: BackgroundBuilder) -> None:
+    name = ts.name(tok.text)
+    b.cube_map, b.cube_map_loc = name.text, name.loc
+
+
+BACKGROUND_RULES: Final[dict[str, Rule[BackgroundBuilder]]] = {
+    "color": _background_color, "ambientLight": _ambient_light, "cubeMap": _cube_map}
+
+
 def parse_background(ts: TokenStream, start: Token) -> Background:
     """``Background { (color V3 | ambientLight V3 | cubeMap NAME)* }`` in any order (A.4)."""
     ts.expect("{", "after 'Background'")
-    color, ambient = (0.5, 0.5, 0.5), (0.0, 0.0, 0.0)
-    cube_map: str | None = None
-    cube_loc: FileLoc | None = None
-    while True:
-        tok = ts.next()
-        if tok is not None and tok.text == "}":
-            return Background(color, ambient, cube_map, cube_loc, start.loc)
-        if tok is None:
-            raise ts.syntax_error("expected color, ambientLight, cubeMap or '}' in Background, found end of file", tok)
-        if tok.text == "color":
-            color = ts.vec3("color")
-        elif tok.text == "ambientLight":
-            ambient = ts.vec3("ambientLight")
-        elif tok.text == "cubeMap":
-            name = ts.name("cubeMap")
-            cube_map, cube_loc = name.text, name.loc
-        else:
-            raise ts.syntax_error(f"unknown Background keyword '{shown(tok.text)}' (expected color, ambientLight, "
-                                  "cubeMap or '}')", tok)
+    b = BackgroundBuilder()
+    keyword_block(ts, BACKGROUND_RULES, b, unknown_keyword(ts, "Background", tuple(BACKGROUND_RULES)))
+    return b.build(start.loc)
 
 
 # -- A.5 ------------------------------------------------------------------------------------------------
+def _noise_color(ts: TokenStream, tok: Token, n: NoiseBuilder) -> None:
+    if len(n.colors) == 2:
+        raise ts.syntax_error("Noise takes two colors, found a third 'color'", tok)
+    n.colors.append(ts.vec3("color"))
+
+
+def _octaves(ts: TokenStream, tok: Token, n: NoiseBuilder) -> None:
+    octaves, oct_tok = ts.integer("octaves")
+    if not 0 <= octaves <= 31:
+        raise ts.semantic_error(f"octaves must be between 0 and 31, found {octaves}", oct_tok.loc)
+    n.octaves = octaves
+
+
+def _frequency(ts: TokenStream, tok: Token, n: NoiseBuilder) -> None:
+    n.frequency = ts.number(tok.text)
+
+
+def _amplitude(ts: TokenStream, tok: Token, n: NoiseBuilder) -> None:
+    n.amplitude = ts.number(tok.text)
+
+
+NOISE_RULES: Final[dict[str, Rule[NoiseBuilder]]] = {
+    "color": _noise_color, "octaves": _octaves, "frequency": _frequency, "amplitude": _amplitude}
+
+
 def parse_noise(ts: TokenStream, start: Token) -> Noise:
-    """``Noise { color V3 (twice) octaves I frequency F amplitude F }`` in any order (A.5)."""
+    """``Noise { color V3 (twice) octaves I frequency F amplitude F }`` in any order (A.5, B.4)."""
     ts.expect("{", "after 'Noise'")
-    colors: list[Vec3] = []
-    octaves, frequency, amplitude = 0, 1.0, 1.0
-    while True:
-        tok = ts.next()
-        if tok is not None and tok.text == "}":
-            break
-        if tok is None:
-            raise ts.syntax_error("expected color, octaves, frequency, amplitude or '}' in Noise, found end of file",
-                                  tok)
-        if tok.text == "color":
-            if len(colors) == 2:
-                raise ts.syntax_error("Noise takes two colors, found a third 'color'", tok)
-            colors.append(ts.vec3("color"))
-        elif tok.text == "octaves":
-            octaves, oct_tok = ts.integer("octaves")
-            if not 0 <= octaves <= 31:
-                raise ts.semantic_error(f"octaves must be between 0 and 31, found {octaves}", oct_tok.loc)
-        elif tok.text == "frequency":
-            frequency = ts.number("frequency")
-        elif tok.text == "amplitude":
-            amplitude = ts.number("amplitude")
-        else:
-            raise ts.syntax_error(f"unknown Noise keyword '{shown(tok.text)}' (expected color, octaves, frequency, "
-                                  "amplitude or '}')", tok)
-    if len(colors) < 2:
-        ts.warn(start.loc, f"Noise has {len(colors)} of its 2 colors; the missing ones are 0 0 0")
-    colors += [(0.0, 0.0, 0.0)] * (2 - len(colors))
-    return Noise(colors[0], colors[1], octaves, frequency, amplitude, start.loc)
+    n = NoiseBuilder()
+    keyword_block(ts, NOISE_RULES, n, unknown_keyword(ts, "Noise", tuple(NOISE_RULES)))
+    if len(n.colors) < 2:
+        ts.warn(start.loc, f"Noise has {len(n.colors)} of its 2 colors; the missing ones are 0 0 0")
+    return n.build(start.loc)
 
 
-MATERIAL_KEYS: Final = ("diffuseColor", "specularColor", "shininess", "refractionIndex", "texture", "bump", "Noise",
-                         *ext_parser.MATERIAL_KEYWORDS, "'}'")
+def _diffuse_color(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    m.diffuse_color = ts.vec3(tok.text)
+
+
+def _specular_color(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    m.specular_color = ts.vec3(tok.text)
+
+
+def _shininess(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    m.shininess = ts.number(tok.text)
+
+
+def _refraction_index(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    """``refractionIndex F >= 0``, or ``refractionIndex dispersion A B`` (EXTENSIONS E.10)."""
+    if ext_parser.parse_dispersion(ts, tok, m):
+        return
+    n = ts.number(tok.text)
+    if n < 0.0:
+        raise ts.semantic_error(f"refractionIndex must not be negative, found {n:g}", tok.loc)
+    m.refraction_index = n
+
+
+def _texture(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    name = ts.name(tok.text)
+    m.texture, m.texture_loc = name.text, name.loc
+
+
+def _bump(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    """``bump NAME``: a5soln ignores it; EXTENSIONS E.7 uses it with ``-bump``."""
+    name = ts.name(tok.text)
+    m.bump, m.bump_loc = name.text, name.loc
+
+
+def _noise(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    if m.solid is not None:  # docs/EXTENSIONS.md E.6: one procedural colour source
+        raise ts.semantic_error("a Material takes one of Noise, Wood, Turbulence, Veins; found 'Noise' after another",
+                                tok.loc)
+    m.noise = parse_noise(ts, tok)
+
+
+#: The keywords of ``Material`` and their rules: A.5's, then the extensions' (in the order messages list them).
+MATERIAL_RULES: Final[dict[str, Rule[MaterialBuilder]]] = {
+    "diffuseColor": _diffuse_color, "specularColor": _specular_color, "shininess": _shininess,
+    "refractionIndex": _refraction_index, "texture": _texture, "bump": _bump, "Noise": _noise,
+    **ext_parser.MATERIAL_RULES}
 
 
 def parse_material(ts: TokenStream, start: Token) -> Material:
-    """``Material { ... }`` (or ``PhongMaterial``): keywords of A.5 in any order until ``}``."""
+    """``Material { ... }`` (or ``PhongMaterial``): the keywords of :data:`MATERIAL_RULES` in any order until
+    ``}`` (A.5); every keyword is consumed or reported (A.5's "an unknown word ends a Material" is an error)."""
     ts.expect("{", f"after '{start.text}'")
-    values: dict[str, object] = {"loc": start.loc}
-    while True:
-        tok = ts.next()
-        if tok is not None and tok.text == "}":
-            return Material(**values)  # type: ignore[arg-type]
-        if tok is None:
-            raise ts.syntax_error(f"expected {_one_of(MATERIAL_KEYS)} in Material, found end of file", tok)
-        if tok.text == "diffuseColor":
-            values["diffuse_color"] = ts.vec3(tok.text)
-        elif tok.text == "specularColor":
-            values["specular_color"] = ts.vec3(tok.text)
-        elif tok.text == "shininess":
-            values["shininess"] = ts.number(tok.text)
-        elif tok.text == "refractionIndex":
-            if ext_parser.parse_dispersion(ts, tok, values):  # refractionIndex dispersion A B (EXTENSIONS E.10)
-                continue
-            n = ts.number(tok.text)
-            if n < 0.0:
-                raise ts.semantic_error(f"refractionIndex must not be negative, found {n:g}", tok.loc)
-            values["refraction_index"] = n
-        elif tok.text == "texture":
-            name = ts.name(tok.text)
-            values["texture"], values["texture_loc"] = name.text, name.loc
-        elif tok.text == "bump":  # a5soln ignores it; docs/EXTENSIONS.md E.7 with -bump
-            name = ts.name(tok.text)
-            values["bump"], values["bump_loc"] = name.text, name.loc
-        elif tok.text == "Noise":
-            if "solid" in values:  # docs/EXTENSIONS.md E.6: one procedural colour source
-                raise ts.semantic_error("a Material takes one of Noise, Wood, Turbulence, Veins; found 'Noise' "
-                                        "after another", tok.loc)
-            values["noise"] = parse_noise(ts, tok)
-        elif tok.text in ext_parser.MATERIAL_KEYWORDS:
-            ext_parser.parse_material_keyword(ts, tok, values)
-        else:
-            raise ts.syntax_error(f"unknown Material keyword '{shown(tok.text)}' (expected "
-                                  f"{_one_of(MATERIAL_KEYS)})", tok)
+    m = MaterialBuilder(start.loc)
+    keyword_block(ts, MATERIAL_RULES, m, unknown_keyword(ts, "Material", tuple(MATERIAL_RULES)))
+    return m.build()
 
 
 def parse_materials(ts: TokenStream, start: Token) -> tuple[Material, ...]:
     """``Materials { numMaterials I Material{...}* }`` with exactly ``numMaterials`` entries (A.5)."""
-    return _counted_block(ts, "Materials", "numMaterials", "material",
-                          {"Material": parse_material, "PhongMaterial": parse_material})
-
-
-# -- A.6 ------------------------------------------------------------------------------------------------
-class _GroupState:
-    """The parser's global "current material" (A.6: sequential, survives nested groups) and the count."""
-
-    def __init__(self, num_materials: int | None) -> None:
-        self.num_materials = num_materials
-        self.current: int | None = None
-        self.materials_line: int | None = None  # line of the Materials block in effect
-        self.depth = 0  # Group / Transform nesting of the object being parsed
-
-
-def _material_for(ts: TokenStream, state: _GroupState, tok: Token) -> int:
-    if state.current is None:
-        raise ts.semantic_error(f"{tok.text} has no material: expected 'MaterialIndex' before it", tok.loc)
-    if state.num_materials is not None and state.current >= state.num_materials:
-        raise ts.semantic_error(
-            f"{tok.text} uses material {state.current}, set before the Materials block at line "
-            f"{state.materials_line} replaced the list with {_count(state.num_materials, 'material')}", tok.loc)
-    return state.current
-
-
-def parse_sphere(ts: TokenStream, start: Token, state: _GroupState) -> Sphere:
-    """``Sphere { center V3 radius F }``; the radius must be positive."""
-    ts.expect("{", "after 'Sphere'")
-    ts.expect("center", "in Sphere (fields: center, radius)")
-    center = ts.vec3("center")
-    r_tok = ts.expect("radius", "in Sphere (fields: center, radius)")
-    radius = ts.number("radius")
-    if radius <= 0.0:
-        raise ts.semantic_error(f"Sphere radius must be positive, found {radius:g}", r_tok.loc)
-    ts.expect("}", "to close Sphere")
-    return Sphere(center, radius, _material_for(ts, state, start), start.loc)
-
-
-def parse_plane(ts: TokenStream, start: Token, state: _GroupState) -> Plane:
-    """``Plane { normal V3 offset F }``: the plane ``P . normal = offset``, normal not normalised."""
-    normal, offset = _vector_then(ts, "Plane", ("normal", "offset"), "Plane normal", ts.number)
-    return Plane(normal, offset, _material_for(ts, state, start), start.loc)
-
-
-def parse_triangle(ts: TokenStream, start: Token, state: _GroupState) -> Triangle:
-    """``Triangle { vertex0 V3 vertex1 V3 vertex2 V3 }``; a zero-area triangle is an error."""
-    ts.expect("{", "after 'Triangle'")
-    vs: list[Vec3] = []
-    for key in ("vertex0", "vertex1", "vertex2"):
-        ts.expect(key, "in Triangle (fields: vertex0, vertex1, vertex2)")
-        vs.append(ts.vec3(key))
-    ts.expect("}", "to close Triangle")
-    a, b, c = (np.asarray(v) for v in vs)
-    if not np.any(np.cross(b - a, c - a)):
-        raise ts.semantic_error("Triangle has zero area", start.loc)
-    return Triangle(vs[0], vs[1], vs[2], _material_for(ts, state, start), start.loc)
-
-
-def parse_triangle_mesh(ts: TokenStream, start: Token, state: _GroupState) -> TriangleMesh:
-    """``TriangleMesh { obj_file NAME }``; NAME must end in ``.obj`` (A.6)."""
-    ts.expect("{", "after 'TriangleMesh'")
-    ts.expect("obj_file", "in TriangleMesh")
-    name = ts.name("obj_file")
-    if not name.text.endswith(".obj"):
-        raise ts.syntax_error(f"expected a file name ending in '.obj' after 'obj_file', found "
-                              f"'{shown(name.text)}'", name)
-    ts.expect("}", "to close TriangleMesh")
-    return TriangleMesh(name.text, _material_for(ts, state, start), start.loc, name.loc)
-
-
-def parse_transform(ts: TokenStream, start: Token, state: _GroupState) -> Transform:
-    """``Transform { <transform>* <object> }`` with exactly one object, last (A.6)."""
-    ts.expect("{", "after 'Transform'")
-    ops: list[TransformOp] = []
-    m = np.eye(4)
-    while True:
-        tok = ts.next()
-        if tok is None or tok.text not in TRANSFORMS + OBJECTS:
-            raise ts.syntax_error(f"expected a transform ({_one_of(TRANSFORMS)}) or an object "
-                                  f"({_one_of(OBJECTS)}) in Transform, found {_quoted(tok)}", tok)
-        if tok.text in OBJECTS:
-            child = parse_object(ts, tok, state)
-            break
-        args: tuple[float, ...]
-        if tok.text in ("Translate", "Scale"):
-            args = ts.vec3(tok.text)
-        elif tok.text == "Rotate":
-            ts.expect("{", "after 'Rotate'")
-            args = (*ts.vec3("Rotate"), ts.number("Rotate"))
-            _nonzero(ts, args[:3], "Rotate axis", tok.loc)  # type: ignore[arg-type]
-            ts.expect("}", "to close Rotate")
-        elif tok.text == "Matrix4f":
-            ts.expect("{", "after 'Matrix4f'")
-            args = tuple(ts.number("Matrix4f") for _ in range(16))
-            ts.expect("}", "to close Matrix4f (16 numbers)")
-        else:
-            args = (ts.number(tok.text),)
-        ops.append(TransformOp(tok.text, args, tok.loc))
-        m = transforms.apply_keyword(m, tok.text, args)
-    ts.expect("}", "to close Transform (a Transform holds exactly one object)")
-    det = float(np.linalg.det(m[:3, :3]))
-    if not math.isfinite(det) or det == 0.0 or not np.all(np.isfinite(m)):
-        raise ts.semantic_error(f"expected an invertible Transform, found a matrix with determinant {det:g} "
-                                "(a zero scale?)", start.loc)
-    return Transform(tuple(ops), transforms.as_tuple(m), child, start.loc)
-
-
-#: Deepest Group / Transform nesting accepted: every later stage walks the tree recursively, and the course
-#: scenes nest 3 deep; a positioned error instead of Python's RecursionError (issue 19).
-MAX_NESTING: Final = 100
-
-
-def parse_object(ts: TokenStream, tok: Token, state: _GroupState) -> Node:
-    """One ``<object>`` of A.6, its keyword ``tok`` already consumed; at most :data:`MAX_NESTING` deep."""
-    if tok.text in ("Group", "Transform"):
-        if state.depth >= MAX_NESTING:
-            raise ts.semantic_error(f"{tok.text} nested more than {MAX_NESTING} deep (the limit of a5mi)", tok.loc)
-        state.depth += 1
-        try:
-            return _parse_object(ts, tok, state)
-        finally:
-            state.depth -= 1
-    return _parse_object(ts, tok, state)
-
-
-def _parse_object(ts: TokenStream, tok: Token, state: _GroupState) -> Node:
-    if tok.text == "Group":
-        return parse_group(ts, tok, state)
-    if tok.text == "Sphere":
-        return parse_sphere(ts, tok, state)
-    if tok.text == "Plane":
-        return parse_plane(ts, tok, state)
-    if tok.text == "Triangle":
-        return parse_triangle(ts, tok, state)
-    if tok.text == "TriangleMesh":
-        return parse_triangle_mesh(ts, tok, state)
-    return parse_transform(ts, tok, state)
-
-
-def parse_group(ts: TokenStream, start: Token, state: _GroupState) -> Group:
-    """``Group { numObjects I (MaterialIndex I | <object>)* }``: exactly ``numObjects`` objects (A.6)."""
-    count = _block_count(ts, "Group", "numObjects")
-    children: list[Node] = []
-    while True:
-        tok = ts.next()
-        if tok is not None and tok.text == "}":
-            _check_count(ts, tok, "Group", "numObjects", count, len(children), "object")
-            return Group(count, tuple(children), start.loc)
-        if tok is not None and tok.text == "MaterialIndex":
-            index, index_tok = ts.integer("MaterialIndex")
-            n = state.num_materials
-            if n is None:
-                raise ts.semantic_error("MaterialIndex before any Materials block (Materials must come before "
-                                        "Group)", tok.loc)
-            if not 0 <= index < n:
-                raise ts.semantic_error(f"MaterialIndex {index} out of range: expected 0 to {n - 1} "
-                                        f"({n} materials)", index_tok.loc)
-            state.current = index
-            continue
-        if tok is None or tok.text not in OBJECTS:
-            raise ts.syntax_error(f"expected MaterialIndex, an object ({_one_of(OBJECTS)}) or '}}' in Group, "
-                                  f"found {_quoted(tok)}", tok)
-        if len(children) == count:
-            raise ts.syntax_error(f"Group declares numObjects {count} but an object follows: expected '}}', "
-                                  f"found '{shown(tok.text)}'", tok)
-        children.append(parse_object(ts, tok, state))
+    return counted_block(ts, "Materials", "numMaterials", "material",
+                         {"Material": parse_material, "PhongMaterial": parse_material})
 
 
 # -- A.1 ------------------------------------------------------------------------------------------------
+def _camera_block(ts: TokenStream, tok: Token, s: SceneBuilder) -> None:
+    s.camera = parse_camera(ts, tok)
+
+
+def _lights_block(ts: TokenStream, tok: Token, s: SceneBuilder) -> None:
+    s.lights = parse_lights(ts, tok)
+    if not s.lights:
+        ts.warn(tok.loc, "no lights: the ambient light is forced to 1 1 1 (as the sample solution does)")
+
+
+def _background_block(ts: TokenStream, tok: Token, s: SceneBuilder) -> None:
+    s.background = parse_background(ts, tok)
+
+
+def _materials_block(ts: TokenStream, tok: Token, s: SceneBuilder) -> None:
+    s.materials = parse_materials(ts, tok)
+    s.group.num_materials = len(s.materials)
+    s.group.materials_line = tok.loc.line
+    if s.root is not None:
+        ts.warn(tok.loc, "Materials block after the Group: the group keeps the materials it was parsed "
+                         "with (as the sample solution does)")
+
+
+def _group_block(ts: TokenStream, tok: Token, s: SceneBuilder) -> None:
+    s.root = parse_group(ts, tok, s.group)  # A.6: one "current material" for the whole file
+    s.group_materials = s.materials
+
+
+def _animation_block(ts: TokenStream, tok: Token, s: SceneBuilder) -> None:
+    s.animation = keyframes.parse_animation(ts, tok)  # docs/EXTENSIONS.md E.11
+
+
+def _medium_block(ts: TokenStream, tok: Token, s: SceneBuilder) -> None:
+    """docs/EXTENSIONS.md E.8, E.9: at most one medium."""
+    if s.medium is not None:
+        raise ts.semantic_error(f"a scene has at most one medium (Fog or Volume); {tok.text} follows the "
+                                f"one at line {s.medium.loc.line}", tok.loc)
+    s.medium = ext_parser.MEDIA[tok.text](ts, tok)
+
+
+#: The top-level blocks and their rules: A.1's five, ``Animation`` (E.11), ``Fog`` and ``Volume`` (E.8, E.9).
+BLOCK_RULES: Final[dict[str, Rule[SceneBuilder]]] = {
+    "PerspectiveCamera": _camera_block, "Lights": _lights_block, "Background": _background_block,
+    "Materials": _materials_block, "Group": _group_block, keyframes.KEYWORD: _animation_block,
+    **{medium: _medium_block for medium in ext_parser.MEDIA}}
+
+
 def parse_tokens(ts: TokenStream) -> Scene:
-    """The top level (A.1): any sequence of the five blocks; a repeated block replaces the earlier one."""
-    fields: dict[str, object] = {}
-    seen: dict[str, Token] = {}
-    # One "current material" for the whole file (A.6: it persists, also into a later Group block).
-    state = _GroupState(None)
-    group_materials: object = None  # the Materials list the (last) Group was parsed with
+    """The top level (A.1): any sequence of the blocks; a repeated block replaces the earlier one, except that
+    the ``Group`` keeps the ``Materials`` it was parsed with."""
+    s = SceneBuilder()
     while (tok := ts.next()) is not None:
-        if tok.text in ext_parser.MEDIA:  # docs/EXTENSIONS.md E.8, E.9: at most one medium
-            if "medium" in fields:
-                raise ts.semantic_error(f"a scene has at most one medium (Fog or Volume); {tok.text} follows the "
-                                        f"one at line {seen['medium'].loc.line}", tok.loc)
-            seen["medium"] = tok
-            fields["medium"] = ext_parser.MEDIA[tok.text](ts, tok)
-            continue
-        if tok.text not in TOP_LEVEL and tok.text != keyframes.KEYWORD:
-            raise ts.syntax_error(f"expected {_one_of(TOP_LEVEL)}, found '{shown(tok.text)}'", tok)
-        if tok.text in seen and not (tok.text == "Materials" and "Group" in seen):
-            ts.warn(tok.loc, f"second {tok.text} block replaces the one at line {seen[tok.text].loc.line}")
-        seen[tok.text] = tok
-        if tok.text == "PerspectiveCamera":
-            fields["camera"] = parse_camera(ts, tok)
-        elif tok.text == "Lights":
-            fields["lights"] = parse_lights(ts, tok)
-            if not fields["lights"]:
-                ts.warn(tok.loc, "no lights: the ambient light is forced to 1 1 1 (as the sample solution does)")
-        elif tok.text == "Background":
-            fields["background"] = parse_background(ts, tok)
-        elif tok.text == "Animation":  # docs/EXTENSIONS.md E.11
-            fields["animation"] = keyframes.parse_animation(ts, tok)
-        elif tok.text == "Materials":
-            fields["materials"] = parse_materials(ts, tok)
-            state.num_materials = len(fields["materials"])  # type: ignore[arg-type]
-            state.materials_line = tok.loc.line
-            if "Group" in seen:
-                ts.warn(tok.loc, "Materials block after the Group: the group keeps the materials it was parsed "
-                                 "with (as the sample solution does)")
-        else:
-            fields["root"] = parse_group(ts, tok, state)
-            group_materials = fields.get("materials")
-    if "root" in fields and group_materials is not None:
-        fields["materials"] = group_materials
-    for block, key in (("PerspectiveCamera", "camera"), ("Group", "root")):
-        if key not in fields:
-            raise ts.syntax_error(f"expected a {block} block somewhere in the file, found end of file", None)
-    if "Lights" not in seen:
+        rule = BLOCK_RULES.get(tok.text)
+        if rule is None:
+            raise ts.syntax_error(f"expected {one_of(TOP_LEVEL)}, found '{shown(tok.text)}'", tok)
+        if tok.text not in ext_parser.MEDIA:
+            earlier = s.blocks.get(tok.text)
+            if earlier is not None and not (tok.text == "Materials" and s.root is not None):
+                ts.warn(tok.loc, f"second {tok.text} block replaces the one at line {earlier.loc.line}")
+            s.blocks[tok.text] = tok
+        rule(ts, tok, s)
+    if s.camera is None:
+        raise ts.syntax_error("expected a PerspectiveCamera block somewhere in the file, found end of file", None)
+    if s.root is None:
+        raise ts.syntax_error("expected a Group block somewhere in the file, found end of file", None)
+    if "Lights" not in s.blocks:
         ts.warn(ts.eof_loc, "no Lights block: the ambient light is forced to 1 1 1 (as the sample solution does)")
-    scene = Scene(path=ts.path, warnings=tuple(ts.warnings), **fields)  # type: ignore[arg-type]
+    materials = s.group_materials if s.group_materials is not None else s.materials
+    scene = Scene(path=ts.path, camera=s.camera, lights=s.lights, background=s.background,
+                  materials=materials or (), root=s.root, warnings=tuple(ts.warnings), medium=s.medium,
+                  animation=s.animation)
     keyframes.check(ts, scene)  # E.11: the tracks' targets exist (the whole scene is known only now)
     return scene
 
@@ -617,7 +344,7 @@ def parse_text(text: str, path: str = "<string>") -> Scene:
     if not isinstance(text, str):
         raise TypeError(f"parse_text expects str, not {type(text).__name__}")
     if not text.strip():
-        raise SceneSyntaxError("empty scene file: expected " + _one_of(TOP_LEVEL) + ", found end of file",
+        raise SceneSyntaxError("empty scene file: expected " + one_of(TOP_LEVEL) + ", found end of file",
                                FileLoc(path, 1, 1), "")
     ts = TokenStream(text, path)
     if not path.endswith(".txt") and path != "<string>":

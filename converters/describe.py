@@ -135,7 +135,7 @@ class PlaneShape:
     ``rectangle`` standing in for it: the (4, 4) ``to_world`` of Mitsuba's ``rectangle`` (:mod:`.geometry`).
     ``mirror_normal``: the normal the binary mirrors rays with, ``n`` as written for a plane outside any
     ``Transform``, else the normalised world normal (the binary's Transform normalises the normals it maps;
-    measured against a5soln, issue 12)."""
+    measured against a5soln, SPEC A.6, C)."""
 
     n_w: np.ndarray
     offset_w: float
@@ -276,7 +276,7 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
                     warnings.append((mat.bump_loc or mat.loc, warning))  # type: ignore[arg-type]
         if mat.texture is None:
             return
-        # A referenced file is checked wherever it is used, shown or not (issue 12).
+        # A referenced file is checked wherever it is used, even where Noise hides it (SPEC B.3 kd order).
         image = files.texture_image(scene, mat, decoded)
         if mat.noise is None and mat.solid is None:
             textures.setdefault(index, image)

@@ -1,31 +1,32 @@
-"""Parser rules of the scene-language extensions (docs/EXTENSIONS.md E.1-E.4, E.6, E.7).
+"""Parser rules of the scene-language extensions (docs/EXTENSIONS.md E.1-E.4, E.6-E.10).
 
-New blocks and keywords, read from the same :class:`~.a5_parser.TokenStream` with the same positioned errors
-as the course grammar (SPEC A): ``SpotLight``, ``AreaLight``, ``SphereLight`` inside ``Lights``; ``aperture`` /
-``focusDistance`` at the end of ``PerspectiveCamera``; ``roughness`` / ``glossySamples`` in ``Material``;
-``refractionIndex dispersion A B`` (E.10); the top-level ``Fog`` and ``Volume`` blocks (E.8, E.9; at most one
-medium per scene). A course scene contains none of them, so it parses to the same model as before (every new
-field has the default that means "as SPEC B").. Part 2: ``Wood`` / ``Turbulence`` / ``Veins`` blocks (E.6) and
-``bumpScale`` / ``normalMap`` (E.7) in ``Material``.
+New blocks and keywords, read from the same :class:`~.tokens.TokenStream` with the same positioned errors
+as the course grammar (SPEC A): ``SpotLight``, ``AreaLight``, ``SphereLight`` inside ``Lights`` (E.1, E.2);
+``aperture`` / ``focusDistance`` at the end of ``PerspectiveCamera`` (E.3); in ``Material``, ``roughness`` /
+``glossySamples`` (E.4), ``Wood`` / ``Turbulence`` / ``Veins`` blocks (E.6), ``bumpScale`` / ``normalMap``
+(E.7) and ``refractionIndex dispersion A B`` (E.10), each a rule of :data:`MATERIAL_RULES` that fills the
+:class:`~.builders.MaterialBuilder`; the top-level ``Fog`` and ``Volume`` blocks (E.8, E.9; at most one medium
+per scene). A course scene contains none of them, so it parses to the same model as before (every new field
+has the default that means "as SPEC B").
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Final
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Final
 
 from a5mi.spec import DISPERSION_RANGE_NM
 
-from .model import AreaLight, Fog, Solid, SphereLight, SpotLight, Vec3, Volume
-
-if TYPE_CHECKING:
-    from .a5_parser import TokenStream
-    from .lexer import Token
+from .builders import MaterialBuilder, SolidBuilder
+from .errors import FileLoc
+from .lexer import Token
+from .model import AreaLight, Fog, Light, Medium, Solid, SphereLight, SpotLight, Vec3, Volume
+from .tokens import Rule, TokenStream, keyword_block, quoted_raw
 
 #: Upper bound of ``samples`` / ``glossySamples`` (one kernel loop bound / stack size, EXTENSIONS E.5).
 MAX_LIGHT_SAMPLES: Final = 4096
 MAX_GLOSSY_SAMPLES: Final = 64
-#: The keywords this module adds to ``Material`` (for the parser's error message).
-MATERIAL_KEYWORDS: Final = ("roughness", "glossySamples", "Wood", "Turbulence", "Veins", "bumpScale", "normalMap")
 #: The procedural solid blocks (E.6) -> the ``a5_solid`` kind, and the keywords each takes besides ``color``.
 SOLIDS: Final = {"Wood": "wood", "Turbulence": "turbulence", "Veins": "veins"}
 SOLID_KEYWORDS: Final = {
@@ -42,95 +43,107 @@ TOP_LEVEL: Final = ("Fog", "Volume")
 _V3, _F, _I, _N = "vec3", "number", "integer", "name"
 
 
-def _fields(ts: TokenStream, start: Token, block: str, kinds: dict[str, str],
-            required: tuple[str, ...]) -> dict[str, object]:
+@dataclass
+class Fields:
+    """The values of one extension block, by kind (``V3``, ``F``, ``I``, ``NAME``), and where each keyword was
+    written (``locs``), so that a range check reports at the offending keyword (SPEC A.0 style)."""
+
+    vecs: dict[str, Vec3] = field(default_factory=dict)
+    nums: dict[str, float] = field(default_factory=dict)
+    ints: dict[str, int] = field(default_factory=dict)
+    names: dict[str, Token] = field(default_factory=dict)
+    locs: dict[str, FileLoc] = field(default_factory=dict)
+
+    def check(self, ts: TokenStream, ok: bool, key: str, msg: str) -> None:
+        """``msg`` at keyword ``key`` unless ``ok``."""
+        if not ok:
+            raise ts.semantic_error(msg, self.locs[key])
+
+
+def _fields(ts: TokenStream, start: Token, block: str, kinds: dict[str, str], required: tuple[str, ...]) -> Fields:
     """``BLOCK { (KEY value)* }``, keys of ``kinds`` in any order, each at most once; ``required`` must appear.
-    Values are checked here for type only; the callers check ranges at the keyword's position, so every
-    error points at the offending token (SPEC A.0 style)."""
+    Values are checked here for type only; the callers check ranges with :meth:`Fields.check`."""
     ts.expect("{", f"after '{block}'")
-    values: dict[str, object] = {}
-    locs: dict[str, object] = {}
+    f = Fields()
     while True:
         tok = ts.next()
         if tok is not None and tok.text == "}":
             break
         if tok is None or tok.text not in kinds:
-            found = "end of file" if tok is None else f"'{tok.text}'"
-            raise ts.syntax_error(f"expected {', '.join(kinds)} or '}}' in {block}, found {found}", tok)
-        if tok.text in values:
-            raise ts.syntax_error(f"{block} gives '{tok.text}' twice", tok)
-        kind = kinds[tok.text]
+            raise ts.syntax_error(f"expected {', '.join(kinds)} or '}}' in {block}, found {quoted_raw(tok)}", tok)
+        key = tok.text
+        if key in f.locs:
+            raise ts.syntax_error(f"{block} gives '{key}' twice", tok)
+        kind = kinds[key]
         if kind == _N:
-            name = ts.name(tok.text)
-            values[tok.text], locs[tok.text + ":value"] = name.text, name.loc
+            f.names[key] = ts.name(key)
+        elif kind == _V3:
+            f.vecs[key] = ts.vec3(key)
+        elif kind == _F:
+            f.nums[key] = ts.number(key)
         else:
-            values[tok.text] = (ts.vec3(tok.text) if kind == _V3 else ts.number(tok.text) if kind == _F
-                                else ts.integer(tok.text)[0])
-        locs[tok.text] = tok.loc
+            f.ints[key] = ts.integer(key)[0]
+        f.locs[key] = tok.loc
     for key in required:
-        if key not in values:
+        if key not in f.locs:
             raise ts.semantic_error(f"{block} needs '{key}'", start.loc)
-    values["_locs"] = locs
-    return values
-
-
-def _check(ts: TokenStream, ok: bool, values: dict[str, object], key: str, msg: str) -> None:
-    if not ok:
-        raise ts.semantic_error(msg, values["_locs"][key])  # type: ignore[index]
+    return f
 
 
 def _nonzero(v: Vec3) -> bool:
     return any(c != 0.0 for c in v)
 
 
-def _falloff_samples(ts: TokenStream, block: str, values: dict[str, object]) -> tuple[float, int]:
-    falloff = float(values.get("falloff", 0.0))  # type: ignore[arg-type]
-    _check(ts, falloff >= 0.0, values, "falloff", f"{block} falloff must not be negative, found {falloff:g}")
-    samples = int(values.get("samples", 16))  # type: ignore[call-overload]
-    _check(ts, 1 <= samples <= MAX_LIGHT_SAMPLES, values, "samples",
-           f"{block} samples must be between 1 and {MAX_LIGHT_SAMPLES}, found {samples}")
+def _falloff_samples(ts: TokenStream, block: str, f: Fields) -> tuple[float, int]:
+    falloff = f.nums.get("falloff", 0.0)
+    f.check(ts, falloff >= 0.0, "falloff", f"{block} falloff must not be negative, found {falloff:g}")
+    samples = f.ints.get("samples", 16)
+    f.check(ts, 1 <= samples <= MAX_LIGHT_SAMPLES, "samples",
+            f"{block} samples must be between 1 and {MAX_LIGHT_SAMPLES}, found {samples}")
     return falloff, samples
 
 
 def parse_spot_light(ts: TokenStream, start: Token) -> SpotLight:
     """``SpotLight { position V3 direction V3 color V3 [falloff F] angle F [beamWidth F] }`` (E.1): any order;
     ``0 < beamWidth <= angle < 90`` degrees, ``beamWidth`` defaulting to ``3/4 angle``."""
-    v = _fields(ts, start, "SpotLight", {"position": _V3, "direction": _V3, "color": _V3, "falloff": _F,
+    f = _fields(ts, start, "SpotLight", {"position": _V3, "direction": _V3, "color": _V3, "falloff": _F,
                                          "angle": _F, "beamWidth": _F}, ("position", "direction", "color", "angle"))
-    _check(ts, _nonzero(v["direction"]), v, "direction", "SpotLight direction must not be the zero vector")  # type: ignore[arg-type]
-    angle = float(v["angle"])  # type: ignore[arg-type]
-    _check(ts, 0.0 < angle < 90.0, v, "angle", f"SpotLight angle must be between 0 and 90 degrees, found {angle:g}")
-    beam = float(v.get("beamWidth", 0.75 * angle))  # type: ignore[arg-type]
-    _check(ts, 0.0 < beam <= angle, v, "beamWidth",
-           f"SpotLight beamWidth must be in (0, angle = {angle:g}] degrees, found {beam:g}")
-    falloff, _ = _falloff_samples(ts, "SpotLight", v)
-    return SpotLight(v["position"], v["direction"], v["color"], falloff, angle, beam, start.loc)  # type: ignore[arg-type]
+    v = f.vecs
+    f.check(ts, _nonzero(v["direction"]), "direction", "SpotLight direction must not be the zero vector")
+    angle = f.nums["angle"]
+    f.check(ts, 0.0 < angle < 90.0, "angle", f"SpotLight angle must be between 0 and 90 degrees, found {angle:g}")
+    beam = f.nums.get("beamWidth", 0.75 * angle)
+    f.check(ts, 0.0 < beam <= angle, "beamWidth",
+            f"SpotLight beamWidth must be in (0, angle = {angle:g}] degrees, found {beam:g}")
+    falloff, _ = _falloff_samples(ts, "SpotLight", f)
+    return SpotLight(v["position"], v["direction"], v["color"], falloff, angle, beam, start.loc)
 
 
 def parse_area_light(ts: TokenStream, start: Token) -> AreaLight:
     """``AreaLight { corner V3 edge1 V3 edge2 V3 color V3 [falloff F] [samples I] }`` (E.2); the edges must
-    span a parallelogram of non-zero area; ``samples`` defaults to 16."""
-    v = _fields(ts, start, "AreaLight", {"corner": _V3, "edge1": _V3, "edge2": _V3, "color": _V3, "falloff": _F,
+    span a parallelogram of non-zero area (``edge1 × edge2 ≠ 0``); ``samples`` defaults to 16."""
+    f = _fields(ts, start, "AreaLight", {"corner": _V3, "edge1": _V3, "edge2": _V3, "color": _V3, "falloff": _F,
                                          "samples": _I}, ("corner", "edge1", "edge2", "color"))
-    e1, e2 = v["edge1"], v["edge2"]
-    cross = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])  # type: ignore[index]
-    _check(ts, _nonzero(cross), v, "edge2", "AreaLight edge1 and edge2 must span a non-zero area")
-    falloff, samples = _falloff_samples(ts, "AreaLight", v)
-    return AreaLight(v["corner"], e1, e2, v["color"], falloff, samples, start.loc)  # type: ignore[arg-type]
+    e1, e2 = f.vecs["edge1"], f.vecs["edge2"]
+    cross = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])
+    f.check(ts, _nonzero(cross), "edge2", "AreaLight edge1 and edge2 must span a non-zero area")
+    falloff, samples = _falloff_samples(ts, "AreaLight", f)
+    return AreaLight(f.vecs["corner"], e1, e2, f.vecs["color"], falloff, samples, start.loc)
 
 
 def parse_sphere_light(ts: TokenStream, start: Token) -> SphereLight:
     """``SphereLight { center V3 radius F color V3 [falloff F] [samples I] }`` (E.2); radius > 0."""
-    v = _fields(ts, start, "SphereLight", {"center": _V3, "radius": _F, "color": _V3, "falloff": _F,
+    f = _fields(ts, start, "SphereLight", {"center": _V3, "radius": _F, "color": _V3, "falloff": _F,
                                            "samples": _I}, ("center", "radius", "color"))
-    radius = float(v["radius"])  # type: ignore[arg-type]
-    _check(ts, radius > 0.0, v, "radius", f"SphereLight radius must be positive, found {radius:g}")
-    falloff, samples = _falloff_samples(ts, "SphereLight", v)
-    return SphereLight(v["center"], radius, v["color"], falloff, samples, start.loc)  # type: ignore[arg-type]
+    radius = f.nums["radius"]
+    f.check(ts, radius > 0.0, "radius", f"SphereLight radius must be positive, found {radius:g}")
+    falloff, samples = _falloff_samples(ts, "SphereLight", f)
+    return SphereLight(f.vecs["center"], radius, f.vecs["color"], falloff, samples, start.loc)
 
 
 #: ``Lights`` entries this module adds (name -> parse function).
-LIGHTS: Final = {"SpotLight": parse_spot_light, "AreaLight": parse_area_light, "SphereLight": parse_sphere_light}
+LIGHTS: Final[dict[str, Callable[[TokenStream, Token], Light]]] = {
+    "SpotLight": parse_spot_light, "AreaLight": parse_area_light, "SphereLight": parse_sphere_light}
 
 
 def parse_camera_lens(ts: TokenStream) -> tuple[float, float]:
@@ -143,9 +156,8 @@ def parse_camera_lens(ts: TokenStream) -> tuple[float, float]:
         if tok is not None and tok.text == "}":
             return aperture, focus
         if tok is None or tok.text not in ("aperture", "focusDistance") or tok.text in seen:
-            found = "end of file" if tok is None else f"'{tok.text}'"
             raise ts.syntax_error(f"expected '}}' to close PerspectiveCamera (or aperture, focusDistance), "
-                                  f"found {found}", tok)
+                                  f"found {quoted_raw(tok)}", tok)
         seen.add(tok.text)
         value = ts.number(tok.text)
         if tok.text == "aperture":
@@ -158,6 +170,64 @@ def parse_camera_lens(ts: TokenStream) -> tuple[float, float]:
             focus = value
 
 
+# ---------------------------------------------------------------------------------------- E.6 solid textures
+def _solid_once(ts: TokenStream, tok: Token, s: SolidBuilder) -> None:
+    if tok.text in s.given:
+        raise ts.syntax_error(f"{s.block} gives '{tok.text}' twice", tok)
+    s.given.add(tok.text)
+
+
+def _solid_color(ts: TokenStream, tok: Token, s: SolidBuilder) -> None:
+    if len(s.colors) == 2:
+        raise ts.syntax_error(f"{s.block} takes two colors, found a third 'color'", tok)
+    s.colors.append(ts.vec3("color"))
+
+
+def _solid_octaves(ts: TokenStream, tok: Token, s: SolidBuilder) -> None:
+    _solid_once(ts, tok, s)
+    n, n_tok = ts.integer("octaves")
+    if not 0 <= n <= 31:
+        raise ts.semantic_error(f"{s.block} octaves must be between 0 and 31, found {n}", n_tok.loc)
+    s.octaves = n
+
+
+def _solid_frequency(ts: TokenStream, tok: Token, s: SolidBuilder) -> None:
+    _solid_once(ts, tok, s)
+    s.frequency = ts.number(tok.text)
+
+
+def _solid_amplitude(ts: TokenStream, tok: Token, s: SolidBuilder) -> None:
+    _solid_once(ts, tok, s)
+    s.amplitude = ts.number(tok.text)
+
+
+def _solid_scale(ts: TokenStream, tok: Token, s: SolidBuilder) -> None:
+    _solid_once(ts, tok, s)
+    x = ts.number(tok.text)
+    if x <= 0.0:
+        raise ts.semantic_error(f"{s.block} scale must be positive, found {x:g}", tok.loc)
+    s.scale = x
+
+
+def _solid_axis(ts: TokenStream, tok: Token, s: SolidBuilder) -> None:
+    _solid_once(ts, tok, s)
+    axis = ts.vec3(tok.text)
+    if not _nonzero(axis):
+        raise ts.semantic_error(f"{s.block} axis must not be the zero vector", tok.loc)
+    s.axis = axis
+
+
+def _solid_center(ts: TokenStream, tok: Token, s: SolidBuilder) -> None:
+    _solid_once(ts, tok, s)
+    s.center = ts.vec3(tok.text)
+
+
+#: Every keyword of the solid blocks and its rule; each block takes ``color`` and its :data:`SOLID_KEYWORDS`.
+SOLID_RULES: Final[dict[str, Rule[SolidBuilder]]] = {
+    "color": _solid_color, "octaves": _solid_octaves, "frequency": _solid_frequency, "amplitude": _solid_amplitude,
+    "scale": _solid_scale, "axis": _solid_axis, "center": _solid_center}
+
+
 def parse_solid(ts: TokenStream, start: Token) -> Solid:
     """``Wood { color V3 color V3 [octaves I] [frequency F] [amplitude F] [scale F] [axis V3] [center V3] }``,
     ``Turbulence { color V3 color V3 [octaves I] [amplitude F] [scale F] }``, ``Veins { color V3 color V3
@@ -166,88 +236,101 @@ def parse_solid(ts: TokenStream, start: Token) -> Solid:
     block = start.text
     keys = SOLID_KEYWORDS[block]
     ts.expect("{", f"after '{block}'")
-    colors: list[Vec3] = []
-    v: dict[str, object] = {}
-    while True:
-        tok = ts.next()
-        if tok is not None and tok.text == "}":
-            break
-        if tok is None or (tok.text != "color" and tok.text not in keys):
-            found = "end of file" if tok is None else f"'{tok.text}'"
-            raise ts.syntax_error(f"expected color, {', '.join(keys)} or '}}' in {block}, found {found}", tok)
-        if tok.text == "color":
-            if len(colors) == 2:
-                raise ts.syntax_error(f"{block} takes two colors, found a third 'color'", tok)
-            colors.append(ts.vec3("color"))
-            continue
-        if tok.text in v:
-            raise ts.syntax_error(f"{block} gives '{tok.text}' twice", tok)
-        if tok.text == "octaves":
-            n, n_tok = ts.integer("octaves")
-            if not 0 <= n <= 31:
-                raise ts.semantic_error(f"{block} octaves must be between 0 and 31, found {n}", n_tok.loc)
-            v["octaves"] = n
-        elif tok.text in ("axis", "center"):
-            vec = ts.vec3(tok.text)
-            if tok.text == "axis" and not _nonzero(vec):
-                raise ts.semantic_error(f"{block} axis must not be the zero vector", tok.loc)
-            v[tok.text] = vec
-        else:
-            x = ts.number(tok.text)
-            if tok.text == "scale" and x <= 0.0:
-                raise ts.semantic_error(f"{block} scale must be positive, found {x:g}", tok.loc)
-            v[tok.text] = x
-    if len(colors) < 2:
-        raise ts.semantic_error(f"{block} needs two colors, found {len(colors)}", start.loc)
-    return Solid(SOLIDS[block], colors[0], colors[1], loc=start.loc, **v)  # type: ignore[arg-type]
+    s = SolidBuilder(block, SOLIDS[block])
+    keyword_block(ts, {k: SOLID_RULES[k] for k in ("color", *keys)}, s, lambda tok: ts.syntax_error(
+        f"expected color, {', '.join(keys)} or '}}' in {block}, found {quoted_raw(tok)}", tok))
+    if len(s.colors) < 2:
+        raise ts.semantic_error(f"{block} needs two colors, found {len(s.colors)}", start.loc)
+    return s.build(start.loc)
 
 
-def parse_material_keyword(ts: TokenStream, tok: Token, values: dict[str, object]) -> None:
-    """Inside ``Material``: ``roughness F`` (GGX alpha, 0 <= alpha <= 1) or ``glossySamples I`` (1..64) (E.4);
-    a ``Wood`` / ``Turbulence`` / ``Veins`` block (E.6; one colour source: not with ``Noise`` or another solid);
-    ``bumpScale F`` (finite, E.7) or ``normalMap NAME`` (E.7)."""
-    if tok.text in SOLIDS:
-        if "noise" in values or "solid" in values:
-            raise ts.semantic_error(f"a Material takes one of Noise, {', '.join(SOLIDS)}; found '{tok.text}' "
-                                    "after another", tok.loc)
-        values["solid"] = parse_solid(ts, tok)
-    elif tok.text == "bumpScale":
-        values["bump_scale"] = ts.number(tok.text)
-    elif tok.text == "normalMap":
-        name = ts.name(tok.text)
-        values["normal_map"], values["normal_map_loc"] = name.text, name.loc
-    elif tok.text == "roughness":
-        alpha = ts.number(tok.text)
-        if not 0.0 <= alpha <= 1.0:
-            raise ts.semantic_error(f"roughness must be between 0 and 1, found {alpha:g}", tok.loc)
-        values["roughness"] = alpha
-    else:
-        n, n_tok = ts.integer(tok.text)
-        if not 1 <= n <= MAX_GLOSSY_SAMPLES:
-            raise ts.semantic_error(f"glossySamples must be between 1 and {MAX_GLOSSY_SAMPLES}, found {n}",
-                                    n_tok.loc)
-        values["glossy_samples"] = n
+# ------------------------------------------------------------------------------- Material: E.4, E.6, E.7, E.10
+def _material_solid(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    """E.6: one colour source, so not after ``Noise`` or another solid."""
+    if m.noise is not None or m.solid is not None:
+        raise ts.semantic_error(f"a Material takes one of Noise, {', '.join(SOLIDS)}; found '{tok.text}' "
+                                "after another", tok.loc)
+    m.solid = parse_solid(ts, tok)
+
+
+def _bump_scale(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    """E.7: ``bumpScale F``, the height of grey 1 in world units."""
+    m.bump_scale = ts.number(tok.text)
+
+
+def _normal_map(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    """E.7: ``normalMap NAME``, a tangent-space normal map."""
+    name = ts.name(tok.text)
+    m.normal_map, m.normal_map_loc = name.text, name.loc
+
+
+def _roughness(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    """E.4: ``roughness F``, the GGX alpha, 0 <= alpha <= 1."""
+    alpha = ts.number(tok.text)
+    if not 0.0 <= alpha <= 1.0:
+        raise ts.semantic_error(f"roughness must be between 0 and 1, found {alpha:g}", tok.loc)
+    m.roughness = alpha
+
+
+def _glossy_samples(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    """E.4: ``glossySamples I``, 1 <= G <= :data:`MAX_GLOSSY_SAMPLES`."""
+    n, n_tok = ts.integer(tok.text)
+    if not 1 <= n <= MAX_GLOSSY_SAMPLES:
+        raise ts.semantic_error(f"glossySamples must be between 1 and {MAX_GLOSSY_SAMPLES}, found {n}", n_tok.loc)
+    m.glossy_samples = n
+
+
+#: The keywords this module adds to ``Material`` and their rules, in the order the parser's message lists them.
+MATERIAL_RULES: Final[dict[str, Rule[MaterialBuilder]]] = {
+    "roughness": _roughness, "glossySamples": _glossy_samples, "Wood": _material_solid,
+    "Turbulence": _material_solid, "Veins": _material_solid, "bumpScale": _bump_scale, "normalMap": _normal_map}
+MATERIAL_KEYWORDS: Final = tuple(MATERIAL_RULES)
+
+
+def parse_dispersion(ts: TokenStream, tok: Token, m: MaterialBuilder) -> bool:
+    """After ``refractionIndex`` (``tok``): ``dispersion A B`` (E.10), Cauchy's ``n(λ) = A + B/λ²`` with ``λ`` in
+    µm and ``B`` in µm². Sets ``m.refraction_index = A`` and ``m.dispersion = B`` and returns True; ``A > 0``
+    and ``n(λ) > 0`` over the sampled range (:data:`a5mi.spec.DISPERSION_RANGE_NM`), each checked at its
+    number. Any other next token: consumes nothing, forgets an earlier ``dispersion`` (the last
+    ``refractionIndex`` of a Material wins, as in SPEC A.5) and returns False."""
+    nxt = ts.peek()
+    if nxt is None or nxt.text != "dispersion":
+        m.dispersion = None
+        return False
+    ts.next()
+    a, a_tok = ts.number_at("dispersion")
+    if a <= 0.0:
+        raise ts.semantic_error(f"dispersion A (the index far in the infrared) must be positive, found {a:g}",
+                                a_tok.loc)
+    b, b_tok = ts.number_at("dispersion")
+    for lam_nm in DISPERSION_RANGE_NM:
+        n = a + b / (lam_nm * 1e-3) ** 2
+        if n <= 0.0:
+            raise ts.semantic_error(f"dispersion {a:g} {b:g} gives the index {n:g} at {lam_nm:g} nm: it must stay "
+                                    "positive over the sampled range", b_tok.loc)
+    m.refraction_index, m.dispersion = a, b
+    return True
 
 
 # ------------------------------------------------------------------------------------------- E.8, E.9 media
-def _medium_common(ts: TokenStream, block: str, v: dict[str, object], default_steps: int) -> tuple[float, Vec3, int]:
-    density = float(v["density"])  # type: ignore[arg-type]
-    _check(ts, density >= 0.0, v, "density", f"{block} density must not be negative, found {density:g}")
-    color: Vec3 = v.get("color", (1.0, 1.0, 1.0))  # type: ignore[assignment]
-    _check(ts, all(0.0 <= c <= 1.0 for c in color), v, "color",
-           f"{block} color is the single-scattering albedo: each component must be in [0, 1], found "
-           f"{' '.join(f'{c:g}' for c in color)}")
-    steps = int(v.get("steps", default_steps))  # type: ignore[call-overload]
-    _check(ts, 1 <= steps <= MAX_MEDIUM_STEPS, v, "steps",
-           f"{block} steps must be between 1 and {MAX_MEDIUM_STEPS}, found {steps}")
+def _medium_common(ts: TokenStream, block: str, f: Fields, default_steps: int) -> tuple[float, Vec3, int]:
+    density = f.nums["density"]
+    f.check(ts, density >= 0.0, "density", f"{block} density must not be negative, found {density:g}")
+    color = f.vecs.get("color", (1.0, 1.0, 1.0))
+    f.check(ts, all(0.0 <= c <= 1.0 for c in color), "color",
+            f"{block} color is the single-scattering albedo: each component must be in [0, 1], found "
+            f"{' '.join(f'{c:g}' for c in color)}")
+    steps = f.ints.get("steps", default_steps)
+    f.check(ts, 1 <= steps <= MAX_MEDIUM_STEPS, "steps",
+            f"{block} steps must be between 1 and {MAX_MEDIUM_STEPS}, found {steps}")
     return density, color, steps
 
 
 def parse_fog(ts: TokenStream, start: Token) -> Fog:
     """``Fog { color V3 density F [steps I] }`` (E.8): any order; ``density >= 0`` (extinction per unit
     length), ``color`` in [0, 1]³ (the albedo), ``1 <= steps <= 1024`` (default 16)."""
-    v = _fields(ts, start, "Fog", {"color": _V3, "density": _F, "steps": _I}, ("color", "density"))
-    density, color, steps = _medium_common(ts, "Fog", v, 16)
+    f = _fields(ts, start, "Fog", {"color": _V3, "density": _F, "steps": _I}, ("color", "density"))
+    density, color, steps = _medium_common(ts, "Fog", f, 16)
     return Fog(color, density, steps, start.loc)
 
 
@@ -255,39 +338,15 @@ def parse_volume(ts: TokenStream, start: Token) -> Volume:
     """``Volume { grid NAME density F min V3 max V3 [color V3] [steps I] }`` (E.9): any order; ``min < max``
     in every coordinate, ``density >= 0`` (scales the grid's values), ``color`` the albedo (default 1 1 1),
     ``steps`` the marching steps across the box (default 64)."""
-    v = _fields(ts, start, "Volume", {"grid": _N, "density": _F, "min": _V3, "max": _V3, "color": _V3,
+    f = _fields(ts, start, "Volume", {"grid": _N, "density": _F, "min": _V3, "max": _V3, "color": _V3,
                                       "steps": _I}, ("grid", "density", "min", "max"))
-    lo, hi = v["min"], v["max"]
-    _check(ts, all(a < b for a, b in zip(lo, hi, strict=True)), v, "max",  # type: ignore[call-overload]
-           "Volume max must exceed min in every coordinate")
-    density, color, steps = _medium_common(ts, "Volume", v, 64)
-    return Volume(str(v["grid"]), density, lo, hi, color, steps, start.loc, v["_locs"]["grid:value"])  # type: ignore[arg-type, index]
+    lo, hi = f.vecs["min"], f.vecs["max"]
+    f.check(ts, all(a < b for a, b in zip(lo, hi, strict=True)), "max",
+            "Volume max must exceed min in every coordinate")
+    density, color, steps = _medium_common(ts, "Volume", f, 64)
+    grid = f.names["grid"]
+    return Volume(grid.text, density, lo, hi, color, steps, start.loc, grid.loc)
 
 
 #: Top-level blocks (name -> parse function); each sets the scene's ``medium``.
-MEDIA: Final = {"Fog": parse_fog, "Volume": parse_volume}
-def parse_dispersion(ts: TokenStream, tok: Token, values: dict[str, object]) -> bool:
-    """After ``refractionIndex`` (``tok``): ``dispersion A B`` (E.10), Cauchy's ``n(λ) = A + B/λ²`` with ``λ`` in
-    µm and ``B`` in µm². Sets ``values['refraction_index'] = A`` and ``values['dispersion'] = B`` and returns
-    True; ``A > 0`` and ``n(λ) > 0`` over the sampled range (:data:`a5mi.spec.DISPERSION_RANGE_NM`), each
-    checked at its number. Any other next token: consumes nothing, forgets an earlier ``dispersion`` (the last
-    ``refractionIndex`` of a Material wins, as in SPEC A.5) and returns False."""
-    nxt = ts.peek()
-    if nxt is None or nxt.text != "dispersion":
-        values.pop("dispersion", None)
-        return False
-    ts.next()
-    a_tok = ts.peek()
-    a = ts.number("dispersion")
-    if a <= 0.0:
-        raise ts.semantic_error(f"dispersion A (the index far in the infrared) must be positive, found {a:g}",
-                                a_tok.loc)  # type: ignore[union-attr]
-    b_tok = ts.peek()
-    b = ts.number("dispersion")
-    for lam_nm in DISPERSION_RANGE_NM:
-        n = a + b / (lam_nm * 1e-3) ** 2
-        if n <= 0.0:
-            raise ts.semantic_error(f"dispersion {a:g} {b:g} gives the index {n:g} at {lam_nm:g} nm: it must stay "
-                                    "positive over the sampled range", b_tok.loc)  # type: ignore[union-attr]
-    values["refraction_index"], values["dispersion"] = a, b
-    return True
+MEDIA: Final[dict[str, Callable[[TokenStream, Token], Medium]]] = {"Fog": parse_fog, "Volume": parse_volume}

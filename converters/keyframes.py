@@ -1,6 +1,7 @@
-"""Keyframed animation of the scene language (docs/EXTENSIONS.md E.11, E.12): model, interpolation, parser.
+"""Keyframed animation of the scene language (docs/EXTENSIONS.md E.11, E.12): interpolation, parser.
 
-One top-level block, read from the same :class:`~.a5_parser.TokenStream` with the same positioned errors::
+One top-level block, read from the same :class:`~.tokens.TokenStream` with the same positioned errors (its
+model, :class:`~.model.Animation` of :class:`~.model.Track` s, is in :mod:`.model`)::
 
     Animation { frames I fps F [shutter F] Track { TARGET (linear | smooth) (key T VALUES)+ }* }
 
@@ -26,18 +27,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Final
+from typing import Final
 
 import numpy as np
 
-from . import transforms
-from .errors import FileLoc, SceneSemanticError
+from a5mi.vecmath32 import camera_basis
 
-if TYPE_CHECKING:
-    from .a5_parser import TokenStream
-    from .lexer import Token
-    from .model import Node, Scene
+from . import transforms
+from .builders import AnimationBuilder
+from .errors import FileLoc, SceneSemanticError
+from .lexer import Token
+from .model import Animation, Camera, Group, Node, Scene, Track, Transform
+from .tokens import Rule, TokenStream, keyword_block, quoted_raw
+
+__all__ = ["Animation", "Track", "check", "evaluate", "parse_animation", "scene_at", "transform_blocks"]
 
 #: ``Camera`` fields that take keys, with their number of values and the model field.
 CAMERA_FIELDS: Final = {"center": (3, "center"), "direction": (3, "direction"), "up": (3, "up"),
@@ -56,38 +59,6 @@ INTERPOLATIONS: Final = ("linear", "smooth")
 KEYWORD: Final = "Animation"
 TARGETS: Final = ("Camera", "Light", "Material", "Transform")
 MAX_FRAMES: Final = 1_000_000
-
-
-@dataclass(frozen=True)
-class Track:
-    """One keyframed value: ``target`` (``"Camera"``, ``"Light"``, ``"Material"``, ``"Transform"``), ``index``
-    (the light / material / Transform number; 0 for the camera), ``field`` (the keyword as written, or the
-    Transform's keyword number as a string), ``interpolation``, ``times`` (seconds, increasing) and ``values``
-    (one tuple per key)."""
-
-    target: str
-    index: int
-    field: str
-    interpolation: str
-    times: tuple[float, ...]
-    values: tuple[tuple[float, ...], ...]
-    loc: FileLoc
-
-
-@dataclass(frozen=True)
-class Animation:
-    """``Animation { frames I fps F [shutter F] Track* }``: frame ``f`` (0 <= f < frames) shows time
-    ``f / fps``; ``shutter`` (0..1) is the fraction of the frame interval the shutter stays open (E.12)."""
-
-    frames: int
-    fps: float
-    shutter: float
-    tracks: tuple[Track, ...]
-    loc: FileLoc
-
-    def frame_time(self, frame: int) -> float:
-        """``frame / fps`` (seconds)."""
-        return frame / self.fps
 
 
 # ---------------------------------------------------------------------------------------------- interpolation
@@ -121,11 +92,9 @@ def evaluate(track: Track, t: float) -> tuple[float, ...]:
 
 
 # ------------------------------------------------------------------------------------------- the scene at t
-def transform_blocks(root: Node) -> list[Node]:
+def transform_blocks(root: Node) -> list[Transform]:
     """Every ``Transform`` of the tree, in file order (pre-order: an outer block before the ones inside)."""
-    from .model import Group, Transform
-
-    out: list[Node] = []
+    out: list[Transform] = []
 
     def walk(node: Node) -> None:
         if isinstance(node, Transform):
@@ -140,8 +109,6 @@ def transform_blocks(root: Node) -> list[Node]:
 
 
 def _rebuild(node: Node, ops: dict[int, dict[int, tuple[float, ...]]], counter: list[int]) -> Node:
-    from .model import Group, Transform
-
     if isinstance(node, Group):
         return dataclasses.replace(node, children=tuple(_rebuild(c, ops, counter) for c in node.children))
     if not isinstance(node, Transform):
@@ -193,31 +160,28 @@ def scene_at(scene: Scene, t: float) -> Scene:
     return dataclasses.replace(scene, camera=camera, lights=tuple(lights), materials=tuple(materials), root=root)
 
 
-def _check_camera(camera: object) -> None:
+def _check_camera(c: Camera) -> None:
     """The limits of A.2 / E.3 for a keyframed camera (the parser checked the still one)."""
-    from a5mi.vecmath32 import camera_basis
-
-    c = camera
-    loc = c.loc  # type: ignore[attr-defined]
-    if not 0.0 < c.angle < 180.0:  # type: ignore[attr-defined]
-        raise SceneSemanticError(f"keyframed camera angle {c.angle:g} is outside (0, 180) degrees", loc)  # type: ignore[attr-defined]
-    if c.aperture < 0.0 or c.focus_distance <= 0.0:  # type: ignore[attr-defined]
+    loc = c.loc
+    if not 0.0 < c.angle < 180.0:
+        raise SceneSemanticError(f"keyframed camera angle {c.angle:g} is outside (0, 180) degrees", loc)
+    if c.aperture < 0.0 or c.focus_distance <= 0.0:
         raise SceneSemanticError("keyframed camera aperture must stay >= 0 and focusDistance > 0", loc)
     try:
-        camera_basis(c.direction, c.up)  # type: ignore[attr-defined]
+        camera_basis(c.direction, c.up)
     except ValueError:
         raise SceneSemanticError("keyframed camera direction and up do not define a basis at this time", loc) from None
 
 
 # --------------------------------------------------------------------------------------------------- parser
-def _track(ts: TokenStream, start: Token) -> tuple[Track, Token]:
+def _track(ts: TokenStream, start: Token) -> Track:
     """``Track { TARGET (linear | smooth) (key T VALUES)+ }``; the target is checked later (:func:`check`),
-    when the whole scene is known. Returns the track and the token of its field (for errors)."""
+    when the whole scene is known; the track's ``loc`` is its field's (where :func:`check` reports)."""
     ts.expect("{", "after 'Track'")
     tok = ts.next()
     if tok is None or tok.text not in TARGETS:
-        found = "end of file" if tok is None else f"'{tok.text}'"
-        raise ts.syntax_error(f"expected a track target ({', '.join(TARGETS)}) in Track, found {found}", tok)
+        raise ts.syntax_error(f"expected a track target ({', '.join(TARGETS)}) in Track, found {quoted_raw(tok)}",
+                              tok)
     target = tok.text
     index = 0
     if target != "Camera":
@@ -227,20 +191,18 @@ def _track(ts: TokenStream, start: Token) -> tuple[Track, Token]:
     field_tok = ts.next()
     if target == "Transform":
         if field_tok is None or not field_tok.text.isdigit():
-            found = "end of file" if field_tok is None else f"'{field_tok.text}'"
-            raise ts.syntax_error(f"expected the keyword number (0, 1, ...) after 'Transform {index}', found {found}",
-                                  field_tok)
+            raise ts.syntax_error(f"expected the keyword number (0, 1, ...) after 'Transform {index}', found "
+                                  f"{quoted_raw(field_tok)}", field_tok)
         arity = -1
     else:
         fields = {"Camera": CAMERA_FIELDS, "Light": LIGHT_FIELDS, "Material": MATERIAL_FIELDS}[target]
         if field_tok is None or field_tok.text not in fields:
-            found = "end of file" if field_tok is None else f"'{field_tok.text}'"
-            raise ts.syntax_error(f"expected {', '.join(fields)} after '{target}', found {found}", field_tok)
+            raise ts.syntax_error(f"expected {', '.join(fields)} after '{target}', found {quoted_raw(field_tok)}",
+                                  field_tok)
         arity = fields[field_tok.text][0]
     itp = ts.next()
     if itp is None or itp.text not in INTERPOLATIONS:
-        found = "end of file" if itp is None else f"'{itp.text}'"
-        raise ts.syntax_error(f"expected linear or smooth in Track, found {found}", itp)
+        raise ts.syntax_error(f"expected linear or smooth in Track, found {quoted_raw(itp)}", itp)
     times: list[float] = []
     values: list[tuple[float, ...]] = []
     while True:
@@ -248,8 +210,7 @@ def _track(ts: TokenStream, start: Token) -> tuple[Track, Token]:
         if tok is not None and tok.text == "}" and times:
             break
         if tok is None or tok.text != "key":
-            found = "end of file" if tok is None else f"'{tok.text}'"
-            raise ts.syntax_error(f"expected 'key'{' or }' if times else ''} in Track, found {found}", tok)
+            raise ts.syntax_error(f"expected 'key'{' or }' if times else ''} in Track, found {quoted_raw(tok)}", tok)
         t = ts.number("key")
         if times and t <= times[-1]:
             raise ts.semantic_error(f"key times must increase: {t:g} after {times[-1]:g}", tok.loc)
@@ -261,42 +222,50 @@ def _track(ts: TokenStream, start: Token) -> tuple[Track, Token]:
             values.append(tuple(vals))
         else:
             values.append(tuple(ts.number(field_tok.text) for _ in range(arity)))
-    return Track(target, index, field_tok.text, itp.text, tuple(times), tuple(values), field_tok.loc), field_tok
+    return Track(target, index, field_tok.text, itp.text, tuple(times), tuple(values), field_tok.loc)
+
+
+def _frames(ts: TokenStream, tok: Token, a: AnimationBuilder) -> None:
+    frames, ftok = ts.integer("frames")
+    if not 1 <= frames <= MAX_FRAMES:
+        raise ts.semantic_error(f"frames must be between 1 and {MAX_FRAMES}, found {frames}", ftok.loc)
+    a.frames = frames
+
+
+def _fps(ts: TokenStream, tok: Token, a: AnimationBuilder) -> None:
+    fps = ts.number("fps")
+    if fps <= 0.0:
+        raise ts.semantic_error(f"fps must be positive, found {fps:g}", tok.loc)
+    a.fps = fps
+
+
+def _shutter(ts: TokenStream, tok: Token, a: AnimationBuilder) -> None:
+    shutter = ts.number("shutter")
+    if not 0.0 <= shutter <= 1.0:
+        raise ts.semantic_error(f"shutter must be between 0 and 1 (a fraction of the frame interval), "
+                                f"found {shutter:g}", tok.loc)
+    a.shutter = shutter
+
+
+def _track_rule(ts: TokenStream, tok: Token, a: AnimationBuilder) -> None:
+    a.tracks.append(_track(ts, tok))
+
+
+#: The keywords of ``Animation`` and their rules (E.11, E.12).
+ANIMATION_RULES: Final[dict[str, Rule[AnimationBuilder]]] = {
+    "frames": _frames, "fps": _fps, "shutter": _shutter, "Track": _track_rule}
 
 
 def parse_animation(ts: TokenStream, start: Token) -> Animation:
     """``Animation { frames I fps F [shutter F] Track* }`` (E.11): ``frames``, ``fps`` and ``shutter`` in any
     order before the tracks; ``1 <= frames <= 10^6``, ``fps > 0``, ``0 <= shutter <= 1`` (default 0)."""
     ts.expect("{", "after 'Animation'")
-    frames: int | None = None
-    fps: float | None = None
-    shutter = 0.0
-    tracks: list[Track] = []
-    while True:
-        tok = ts.next()
-        if tok is not None and tok.text == "}":
-            break
-        if tok is None or tok.text not in ("frames", "fps", "shutter", "Track"):
-            found = "end of file" if tok is None else f"'{tok.text}'"
-            raise ts.syntax_error(f"expected frames, fps, shutter, Track or '}}' in Animation, found {found}", tok)
-        if tok.text == "frames":
-            frames, ftok = ts.integer("frames")
-            if not 1 <= frames <= MAX_FRAMES:
-                raise ts.semantic_error(f"frames must be between 1 and {MAX_FRAMES}, found {frames}", ftok.loc)
-        elif tok.text == "fps":
-            fps = ts.number("fps")
-            if fps <= 0.0:
-                raise ts.semantic_error(f"fps must be positive, found {fps:g}", tok.loc)
-        elif tok.text == "shutter":
-            shutter = ts.number("shutter")
-            if not 0.0 <= shutter <= 1.0:
-                raise ts.semantic_error(f"shutter must be between 0 and 1 (a fraction of the frame interval), "
-                                        f"found {shutter:g}", tok.loc)
-        else:
-            tracks.append(_track(ts, tok)[0])
-    if frames is None or fps is None:
-        raise ts.semantic_error(f"Animation needs '{'frames' if frames is None else 'fps'}'", start.loc)
-    return Animation(frames, fps, shutter, tuple(tracks), start.loc)
+    a = AnimationBuilder()
+    keyword_block(ts, ANIMATION_RULES, a, lambda tok: ts.syntax_error(
+        f"expected {', '.join(ANIMATION_RULES)} or '}}' in Animation, found {quoted_raw(tok)}", tok))
+    if a.frames is None or a.fps is None:
+        raise ts.semantic_error(f"Animation needs '{'frames' if a.frames is None else 'fps'}'", start.loc)
+    return Animation(a.frames, a.fps, a.shutter, tuple(a.tracks), start.loc)
 
 
 def check(ts: TokenStream, scene: Scene) -> None:
@@ -329,7 +298,7 @@ def check(ts: TokenStream, scene: Scene) -> None:
             if tr.index >= len(blocks):
                 raise ts.semantic_error(f"Transform {tr.index} out of range: the scene has {len(blocks)} Transform "
                                         "blocks", tr.loc)
-            ops = blocks[tr.index].ops  # type: ignore[union-attr]
+            ops = blocks[tr.index].ops
             j = int(tr.field)
             if j >= len(ops):
                 raise ts.semantic_error(f"Transform {tr.index} has {len(ops)} keywords; found keyword number {j}",

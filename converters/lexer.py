@@ -10,7 +10,7 @@ warn. Input must be non-empty UTF-8 text without NUL bytes; anything else is a
 :class:`~a5mi.converters.errors.SceneSyntaxError` at the first offending byte (a leading
 byte-order mark included).
 
-Limits (issue 19): a token has at most :data:`MAX_TOKEN` characters (SPEC A.0: the sample solution's token
+Limits (SPEC A.0): a token has at most :data:`MAX_TOKEN` characters (SPEC A.0: the sample solution's token
 buffer, 1024 bytes in later versions) and a scene file at most :data:`MAX_SCENE_BYTES`; the scene is read only
 if it is a regular file (:func:`a5mi.imageio.read_regular`: a FIFO or ``/dev/zero`` is refused). Tokens are
 found with one C-level regular expression per line and every pattern is linear in the token length, so

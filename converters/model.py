@@ -18,14 +18,10 @@ import stat
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import FileLoc, SceneSemanticError, shown
-
-if TYPE_CHECKING:
-    from .keyframes import Animation
 
 Vec3 = tuple[float, float, float]
 #: A 4x4 matrix as hashable row-major tuples (``m[row][col]``); :func:`.transforms.as_array` gives numpy.
@@ -321,6 +317,40 @@ def iter_placed(obj: Node, to_world: np.ndarray | None = None, transformed: bool
         yield from iter_placed(obj.child, m @ obj.matrix_array, True)
     else:
         yield Placed(obj, m, transformed)
+
+
+# ---------------------------------------------------------------------------------------------------- animation
+@dataclass(frozen=True)
+class Track:
+    """One keyframed value (docs/EXTENSIONS.md E.11): ``target`` (``"Camera"``, ``"Light"``, ``"Material"``,
+    ``"Transform"``), ``index`` (the light / material / Transform number; 0 for the camera), ``field`` (the
+    keyword as written, or the Transform's keyword number as a string), ``interpolation``, ``times`` (seconds,
+    increasing) and ``values`` (one tuple per key); evaluated by :func:`.keyframes.evaluate`."""
+
+    target: str
+    index: int
+    field: str
+    interpolation: str
+    times: tuple[float, ...]
+    values: tuple[tuple[float, ...], ...]
+    loc: FileLoc
+
+
+@dataclass(frozen=True)
+class Animation:
+    """``Animation { frames I fps F [shutter F] Track* }`` (EXTENSIONS E.11, E.12): frame ``f``
+    (0 <= f < frames) shows time ``f / fps``; ``shutter`` (0..1) is the fraction of the frame interval the
+    shutter stays open (E.12)."""
+
+    frames: int
+    fps: float
+    shutter: float
+    tracks: tuple[Track, ...]
+    loc: FileLoc
+
+    def frame_time(self, frame: int) -> float:
+        """``frame / fps`` (seconds)."""
+        return frame / self.fps
 
 
 # -------------------------------------------------------------------------------------------------------- scene

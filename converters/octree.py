@@ -6,7 +6,7 @@ more than 7 triangles and its level is at most 8; a triangle goes into every chi
 box touches (closed intervals). The traversal normalises the object-space direction, mirrors every axis
 with ``d_k < 0`` and computes ``t_k0 = (mn_k - o_k) / d_k``, ``t_k1 = (mx_k - o_k) / d_k`` (``1/d_k`` first).
 For every ray whose direction has no zero component it visits every leaf the ray crosses, so the result is
-the exact nearest hit. A zero component breaks it (measured against the binary, SPEC A.6 / issue 12):
+the exact nearest hit. A zero component breaks it (measured against the binary, SPEC A.6, C):
 
 * ``d_k = -0.0`` (not mirrored, ``1/d_k = -inf``) makes the root slab test fail: **the mesh is invisible**
   to that ray. Only an untransformed mesh can see a ``-0.0``: vecmath's ``Matrix4f * Vector4f`` sums from
@@ -203,7 +203,7 @@ def reach_masks(vertices: np.ndarray, faces: np.ndarray, folder: Path | None | b
     they are kept on disk: ``folder`` (default :func:`a5mi.cache_dir`; ``False``: no cache) holds one file
     per mesh named by the SHA-256 of :data:`CACHE_VERSION`, the float64 vertices and the int64 faces, with a
     CRC of its words; a missing, unreadable or mismatching file is recomputed and rewritten atomically, and
-    a folder that cannot be written just means the masks are computed (BENCHMARKS.md, run H, item 4)."""
+    a folder that cannot be written just means the masks are computed."""
     path = None
     if folder is not False:
         path = _cache_path(Path(cache_dir()) if folder is None or folder is True else Path(folder), vertices, faces)

@@ -8,7 +8,8 @@ ARCHITECTURE.md (``a5_whitted``, ``a5_camera``, ``a5_material``, ``a5_marble``, 
 Mitsuba plugins only. :func:`scene_entries` is the layout shared with the XML writer (:mod:`.to_xml`); what
 differs between the two (BSDFs, meshes, images) goes through a :class:`Backend`. This module and
 :mod:`.to_xml` are the only ones of ``converters`` that import Mitsuba, and only inside the functions that
-need it. Geometry: :mod:`.geometry`; materials: :mod:`.materials`.
+need it. Geometry: :mod:`.geometry`; materials: :mod:`.materials`; names: :func:`.names.scene_ids`, the
+table (object or light -> its Mitsuba ids) that :func:`scene_entries` names the entries by.
 
 Camera, integrator, lights and background:
 
@@ -70,6 +71,7 @@ from .files import Image
 from .geometry import MeshData
 from .materials import rgb
 from .model import AreaLight, DirectionalLight, SphereLight, SpotLight
+from .names import scene_ids
 
 #: Face attributes carrying :attr:`.geometry.MeshData.octree` (name -> its columns).
 OCTREE_ATTRIBUTES = {"face_a5_inv0": [0, 1, 2], "face_a5_inv1": [3, 4, 5], "face_a5_inv2": [6, 7, 8],
@@ -94,7 +96,7 @@ def integrator_dict(desc: SceneDescription, options: RenderOptions, *, stock: bo
     if any(m.dispersion is not None for m in desc.materials):  # docs/EXTENSIONS.md E.10: wavelength per ray
         d["dispersion"] = True
     if not any(m.roughness > 0.0 for m in desc.materials):
-        d["glossy"] = False  # no glossy material: the kernel leaves the E.4 lobe sampling out (issue 20)
+        d["glossy"] = False  # no glossy material: the kernel leaves the E.4 lobe sampling out (EXTENSIONS E.4)
     return d
 
 
@@ -172,15 +174,15 @@ class Backend(ABC):
 
 
 def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backend) -> dict[str, Any]:
-    """The scene dict's layout (module docstring): ``integrator``, ``sensor``, ``light_NNN``, ``background``,
-    then one entry per shape (``sphere_NNN`` [+ ``sphere_NNN_group``], ``plane_NNN``, ``triangle_NNN``,
-    ``mesh_NNN``; NNN the object's index), with 4x4 transforms as ``np.ndarray``. The names are only unique
-    keys, not a contract."""
+    """The scene dict's layout (module docstring): ``integrator``, ``sensor``, one entry per light,
+    ``background``, then one entry per shape (exact planes: ``a5_whitted`` parameters), each named by
+    :func:`scene_ids`, with 4x4 transforms as ``np.ndarray``."""
     stock = backend.stock
+    ids = scene_ids(desc, stock=stock)
     d: dict[str, Any] = {"type": "scene", "integrator": integrator_dict(desc, options, stock=stock),
                          "sensor": sensor_dict(desc, options, stock=stock)}
-    for i, light in enumerate(desc.lights):
-        d[f"light_{i:03d}"] = light_dict(light, desc.centre, stock=stock)
+    for light, lid in zip(desc.lights, ids.lights, strict=True):
+        d[lid.key] = light_dict(light, desc.centre, stock=stock)
     if desc.medium is not None:  # docs/EXTENSIONS.md E.8, E.9
         med = desc.medium
         grid = grid_volume(med, backend.grid_source(med)) if isinstance(med, VolumeDescription) else None
@@ -194,29 +196,27 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
         d["background"] = backend.envmap(bg) if stock else backend.cubemap(bg)
     else:
         d["background"] = background_dict(bg)
-    for i, shape in enumerate(desc.shapes):
+    for shape, o in zip(desc.shapes, ids.objects, strict=True):
         bsdf = backend.bsdf(d, shape.material, shape.has_uv)
         if isinstance(shape, SphereShape):
-            key = f"sphere_{i:03d}"
             sphere = {"type": "sphere", "center": list(shape.center), "radius": float(shape.radius), "bsdf": bsdf}
-            if shape.to_world is None:
-                d[key] = sphere
+            if o.group is None or o.inner is None:
+                d[o.entry] = sphere
             else:
-                d[key + "_group"] = {"type": "shapegroup", key + "_shape": sphere}  # id names the object
-                d[key] = {"type": "instance", "shapegroup": {"type": "ref", "id": key + "_group"},
-                          "to_world": shape.to_world}
+                d[o.group] = {"type": "shapegroup", o.inner: sphere}  # the inner id names the object
+                d[o.entry] = {"type": "instance", "shapegroup": {"type": "ref", "id": o.group},
+                                 "to_world": shape.to_world}
         elif isinstance(shape, PlaneShape):
-            if stock:  # plain Mitsuba has no infinite plane: the finite stand-in of .geometry
-                d[f"plane_{i:03d}"] = {"type": "rectangle", "to_world": shape.rectangle, "bsdf": bsdf}
+            if o.plane is None:  # --stock: plain Mitsuba has no infinite plane, the finite stand-in of .geometry
+                d[o.entry] = {"type": "rectangle", "to_world": shape.rectangle, "bsdf": bsdf}
             else:      # exact: intersected analytically by a5_whitted (plugins/planes.py)
                 mirror = shape.n_w if shape.mirror_normal is None else shape.mirror_normal
-                d["integrator"].update({f"plane_{i:03d}_normal": [float(x) for x in shape.n_w],
-                                        f"plane_{i:03d}_offset": float(shape.offset_w),
-                                        f"plane_{i:03d}_mirror_normal": [float(x) for x in mirror],
-                                        f"plane_{i:03d}_bsdf": bsdf})
+                d["integrator"].update({o.plane_param("normal"): [float(x) for x in shape.n_w],
+                                        o.plane_param("offset"): float(shape.offset_w),
+                                        o.plane_param("mirror_normal"): [float(x) for x in mirror],
+                                        o.plane_param("bsdf"): bsdf})
         else:
-            key = f"{'mesh' if shape.obj_file is not None else 'triangle'}_{i:03d}"
-            d[key] = backend.mesh(key, shape, bsdf)
+            d[o.entry] = backend.mesh(o.entry, shape, bsdf)
     return d
 
 

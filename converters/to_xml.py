@@ -20,7 +20,7 @@ elements (``mat_NNN``, ``mat_NNN_nouv`` for a textured material's untextured var
 written before the first shape that references them. Flat meshes get ``face_normals=true`` (the PLY has no
 normals; without the flag Mitsuba would compute smooth ones).
 
-Writing is all or nothing and never outside the set (issue 19): the XML, ``{stem}_meshes/``, ``{stem}_images/``
+Writing is all or nothing and never outside the set: the XML, ``{stem}_meshes/``, ``{stem}_images/``
 and ``{stem}_envmap.exr`` are written into a fresh hidden staging folder beside the XML
 (``.{name}.a5mi-{pid}-...``) and then moved into place entry by entry with ``rename``, which replaces a
 symlink already there instead of writing through it; an earlier ``{stem}_meshes/`` or ``{stem}_images/`` is

@@ -16,7 +16,8 @@ Normals map by ``(M⁻¹)ᵀ`` (upper 3x3), SPEC B.3.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Final
 
 import numpy as np
 
@@ -30,12 +31,7 @@ def as_array(m: Matrix4 | np.ndarray) -> np.ndarray:
 
 def as_tuple(m: np.ndarray) -> Matrix4:
     """A (4, 4) array as the model's hashable row-major tuple form."""
-    return tuple(tuple(float(x) for x in row) for row in np.asarray(m, dtype=np.float64))
-
-
-def matmul(a: Matrix4, b: Matrix4) -> Matrix4:
-    """``a * b`` on the model's tuple form."""
-    return as_tuple(as_array(a) @ as_array(b))
+    return tuple((float(r[0]), float(r[1]), float(r[2]), float(r[3])) for r in np.asarray(m, dtype=np.float64))
 
 
 def translate(x: float, y: float, z: float) -> np.ndarray:
@@ -102,27 +98,25 @@ def matrix4f_columns(values: Sequence[float]) -> np.ndarray:
     return np.asarray(values, dtype=np.float64).reshape(4, 4).T.copy()
 
 
+#: ``T(kind, args)`` of each transform keyword of A.6 (``Matrix4f``: the matrix ``G`` it pre-multiplies).
+KEYWORDS: Final[dict[str, Callable[[Sequence[float]], np.ndarray]]] = {
+    "Translate": lambda a: translate(a[0], a[1], a[2]),
+    "Scale": lambda a: scale(a[0], a[1], a[2]),
+    "UniformScale": lambda a: uniform_scale(a[0]),
+    "XRotate": lambda a: x_rotate(a[0]),
+    "YRotate": lambda a: y_rotate(a[0]),
+    "ZRotate": lambda a: z_rotate(a[0]),
+    "Rotate": lambda a: rotate(a[:3], a[3]),
+    "Matrix4f": matrix4f_columns,
+}
+
+
 def apply_keyword(m: np.ndarray, kind: str, args: Sequence[float]) -> np.ndarray:
     """One step of A.6 composition: ``M * T(kind, args)``, except ``Matrix4f``: ``G * M``."""
-    if kind == "Matrix4f":
-        return matrix4f_columns(args) @ m
-    if kind == "Translate":
-        t = translate(*args)
-    elif kind == "Scale":
-        t = scale(*args)
-    elif kind == "UniformScale":
-        t = uniform_scale(args[0])
-    elif kind == "XRotate":
-        t = x_rotate(args[0])
-    elif kind == "YRotate":
-        t = y_rotate(args[0])
-    elif kind == "ZRotate":
-        t = z_rotate(args[0])
-    elif kind == "Rotate":
-        t = rotate(args[:3], args[3])
-    else:
+    if kind not in KEYWORDS:
         raise ValueError(f"unknown transform keyword {kind!r}")
-    return m @ t
+    t = KEYWORDS[kind](args)
+    return t @ m if kind == "Matrix4f" else m @ t
 
 
 def compose(ops: Sequence[tuple[str, Sequence[float]]]) -> np.ndarray:

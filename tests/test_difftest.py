@@ -21,7 +21,7 @@ from a5mi.converters.describe import describe
 from a5mi.difftest import campaign
 from a5mi.difftest.generate import Flags, GenScene, Obj, random_scene
 from a5mi.difftest.minimise import candidates, minimise
-from a5mi.difftest.runner import check_binary, compare_scene, run_binary, sandbox_prefix, stage
+from a5mi.difftest.runner import Binary, check_binary, compare_scene, run_binary, stage
 
 CAMERA = "PerspectiveCamera {\n  center 0 1 8\n  direction 0 -0.1 -1\n  up 0 1 0\n  angle 40\n}"
 LIGHTS = ("  PointLight {\n    position 3 5 4\n    color 0.8 0.8 0.8\n  }",
@@ -34,7 +34,8 @@ MATERIALS = (("  Material {\n    diffuseColor 0.8 0.3 0.2\n  }", ()),
 
 def _wrapper(tmp_path: Path) -> Path:
     """An executable ``a5`` that always adds ``-fresnel schlick`` (a Python script run by this venv)."""
-    exe = tmp_path / "a5schlick"
+    (tmp_path / "bin").mkdir(mode=0o755, exist_ok=True)
+    exe = tmp_path / "bin" / "a5schlick"
     exe.write_text(f"#!{sys.executable}\nimport sys\nfrom a5mi.cli import run\n"
                    "sys.exit(run(sys.argv[1:] + ['-fresnel', 'schlick']))\n")
     exe.chmod(0o755)
@@ -88,7 +89,10 @@ def test_minimiser_isolates_the_glass_object(variant: str, a5_data: Path, tmp_pa
     """With a5 vs a5 -fresnel schlick, the 4-object scene differs (glass, 4 bounces); without the glass
     sphere it is identical; minimised it is the glass sphere alone, its material alone, no shadows, and 2
     bounces (the least that takes a refracted ray out of the glass)."""
-    other = check_binary(_wrapper(tmp_path))
+    from a5mi import PROJECT_ROOT
+
+    # the sandboxed wrapper sees its interpreter and a5mi's sources (``--allow-read``)
+    other = Binary(check_binary(_wrapper(tmp_path)), (sys.prefix, sys.base_prefix, str(PROJECT_ROOT)))
     data = a5_data / "scenes"
     scene = _glass_scene()
     first = compare_scene(scene, other, data)
@@ -110,7 +114,10 @@ def test_cli_reports_a_table_and_json(a5_data: Path, tmp_path: Path) -> None:
     a5 = shutil.which("a5", path=str(Path(sys.executable).parent))
     assert a5 is not None
     report = tmp_path / "r.json"
-    proc = subprocess.run([_a5mi(), "difftest", "--binary", a5, "--count", "2",
+    from a5mi import PROJECT_ROOT
+
+    allow = ":".join((sys.prefix, sys.base_prefix, str(PROJECT_ROOT)))  # what the a5 script needs to start
+    proc = subprocess.run([_a5mi(), "difftest", "--binary", a5, "--count", "2", "--allow-read", allow,
                            "--mean-size", "40", "--seed", "4", "--json-file", str(report)],
                           capture_output=True, text=True, timeout=300, check=False)
     assert proc.returncode == 0, proc.stderr
@@ -131,22 +138,58 @@ def test_missing_binary_is_a_user_error(tmp_path: Path) -> None:
 
 
 @pytest.mark.skipif(shutil.which("bwrap") is None, reason="bubblewrap is installed by make setup")
+def test_the_binary_is_unprivileged_and_confined_like_a_graded_program(tmp_path: Path) -> None:
+    """The same probe as tests/test_grade_sandbox.py, as ``--binary``: no secret, no capability, no user
+    namespace, no remount, no write outside, no network (it ran as root with every capability before)."""
+    import json
+    import os
+    import socket
+
+    from test_grade_sandbox import _check_confined, _confinement_probe
+
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    outside.chmod(0o777)
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen(1)
+    (tmp_path / "bin").mkdir()
+    exe = tmp_path / "bin" / "probe"
+    exe.write_text(_confinement_probe(outside, listener.getsockname()[1]).replace(
+        "print(json.dumps(res))", "print(json.dumps(res), file=open('res.json', 'w'))\nraise SystemExit(4)"))
+    exe.chmod(0o755)
+    for p in (tmp_path, tmp_path / "bin"):
+        p.chmod(0o755)
+    folder = tmp_path / "run"
+    folder.mkdir()
+    img, status = run_binary(exe, folder, [], timeout=20)
+    assert img is None and status.startswith("binary failed"), status
+    res = json.loads((folder / "res.json").read_text())
+    _check_confined(res, listener)
+    assert not (outside / "pwned").exists() and os.stat(folder / "res.json").st_uid != 0
+    listener.close()
+
+
+@pytest.mark.skipif(shutil.which("bwrap") is None, reason="bubblewrap is installed by make setup")
 def test_the_binary_runs_sandboxed_with_a_time_limit(tmp_path: Path) -> None:
     """The other executable cannot write outside its folder (the project is read-only, /tmp is private),
     has no network, and is stopped at the time limit."""
     escape = tmp_path / "escaped"
-    exe = tmp_path / "evil"
+    (tmp_path / "bin").mkdir()
+    exe = tmp_path / "bin" / "evil"
     exe.write_text(f"#!{sys.executable}\nimport socket, sys, time\n"
                    f"for p in ({str(escape)!r}, {str(Path.cwd() / 'escaped')!r}):\n"
                    "    try: open(p, 'w').write('x')\n    except OSError: pass\n"
                    "try:\n    socket.create_connection(('1.1.1.1', 80), timeout=2); print('net', file=sys.stderr)\n"
                    "except OSError: pass\n"
                    "if 'sleep' in sys.argv: time.sleep(30)\nsys.exit(3)\n")
+    for p in (exe.parent, tmp_path):
+        p.chmod(0o755)
     exe.chmod(0o755)
     folder = tmp_path / "run"
     folder.mkdir()
-    assert sandbox_prefix(folder)
-    img, status = run_binary(exe, folder, [], timeout=20)
-    assert img is None and status.startswith("binary failed") and "net" not in status
+    binary = Binary(exe, (sys.prefix, sys.base_prefix))  # the interpreter of its #! line
+    img, status = run_binary(binary, folder, [], timeout=20)
+    assert (img, status) == (None, "binary failed: exit 3")
     assert not escape.exists() and not (Path.cwd() / "escaped").exists()
-    assert run_binary(exe, folder, ["sleep"], timeout=1) == (None, "timeout")
+    assert run_binary(binary, folder, ["sleep"], timeout=1) == (None, "timeout")

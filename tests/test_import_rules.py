@@ -4,6 +4,8 @@
   command layer (``a5mi.cli``) or the renderer's driver; from ``a5mi`` they take only the leaf modules.
 * the leaf modules (SPEC constants, options, image I/O, errors) import no other ``a5mi`` module but leaves;
 * the libraries of ``a5mi/`` never import the command layer;
+* the modules of ``converters/`` import each other without cycles (counting imports inside functions and under
+  ``TYPE_CHECKING``): the grammar's layers are errors -> lexer -> tokens -> model -> builders -> rules;
 * nothing outside ``a5mi/cli/`` calls ``print`` or writes to ``sys.stdout`` / ``sys.stderr``.
 """
 
@@ -35,17 +37,25 @@ def _module_name(path: Path) -> str:
     return name[: -len(".__init__")] if name.endswith(".__init__") else name
 
 
+def _package(path: Path) -> str:
+    return _module_name(path) if path.name == "__init__.py" else _module_name(path).rpartition(".")[0]
+
+
+def _from_module(node: ast.ImportFrom, package: str) -> str:
+    """The absolute module of ``from ... import``, relative levels resolved against ``package``."""
+    if not node.level:
+        return node.module or ""
+    base = package.split(".")[: len(package.split(".")) - node.level + 1]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
 def _imports(path: Path) -> set[str]:
     """Every ``a5mi...`` module ``path`` imports (absolute and relative), at any depth of the code."""
-    package = _module_name(path) if path.name == "__init__.py" else _module_name(path).rpartition(".")[0]
+    package = _package(path)
     out: set[str] = set()
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package.split(".")[: len(package.split(".")) - node.level + 1]
-                module = ".".join(base + ([node.module] if node.module else []))
-            else:
-                module = node.module or ""
+            module = _from_module(node, package)
             names = [module] + [f"{module}.{a.name}" for a in node.names]
         elif isinstance(node, ast.Import):
             names = [a.name for a in node.names]
@@ -106,6 +116,74 @@ def test_the_rules_see_real_imports() -> None:
     assert "a5mi.cli.app" in _imports(ROOT / "a5mi/cli/__init__.py")
     assert any(_is(m, "a5mi.plugins") for m in _imports(ROOT / "plugins/whitted.py"))
     assert any(_is(m, "a5mi.converters") for m in _imports(ROOT / "converters/a5_parser.py"))
+
+
+def _module_edges(source: str, package: str, modules: set[str]) -> set[str]:
+    """The ``modules`` that ``source`` (a module of ``package``) imports, at any depth of its code: module level,
+    inside functions, under ``if TYPE_CHECKING``. ``from . import x`` is an edge to ``x``, not to the package."""
+    out: set[str] = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom):
+            module = _from_module(node, package)
+            out |= {f"{module}.{a.name}" if f"{module}.{a.name}" in modules else module for a in node.names}
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                parts = a.name.split(".")
+                out |= {".".join(parts[:k]) for k in range(1, len(parts) + 1)}
+    return out & modules
+
+
+def _cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One import cycle of ``graph`` (module -> modules it imports) as ``[a, b, ..., a]``, or None."""
+    state: dict[str, int] = {}  # 1 on the current path, 2 done
+    path: list[str] = []
+
+    def visit(m: str) -> list[str] | None:
+        state[m] = 1
+        path.append(m)
+        for n in sorted(graph.get(m, ())):
+            if state.get(n) == 1:
+                return path[path.index(n):] + [n]
+            if n not in state and (found := visit(n)) is not None:
+                return found
+        path.pop()
+        state[m] = 2
+        return None
+
+    for m in sorted(graph):
+        if m not in state and (found := visit(m)) is not None:
+            return found
+    return None
+
+
+def test_converters_import_graph_is_acyclic() -> None:
+    """ARCHITECTURE.md's one-way data flow inside ``converters/``: no module imports one that imports it back,
+    directly or through others, by any import (module level, function level, ``TYPE_CHECKING``)."""
+    paths = _sources("converters")
+    modules = {_module_name(p) for p in paths}
+    graph = {_module_name(p): _module_edges(p.read_text(encoding="utf-8"), _package(p), modules) - {_module_name(p)}
+             for p in paths}
+    assert graph["a5mi.converters.a5_parser"] >= {"a5mi.converters.tokens", "a5mi.converters.ext_parser",
+                                                  "a5mi.converters.keyframes"}  # the checker sees real edges
+    # the token stream is a leaf of the grammar: it knows the lexer and the errors, no rule of any block
+    assert graph["a5mi.converters.tokens"] <= {"a5mi.converters.lexer", "a5mi.converters.errors"}
+    cycle = _cycle(graph)
+    assert cycle is None, "import cycle among converters: " + " -> ".join(cycle or [])
+
+
+def test_the_cycle_finder_sees_function_level_and_type_checking_imports() -> None:
+    """The checker itself, on made-up modules: a cycle closed by an import inside a function or under
+    ``TYPE_CHECKING`` is found; a chain is not a cycle."""
+    pkg = "a5mi.converters"
+    modules = {f"{pkg}.a", f"{pkg}.b", f"{pkg}.c"}
+    sources = {"a": "from . import b\n",
+               "b": "def f():\n    from .c import x\n",
+               "c": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import a5mi.converters.a\n"}
+    graph = {f"{pkg}.{k}": _module_edges(v, pkg, modules) for k, v in sources.items()}
+    assert graph == {f"{pkg}.a": {f"{pkg}.b"}, f"{pkg}.b": {f"{pkg}.c"}, f"{pkg}.c": {f"{pkg}.a"}}
+    assert _cycle(graph) == [f"{pkg}.a", f"{pkg}.b", f"{pkg}.c", f"{pkg}.a"]
+    graph[f"{pkg}.c"] = set()
+    assert _cycle(graph) is None
 
 
 def test_spec_constants_have_one_home() -> None:

@@ -302,3 +302,45 @@ def test_a6_current_material_persists_into_a_later_group_block() -> None:
     scene = parse_text(text, "s.txt")
     (sphere,) = scene.root.children
     assert sphere.center == (1.0, 0.0, 0.0) and sphere.material == 1
+
+
+# ----------------------------------------------------------------------------------- rules and builders
+def test_a5_a6_builders_start_from_the_model_defaults() -> None:
+    """A block's builder starts from the SPEC defaults its frozen entity has (an empty block builds exactly
+    the default entity), and the material builder has every field of the model's Material."""
+    import dataclasses
+
+    from a5mi.converters import builders as b
+
+    loc = FileLoc("s.txt", 1, 1)
+    assert b.MaterialBuilder(loc).build() == m.Material(loc=loc)
+    assert {f.name for f in dataclasses.fields(b.MaterialBuilder)} == {f.name for f in dataclasses.fields(m.Material)}
+    assert b.BackgroundBuilder().build(loc) == m.Background(loc=loc)
+    assert b.NoiseBuilder().build(loc) == m.Noise(loc=loc)
+    two = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
+    assert b.SolidBuilder("Wood", "wood", colors=list(two)).build(loc) == m.Solid("wood", *two, loc=loc)
+    assert b.PointLightBuilder().build(loc) == m.PointLight((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, loc)
+    assert b.SceneBuilder().background == m.Scene("s.txt", m.Camera((0, 0, 0), (0, 0, -1), (0, 1, 0), 30.0,
+                                                                       loc)).background
+
+
+def test_a5_every_material_keyword_has_a_rule_and_is_listed() -> None:
+    """The Material rule table is what the error message lists, the course's keywords (A.5) first, then the
+    extensions' (docs/EXTENSIONS.md E.4, E.6, E.7), and each keyword reaches its rule."""
+    from a5mi.converters.a5_parser import MATERIAL_RULES
+
+    course = ("diffuseColor", "specularColor", "shininess", "refractionIndex", "texture", "bump", "Noise")
+    assert tuple(MATERIAL_RULES)[:7] == course
+    text = (_CAMERA + "Materials { numMaterials 1 Material { diffuseColor 0.1 0.2 0.3 specularColor 1 1 1 "
+            "shininess 5 refractionIndex 1.5 texture t.png bump b.png roughness 0.25 glossySamples 4 "
+            "bumpScale 0.5 normalMap n.png Wood { color 1 0 0 color 0 1 0 } } }\n"
+            "Group { numObjects 0 }")
+    mat = parse_text(text).materials[0]
+    assert (mat.diffuse_color, mat.specular_color, mat.shininess, mat.refraction_index) == (
+        (0.1, 0.2, 0.3), (1.0, 1.0, 1.0), 5.0, 1.5)
+    assert (mat.texture, mat.bump, mat.normal_map, mat.bump_scale) == ("t.png", "b.png", "n.png", 0.5)
+    assert (mat.roughness, mat.glossy_samples, mat.solid.kind if mat.solid else None) == (0.25, 4, "wood")
+    with pytest.raises(SceneSyntaxError) as err:
+        parse_text(_CAMERA + "Materials { numMaterials 1 Material { shine 1 } }")
+    assert err.value.msg == ("unknown Material keyword 'shine' (expected " + ", ".join(MATERIAL_RULES)
+                             + " or '}')")

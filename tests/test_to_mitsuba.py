@@ -27,7 +27,16 @@ from a5mi.converters.files import Image, cube_map_folder
 from a5mi.converters.geometry import PLANE_HALF_SIZE, MeshData, plane_rectangle_to_world, world_plane
 from a5mi.converters.materials import a5_bsdf, without_texture
 from a5mi.converters.model import Noise
-from a5mi.converters.to_mitsuba import background_dict, integrator_dict, light_dict, sensor_dict, to_dict
+from a5mi.converters.names import object_bsdf, scene_ids
+from a5mi.converters.to_mitsuba import (
+    Backend,
+    background_dict,
+    integrator_dict,
+    light_dict,
+    scene_entries,
+    sensor_dict,
+    to_dict,
+)
 from a5mi.imageio import read_uint8
 from a5mi.options import RenderOptions
 
@@ -144,6 +153,103 @@ def test_a6_sphere_similarity_vs_shapegroup(variant: str, scenes_dir: Path) -> N
     c = [1 + 2 * math.cos(math.radians(30)), 2 + 2 * math.sin(math.radians(30)), 3]
     assert isinstance(sph, SphereShape) and sph.to_world is None
     assert np.allclose(sph.center, c) and sph.radius == pytest.approx(1.0)
+
+
+#: One object of each kind (a plain and an instanced sphere, a plane, a triangle, a mesh) and one light of each.
+EVERY_KIND = CAM + """Lights { numLights 5
+  DirectionalLight { direction 0 -1 0 color 1 1 1 }
+  PointLight { position 0 5 0 color 1 1 1 }
+  SpotLight { position 0 5 0 direction 0 -1 0 color 1 1 1 angle 30 }
+  AreaLight { corner -1 5 -1 edge1 2 0 0 edge2 0 0 2 color 1 1 1 }
+  SphereLight { center 3 5 0 radius 0.5 color 1 1 1 }
+}
+Materials { numMaterials 1 Material { diffuseColor 1 0 0 } }
+Group { numObjects 5 MaterialIndex 0
+  Sphere { center 0 0 0 radius 1 }
+  Transform { Scale 1 2 1 Sphere { center 0 0 0 radius 1 } }
+  Plane { normal 0 1 0 offset -1 }
+  Triangle { vertex0 0 0 0 vertex1 1 0 0 vertex2 0 1 0 }
+  TriangleMesh { obj_file cube.obj }
+}
+"""
+
+
+class _NamesOnly(Backend):
+    """A back end that builds no Mitsuba object: the entries' names and layout only."""
+
+    def bsdf(self, entries, material, with_uv):
+        return {"type": "stub_bsdf", "material": material}
+
+    def mesh(self, key, shape, bsdf):
+        return {"type": "stub_mesh", "bsdf": bsdf}
+
+    def cubemap(self, bg):
+        raise AssertionError("no cube map here")
+
+    envmap = cubemap
+
+    def grid_source(self, vol):
+        raise AssertionError("no volume here")
+
+
+@pytest.mark.parametrize("stock", [False, True], ids=["a5", "stock"])
+def test_scene_ids_name_every_entry_of_every_kind(scenes_dir: Path, stock: bool) -> None:
+    """The table of names is the dict's layout: every entry it names exists with the right type, and every
+    shape, light and plane parameter of the dict is named by it (nothing else is)."""
+    desc = describe(parse_text(EVERY_KIND, str(scenes_dir / "every_kind.txt")), stock=stock)
+    ids = scene_ids(desc, stock=stock)
+    d = scene_entries(desc, RenderOptions(), _NamesOnly(desc, stock=stock))
+    assert [o.kind for o in ids.objects] == ["sphere", "sphere", "plane", "triangle", "mesh"]
+    assert [o.index for o in ids.objects] == [0, 1, 2, 3, 4]
+    plain, moved, plane, tri, mesh = ids.objects
+    assert d[plain.entry]["type"] == "sphere" and plain.shape_ids == (plain.entry,)
+    assert d[moved.entry]["type"] == "instance" and d[moved.entry]["shapegroup"]["id"] == moved.group
+    assert d[moved.group][moved.inner]["type"] == "sphere" and moved.shape_ids == (moved.entry, moved.inner)
+    assert d[tri.entry]["type"] == d[mesh.entry]["type"] == "stub_mesh"
+    if stock:
+        assert plane.plane is None and d[plane.entry]["type"] == "rectangle"
+    else:
+        assert plane.key is None and plane.shape_ids == ()
+        for name in ("normal", "offset", "mirror_normal", "bsdf"):
+            assert plane.plane_param(name) in d["integrator"]
+        with pytest.raises(ValueError):
+            _ = plane.entry
+    for o in ids.objects:
+        assert object_bsdf(d, o) == {"type": "stub_bsdf", "material": 0}
+        for sid in o.shape_ids:
+            assert ids.object_of_shape(sid) == o.index
+        if o.plane is not None:
+            assert ids.object_of_plane(o.plane) == o.index
+    assert [lt.shape for lt in ids.lights] == [False, False, False, True, True]
+    light_types = [d[lt.key]["type"] for lt in ids.lights]
+    assert light_types[3:] == ["rectangle", "sphere"] and "emitter" in d[ids.lights[3].key]
+    named = {o.key for o in ids.objects} | {o.group for o in ids.objects} | {lt.key for lt in ids.lights}
+    assert set(d) - {"type", "integrator", "sensor", "background"} == named - {None}
+    plane_params = {k for k in d["integrator"] if k.startswith("plane_")}
+    assert plane_params == {o.plane_param(n) for o in ids.objects if o.plane is not None
+                            for n in ("normal", "offset", "mirror_normal", "bsdf")}
+    assert ids.object_of_shape(ids.lights[3].key) is None and ids.object_of_plane("nope") is None
+
+
+def test_scene_ids_are_the_loaded_scene_ids(variant: str, scenes_dir: Path) -> None:
+    """In the loaded scene: every shape's Mitsuba id is an object's (or an area light's) name from the table, the
+    lights' and shapes' ``mi.traverse`` parameters sit under their names, and each object's BSDF is found."""
+    import mitsuba as mi
+
+    desc = describe(parse_text(EVERY_KIND, str(scenes_dir / "every_kind.txt")))
+    ids = scene_ids(desc)
+    d = to_dict(desc)
+    scene = _load(d)
+    light_shapes = {lt.key for lt in ids.lights if lt.shape}
+    loaded = {s.id() for s in scene.shapes()}
+    assert loaded - light_shapes == {o.entry for o in ids.objects if o.key is not None}
+    params = mi.traverse(scene)
+    plain, moved, _, tri, mesh = ids.objects
+    for key in (f"{ids.lights[1].key}.position", f"{ids.lights[2].key}.position", f"{moved.entry}.to_world",
+                f"{tri.entry}.vertex_positions", f"{mesh.entry}.vertex_positions"):
+        assert key in params, key
+    for o in ids.objects:
+        assert isinstance(object_bsdf(d, o), mi.BSDF)
 
 
 def test_a6_mesh_vertices_are_baked_into_world_space(scenes_dir: Path) -> None:

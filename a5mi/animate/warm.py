@@ -49,6 +49,7 @@ from a5mi.converters.model import (
     Triangle,
     TriangleMesh,
 )
+from a5mi.converters.names import object_bsdf, scene_ids
 from a5mi.converters.to_mitsuba import OCTREE_ATTRIBUTES, TRIANGLE_ATTRIBUTES, to_dict
 from a5mi.driver import RenderResult, render_scene
 from a5mi.options import RenderOptions
@@ -97,11 +98,12 @@ class WarmScene:
         self.animation = model.animation
         self.desc = describe(model, bump=options.bump)  # -bump: the maps of docs/EXTENSIONS.md E.7
         d = to_dict(self.desc, options)
+        self.ids = scene_ids(self.desc)  # the names to_dict gave the objects and lights
         self.bsdfs: dict[int, list[Any]] = {}  # material -> its a5_material objects
-        for i, shape in enumerate(self.desc.shapes):
-            for obj in self._bsdf_objects(d, i):
-                if all(obj is not b for b in self.bsdfs.setdefault(shape.material, [])):
-                    self.bsdfs[shape.material].append(obj)
+        for shape, ids in zip(self.desc.shapes, self.ids.objects, strict=True):
+            obj = object_bsdf(d, ids)
+            if all(obj is not b for b in self.bsdfs.setdefault(shape.material, [])):
+                self.bsdfs[shape.material].append(obj)
         self.scene = mi.load_dict(d)
         self.params = mi.traverse(self.scene)
         self.integrator = self.scene.integrator()
@@ -120,23 +122,6 @@ class WarmScene:
         self._sphere_kind = {i: tf.similarity_scale(placed[i].to_world) is not None for i in self.moving
                              if isinstance(placed[i].primitive, Sphere)}
 
-    # ------------------------------------------------------------------------------------------------ build
-    def _bsdf_objects(self, d: dict[str, Any], i: int) -> list[Any]:
-        key = f"{i:03d}"
-        found = []
-        if f"plane_{key}_bsdf" in d["integrator"]:
-            found.append(d["integrator"][f"plane_{key}_bsdf"])
-        for name in (f"sphere_{key}", f"mesh_{key}", f"triangle_{key}"):
-            entry = d.get(name)
-            if isinstance(entry, dict) and "bsdf" in entry:
-                found.append(entry["bsdf"])
-            elif entry is not None and hasattr(entry, "bsdf"):
-                found.append(entry.bsdf())
-        group = d.get(f"sphere_{key}_group")
-        if isinstance(group, dict):
-            found.append(group[f"sphere_{key}_shape"]["bsdf"])
-        return found
-
     # ----------------------------------------------------------------------------------------------- update
     def update(self, t: float) -> Any:
         """Write the scene at time ``t`` into the loaded scene (module docstring); returns its camera."""
@@ -145,7 +130,7 @@ class WarmScene:
         model_t = keyframes.scene_at(self.model, t)
         p = self.params
         for i in self.lights:
-            light, key = model_t.lights[i], f"light_{i:03d}"
+            light, key = model_t.lights[i], self.ids.lights[i].key
             if isinstance(light, PointLight | SpotLight):
                 p[f"{key}.position"] = mi.Point3f(*light.position)
                 p[f"{key}.color"] = mi.Color3f(*light.color)
@@ -182,15 +167,14 @@ class WarmScene:
         for i in self.moving:
             pl = placed[i]
             prim, m = pl.primitive, pl.to_world
-            key = f"{i:03d}"
+            ids = self.ids.objects[i]
             if isinstance(prim, TriangleMesh | Triangle):
                 if isinstance(prim, TriangleMesh):
                     obj, reach = self.meshes[prim.obj_file]
                     data = mesh_from_obj(obj, m, "auto", reach, pl.transformed)
-                    name = f"mesh_{key}"
                 else:
                     data = mesh_from_triangle(prim, m)
-                    name = f"triangle_{key}"
+                name = ids.entry
                 # 64-byte aligned copies: Dr.Jit maps numpy memory and bakes its alignment into kernels (driver)
                 p[f"{name}.vertex_positions"] = mi.Float(aligned_float32(data.positions))
                 p[f"{name}.faces"] = mi.UInt32(aligned_float32(data.faces.astype(np.uint32).view(np.float32))
@@ -210,14 +194,14 @@ class WarmScene:
                                              "non-uniform) for the whole animation", prim.loc)
                 if scale is not None:
                     c = tf.transform_points(m, np.asarray(prim.center))
-                    p[f"sphere_{key}.to_world"] = (mi.ScalarTransform4f().translate(mi.ScalarPoint3f(*c))
-                                                   @ mi.ScalarTransform4f().scale(float(prim.radius * scale)))
+                    p[f"{ids.entry}.to_world"] = (mi.ScalarTransform4f().translate(mi.ScalarPoint3f(*c))
+                                                  @ mi.ScalarTransform4f().scale(float(prim.radius * scale)))
                 else:
-                    p[f"sphere_{key}.to_world"] = mi.ScalarTransform4f(m.tolist())
-            elif isinstance(prim, Plane):
+                    p[f"{ids.entry}.to_world"] = mi.ScalarTransform4f(m.tolist())
+            elif isinstance(prim, Plane) and ids.plane is not None:  # an exact plane: a5_whitted's parameters
                 n_w, off_w = world_plane(prim, m)
                 mirror = n_w / np.linalg.norm(n_w) if pl.transformed else n_w
-                planes[key] = (tuple(float(x) for x in n_w), float(off_w), tuple(float(x) for x in mirror))
+                planes[ids.plane] = (tuple(float(x) for x in n_w), float(off_w), tuple(float(x) for x in mirror))
         if planes:
             replace_planes(self.integrator, planes)
 

@@ -31,6 +31,10 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--out", "-o"), "out", "folder for failing scenes and their minimised reproducers", 1, text,
          metavar="DIR"),
     json_file_flag("the whole report"),
+    Flag(("--allow-read",), "allow_read", "extra paths the sandboxed binary may read (':'-separated), e.g. its "
+         "interpreter", 1, text, metavar="PATHS"),
+    Flag(("--no-sandbox",), "no_sandbox", "run the binary even without bubblewrap (rlimits and a user id only)",
+         default=False, show_default=False),
 )
 
 
@@ -42,12 +46,17 @@ def run_difftest(args: Args, console: Console) -> int:
 
     if args.binary is None:
         raise UsageError("--binary PATH is required")
-    binary = check_binary(args.binary)
-    from a5mi.difftest.runner import sandbox_prefix
+    from a5mi import sandbox
+    from a5mi.difftest.runner import Binary
 
-    if not sandbox_prefix(binary.parent):
-        console.note("a5mi difftest: warning: bubblewrap (bwrap) is not installed: the binary runs unsandboxed "
-                     "(in its own temporary folder, with the time limit)")
+    why = sandbox.refusal()
+    if why and not args.no_sandbox:
+        raise UsageError(why)
+    if why:
+        console.note(f"a5mi difftest: WARNING: --no-sandbox: {sandbox.sandbox_problem()}: the binary runs NOT "
+                     "SANDBOXED (rlimits, its own user id and a temporary folder only)")
+    allow = tuple(p for p in (args.allow_read or "").split(":") if p)
+    binary = Binary(check_binary(args.binary), allow, not args.no_sandbox)  # run_campaign hands it to the runner
     if args.timeout <= 0:
         raise UsageError("--timeout must be positive")
     data = require_data_dir() / "scenes"

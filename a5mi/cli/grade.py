@@ -45,6 +45,9 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--match",), "match", "largest share of pixels beyond noise for 'match'", 1, real, 0.01, "SHARE"),
     Flag(("--close",), "close", "largest share of pixels beyond noise for 'close'", 1, real, 0.015, "SHARE"),
     Flag(("--no-flip",), "flip", "skip NVIDIA FLIP (faster)", const=False, default=True, show_default=False),
+    Flag(("--no-sandbox",), "no_sandbox", "run executables even without bubblewrap (rlimits and a user id only: "
+         "they can read what that user may and reach the network); said in the report", default=False,
+         show_default=False),
 )
 
 
@@ -79,8 +82,8 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     from a5mi.grade.batch import GradeSettings
     from a5mi.grade.cases import load_cases
     from a5mi.grade.references import default_cache_dir
-    from a5mi.grade.sandbox import Limits
     from a5mi.grade.verdict import Thresholds
+    from a5mi.sandbox import Limits
 
     if not 0 <= args.match <= args.close <= 1:
         raise UsageError(f"--match and --close must satisfy 0 <= match <= close <= 1 (found {args.match:g}, "
@@ -96,18 +99,30 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     return GradeSettings(
         submissions=args.submissions, report_dir=args.output, cases=cases, scenes=os.path.abspath(scenes),
         cache_dir=args.cache or str(default_cache_dir()), reference_dir=args.reference, workers=args.workers,
-        scheduler=args.scheduler, security=security, limits=Limits(timeout=args.timeout, memory_mb=args.memory),
-        resume=args.resume, read_only=allow, thresholds=Thresholds(args.match, args.close), flip=args.flip)
+        scheduler=args.scheduler, security=security, resume=args.resume,
+        limits=Limits(timeout=args.timeout, memory_mb=args.memory, require_sandbox=not args.no_sandbox),
+        read_only=allow, thresholds=Thresholds(args.match, args.close), flip=args.flip)
+
+
+def _has_executables(submissions: str) -> bool:
+    """Whether a student folder of ``submissions`` holds an executable ``a5`` (a program to run)."""
+    root = Path(submissions)
+    return root.is_dir() and any(os.access(d / "a5", os.X_OK) and (d / "a5").is_file()
+                                 for d in root.iterdir() if d.is_dir())
 
 
 def run_grade(args: Args, console: Console) -> int:
-    from a5mi.grade import sandbox
+    from a5mi import sandbox
     from a5mi.grade.batch import grade_class
 
     settings = settings_of(args)
-    if sandbox.isolation() != "bwrap":
-        console.note("a5mi grade: bubblewrap (bwrap) not found: student programs run with rlimits, their own "
-                     "user id (as root) and a private folder only, not in namespaces (apt-get install bubblewrap)")
+    why = sandbox.refusal()
+    if why and _has_executables(args.submissions):
+        if not args.no_sandbox:
+            raise UsageError(why)
+        console.note(f"a5mi grade: WARNING: --no-sandbox: {sandbox.sandbox_problem()}: student programs run NOT "
+                     "SANDBOXED (rlimits, their own user id and a private folder only: they can read what that user "
+                     "may and reach the network and the Dask scheduler)")
     bar = None
 
     def progress(done: int, total: int) -> None:

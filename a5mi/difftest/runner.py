@@ -2,11 +2,14 @@
 
 The other executable (the course's ``a5soln``, a student's ``a5``) is untrusted: :func:`run_binary` runs it
 without a shell, in a fresh temporary folder holding only the scene and links to the course files it names
-(meshes, textures, cube maps; the binary resolves paths against its working directory, SPEC A.0), with a
-time limit, and, when ``bwrap`` (bubblewrap) is installed, in a sandbox: no network, its own PID namespace,
-the file system read-only except that folder. It writes BMP; the image it wrote is read back with
-:func:`a5mi.imageio.read_levels`. a5mi renders the same folder's scene in this process
-(:func:`a5mi.session.render`), so compiled kernels are reused across scenes.
+(meshes, textures, cube maps; the binary resolves paths against its working directory, SPEC A.0), in the same
+sandbox as ``a5mi grade`` (:func:`a5mi.sandbox.run_sandboxed`: an unprivileged user id without capabilities, no
+network, its own PID namespace, only ``/usr``, the course data, its own folder and ``--allow-read`` paths visible,
+the time limit). Without bubblewrap it does not run unless asked by name (``--no-sandbox``,
+:attr:`Binary.require_sandbox` off). It writes BMP; only a regular file it created itself is taken
+(:func:`a5mi.sandbox.open_output`) and decoded without privileges (:func:`a5mi.sandbox.decode_levels`). a5mi
+renders the same folder's scene in this process (:func:`a5mi.session.render`), so compiled kernels are reused
+across scenes.
 
 Metrics (:func:`a5mi.compare.compare_arrays`): PSNR ``10 log10(255² / MSE)`` over all channels, the share of
 pixels whose largest channel error is > 2/255, and the maximum error.
@@ -15,8 +18,6 @@ pixels whose largest channel error is > 2/255, and the maximum error.
 from __future__ import annotations
 
 import os
-import shutil
-import subprocess
 import tempfile
 import time
 from dataclasses import dataclass
@@ -26,12 +27,14 @@ import numpy as np
 
 from a5mi.compare import Metrics, compare_arrays
 from a5mi.errors import UserError
-from a5mi.imageio import read_levels
+from a5mi.sandbox import TOO_LARGE, Limits, OutputRefused, decode_levels, open_output, run_sandboxed
 
 from .generate import GenScene
 
 #: Seconds a single run of the other executable may take.
 DEFAULT_TIMEOUT = 60.0
+#: The largest output file taken (bytes).
+MAX_IMAGE_BYTES = 64 << 20
 
 
 class BinaryError(UserError):
@@ -53,31 +56,21 @@ class Outcome:
         return self.metrics.psnr if self.metrics is not None else float("-inf")
 
 
-def sandbox_prefix(folder: Path, binary: Path | None = None) -> list[str]:
-    """The bubblewrap command line that confines a process to ``folder`` (writable), everything else
-    read-only, a private empty ``/tmp`` (the binary's own folder bound back, read-only), no network, own PID
-    namespace; ``[]`` when ``bwrap`` is not installed."""
-    bwrap = shutil.which("bwrap")
-    if bwrap is None:
-        return []
-    own = [] if binary is None else ["--ro-bind", str(binary.parent), str(binary.parent)]
-    # What a binary here may run from that the private /tmp would hide (a checkout or virtual environment
-    # under /tmp: this Python, a5mi's own sources, the course data), bound back read-only.
-    for path in sorted(_tmp_paths_needed()):
-        own += ["--ro-bind", path, path]
-    return [bwrap, "--ro-bind", "/", "/", "--dev", "/dev", "--proc", "/proc", "--tmpfs", "/tmp", *own,
-            "--bind", str(folder), str(folder), "--chdir", str(folder), "--unshare-net", "--unshare-pid",
-            "--die-with-parent", "--new-session"]
+@dataclass(frozen=True)
+class Binary:
+    """The other executable (absolute ``path``) and how it may run: extra ``read_only`` paths it needs (an
+    interpreter, a toolchain: ``--allow-read``) and ``require_sandbox`` (off: ``--no-sandbox``)."""
+
+    path: Path
+    read_only: tuple[str, ...] = ()
+    require_sandbox: bool = True
+
+    def __fspath__(self) -> str:
+        return str(self.path)
 
 
-def _tmp_paths_needed() -> set[str]:
-    """The interpreter's prefixes, the project and the course data, where they lie under ``/tmp``."""
-    import sys
-
-    from a5mi import PROJECT_ROOT, data_dir
-
-    paths = {sys.prefix, sys.base_prefix, str(PROJECT_ROOT), str(data_dir())}
-    return {os.path.realpath(p) for p in paths if os.path.realpath(p).startswith("/tmp/") and os.path.isdir(p)}
+def _as_binary(binary: Path | Binary) -> Binary:
+    return binary if isinstance(binary, Binary) else Binary(Path(binary))
 
 
 def check_binary(path: str | os.PathLike[str]) -> Path:
@@ -103,23 +96,34 @@ def stage(scene: GenScene, folder: Path, data: Path) -> Path:
     return path
 
 
-def run_binary(binary: Path, folder: Path, argv: list[str], timeout: float) -> tuple[np.ndarray | None, str]:
-    """Run ``binary -input scene.txt -output out.bmp ARGV`` in ``folder`` (sandboxed, no shell, time limit);
-    ``(levels, "ok")`` or ``(None, why)``."""
-    out = folder / "out.bmp"
-    cmd = [*sandbox_prefix(folder, binary), str(binary), "-input", "scene.txt", "-output", out.name, *argv]
-    try:
-        proc = subprocess.run(cmd, cwd=folder, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                              stderr=subprocess.PIPE, timeout=timeout, check=False)
-    except subprocess.TimeoutExpired:
+def run_binary(binary: Path | Binary, folder: Path, argv: list[str], timeout: float,
+               read_only: tuple[str, ...] = (), max_pixels: int = 4 << 20) -> tuple[np.ndarray | None, str]:
+    """Run ``binary -input scene.txt -output out.bmp ARGV`` in ``folder`` (sandboxed, no shell, time limit,
+    ``read_only`` paths visible besides the binary's folder); ``(levels, "ok")`` or ``(None, why)``. An image of
+    more than ``max_pixels`` pixels is not decoded."""
+    b = _as_binary(binary)
+    limits = Limits(timeout=timeout)
+    run = run_sandboxed([str(b.path), "-input", "scene.txt", "-output", "out.bmp", *argv], folder, limits,
+                        read_only=(str(b.path.parent), *read_only, *b.read_only))
+    if run.timed_out:
         return None, "timeout"
-    if not out.is_file():
-        tail = proc.stderr.decode(errors="replace").strip().splitlines()[-1:] or [f"exit {proc.returncode}"]
-        return None, f"binary failed: {tail[0][:120]}"
     try:
-        return read_levels(out), "ok"
-    except UserError as e:
-        return None, f"binary failed: unreadable output ({e})"
+        fd = open_output(folder, "out.bmp", owner=run.uid if run.uid is not None else os.geteuid(),
+                         max_bytes=MAX_IMAGE_BYTES)
+    except OutputRefused as exc:
+        if exc.missing:
+            tail = run.stderr_tail.strip().splitlines()[-1:] or [f"exit {run.returncode}"]
+            return None, f"binary failed: {tail[0][:120]}"
+        return None, f"binary failed: out.bmp: {exc.reason}"
+    try:
+        dec = decode_levels(fd, ".bmp", max_pixels, folder.parent)
+    finally:
+        os.close(fd)
+    if dec.error == TOO_LARGE:
+        return None, f"binary failed: image size {dec.width}x{dec.height} (not decoded)"
+    if dec.levels is None:
+        return None, f"binary failed: unreadable output ({dec.error})"
+    return dec.levels, "ok"
 
 
 def render_a5mi(scene_path: Path, scene: GenScene) -> np.ndarray:
@@ -136,13 +140,16 @@ def render_a5mi(scene_path: Path, scene: GenScene) -> np.ndarray:
     return quantize(render(describe(parse_file(scene_path)), opts).image).astype(np.float64)
 
 
-def compare_scene(scene: GenScene, binary: Path, data: Path, timeout: float = DEFAULT_TIMEOUT) -> Outcome:
+def compare_scene(scene: GenScene, binary: Path | Binary, data: Path, timeout: float = DEFAULT_TIMEOUT) -> Outcome:
     """Render ``scene`` with both and compare (module docstring). The temporary folder is removed after."""
     with tempfile.TemporaryDirectory(prefix="a5mi-difftest-") as tmp:
-        folder = Path(tmp)
+        os.chmod(tmp, 0o755)  # the run's user id reaches its folder and the decoder's beside it
+        folder = Path(tmp) / "run"
+        folder.mkdir()
         path = stage(scene, folder, data)
         t0 = time.perf_counter()
-        theirs, status = run_binary(binary, folder, scene.flags.argv(), timeout)
+        theirs, status = run_binary(binary, folder, scene.flags.argv(), timeout, read_only=(str(data),),
+                                    max_pixels=4 * (scene.flags.size + 10) ** 2)
         t1 = time.perf_counter()
         if theirs is None:
             return Outcome(None, status, t1 - t0)

@@ -1,14 +1,18 @@
-"""Grade one (student, case): run the submission sandboxed or take its image, then judge (issue 13).
+"""Grade one (student, case): run the submission sandboxed or take its image, then judge.
 
 :func:`grade_one` is the unit of work a cluster worker runs (:mod:`a5mi.cluster`); it takes a picklable
 :class:`Task` and returns a plain dict (one journal record). Verdict order (``docs/GRADING.md``):
 
 1. the submission has an executable ``a5``: it runs with the case's a5 command line in a private working
-   folder that holds links to every scene file (:mod:`a5mi.grade.sandbox`); ``timeout`` if killed at the wall
+   folder that holds links to every scene file (:mod:`a5mi.sandbox`); ``timeout`` if killed at the wall
    limit, ``over memory`` on a memory failure, ``crash`` on a signal or a non-zero exit (with stderr's tail);
 2. otherwise the image the case names must be in the submission folder (a student who rendered at home);
-3. ``no output`` without the image, ``unreadable`` if it cannot be decoded, ``wrong size`` if its size is
-   not the reference's, else ``match`` / ``close`` / ``wrong`` by :func:`a5mi.grade.verdict.judge`.
+3. ``no output`` without the image; ``unreadable`` if it is not a regular file the program wrote
+   (:func:`a5mi.sandbox.open_output`: a symbolic link anywhere on its path, a hard link, a FIFO, another
+   owner, too many bytes; no byte of such a file is read) or cannot be decoded (decoded without privileges,
+   :func:`a5mi.sandbox.decode_levels`); ``wrong size`` if its size is not the reference's (an image of more
+   than :data:`MAX_PIXELS_FACTOR` times the reference's pixels is not decoded at all), else ``match`` /
+   ``close`` / ``wrong`` by :func:`a5mi.grade.verdict.judge`.
 """
 
 from __future__ import annotations
@@ -23,14 +27,17 @@ from typing import Any
 
 import numpy as np
 
-from a5mi.errors import ImageReadError
 from a5mi.grade.cases import Case
-from a5mi.grade.sandbox import Limits, RunResult, run_sandboxed
 from a5mi.grade.verdict import Thresholds, judge, measure, points_for
 from a5mi.imageio import read_levels, write_image
+from a5mi.sandbox import TOO_LARGE, Limits, OutputRefused, RunResult, decode_levels, open_output, run_sandboxed
 
 #: Characters of stderr kept in a result (the tail).
 STDERR_KEEP = 2000
+#: An output of more pixels than this many times the reference's is ``wrong size`` without being decoded.
+MAX_PIXELS_FACTOR = 4
+#: The largest output file taken (bytes): a 16384 x 16384 RGBA 8-bit image uncompressed is 1 GiB.
+MAX_IMAGE_BYTES = 256 << 20
 
 
 @dataclass(frozen=True)
@@ -64,8 +71,9 @@ def executable(submission: Path) -> Path | None:
 
 
 def prepare_workdir(task: Task) -> Path:
-    """A fresh private folder ``work_root/student/case`` with a link to every entry of the scenes folder."""
-    work = Path(task.work_root) / task.student / task.case.name
+    """A fresh private folder ``work_root/student/case`` (absolute) with a link to every entry of the scenes
+    folder."""
+    work = Path(task.work_root).resolve() / task.student / task.case.name
     if work.exists():
         shutil.rmtree(work)
     work.mkdir(parents=True)
@@ -105,39 +113,60 @@ def grade_one(task: Task) -> dict[str, Any]:
     ``stderr_tail``, ``images`` (paths relative to the report folder), ``wall`` and ``isolation``."""
     t0 = time.perf_counter()
     sub = Path(task.submission)
+    if sub.is_symlink():
+        return _record(task, "no output", "the submission folder is a symbolic link: refused",
+                       isolation="none (refused)")
     prog = executable(sub)
     run_info: dict[str, Any] = {}
     if prog is not None:
         work = prepare_workdir(task)
-        run = run_sandboxed([str(prog.resolve()), *task.case.argv], work, task.limits,
-                            read_only=(str(sub.resolve()), str(Path(task.scenes).resolve()), *task.read_only),
-                            env=dict(task.env))
-        run_info = {"stderr_tail": run.stderr_tail[-STDERR_KEEP:], "wall": round(run.wall, 3),
-                    "isolation": run.isolation, "stdout_bytes": run.stdout_bytes, "stderr_bytes": run.stderr_bytes}
-        if run.timed_out:
-            rec = _record(task, "timeout", f"killed after {task.limits.timeout:g} s", **run_info)
-        elif run.over_memory:
-            rec = _record(task, "over memory", f"out of memory (limit {task.limits.memory_mb} MB), "
-                          f"{_crash_detail(run)}", **run_info)
-        elif run.crashed:
-            rec = _record(task, "crash", _crash_detail(run), **run_info)
-        else:
-            rec = _judge_image(task, work / task.case.output, run_info)
-        shutil.rmtree(work, ignore_errors=True)
+        try:
+            run = run_sandboxed([str(prog.resolve()), *task.case.argv], work, task.limits,
+                                read_only=(str(sub.resolve()), str(Path(task.scenes).resolve()), *task.read_only),
+                                env=dict(task.env))
+            run_info = {"stderr_tail": run.stderr_tail[-STDERR_KEEP:], "wall": round(run.wall, 3),
+                        "isolation": run.isolation, "stdout_bytes": run.stdout_bytes,
+                        "stderr_bytes": run.stderr_bytes}
+            if run.timed_out:
+                rec = _record(task, "timeout", f"killed after {task.limits.timeout:g} s", **run_info)
+            elif run.over_memory:
+                rec = _record(task, "over memory", f"out of memory (limit {task.limits.memory_mb} MB), "
+                              f"{_crash_detail(run)}", **run_info)
+            elif run.crashed:
+                rec = _record(task, "crash", _crash_detail(run), **run_info)
+            else:
+                owner = run.uid if run.uid is not None else os.geteuid()
+                rec = _judge_output(task, work, task.case.output, owner, run_info)
+        finally:
+            shutil.rmtree(work, ignore_errors=True)
     else:
-        rec = _judge_image(task, sub / task.case.output, {"isolation": "none (image submitted)"})
+        rec = _judge_output(task, sub.parent, f"{sub.name}/{task.case.output}", None,
+                            {"isolation": "none (image submitted)"})
         rec["wall"] = round(time.perf_counter() - t0, 3)
     return rec
 
 
-def _judge_image(task: Task, image: Path, run_info: dict[str, Any]) -> dict[str, Any]:
-    if not image.is_file():
-        return _record(task, "no output", f"no {task.case.output} written", **run_info)
-    try:
-        student = read_levels(image)
-    except ImageReadError as exc:
-        return _record(task, "unreadable", exc.reason, **run_info)
+def _judge_output(task: Task, folder: Path, rel: str, owner: int | None, run_info: dict[str, Any]) -> dict[str, Any]:
+    """Judge ``folder/rel``, taken only as :func:`a5mi.sandbox.open_output` allows and decoded unprivileged."""
+    out = task.case.output
     ref, sigma = read_levels(task.reference_png), np.load(task.sigma_npy)
+    rh, rw = ref.shape[:2]
+    try:
+        fd = open_output(folder, rel, owner=owner, max_bytes=MAX_IMAGE_BYTES)
+    except OutputRefused as exc:
+        if exc.missing:
+            return _record(task, "no output", f"no {out} written", **run_info)
+        return _record(task, "unreadable", f"{out}: {exc.reason}", **run_info)
+    try:
+        dec = decode_levels(fd, Path(out).suffix, MAX_PIXELS_FACTOR * rw * rh, task.work_root)
+    finally:
+        os.close(fd)
+    if dec.error == TOO_LARGE:
+        return _record(task, "wrong size", f"{dec.width}x{dec.height}, expected {rw}x{rh} (not decoded)",
+                       **run_info)
+    if dec.levels is None:
+        return _record(task, "unreadable", dec.error, **run_info)
+    student = dec.levels
     img_dir = Path(task.report_dir) / "img" / task.student
     img_dir.mkdir(parents=True, exist_ok=True)
     base = task.case.name
@@ -145,8 +174,7 @@ def _judge_image(task: Task, image: Path, run_info: dict[str, Any]) -> dict[str,
     images = {"submission": f"img/{task.student}/{base}.png"}
     if student.shape != ref.shape:
         h, w = student.shape[:2]
-        return _record(task, "wrong size", f"{w}x{h}, expected {ref.shape[1]}x{ref.shape[0]}", images=images,
-                       **run_info)
+        return _record(task, "wrong size", f"{w}x{h}, expected {rw}x{rh}", images=images, **run_info)
     metrics, heat = measure(student, ref, sigma if sigma.shape == ref.shape else None, flip=task.flip)
     verdict = judge(metrics, task.thresholds)
     diff = np.clip(np.abs(student - ref).max(axis=2, keepdims=True) * 8.0, 0, 255).repeat(3, axis=2)
@@ -158,4 +186,5 @@ def _judge_image(task: Task, image: Path, run_info: dict[str, Any]) -> dict[str,
     return _record(task, verdict, metrics.summary(), metrics=metrics.as_dict(), images=images, **run_info)
 
 
-__all__ = ["STDERR_KEEP", "Task", "executable", "grade_one", "prepare_workdir"]
+__all__ = ["MAX_IMAGE_BYTES", "MAX_PIXELS_FACTOR", "STDERR_KEEP", "Task", "executable", "grade_one",
+           "prepare_workdir"]

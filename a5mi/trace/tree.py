@@ -10,15 +10,16 @@ are the kernel's (plugins/whitted_record.py); this module only links nodes to pa
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from a5mi.converters.names import scene_ids, shape_kind
 from a5mi.plugins.whitted_record import LIGHT_LAYOUT, NODE_LAYOUT
 
-_KEY = re.compile(r"^(sphere|plane|triangle|mesh)_(\d+)")
+#: The scene-language keyword of each kind of object (:func:`a5mi.converters.names.shape_kind`).
+KEYWORDS = {"sphere": "Sphere", "plane": "Plane", "triangle": "Triangle", "mesh": "TriangleMesh"}
 
 
 def _fields(row: np.ndarray, layout: dict[str, tuple[int, int]]) -> dict[str, Any]:
@@ -134,31 +135,32 @@ class RayTree:
 def scene_object(desc: Any, i: int) -> SceneObject:
     """Object ``i`` of the scene description's Group, with its kind, line and material."""
     shape = desc.shapes[i]
-    kind = type(shape).__name__
-    if kind == "SphereShape":
-        name = "Sphere"
-    elif kind == "PlaneShape":
-        name = "Plane"
-    else:
-        name = "TriangleMesh" if getattr(shape, "obj_file", None) is not None else "Triangle"
     mat = desc.materials[shape.material]
-    return SceneObject(name, i, shape.loc.line, shape.material, mat.loc.line if mat.loc else None)
+    return SceneObject(KEYWORDS[shape_kind(shape)], i, shape.loc.line, shape.material,
+                       mat.loc.line if mat.loc else None)
 
 
 def object_names(desc: Any, scene: Any, integrator: Any, rids: set[int]) -> tuple[dict[int, SceneObject],
                                                                                  list[SceneObject]]:
-    """``({shape registry id: object}, [object of plane k])`` for a scene built by ``converters/to_mitsuba``:
-    shape ids (``sphere_NNN``, ``mesh_NNN``, ``sphere_NNN_shape`` inside an instance, ...) and plane ids
-    (``plane_NNN``) carry the object index NNN. ``rids``: the registry ids met in the record."""
+    """``({shape registry id: object}, [object of plane k])`` for a scene built by
+    :func:`a5mi.converters.to_mitsuba.to_dict`: each shape's Mitsuba id and each plane's parameter id looked up
+    in :func:`~a5mi.converters.names.scene_ids` (a shape that is no object, an area light's, is left
+    out). ``rids``: the registry ids met in the record."""
     from a5mi.plugins.whitted_record import shape_of
 
+    ids = scene_ids(desc)
     shapes: dict[int, SceneObject] = {}
     for rid in rids - {0}:
         s = shape_of(rid)
-        m = _KEY.match(s.id()) if s is not None else None
-        if m:
-            shapes[rid] = scene_object(desc, int(m.group(2)))
-    planes = [scene_object(desc, int(pid)) for pid, *_ in integrator.planes]
+        index = ids.object_of_shape(s.id()) if s is not None else None
+        if index is not None:
+            shapes[rid] = scene_object(desc, index)
+    planes = []
+    for pid, *_ in integrator.planes:
+        index = ids.object_of_plane(pid)
+        if index is None:
+            raise ValueError(f"a5_whitted has a plane '{pid}' that the scene description does not name")
+        planes.append(scene_object(desc, index))
     return shapes, planes
 
 

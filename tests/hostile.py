@@ -1,0 +1,140 @@
+"""A hostile class: student folders whose ``a5`` (a shell script) attacks the grader, plus honest ones.
+
+:func:`make_class` writes the folders and returns what each must get (``docs/GRADING.md`` "Threat model").
+Every attack is what a student could hand in: read secrets (``/etc/shadow``, the checkout, a file in the
+grader's home), write outside its folder, connect to a port on the host's loopback and to a public address,
+fork without end, kill its parent and every process it may signal, answer with a symbolic link to the
+reference or to a classmate's image, a hard link, a FIFO, an image header of 30000 x 30000 pixels in a tiny
+file, a decompression-bomb PNG, ``unshare -r`` and remounting. Image-folder students hand in links instead of
+images. The honest ones write a correct image (the reference's bytes, embedded), use ``mktemp`` and ``$HOME``,
+or write a wrong image.
+"""
+
+from __future__ import annotations
+
+import base64
+import os
+import struct
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+
+#: How a script finds the image path it must write (the a5 command line: ``-output FILE``).
+ARGS = 'out=out.png\nwhile [ $# -gt 0 ]; do [ "$1" = -output ] && out="$2"; shift; done\n'
+
+
+@dataclass(frozen=True)
+class Expect:
+    """What a student must get: one of ``verdicts`` and, when given, ``detail`` in the record's detail and
+    ``stderr`` in its stderr tail."""
+
+    verdicts: tuple[str, ...]
+    detail: str = ""
+    stderr: tuple[str, ...] = ()
+
+
+def _embed(data: bytes, target: str = '"$out"') -> str:
+    return f"base64 -d > {target} <<'EOF'\n{base64.encodebytes(data).decode()}EOF\n"
+
+
+def tga_header(width: int, height: int) -> bytes:
+    """An uncompressed 24-bit TGA header of ``width`` x ``height`` and 12 bytes of pixels (truncated)."""
+    return struct.pack("<BBBHHBHHHHBB", 0, 0, 2, 0, 0, 0, 0, 0, width, height, 24, 0) + bytes(12)
+
+
+def png_bomb(side: int = 20000) -> bytes:
+    """A valid 1-bit grey PNG of ``side`` x ``side`` zeros: about ``side²/8`` bytes once inflated, 1000 times
+    fewer on disk, ``side²`` pixels (x 3 channels x 8 bytes as levels) if decoded."""
+    row = b"\0" + bytes((side + 7) // 8)
+    raw = zlib.compress(row * side, 9)
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", side, side, 1, 0, 0, 0, 0))
+            + chunk(b"IDAT", raw) + chunk(b"IEND", b""))
+
+
+def host_tmp(port: int) -> Path:
+    """The file in the host's ``/tmp`` the writer tries to create (named by the test's ``port``)."""
+    return Path(f"/tmp/a5mi-pwned-{port}")
+
+
+def make_class(subs: Path, *, output: str, good: bytes, wrong: bytes, reference: Path, secrets: dict[str, Path],
+               outside: Path, port: int) -> dict[str, Expect]:
+    """Write the class into ``subs`` (one folder per student, 0755, scripts 0755) for a case whose output is
+    ``output``; ``good`` / ``wrong`` are image files' bytes (the correct one and a wrong one), ``reference``
+    the reference image's path, ``secrets`` files a student must not read (name -> path), ``outside`` a
+    world-writable folder it must not write to, ``port`` one the test listens on (127.0.0.1)."""
+    mate = subs / "athome" / output
+    cat = " ".join(f"'{p}'" for p in secrets.values())
+    scripts: dict[str, tuple[str, Expect]] = {
+        "good": (ARGS + _embed(good), Expect(("match",))),
+        "mktemp": (ARGS + 't=$(mktemp) || exit 7\n' + _embed(good, '"$t"') +
+                   'case "$HOME" in /*) ;; *) echo "relative HOME $HOME" >&2; exit 8;; esac\n'
+                   'echo ok > "$HOME/.cache-test" || exit 9\nmv "$t" "$out"\n', Expect(("match",))),
+        "wrongimg": (ARGS + _embed(wrong), Expect(("wrong",))),
+        "secrets": (f"cat {cat} /etc/shadow >&2\nls / >&2\n", Expect(("no output",))),
+        "writer": ("".join(f"echo pwned > '{t}'\n" for t in (outside / "pwned", subs / "athome" / "pwned",
+                                                             subs / "pwned", host_tmp(port)))
+                   + f"echo x > /tmp/a5mi-private-{port} || exit 5\n", Expect(("no output",))),
+        "net": ("#!/usr/bin/python3\nimport socket, sys\ncode = 0\n"
+                f"for addr in (('127.0.0.1', {port}), ('192.0.2.1', 80)):\n"
+                "    s = socket.socket()\n    s.settimeout(3)\n    try:\n        s.connect(addr)\n"
+                "        print('CONNECTED', addr, file=sys.stderr)\n    except OSError as exc:\n"
+                "        print('refused', addr[0], exc.strerror, file=sys.stderr)\n        code = 3\n"
+                "sys.exit(code)\n", Expect(("crash",), "exit status 3",
+                                           ("refused 127.0.0.1 Connection refused",
+                                            "refused 192.0.2.1 Network is unreachable"))),
+        "forkstorm": ("while :; do sleep 100 & done\n", Expect(("timeout", "crash"))),
+        "killer": ("kill -9 $PPID\nkill -9 -1\nsleep 2\n", Expect(("crash", "no output"))),
+        "symref": (ARGS + f"ln -s '{reference}' \"$out\"\n",
+                   Expect(("unreadable",), f"{output}: not a regular file (a symbolic link)")),
+        "symmate": (ARGS + f"ln -s '{mate}' \"$out\"\n",
+                    Expect(("unreadable",), f"{output}: not a regular file (a symbolic link)")),
+        "hardlink": (ARGS + _embed(good, "mine") + 'ln mine "$out"\n',
+                     Expect(("unreadable",), f"{output}: a hard link (2 names for one file)")),
+        "hardmate": (ARGS + f"ln '{mate}' \"$out\"\n", Expect(("crash",))),
+        "huge": (ARGS + _embed(tga_header(30000, 30000)), Expect(("unreadable", "wrong size"))),  # never decoded
+        "bomb": (ARGS + _embed(png_bomb()), Expect(("wrong size",), "20000x20000")),
+        "fifo": (ARGS + 'mkfifo "$out"\n', Expect(("unreadable",), f"{output}: not a regular file (a FIFO)")),
+        "userns": ("unshare -r id >&2\n", Expect(("crash",), "", ("unshare failed",))),
+        "remount": (f"mount -o remount,rw / >&2\nmount -o remount,bind,rw '{subs}' >&2\n"
+                    f"echo pwned > '{subs / 'pwned-remount'}'\n", Expect(("crash",), "", ("superuser",))),
+    }
+    expect: dict[str, Expect] = {}
+    subs.mkdir(parents=True, exist_ok=True)
+    for name, (script, exp) in scripts.items():
+        d = subs / name
+        d.mkdir()
+        d.chmod(0o755)
+        body = script if script.startswith("#!") else "#!/bin/sh\n" + script
+        (d / "a5").write_text(body)
+        (d / "a5").chmod(0o755)
+        expect[name] = exp
+    image_folders: dict[str, tuple[Path | bytes, Expect]] = {
+        "athome": (good, Expect(("match",))),
+        "shadowlink": (Path("/etc/shadow"),
+                       Expect(("unreadable",), f"{output}: not a regular file (a symbolic link)")),
+        "reflink": (reference, Expect(("unreadable",), f"{output}: not a regular file (a symbolic link)")),
+    }
+    for name, (content, exp) in image_folders.items():
+        d = subs / name
+        d.mkdir()
+        d.chmod(0o755)
+        if isinstance(content, Path):
+            (d / output).symlink_to(content)
+        else:
+            (d / output).write_bytes(content)
+            (d / output).chmod(0o644)
+        expect[name] = exp
+    (subs / "hardcopy").mkdir()
+    (subs / "hardcopy").chmod(0o755)
+    elsewhere = outside / f"copy-{output}"  # a file of someone else's, hard-linked into the folder
+    elsewhere.write_bytes(good)
+    os.link(elsewhere, subs / "hardcopy" / output)
+    expect["hardcopy"] = Expect(("unreadable",), f"{output}: a hard link (2 names for one file)")
+    return expect
+
+
+__all__ = ["ARGS", "Expect", "host_tmp", "make_class", "png_bomb", "tga_header"]
