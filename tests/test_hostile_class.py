@@ -234,11 +234,11 @@ def test_difftest_cli_refuses_without_bubblewrap(klass, tmp_path) -> None:
     assert a5mi is not None
     exe = klass["root"] / "subs" / "secrets" / "a5"
     env = {**os.environ, "A5MI_NO_BWRAP": "1"}
-    proc = subprocess.run([a5mi, "difftest", "--binary", str(exe), "--count", "1", "--size", "20"], env=env,
+    proc = subprocess.run([a5mi, "difftest", "--binary", str(exe), "--count", "1", "--mean-size", "20"], env=env,
                           capture_output=True, text=True, timeout=120, check=False)
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert "apt-get install bubblewrap" in proc.stderr and "--no-sandbox" in proc.stderr
-    proc = subprocess.run([a5mi, "difftest", "--binary", str(exe), "--count", "1", "--size", "20"],
+    proc = subprocess.run([a5mi, "difftest", "--binary", str(exe), "--count", "1", "--mean-size", "20"],
                           capture_output=True, text=True, timeout=300, check=False)
     assert "binary failed" in proc.stdout, proc.stdout + proc.stderr
     for secret in (klass["token"], klass["shadow"], klass["checkout"]):
