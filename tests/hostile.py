@@ -55,6 +55,25 @@ def png_bomb(side: int = 20000) -> bytes:
             + chunk(b"IDAT", raw) + chunk(b"IEND", b""))
 
 
+def sandbox_processes() -> list[int]:
+    """Live (non-zombie) processes whose real uid is in the sandbox's uid range (a5mi.sandbox UID_BASE ..
+    UID_BASE + UID_SPAN): after a run, none may be left."""
+    from a5mi.sandbox import UID_BASE, UID_SPAN
+
+    out = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/status") as f:
+                    fields = dict(ln.split(":", 1) for ln in f if ":" in ln)
+            except OSError:
+                continue
+            uid = int(fields["Uid"].split()[0])
+            if UID_BASE <= uid < UID_BASE + UID_SPAN and not fields["State"].strip().startswith("Z"):
+                out.append(int(entry))
+    return out
+
+
 def host_tmp(port: int) -> Path:
     """The file in the host's ``/tmp`` the writer tries to create (named by the test's ``port``)."""
     return Path(f"/tmp/a5mi-pwned-{port}")

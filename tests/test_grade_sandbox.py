@@ -18,29 +18,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hostile import sandbox_processes
 
 from a5mi.grade.cases import make_case
 from a5mi.grade.run import Task, grade_one
 from a5mi.imageio import write_image
-from a5mi.sandbox import NOT_SANDBOXED, UID_BASE, UID_SPAN, Limits, SandboxUnavailable, isolation, run_sandboxed
+from a5mi.sandbox import NOT_SANDBOXED, Limits, SandboxUnavailable, isolation, run_sandboxed
 
 LIMITS = Limits(timeout=3.0, memory_mb=512, nproc=48, keep_bytes=4096)
 
-
-def _sandbox_processes() -> list[int]:
-    """Live (non-zombie) processes whose real uid is in the sandbox's uid range."""
-    out = []
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/status") as f:
-                    fields = dict(ln.split(":", 1) for ln in f if ":" in ln)
-            except OSError:
-                continue
-            uid = int(fields["Uid"].split()[0])
-            if UID_BASE <= uid < UID_BASE + UID_SPAN and not fields["State"].strip().startswith("Z"):
-                out.append(int(entry))
-    return out
 
 
 @pytest.fixture
@@ -75,7 +61,7 @@ def _grade(world: Path, name: str, script: str, limits: Limits = LIMITS) -> dict
     t0 = time.perf_counter()
     rec = grade_one(task)
     rec["elapsed"] = time.perf_counter() - t0
-    assert not _sandbox_processes(), "a sandboxed process survived its run"
+    assert not sandbox_processes(), "a sandboxed process survived its run"
     return rec
 
 

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hostile import Expect, host_tmp, make_class
+from hostile import Expect, host_tmp, make_class, sandbox_processes
 
-from a5mi.sandbox import UID_BASE, UID_SPAN, isolation
+from a5mi.sandbox import UID_BASE, isolation
 
 pytestmark = pytest.mark.skipif(shutil.which("bwrap") is None, reason="make setup installs bubblewrap")
 
@@ -58,20 +58,6 @@ class Listener:
         self._thread.join()
         self.sock.close()
 
-
-def _sandbox_processes() -> list[int]:
-    out = []
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/status") as f:
-                    fields = dict(ln.split(":", 1) for ln in f if ":" in ln)
-            except OSError:
-                continue
-            if UID_BASE <= int(fields["Uid"].split()[0]) < UID_BASE + UID_SPAN and \
-                    not fields["State"].strip().startswith("Z"):
-                out.append(int(entry))
-    return out
 
 
 @pytest.fixture(scope="module")
@@ -158,7 +144,7 @@ def test_with_bubblewrap_every_attack_is_blocked(klass, monkeypatch, capsys) -> 
         assert not p.exists(), p
     assert not klass["listener"].accepted
     assert "Operation not permitted" in recs["killer"]["stderr_tail"] or recs["killer"]["verdict"] == "crash"
-    assert not _sandbox_processes()
+    assert not sandbox_processes()
     assert "(sandbox: bwrap)" in capsys.readouterr().err
 
 
@@ -181,7 +167,7 @@ def test_without_bubblewrap_executables_are_refused_unless_asked(klass, monkeypa
     _check_all(recs, klass["expect"], ["good", "mktemp", "wrongimg", "athome", "symref", "symmate", "hardlink",
                                        "huge", "bomb", "fifo", "shadowlink", "reflink", "hardcopy", "forkstorm"])
     assert {r["isolation"] for r in recs.values() if "image" not in r["isolation"]} == {"rlimits"}
-    assert not _sandbox_processes()
+    assert not sandbox_processes()
     # unsandboxed, the network student reached the host's loopback, and the writer could write where its user
     # id may (a world-writable folder, the host's /tmp)
     klass["listener"].accepted.clear()
@@ -226,7 +212,7 @@ def test_difftest_runner_blocks_the_same_class(klass, tmp_path) -> None:
     for p in (klass["outside"] / "pwned", subs / "athome" / "pwned", host_tmp(klass["listener"].port)):
         assert not p.exists(), p
     assert not klass["listener"].accepted
-    assert not _sandbox_processes()
+    assert not sandbox_processes()
 
 
 def test_difftest_cli_refuses_without_bubblewrap(klass, tmp_path) -> None:
