@@ -20,6 +20,8 @@ from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
+from a5mi.extras import require
+
 Progress = Callable[[int, int], None]
 
 
@@ -70,8 +72,8 @@ def start_client(workers: int = 2, scheduler: str | None = None, *,
                  memory_limit: str | None = "auto") -> Iterator[Any]:
     """A ``distributed.Client``: of ``scheduler`` if given, else of a fresh ``LocalCluster`` (module docstring);
     both are closed on exit."""
-    import dask
-    from distributed import Client, LocalCluster
+    dask, distributed = require("dask", "grade"), require("distributed", "grade")
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
 
     with dask.config.set({"distributed.scheduler.allowed-failures": 5, "distributed.worker.daemon": False,
                           "distributed.logging.distributed": "error"}):
@@ -101,7 +103,7 @@ def run_units(client: Any, units: Sequence[tuple[str, Any]], fn: Callable[[Any],
     record of these keys. A task that fails for good (its exception, or a worker dying more than
     ``allowed-failures`` times) is journaled as ``{"key", "error"}`` and not retried on resume. ``on_record``
     sees each new record as it is journaled."""
-    from distributed import as_completed
+    as_completed = require("distributed", "grade").as_completed
 
     if not resume:
         journal.reset()

@@ -14,6 +14,7 @@ from pathlib import Path
 from a5mi.cli.app import Command, Console
 from a5mi.cli.flags import Args, Flag, Positional, integer, real, text
 from a5mi.errors import UsageError
+from a5mi.extras import require
 
 FLAGS: tuple[Flag, ...] = (
     Flag(("-o", "--output"), "output", "report folder (report.html, results.csv, results.json, journal.jsonl)",
@@ -80,6 +81,8 @@ def run_grade(args: Args, console: Console) -> int:
     from a5mi.grade.batch import grade_class
 
     settings = settings_of(args)
+    for module in ("distributed", "tqdm") + (("flip_evaluator",) if settings.flip else ()):
+        require(module, "grade")  # before the cluster starts: a worker would journal it as each case's error
     if sandbox.isolation() != "bwrap":
         console.note("a5mi grade: bubblewrap (bwrap) not found: student programs run with rlimits, their own "
                      "user id (as root) and a private folder only, not in namespaces (apt-get install bubblewrap)")
@@ -88,7 +91,7 @@ def run_grade(args: Args, console: Console) -> int:
     def progress(done: int, total: int) -> None:
         nonlocal bar
         if bar is None:
-            from tqdm import tqdm
+            tqdm = require("tqdm", "grade").tqdm
 
             bar = tqdm(total=total, initial=done, unit="case", file=console.err, dynamic_ncols=True,
                        disable=console.quiet, desc="grading")
