@@ -59,7 +59,7 @@ lint: setup
 # `make test`: the everyday suite; `make test-all` adds the slow tier (pytest marker `slow`: full reference
 # renders, campaigns, sweeps, each with a faster test of the same behaviour in `make test`). Both run on
 # TEST_JOBS pytest-xdist workers (the cores, at most 4: each worker holds its own Mitsuba and JIT), a test file
-# whole on one worker, so module fixtures are built once.
+# whole on one worker, so module fixtures are built once (tests/conftest.py groups the files that must not overlap).
 TEST_JOBS ?= $(shell n=$$(nproc 2>/dev/null || echo 2); echo $$(( n < 4 ? n : 4 )))
 PYTEST := $(BIN)/python -m pytest -q -n $(TEST_JOBS) --dist loadfile
 test: setup lint
