@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from a5mi.errors import UsageError
+from a5mi.extras import require
 
 Progress = Callable[[int, int], None]
 
@@ -87,18 +88,17 @@ class Journal:
 def per_run_security() -> Any:
     """A ``distributed.security.Security`` with a fresh self-signed RSA-2048 key and certificate, used as the CA
     and as the scheduler's, workers' and client's certificate (``Security.temporary()``; needs the
-    ``cryptography`` package), ``require_encryption`` set: the credentials of one run, kept in memory."""
-    from distributed.security import Security
-
-    return Security.temporary()
+    ``cryptography`` package, in the ``grade`` and ``animate`` extras), ``require_encryption`` set: the
+    credentials of one run, kept in memory."""
+    require("cryptography", "grade")  # Security.temporary() imports it lazily: fail with the one-line error
+    return require("distributed", "grade").Security.temporary()
 
 
 def user_security(ca: str, cert: str, key: str) -> Any:
     """The client ``Security`` of an existing TLS cluster: the CA that signed its certificates and this
     client's certificate and key (PEM files), ``require_encryption`` set."""
-    from distributed.security import Security
-
-    return Security(require_encryption=True, tls_ca_file=ca, tls_client_cert=cert, tls_client_key=key)
+    security = require("distributed", "grade").Security
+    return security(require_encryption=True, tls_ca_file=ca, tls_client_cert=cert, tls_client_key=key)
 
 
 def check_scheduler(address: str, tls: tuple[str, str, str] | None, insecure: bool, flag: str = "--scheduler") -> Any:
@@ -107,7 +107,7 @@ def check_scheduler(address: str, tls: tuple[str, str, str] | None, insecure: bo
     workers), ``tls://`` without credentials (``tls`` = (ca, cert, key) files, or the Dask configuration's
     ``distributed.comm.tls.ca-file``), credentials that are not files, or credentials for a ``tcp://``
     address."""
-    import dask
+    dask = require("dask", "grade")
 
     scheme = address.partition("://")[0] if "://" in address else ""
     if scheme not in ("tcp", "tls", "inproc"):
@@ -137,8 +137,8 @@ def start_client(workers: int = 2, scheduler: str | None = None, *,
     """A ``distributed.Client``: of ``scheduler`` if given (with ``security``, else Dask's configuration),
     else of a fresh ``LocalCluster`` on ``tls://127.0.0.1`` with :func:`per_run_security` (module docstring);
     both are closed on exit."""
-    import dask
-    from distributed import Client, LocalCluster
+    dask, distributed = require("dask", "grade"), require("distributed", "grade")
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
 
     with dask.config.set({"distributed.scheduler.allowed-failures": 5, "distributed.worker.daemon": False,
                           "distributed.logging.distributed": "error"}):
@@ -172,7 +172,7 @@ def run_units(client: Any, units: Sequence[tuple[str, Any]], fn: Callable[[Any],
     record of these keys. A task that fails for good (its exception, or a worker dying more than
     ``allowed-failures`` times) is journaled as ``{"key", "error"}`` and not retried on resume. ``on_record``
     sees each new record as it is journaled."""
-    from distributed import as_completed
+    as_completed = require("distributed", "grade").as_completed
 
     if not resume:
         journal.reset()

@@ -57,3 +57,12 @@ class FileReadError(UserError):
     def __init__(self, msg: str, reason: str | None = None) -> None:
         super().__init__(msg)
         self.reason = reason if reason is not None else msg
+
+
+class MissingExtraError(UserError):
+    """A command needs a module of an optional dependency group that is not installed (:mod:`a5mi.extras`):
+    ``needs the 'EXTRA' extra: pip install 'a5mi[EXTRA]' (missing module MODULE)``."""
+
+    def __init__(self, module: str, extra: str) -> None:
+        super().__init__(f"needs the '{extra}' extra: pip install 'a5mi[{extra}]' (missing module {module})")
+        self.module, self.extra = module, extra

@@ -8,11 +8,15 @@
 * hypothesis profiles: ``fast`` (the default: ``make test``; derandomised, fixed example counts) and
   ``thorough`` (``make fuzz``, ``HYPOTHESIS_PROFILE=thorough``: ten times the examples, random seeds).
   Tests scale their own counts with :func:`examples`.
-* ``A5MI_CACHE_DIR`` points at a temporary folder for the session (the glibc rand() prefix cache).
+* ``A5MI_CACHE_DIR`` points at a temporary folder for the session (the glibc rand() prefix cache, the octree
+  masks, the transformed-code cache), shared by the pytest-xdist workers (every cache file is written
+  atomically): the controller sets it before it starts them.
+* ``make test`` runs on pytest-xdist workers, a test file (or a group of files, :data:`XDIST_GROUPS`) one unit.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import shutil
 import tempfile
@@ -86,6 +90,29 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         if COURSE_DATA_FIXTURES & set(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.course_data)
+
+
+#: Test files that must not run at the same time as each other on two pytest-xdist workers, by shared group: the
+#: sandbox tests count every live process of the sandbox's uid range (:data:`a5mi.grade.sandbox.UID_BASE`),
+#: and the class grader starts such processes.
+XDIST_GROUPS = {"test_grade_sandbox.py": "grade-sandbox", "test_grade_class.py": "grade-sandbox"}
+
+if importlib.util.find_spec("xdist") is not None:
+    def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
+        """``make test``'s ``-n N --dist loadfile``: each test file is one unit of work, on one worker (its module
+        fixtures are built once), except the files of one :data:`XDIST_GROUPS` group, which form one unit.
+        (Grouping by ``xdist_group`` marks, ``--dist loadgroup``, does not work with pytest 9: xdist rewrites
+        ``item._nodeid``, which pytest 9 no longer reads.)"""
+        if config.getvalue("dist") != "loadfile":
+            return None
+        from xdist.scheduler import LoadScopeScheduling
+
+        class FileGroups(LoadScopeScheduling):
+            def _split_scope(self, nodeid: str) -> str:
+                path = nodeid.split("::", 1)[0]
+                return XDIST_GROUPS.get(Path(path).name, path)
+
+        return FileGroups(config, log)
 
 
 _SESSION_CACHE: str | None = None

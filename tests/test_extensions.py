@@ -223,6 +223,7 @@ def test_glossy_white_mirror_returns_constant_background(mi: Any) -> None:
 
 
 # ------------------------------------------------------------------------------------------------ convergence
+@pytest.mark.slow
 def test_rmse_falls_at_least_as_spp_to_the_minus_half(mi: Any) -> None:
     from a5mi.bench.convergence import convergence
 

@@ -59,6 +59,7 @@ def test_endless_render_stops_soon_after_a_signal(tmp_path: Path, sig: signal.Si
     assert _leftovers(tmp_path) == []
 
 
+@pytest.mark.slow
 def test_sigint_at_random_moments(tmp_path: Path) -> None:
     """SIGINT at random moments of a short render (seeded): each run either finished before the signal
     (exit 0, a complete image), or ends with 130, one line and no file; never a traceback or an abort. A

@@ -4,9 +4,12 @@ the marble switched off or changed are all ``wrong`` (docs/GRADING.md has the ta
 
 from __future__ import annotations
 
+import pytest
+
 from a5mi.grade.calibrate import SCENES, SEEDS, calibrate
 
 
+@pytest.mark.slow
 def test_other_seeds_match_and_every_defect_is_wrong(scenes_dir, variant, tmp_path) -> None:
     rows = calibrate(scenes_dir, 100, tmp_path / "cache", flip=False)
     bad = [(r.scene, r.variant, r.verdict, r.metrics and round(100 * r.metrics.beyond_noise, 2)) for r in rows

@@ -72,6 +72,7 @@ Group { numObjects 1 MaterialIndex 0 Transform { YRotate 30 TriangleMesh { obj_f
 """
 
 
+@pytest.mark.slow
 def test_sums_equal_the_render_on_every_course_scene(variant: str, scenes_dir: Path, tmp_path: Path) -> None:
     """24 pixels (a 6x4 grid) of every course scene at 24x24 -shadows -bounces 4, plus a textured cube in a
     cube map: Σ contributions == rendered sample to 1e-6, 8-bit equal, and every category was traced."""

@@ -17,6 +17,7 @@ import numpy as np
 
 from a5mi import imageio
 from a5mi.errors import ImageWriteError
+from a5mi.extras import require
 
 FORMATS = (".mp4", ".gif")
 
@@ -34,7 +35,7 @@ def check_video_path(path: str | os.PathLike[str]) -> Path:
 
 def encode(path: str | os.PathLike[str], frame_files: Iterable[Path], fps: float) -> None:
     """Encode the images ``frame_files`` (in order, all of one size) into ``path`` at ``fps``."""
-    import imageio_ffmpeg
+    imageio_ffmpeg = require("imageio_ffmpeg", "animate")
 
     p = check_video_path(path)
     files = list(frame_files)

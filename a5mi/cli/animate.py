@@ -13,6 +13,7 @@ from a5mi.cli.app import Command, Console, activate_variant
 from a5mi.cli.flags import Args, Flag, Positional, integer, text
 from a5mi.cli.render import IMAGE_OUTPUT_DESTS, check_render_args, render_flags_except, render_options
 from a5mi.errors import ExitStatus, UsageError, UserError
+from a5mi.extras import require
 
 
 def frame_span(flag: str, values: list[str]) -> tuple[int, int]:
@@ -55,7 +56,11 @@ def run_animate(args: Args, console: Console) -> int:
     from a5mi.cli.app import load_scene
     from a5mi.converters.a5_parser import parse_file
 
+    require("tqdm", "animate")  # the optional modules this run uses, checked before anything renders
+    if args.workers is not None or args.scheduler is not None:
+        require("distributed", "animate")
     if args.video is not None:
+        require("imageio_ffmpeg", "animate")
         video.check_video_path(args.video)
     out = Path(args.output)
     if out.exists() and not out.is_dir():
@@ -75,7 +80,7 @@ def run_animate(args: Args, console: Console) -> int:
     def progress(done: int, total: int) -> None:
         nonlocal bar
         if bar is None:
-            from tqdm import tqdm
+            tqdm = require("tqdm", "animate").tqdm
 
             bar = tqdm(total=total, initial=done, unit="frame", file=console.err, dynamic_ncols=True,
                        disable=console.quiet or not console.err.isatty(), desc="frames", smoothing=0.1)

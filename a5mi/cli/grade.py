@@ -14,6 +14,7 @@ from pathlib import Path
 from a5mi.cli.app import Command, Console
 from a5mi.cli.flags import Args, Flag, Positional, integer, real, text
 from a5mi.errors import ExitStatus, UsageError, UserError
+from a5mi.extras import require
 
 FLAGS: tuple[Flag, ...] = (
     Flag(("-o", "--output"), "output", "report folder (report.html, results.csv, results.json, journal.jsonl)",
@@ -115,6 +116,8 @@ def run_grade(args: Args, console: Console) -> int:
     from a5mi import sandbox
     from a5mi.grade.batch import grade_class
 
+    for module in ("distributed", "cryptography", "tqdm") + (("flip_evaluator",) if args.flip else ()):
+        require(module, "grade")  # before the cluster starts: a worker would journal it as each case's error
     settings = settings_of(args)
     why = sandbox.refusal()
     if why and _has_executables(args.submissions):
@@ -128,7 +131,7 @@ def run_grade(args: Args, console: Console) -> int:
     def progress(done: int, total: int) -> None:
         nonlocal bar
         if bar is None:
-            from tqdm import tqdm
+            tqdm = require("tqdm", "grade").tqdm
 
             bar = tqdm(total=total, initial=done, unit="case", file=console.err, dynamic_ncols=True,
                        disable=console.quiet, desc="grading")

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from a5mi.compare import compare_arrays
+from a5mi.extras import require
 
 #: Verdicts, best first; ``points`` are given for ``match`` (full) and ``close`` (CLOSE_CREDIT of them).
 VERDICTS: tuple[str, ...] = ("match", "close", "wrong", "wrong size", "no output", "unreadable", "crash",
@@ -77,7 +78,7 @@ def beyond_noise(student: np.ndarray, reference: np.ndarray, sigma: np.ndarray |
 def flip_map(reference: np.ndarray, student: np.ndarray) -> tuple[np.ndarray, float]:
     """NVIDIA FLIP (LDR, default 67 pixels per degree) of two images in levels: (magma heatmap in levels
     (H, W, 3), mean FLIP in [0, 1])."""
-    import flip_evaluator
+    flip_evaluator = require("flip_evaluator", "grade")
 
     ref = np.ascontiguousarray(np.clip(reference / 255.0, 0, 1), dtype=np.float32)
     test = np.ascontiguousarray(np.clip(student / 255.0, 0, 1), dtype=np.float32)
