@@ -41,7 +41,7 @@ def _pair_table():
     """The 512-entry table ``p[i] = PERMUTATION[i & 255]`` as pairs, ``pairs[i] = p[i] | p[i + 1] << 32``
     (``p[512]`` taken as ``p[0]``), a device array (one per variant, cached): the hash chain reads ``p[i]``
     and ``p[i + 1]`` together, so one 64-bit gather gives both (its indices stay <= 510). Seven gathers per
-    noise instead of fourteen: the vase's kernel -12..-25% (issue 20, BENCHMARKS.md), bit for bit the same."""
+    noise instead of fourteen: the vase's kernel -12..-25% (measured: BENCHMARKS.md), bit for bit the same."""
     key = mi.variant()
     table = _TABLES.get(key)
     if table is None:

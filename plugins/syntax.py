@@ -1,10 +1,10 @@
-"""``@syntax``: Dr.Jit's ``@dr.syntax`` with its output kept on disk (issue 20, process start-up).
+"""``@syntax``: Dr.Jit's ``@dr.syntax`` with its output kept on disk (process start-up).
 
 ``@dr.syntax`` rewrites a function's loops and branches into Dr.Jit's symbolic ``while_loop`` / ``if_stmt``
 when the decorator runs: it reads the source back (``inspect.getsource``), parses it, transforms the tree
 and compiles it, in every process. For the a5mi plugins' eight decorated functions that is ~0.13 s of each
 ``a5`` run, and ``mi.set_variant`` pays the same again for Mitsuba's own Python integrators (``prb``,
-``prbvolpath``, ...), which it imports and decorates anew in every process (measured: BENCHMARKS.md, run H, item 5).
+``prbvolpath``, ...), which it imports and decorates anew in every process (measured: BENCHMARKS.md).
 
 :func:`syntax` returns exactly the function ``dr.syntax`` returns (the same transformed code object, the
 original globals and defaults) but keeps that code object in ``cache_dir()/syntax/`` (:func:`a5mi.cache_dir`),

@@ -374,9 +374,10 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     ``c = |d·N|`` if ``nt > n`` else ``|T·N|`` and ``R0 = ((nt-1)/(nt+1))²`` (``a5``, the binary) or
     ``((nt-n)/(nt+n))²`` (``schlick``); ``exact`` uses ``mi.fresnel``. With ``refraction = false`` the whole
     refraction branch is skipped (``R = 1``). Misses return ``scene.environment()`` for the ray's direction,
-    black without one. Lights are all emitters with a delta flag (``sample_direction`` gives ``L``,
-    the arriving colour and the distance; stock ``directional`` reports ``2 max(R, |p - c|)`` for the
-    scene's bounding sphere, always past every object, so its shadow test equals the binary's FLT_MAX).
+    black without one. Lights are the emitters with a delta flag and the ``a5_area`` emitters
+    (``sample_direction`` gives ``L``, the arriving colour and the distance; stock ``directional`` reports
+    ``2 max(R, |p - c|)`` for the scene's bounding sphere, always past every object, so its shadow test equals
+    the binary's FLT_MAX; an ``a5_area`` light is sampled ``samples`` times, docs/EXTENSIONS.md E.2).
 
     ``sample()`` treats its ray as a camera ray (unit direction, tmin 0, index 1) and returns the colour,
     the ``active`` mask, and the AOVs asked for by ``aovs`` (none by default, so ``mi.render`` gives RGB):
@@ -441,8 +442,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         self._rules: dict[int, triangle_rule.RuleTable] = {}   # id(scene) -> its rule table (the last scene only)
 
     def set_pass(self, first_pixel: int, index: int, count: int, seed: int) -> None:
-        """Extension E.5 (called by ``a5mi.driver`` before each ``sample``): lane ``i`` of the next batch is
-        render-buffer sample ``first_pixel + i``, in pass ``index`` of ``count`` (``-spp``), with ``seed``.
+        """Extension E.5 (called by ``a5mi.passes.sample_passes`` before each ``sample``): lane ``i`` of the next
+        batch is render-buffer sample ``first_pixel + i``, in pass ``index`` of ``count`` (``-spp``), with ``seed``.
         Without it (``mi.render``), a lane's key comes from the sampler and every pass is independent."""
         self._pass = (int(first_pixel), int(index), int(count), int(seed) & 0xFFFFFFFF)
 
@@ -473,7 +474,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         return [name for g in self.aovs for name in AOV_CHANNELS[g]]
 
     def _lights(self, scene: mi.Scene) -> tuple[mi.EmitterPtr, mi.UInt32]:
-        """The scene's delta emitters as a gatherable pointer array, and their count (opaque)."""
+        """The scene's lights (:meth:`_is_light`: delta and ``a5_area`` emitters) as a gatherable pointer array,
+        and their count (opaque)."""
         emitters = scene.emitters()
         idx = [i for i, e in enumerate(emitters) if self._is_light(e)]
         if not idx:
@@ -543,7 +545,9 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             f"A5WhittedIntegrator[max_depth={self.max_depth}, shadows={self.shadows}, "
             f"ambient={self.ambient}, phong={self.phong}, fresnel='{self.fresnel}', "
             f"reflection={self.reflection}, refraction={self.refraction}, tmin={self.tmin}, "
-            f"aovs='{','.join(self.aovs)}']"
+            f"aovs='{','.join(self.aovs)}', glossy_samples={self.glossy_samples}, "
+            f"dispersion={self.dispersion}, bump={self.bump}, glossy={self.glossy}, "
+            f"medium='{self._medium.kind if self._medium is not None else 'none'}', planes={len(self.planes)}]"
         )
 
 
