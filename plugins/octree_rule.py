@@ -111,9 +111,9 @@ def intersect(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, a
     ray cast for each ray leaving any surface, since it first meets that surface again; BENCHMARKS.md
     measures the difference)."""
     offset = t_min * SEARCH_FROM
-    if table is None:
+    if dr.hint(table is None, mode="scalar"):           # no rule mesh in the scene
         offset = mi.Float(t_min)
-    elif origin is not None:
+    elif dr.hint(origin is not None, mode="scalar"):
         rehit, _, _ = triangle_rule.evaluate(table, origin, o, d, t_min, mi.Bool(active) & (origin > 0))
         offset = dr.select(rehit, offset, t_min)
     si = scene.ray_intersect(mi.Ray3f(o + offset * d, d), active)
