@@ -18,9 +18,10 @@ The modules, each usable alone:
                     planes: one :class:`Hit`), :func:`mirror_normal`, :func:`visible` (the SPEC B.3 shadow
                     test ``S``, planes included)
 ``lights``          :class:`Lights` and :func:`lights_of` (one rule for "is a light", :func:`is_light`),
-                    :func:`sample` (one light sample: ``clamp(L·N, 0) lightColor ⊙ kd``, ``S``, the Phong
-                    term), :func:`sample_point` (E.2's stratified sample), :func:`emission` (an area light
-                    seen directly), :func:`record`
+                    :func:`direct` (the light loop: Σ S clamp(L·N, 0) lightColor ⊙ kd, E.2's samples),
+                    :func:`sample` (one light sample: L, S, the term, the Phong highlight),
+                    :func:`sample_point` (E.2's stratified sample), :func:`emission` (an area light seen
+                    directly), :func:`record`
 ``surfaces``        :func:`surface_at` (the material through the vcall-able BSDF attributes, the bump
                     normal E.7, the dispersive index E.10), :func:`background`
 ``gloss``           :func:`facet` (E.4: the sampled GGX normal of a glossy child)
@@ -33,8 +34,6 @@ and, beside this package, the pieces they build on: ``plugins/common.py`` (mirro
 ``plugins/octree_rule.py`` and ``plugins/triangle_rule.py`` (the binary's mesh rules), ``plugins/planes.py``,
 ``plugins/media.py`` (E.8, E.9 transmittance and in-scattering), ``plugins/spectral.py`` (E.10),
 ``plugins/bump.py`` (E.7), ``plugins/sampling.py`` (E.5), ``plugins/whitted_record.py`` (record mode).
-A new integrator imports these; it does not copy them. Two Dr.Jit rules it must keep (both met by
-``raytree``): a ``while`` loop over lanes lives in the ``@dr.syntax`` function whose values it carries (helpers
-here hold no loops, except ``plugins/media.py``'s and the rule modules' self-contained ones), and a stack of
-local arrays is carried as a plain tuple.
+A new integrator imports these; it does not copy them. One Dr.Jit rule it must keep: a stack of
+``dr.alloc_local`` arrays is carried through symbolic loops as a plain tuple (:mod:`.stack`).
 """

@@ -18,6 +18,7 @@ import drjit as dr
 import mitsuba as mi
 
 from ..sampling import Stochastic, stratified_2d
+from ..syntax import syntax
 from .intersect import visible
 
 if TYPE_CHECKING:
@@ -86,7 +87,7 @@ def sample(scene: mi.Scene, data: SceneData, f: Features, emitter: mi.EmitterPtr
            specular: mi.Color3f, shininess: mi.Float, r_view: mi.Vector3f, u: mi.Point2f) -> LightSample:
     """The light ``emitter`` (``is_area``: an E.2 light) seen from the hit ``si`` (point ``p``, lanes ``hit``,
     shading normal ``n``, material ``kd``, ``specular``, ``shininess``, mirror direction ``r_view``) through the
-    unit-square sample ``u`` (module docstring). The loops over lights and samples are the kernel's."""
+    unit-square sample ``u`` (module docstring); :func:`direct` loops over lights and samples."""
     ds, light_color = emitter.sample_direction(si, u, hit)
     d_light = ds.d                                               # SPEC L
     seen = mi.Bool(hit)                                          # SPEC S
@@ -110,6 +111,41 @@ def sample_point(rng: Stochastic, node: mi.UInt32, k: mi.UInt32, j: mi.UInt32, n
     and the ``-spp`` passes (E.5 dimension ``node · 256 + k``, draws ``counter``, ``counter + 1``)."""
     return stratified_2d(rng.pixel_key, rng.pass_key, node * 256 + k, rng.pass_index * n_samples + j,
                          rng.passes * n_samples, counter)
+
+
+@syntax
+def direct(scene: mi.Scene, data: SceneData, f: Features, si: mi.SurfaceInteraction3f, p: mi.Point3f,
+           hit: mi.Bool, n: mi.Vector3f, kd: mi.Color3f, specular: mi.Color3f, shininess: mi.Float,
+           r_view: mi.Vector3f, local: mi.Color3f, rng: Stochastic, node: mi.UInt32, counter: mi.UInt32,
+           n_shadow: mi.Float, rec: TreeRecorder | None = None,
+           at: mi.UInt32 | None = None) -> tuple[mi.Color3f, mi.UInt32, mi.Float]:
+    """The light loop of SPEC B.3 at a hit (module docstring): ``local + Σ_lights (1/S) Σ_samples S·term``, with
+    ``counter`` advanced by two draws per light sample and ``n_shadow`` by the shadow rays traced; returns
+    ``(local, counter, n_shadow)``. Arguments as :func:`sample`; ``node``: the ray-tree node (E.5 dimensions);
+    ``rec`` / ``at``: record mode's recorder and node number."""
+    k = dr.zeros(mi.UInt32, dr.width(p))
+    while hit & (k < data.lights.count):
+        emitter = dr.gather(mi.EmitterPtr, data.lights.emitters, k, hit)
+        # E.2: S stratified samples of an area light (S = 1 and the sample unused for the others)
+        n_samples = dr.gather(mi.UInt32, data.lights.samples, k, hit)
+        is_area = dr.gather(mi.UInt32, data.lights.area, k, hit) > 0
+        acc = dr.zeros(mi.Color3f, dr.width(p))
+        j = dr.zeros(mi.UInt32, dr.width(p))
+        while hit & (j < n_samples):
+            u = mi.Point2f(0.5)
+            if dr.hint(f.area_lights, mode="scalar"):
+                u = sample_point(rng, node, k, j, n_samples, counter)
+            counter += 2
+            ls = sample(scene, data, f, emitter, is_area, si, p, hit, n, kd, specular, shininess, r_view, u)
+            if dr.hint(f.shadows, mode="scalar"):
+                n_shadow += dr.select(hit, 1.0, 0.0)
+            acc += dr.select(ls.seen, ls.term, 0.0)
+            if dr.hint(f.record, mode="scalar"):
+                record(rec, scene, data, f, at, k, p, hit, n, ls, is_area, n_samples)
+            j += 1
+        local += acc * (1.0 / mi.Float(dr.maximum(n_samples, 1)))
+        k += 1
+    return local, counter, n_shadow
 
 
 def record(rec: TreeRecorder, scene: mi.Scene, data: SceneData, f: Features, at: mi.UInt32, k: mi.UInt32,

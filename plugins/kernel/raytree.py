@@ -66,8 +66,7 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
     node = dr.zeros(mi.UInt32, width)            # E.5: ray-tree node number (sampling dimensions)
 
     while top > 0:
-        # (NamedTuples are unpacked at once: a symbolic loop updates the arrays it carries in place, and a
-        # container read after such a loop would still hold the arrays of its first, discarded recording.)
+        # (the helpers' NamedTuples are unpacked at once: each value has one name in the loops that carry it)
         top -= 1
         o, d, weight, bounces, n_medium, t_min, origin, weighted = ray_stack.pop(stack, top)
         at = None
@@ -89,29 +88,8 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
 
         # ---- local shading: ambient ⊙ diffuseColor + Σ S clamp(L·N) lightColor ⊙ kd
         local = data.ambient * diffuse_color
-        k = dr.zeros(mi.UInt32, width)
-        while hit & (k < data.lights.count):
-            emitter = dr.gather(mi.EmitterPtr, data.lights.emitters, k, hit)
-            # E.2: S stratified samples of an area light (S = 1 and the sample unused for the others)
-            n_samples = dr.gather(mi.UInt32, data.lights.samples, k, hit)
-            is_area = dr.gather(mi.UInt32, data.lights.area, k, hit) > 0
-            acc = dr.zeros(mi.Color3f, width)
-            j = dr.zeros(mi.UInt32, width)
-            while hit & (j < n_samples):
-                u = mi.Point2f(0.5)
-                if dr.hint(f.area_lights, mode="scalar"):
-                    u = lights.sample_point(rng, node, k, j, n_samples, counter)
-                counter += 2
-                ls = lights.sample(scene, data, f, emitter, is_area, si, p, hit, n, kd, specular, shininess,
-                                   r_view, u)
-                if dr.hint(f.shadows, mode="scalar"):
-                    n_shadow += dr.select(hit, 1.0, 0.0)
-                acc += dr.select(ls.seen, ls.term, 0.0)
-                if dr.hint(f.record, mode="scalar"):
-                    lights.record(rec, scene, data, f, at, k, p, hit, n, ls, is_area, n_samples)
-                j += 1
-            local += acc * (1.0 / mi.Float(dr.maximum(n_samples, 1)))
-            k += 1
+        local, counter, n_shadow = lights.direct(scene, data, f, si, p, hit, n, kd, specular, shininess, r_view,
+                                                 local, rng, node, counter, n_shadow, rec, at)
         if dr.hint(f.area_lights, mode="scalar"):   # E.2: an area light seen directly
             local = lights.emission(scene, si, hit & ~on_plane, local)
 
