@@ -1,7 +1,8 @@
 """Samples per render-buffer pixel for the distribution-ray-tracing extension (docs/EXTENSIONS.md E.3, E.5).
 
 :func:`sample_passes` traces one tile ``spp`` times and averages the colours: pass ``k`` tells ``a5_whitted``
-its sample index (``set_pass``: pixel ``first + i``, pass ``k`` of ``spp``, the seed), so light, lens and gloss
+its sample index with each call (a :class:`a5mi.plugins.sampling.SamplePass`: pixel ``first + i``, pass ``k`` of
+``spp``, the seed; nothing stays set on the integrator between calls), so light, lens and gloss
 samples are stratified over the ``spp`` passes of each pixel and reproducible for a given seed. The pixel
 position stays the one of SPEC B.2 / B.5 (centre, or the ``-jitter`` offset): ``-spp`` samples only the
 stochastic dimensions. With ``spp = 1`` and a pinhole camera the pass is exactly the course render.
@@ -43,14 +44,15 @@ def sample_passes(scene: Any, integrator: Any, sampler: Any, ray: Any, camera: A
     import drjit as dr
     import mitsuba as mi
 
-    from a5mi.plugins.sampling import LENS_DIM, pixel_keys, stratified_2d
+    from a5mi.plugins.sampling import LENS_DIM, SamplePass, pixel_keys, stratified_2d
+    from a5mi.plugins.whitted import A5WhittedIntegrator
+
+    a5 = isinstance(integrator, A5WhittedIntegrator)   # takes the pass; any other integrator samples alone
 
     aperture = float(getattr(camera, "aperture", 0.0) or 0.0)
     total = None
     aovs0: list[Any] = []
     for k in range(spp) if only is None else (only,):
-        if hasattr(integrator, "set_pass"):
-            integrator.set_pass(first, k, spp, seed)
         traced = ray
         if aperture > 0.0:
             pixel = dr.arange(mi.UInt32, n) + dr.opaque(mi.UInt32, first)
@@ -59,7 +61,9 @@ def sample_passes(scene: Any, integrator: Any, sampler: Any, ray: Any, camera: A
                               mi.UInt32(0x7FFFFFF0))
             traced = thin_lens(ray, camera, u)
         sampler.seed(k, n)
-        rgb, _valid, aovs = integrator.sample(scene, sampler, mi.RayDifferential3f(traced), None, mi.Bool(True))
+        extra = {"sample_pass": SamplePass(first, k, spp, seed)} if a5 else {}
+        rgb, _valid, aovs = integrator.sample(scene, sampler, mi.RayDifferential3f(traced), None, mi.Bool(True),
+                                              **extra)
         if total is None:
             aovs0 = list(aovs)
             total = rgb

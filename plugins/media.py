@@ -30,13 +30,19 @@ integrator traces shadows.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import drjit as dr
 import mitsuba as mi
 
-from . import octree_rule
-from .planes import PlaneSet, intersect_planes
+from .kernel.intersect import visible
+from .kernel.lights import Lights
+from .planes import PlaneSet
 from .sampling import Stochastic, stratified_2d
 from .syntax import syntax
+
+if TYPE_CHECKING:
+    from .kernel.features import SceneData
 
 #: ``π · 1/(4π)``: the isotropic phase function on the a5 lights' scale (module docstring).
 PHASE = 0.25
@@ -101,30 +107,28 @@ def _box_span(med: MediumParams, o: mi.Point3f, d: mi.Vector3f, t0: mi.Float,
 
 
 @syntax
-def _light_at(scene: mi.Scene, planes: PlaneSet, x: mi.Point3f, live: mi.Bool, lights: mi.EmitterPtr,
-              n_lights: mi.UInt32, tmin: mi.Float, shadows: bool, rng: Stochastic, dim: mi.UInt32,
-              index: mi.UInt32, count: mi.UInt32, counter: mi.UInt32) -> tuple[mi.Color3f, mi.UInt32]:
+def _light_at(scene: mi.Scene, planes: PlaneSet, x: mi.Point3f, live: mi.Bool, lights: Lights, tmin: mi.Float,
+              shadows: bool, rng: Stochastic, dim: mi.UInt32, index: mi.UInt32, count: mi.UInt32,
+              counter: mi.UInt32) -> tuple[mi.Color3f, mi.UInt32]:
     """``L(x) = Σ_k V_k lightColor_k`` (module docstring): one sample of each light, sample ``index`` of
     ``count`` of dimension ``dim + k``; returns ``(L, counter)``."""
     width = dr.width(x)
     acc = dr.zeros(mi.Color3f, width)
     k = dr.zeros(mi.UInt32, width)
-    while live & (k < n_lights):
-        emitter = dr.gather(mi.EmitterPtr, lights, k, live)
-        is_area = dr.gather(mi.UInt32, rng.light_area, k, live) > 0
+    while live & (k < lights.count):
+        emitter = dr.gather(mi.EmitterPtr, lights.emitters, k, live)
+        is_area = dr.gather(mi.UInt32, lights.area, k, live) > 0
         u = stratified_2d(rng.pixel_key, rng.pass_key, dim + k, index, count, counter)
         counter += 2
         it = dr.zeros(mi.Interaction3f, width)
         it.p = x
         ds, light_color = emitter.sample_direction(it, u, live)
-        visible = mi.Bool(live)
-        if shadows:
+        seen = mi.Bool(live)
+        if dr.hint(shadows, mode="scalar"):
             dist = dr.select(is_area, ds.dist * (1.0 - 1e-4), ds.dist)   # not the light's own shape
-            visible &= ~octree_rule.occluded(scene, x, ds.d, tmin, dist, live)
             far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0
-            blocked, _, _ = intersect_planes(planes, x, ds.d, tmin, dr.select(far, dr.inf, dist), visible)
-            visible &= ~blocked
-        acc += dr.select(visible, mi.Color3f(light_color), 0.0)
+            seen = visible(scene, planes, x, ds.d, tmin, dist, far, live)
+        acc += dr.select(seen, mi.Color3f(light_color), 0.0)
         k += 1
     return acc, counter
 
@@ -149,12 +153,12 @@ def _step(med: MediumParams, o: mi.Point3f, d: mi.Vector3f, ta: mi.Float, u: mi.
 
 
 @syntax
-def segment(scene: mi.Scene, planes: PlaneSet, med: MediumParams, o: mi.Point3f, d: mi.Vector3f, t0: mi.Float,
-            t1: mi.Float, active: mi.Bool, lights: mi.EmitterPtr, n_lights: mi.UInt32, tmin: mi.Float,
-            shadows: bool, rng: Stochastic, node: mi.UInt32,
+def segment(scene: mi.Scene, data: SceneData, o: mi.Point3f, d: mi.Vector3f, t0: mi.Float, t1: mi.Float,
+            active: mi.Bool, shadows: bool, rng: Stochastic, node: mi.UInt32,
             counter: mi.UInt32) -> tuple[mi.Float, mi.Color3f, mi.UInt32]:
-    """``(T, S, counter)`` of the segment ``o + t d``, ``t0 <= t <= t1`` (module docstring); ``T = 1``, ``S = 0``
-    on lanes not ``active`` (rays inside glass)."""
+    """``(T, S, counter)`` of the segment ``o + t d``, ``t0 <= t <= t1`` (module docstring) in the medium
+    ``data.medium``; ``T = 1``, ``S = 0`` on lanes not ``active`` (rays inside glass)."""
+    med = data.medium
     width = dr.width(d)
     ta, tb = _span(med, o, d, t0, t1)
     live = active & (tb > ta)
@@ -171,8 +175,8 @@ def segment(scene: mi.Scene, planes: PlaneSet, med: MediumParams, o: mi.Point3f,
     while live & (i < n):
         u = (mi.Float(i) + xi) / mi.Float(n)
         t, w, tau = _step(med, o, d, ta, u, span, frac, n, tau, live)
-        arriving, counter = _light_at(scene, planes, o + t * d, live, lights, n_lights, tmin, shadows, rng, dim,
-                                      rng.pass_index * n + i, rng.passes * n, counter)
+        arriving, counter = _light_at(scene, data.planes, o + t * d, live, data.lights, data.tmin, shadows, rng,
+                                      dim, rng.pass_index * n + i, rng.passes * n, counter)
         light += w * arriving
         i += 1
     transmittance = _transmittance(med, tau_fog, tau)

@@ -1,4 +1,4 @@
-"""The sample solution's mesh octree rule inside ``a5_whitted``: hits the binary does not see (issue 12).
+"""The sample solution's mesh octree rule inside ``a5_whitted``: hits the binary does not see (SPEC A.6).
 
 ``a5soln`` intersects meshes through an octree whose traversal breaks when the object-space ray direction
 has a component that is exactly zero (the rule and its derivation: ``a5mi.converters.octree``): with
@@ -108,12 +108,12 @@ def intersect(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, a
     ray leaves, 0 for none) lets that triangle be tested directly: where the binary re-hits it, the Mitsuba
     ray starts ``SEARCH_FROM`` tmin behind the origin (so the triangle is found and evaluated), elsewhere at
     ``o + t_min d``. Without ``origin`` every lane starts behind (the rule's first form: one more Mitsuba
-    ray cast for each ray leaving any surface, since it first meets that surface again; BENCHMARKS.md,
-    run H, items 1 and 3 measure the difference)."""
+    ray cast for each ray leaving any surface, since it first meets that surface again; BENCHMARKS.md
+    measures the difference)."""
     offset = t_min * SEARCH_FROM
-    if table is None:
+    if dr.hint(table is None, mode="scalar"):           # no rule mesh in the scene
         offset = mi.Float(t_min)
-    elif origin is not None:
+    elif dr.hint(origin is not None, mode="scalar"):
         rehit, _, _ = triangle_rule.evaluate(table, origin, o, d, t_min, mi.Bool(active) & (origin > 0))
         offset = dr.select(rehit, offset, t_min)
     si = scene.ray_intersect(mi.Ray3f(o + offset * d, d), active)

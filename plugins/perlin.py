@@ -13,6 +13,8 @@ the 12-gradient ``grad``.
 
 from __future__ import annotations
 
+from functools import cache
+
 import drjit as dr
 import mitsuba as mi
 
@@ -34,21 +36,20 @@ PERMUTATION: tuple[int, ...] = (
     138, 236, 205, 93, 222, 114, 67, 29, 24, 72, 243, 141, 128, 195, 78, 66, 215, 61, 156, 180,
 )  # fmt: skip
 
-_TABLES: dict[str, object] = {}
-
-
-def _pair_table():
+@cache
+def _pair_table(variant: str) -> mi.UInt64:
     """The 512-entry table ``p[i] = PERMUTATION[i & 255]`` as pairs, ``pairs[i] = p[i] | p[i + 1] << 32``
-    (``p[512]`` taken as ``p[0]``), a device array (one per variant, cached): the hash chain reads ``p[i]``
-    and ``p[i + 1]`` together, so one 64-bit gather gives both (its indices stay <= 510). Seven gathers per
-    noise instead of fourteen: the vase's kernel -12..-25% (issue 20, BENCHMARKS.md), bit for bit the same."""
-    key = mi.variant()
-    table = _TABLES.get(key)
-    if table is None:
-        p = list(PERMUTATION) * 2 + [PERMUTATION[0]]
-        table = mi.UInt64([p[i] | (p[i + 1] << 32) for i in range(512)])
-        dr.make_opaque(table)
-        _TABLES[key] = table
+    (``p[512]`` taken as ``p[0]``), an opaque device array of ``variant``: the hash chain reads ``p[i]`` and
+    ``p[i + 1]`` together, so one 64-bit gather gives both (its indices stay <= 510). Seven gathers per noise
+    instead of fourteen: the vase's kernel -12..-25% (measured: BENCHMARKS.md), bit for bit the same.
+
+    Cached per variant (``functools.cache``), on purpose: the table is a constant of :data:`PERMUTATION`, not of a
+    scene or a render, so the cache carries nothing from one call to the next; building it per texture call
+    would upload it again each time, and one opaque array shared by every noise call keeps one compiled kernel
+    for every scene."""
+    p = list(PERMUTATION) * 2 + [PERMUTATION[0]]
+    table = mi.UInt64([p[i] | (p[i + 1] << 32) for i in range(512)])
+    dr.make_opaque(table)
     return table
 
 
@@ -88,7 +89,7 @@ def noise(x: mi.Float64, y: mi.Float64, z: mi.Float64) -> mi.Float64:
     x, y, z = x - fx, y - fy, z - fz
     u, v, w = fade(x), fade(y), fade(z)
 
-    pairs = _pair_table()
+    pairs = _pair_table(mi.variant())
 
     def P2(i: mi.UInt32) -> tuple[mi.UInt32, mi.UInt32]:
         """``(p[i], p[i + 1])`` in one 64-bit gather."""

@@ -162,10 +162,6 @@ def plane_bsdf(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool) -> mi.BSDFPtr:
     return dr.gather(mi.BSDFPtr, ps.bsdf, idx, active)
 
 
-def plane_inv(ps, idx, active):
-    return dr.gather(mi.Float, ps.inv_len, idx, active)
-
-
 def replace_planes(integrator: Any, moved: dict[str, tuple[tuple[float, float, float], float,
                                                           tuple[float, float, float]]]) -> None:
     """Give the planes ``moved`` (id -> (normal, offset, mirror normal)) of an ``a5_whitted`` integrator new

@@ -17,6 +17,8 @@ so a render is reproducible for a given ``-seed`` whatever the tile size or thre
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import drjit as dr
 import mitsuba as mi
 
@@ -66,13 +68,41 @@ def ggx_normal(n: mi.Vector3f, alpha: mi.Float, u: mi.Point2f) -> mi.Vector3f:
     return dr.select(alpha > 0.0, dr.normalize(m), n)
 
 
-class Stochastic:
-    """Per-lane sampling state of the extension (docs/EXTENSIONS.md E.5, :mod:`.sampling`): ``pixel_key`` and
-    ``pass_key`` (UInt32 per lane), the pass index and the number of passes (``-spp``), the lights' sample
-    counts and area flags (arrays indexed like ``lights``) and the cap on glossy children (opaque)."""
+class SamplePass(NamedTuple):
+    """Which samples a batch of camera rays is (docs/EXTENSIONS.md E.5), handed to ``a5_whitted``'s ``sample`` /
+    ``trace`` with each call (``a5mi.passes.sample_passes``): lane ``i`` is render-buffer sample
+    ``first_pixel + i``, in pass ``index`` of ``count`` (``-spp``), with ``seed``. Without one (``mi.render``) a
+    lane's key comes from the sampler and every pass is independent."""
 
-    def __init__(self, pixel_key: mi.UInt32, pass_key: mi.UInt32, pass_index: mi.UInt32, passes: mi.UInt32,
-                 light_samples: mi.UInt32, light_area: mi.UInt32, glossy_cap: mi.UInt32) -> None:
-        self.pixel_key, self.pass_key = pixel_key, pass_key
-        self.pass_index, self.passes = pass_index, passes
-        self.light_samples, self.light_area, self.glossy_cap = light_samples, light_area, glossy_cap
+    first_pixel: int
+    index: int
+    count: int
+    seed: int
+
+
+class Stochastic(NamedTuple):
+    """Per-lane sampling state of a kernel call (module docstring): ``pixel_key`` and ``pass_key`` (UInt32 per
+    lane), the pass index and the number of passes (``-spp``) and the cap on glossy children (opaque)."""
+
+    pixel_key: mi.UInt32
+    pass_key: mi.UInt32
+    pass_index: mi.UInt32
+    passes: mi.UInt32
+    glossy_cap: mi.UInt32
+
+
+def stochastic(sample_pass: SamplePass | None, sampler: mi.Sampler | None, width: int,
+               glossy_cap: int) -> Stochastic:
+    """The :class:`Stochastic` state of ``width`` camera rays: keys of ``sample_pass``, or without one keys
+    drawn from ``sampler`` (pass 0 of 1, seed 0; no sampler: key 0)."""
+    if sample_pass is not None:
+        first, index, count, seed = (int(v) for v in sample_pass)
+        seed &= 0xFFFFFFFF
+        pixel = dr.arange(mi.UInt32, width) + dr.opaque(mi.UInt32, first)
+    else:
+        index, count, seed = 0, 1, 0
+        rnd = sampler.next_1d() if sampler is not None else dr.zeros(mi.Float, width)
+        pixel = mi.UInt32(rnd * 16777216.0) + dr.zeros(mi.UInt32, width)
+    pixel_key, pass_key = pixel_keys(pixel, dr.opaque(mi.UInt32, seed), dr.opaque(mi.UInt32, index))
+    return Stochastic(pixel_key, pass_key, dr.opaque(mi.UInt32, index), dr.opaque(mi.UInt32, count),
+                      dr.opaque(mi.UInt32, glossy_cap))

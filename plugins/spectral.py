@@ -31,7 +31,7 @@ import numpy as np
 
 from a5mi.spec import DISPERSION_RANGE_NM
 
-from .sampling import tea
+from .sampling import Stochastic, tea
 
 #: Sampling dimension of the wavelength (E.5's scheme; ray-tree dimensions are < 2^24, the lens 0xFFFFFFF0).
 WAVELENGTH_DIM = 0xFFFFFFF1
@@ -99,15 +99,11 @@ def wavelength(pixel_key: mi.UInt32, pass_key: mi.UInt32, pass_index: mi.UInt32,
     return lo + (hi - lo) * u
 
 
-def start(rng: object, width: int, size: int) -> tuple[mi.Float, object]:
-    """Per lane of a batch: its wavelength and the pending-ray stack of "already weighted" flags (UInt32 0/1;
-    entry 0, the camera ray, 0). ``rng`` is the kernel's :class:`~.sampling.Stochastic`."""
+def lane_wavelength(rng: Stochastic, width: int) -> mi.Float:
+    """The wavelength of each of ``width`` lanes (:func:`wavelength` of the kernel's sampling state ``rng``)."""
     _table_jit()  # built here, outside the kernel's symbolic loop (its first evaluation reads Mitsuba's CIE table)
-    lam = wavelength(rng.pixel_key, rng.pass_key, rng.pass_index, rng.passes)  # type: ignore[attr-defined]
-    lam = lam + dr.zeros(mi.Float, width)
-    stack = dr.alloc_local(mi.UInt32, size)  # 0/1 (a Bool local array miscompiles on LLVM)
-    stack[dr.zeros(mi.UInt32, width)] = dr.zeros(mi.UInt32, width)
-    return lam, stack
+    lam = wavelength(rng.pixel_key, rng.pass_key, rng.pass_index, rng.passes)
+    return lam + dr.zeros(mi.Float, width)
 
 
 def index_at(bsdf: mi.BSDFPtr, si: mi.SurfaceInteraction3f, a5: mi.Bool, ior: mi.Float,
@@ -119,10 +115,9 @@ def index_at(bsdf: mi.BSDFPtr, si: mi.SurfaceInteraction3f, a5: mi.Bool, ior: mi
     return dr.select(dispersive, cauchy_index(ior, b, lam_nm), ior), dispersive
 
 
-def weigh(w: mi.Color3f, weighted: mi.UInt32, dispersive: mi.Bool,
-          lam_nm: mi.Float) -> tuple[mi.Color3f, tuple[mi.UInt32]]:
-    """The refracted child's weight and (as a 1-tuple, the stack tail of ``_push``) flag: multiplied by
-    ``w(λ)`` where the refraction is ``dispersive`` and the path is not ``weighted`` yet; the flag then
-    becomes True."""
+def weigh(w: mi.Color3f, weighted: mi.UInt32, dispersive: mi.Bool, lam_nm: mi.Float) -> tuple[mi.Color3f, mi.UInt32]:
+    """The refracted child's weight and "weighted" flag (UInt32 0/1, a pending-ray field of the kernel's
+    :class:`~.kernel.stack.RayStack`): multiplied by ``w(λ)`` where the refraction is ``dispersive`` and the path
+    is not ``weighted`` yet; the flag then becomes 1."""
     apply = dispersive & (weighted == 0)
-    return dr.select(apply, w * rgb_weight(lam_nm), w), (dr.select(dispersive, 1, weighted),)
+    return dr.select(apply, w * rgb_weight(lam_nm), w), dr.select(dispersive, 1, weighted)

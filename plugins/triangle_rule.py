@@ -1,4 +1,4 @@
-"""The sample solution's triangle test and shading normal for mesh hits inside ``a5_whitted`` (issue 12).
+"""The sample solution's triangle test and shading normal for mesh hits inside ``a5_whitted`` (SPEC A.6, B.3).
 
 Mitsuba finds the triangle; this module then evaluates that triangle as ``a5soln`` does (read from the
 binary: ``Transform::intersect``, ``Mesh::intersectTrig``, ``Triangle::intersect``, vecmath's
@@ -28,7 +28,7 @@ one by one, and inverts M in float32 (here: the composed float64 inverse rounded
 Inside the render kernel the face data is not read through the mesh's ``eval_attribute_3`` (a virtual call
 per attribute: eight per evaluated hit) but from one :class:`RuleTable` per scene: the eleven vectors of
 every rule mesh's faces (:data:`ROW_ATTRIBUTES`) copied into one array, found by the hit shape's registry ID
-and ``prim_index`` with plain gathers (BENCHMARKS.md, run H, item 2). A *row* names a face of the table: its index
+and ``prim_index`` with plain gathers (measured: BENCHMARKS.md). A *row* names a face of the table: its index
 plus one, 0 for "not a rule-mesh face".
 """
 

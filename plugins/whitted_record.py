@@ -1,10 +1,11 @@
 """Record mode of ``a5_whitted``: the SPEC B.3 ray tree of a few camera rays, node by node, from the render kernel.
 
-:class:`TreeRecorder` is handed to :func:`plugins.whitted._trace` (``record=``) only by ``a5mi trace``; the
-normal render passes ``None`` and its kernel is unchanged. Inside the one ``@dr.syntax`` loop the kernel calls
-the recorder at fixed points of each popped node; every call scatters the values the kernel itself computed
-into flat per-lane buffers (no arithmetic of its own except the occluder query below), so a trace is exactly
-the render's arithmetic.
+:class:`TreeRecorder` is handed to the kernel :func:`plugins.kernel.raytree.trace_tree`
+(``A5WhittedIntegrator.trace``'s ``record=``) only by ``a5mi trace``; a render passes ``None`` and its
+:class:`~.kernel.features.Features` have ``record = False``, so its kernel contains none of the recording calls.
+Inside the one ``@dr.syntax`` loop the kernel calls the recorder at fixed points of each popped node; every
+call scatters the values the kernel itself computed into flat per-lane buffers (no arithmetic of its own except
+the occluder query below), so a trace is exactly the render's arithmetic.
 
 Node numbering needs no extra loop state: every push increments both the stack pointer ``top`` and one of the
 counts ``n_reflection`` / ``n_refraction``, so after a pop the node's depth-first number is
@@ -91,7 +92,7 @@ class TreeRecorder:
     # ------------------------------------------------------------------ called from the kernel
     @staticmethod
     def index(n_refl: mi.Float, n_refr: mi.Float, top: mi.UInt32) -> mi.UInt32:
-        """Depth-first number of the node being shaded (module docstring)."""
+        """Depth-first number of the node just popped (module docstring): the ``at`` of the calls below."""
         return mi.UInt32(n_refl + n_refr) - top
 
     def _put(self, buf: str, base: mi.UInt32, layout: dict[str, tuple[int, int]], ok: mi.Bool,
@@ -106,24 +107,21 @@ class TreeRecorder:
                     dr.scatter(target, _f(value[c]), base + off + c, ok)  # type: ignore[index]
         setattr(self, buf, target)
 
-    def node(self, n_refl: mi.Float, n_refr: mi.Float, top: mi.UInt32, **values: object) -> None:
-        """Store node fields (names of :data:`NODE_FIELDS`) of the node being shaded."""
-        idx = self.index(n_refl, n_refr, top)
+    def node(self, idx: mi.UInt32, **values: object) -> None:
+        """Store node fields (names of :data:`NODE_FIELDS`) of node ``idx``."""
         ok = idx < self.max_nodes
         base = (self.lane * self.max_nodes + idx) * NODE_STRIDE
         self._put("node_buf", base, NODE_LAYOUT, ok, values)
         dr.scatter_reduce(dr.ReduceOp.Max, self.count, idx + 1, self.lane)
 
-    def light(self, n_refl: mi.Float, n_refr: mi.Float, top: mi.UInt32, k: mi.UInt32, **values: object) -> None:
-        """Store light-``k`` fields (names of :data:`LIGHT_FIELDS`) of the node being shaded."""
-        idx = self.index(n_refl, n_refr, top)
+    def light(self, idx: mi.UInt32, k: mi.UInt32, **values: object) -> None:
+        """Store light-``k`` fields (names of :data:`LIGHT_FIELDS`) of node ``idx``."""
         ok = (idx < self.max_nodes) & (k < self.max_lights)
         base = ((self.lane * self.max_nodes + idx) * self.max_lights + k) * LIGHT_STRIDE
         self._put("light_buf", base, LIGHT_LAYOUT, ok, values)
 
-    def occluder(self, scene: mi.Scene, planes: PlaneSet, n_refl: mi.Float, n_refr: mi.Float, top: mi.UInt32,
-                 k: mi.UInt32, p: mi.Point3f, d_light: mi.Vector3f, tmin: mi.Float, dist: mi.Float,
-                 far: mi.Bool, active: mi.Bool) -> None:
+    def occluder(self, scene: mi.Scene, planes: PlaneSet, idx: mi.UInt32, k: mi.UInt32, p: mi.Point3f,
+                 d_light: mi.Vector3f, tmin: mi.Float, dist: mi.Float, far: mi.Bool, active: mi.Bool) -> None:
         """The first shape or plane between ``p`` and the light (``tmin < t < dist``; planes up to +inf for a
         directional light, as the kernel's shadow test): its id and ``t``, for naming the occluder."""
         si, offset, _ = octree_rule.intersect(scene, p, d_light, tmin, active)
@@ -132,7 +130,7 @@ class TreeRecorder:
                                                         dr.select(far, dr.inf, dist), active)
         plane_first = on_plane & (t_plane < t_shape)
         shape = dr.select(si.is_valid() & (si.t + offset < dist), shape_id(si.shape), 0)
-        self.light(n_refl, n_refr, top, k, occ_shape=dr.select(plane_first, 0, shape), occ_plane=plane_idx,
+        self.light(idx, k, occ_shape=dr.select(plane_first, 0, shape), occ_plane=plane_idx,
                    occ_on_plane=plane_first, occ_t=dr.select(plane_first, t_plane, t_shape))
 
     # ------------------------------------------------------------------ read back

@@ -155,7 +155,7 @@ def test_prism_exit_angles_follow_snell_with_cauchy_index(mi: Any) -> None:
     from a5mi.converters.describe import describe
     from a5mi.options import RenderOptions
     from a5mi.plugins import spectral
-    from a5mi.plugins.sampling import pixel_keys
+    from a5mi.plugins.sampling import SamplePass, pixel_keys
     from a5mi.plugins.whitted_record import NODE_LAYOUT, TreeRecorder
     from a5mi.session import build_scene
 
@@ -164,12 +164,11 @@ def test_prism_exit_angles_follow_snell_with_cauchy_index(mi: Any) -> None:
     integ = scene.integrator()
     assert integ.dispersion
     lanes, seed, passes = 256, 5, 4
-    integ.set_pass(0, 1, passes, seed)
     d_in = np.array([0.0, 0.0, -1.0])
     o = mi.Point3f(np.zeros(lanes), np.full(lanes, 0.2), np.full(lanes, 5.0))
     ray = mi.Ray3f(o, mi.Vector3f(*(np.full(lanes, c, dtype=np.float32) for c in d_in)))
     rec = TreeRecorder(lanes, 4, 1)
-    integ.trace(scene, ray, record=rec)
+    integ.trace(scene, ray, record=rec, sample_pass=SamplePass(0, 1, passes, seed))
     nodes, _, count = rec.read()
     pk, qk = pixel_keys(dr.arange(mi.UInt32, lanes), dr.opaque(mi.UInt32, seed), dr.opaque(mi.UInt32, 1))
     lam = np.asarray(spectral.wavelength(pk, qk, dr.opaque(mi.UInt32, 1), dr.opaque(mi.UInt32, passes)))
@@ -302,7 +301,7 @@ def test_prism_demo_converts_both_ways(mi: Any, tmp_path: Any) -> None:
 
 
 def test_one_lane_launch_without_passes(mi: Any) -> None:
-    """A one-lane launch without set_pass (what ``a5mi trace`` does) compiles the dispersion kernel (the weight
+    """A one-lane launch without a SamplePass (what ``a5mi trace`` does) compiles the dispersion kernel (the weight
     table is built before the kernel's loop: built inside it, this launch aborted the process) and gives the
     colour of a lane of a wider launch with the same keys."""
     from a5mi.converters.describe import describe

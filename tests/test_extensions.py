@@ -37,13 +37,14 @@ def _scene(mi: Any, text: str, **opts: Any) -> Any:
 
 def _floor_values(mi: Any, scene: Any, points: np.ndarray, lanes: int, seed: int = 7) -> np.ndarray:
     """Colour (red) of ``lanes`` independent estimates at each floor point, traced from below (N = +y)."""
+    from a5mi.plugins.sampling import SamplePass
+
     integ = scene.integrator()
-    integ.set_pass(0, 0, 1, seed)
     pts = np.repeat(points, lanes, axis=0)
     o = mi.Point3f(pts[:, 0], np.full(len(pts), -1.0), pts[:, 2])
     zero = np.zeros(len(pts), dtype=np.float32)
     d = mi.Vector3f(zero, zero + 1.0, zero)
-    color = integ.trace(scene, mi.Ray3f(o, d))[0]
+    color = integ.trace(scene, mi.Ray3f(o, d), sample_pass=SamplePass(0, 0, 1, seed))[0]
     return np.asarray(color.x).reshape(len(points), lanes)
 
 

@@ -45,11 +45,13 @@ def _trace(mi: Any, scene: Any, o: np.ndarray, d: np.ndarray, passes: int = 1, s
     """Mean colour (N, 3) of rays ``o + t d`` over ``passes`` E.5 passes."""
     import drjit as dr
 
+    from a5mi.plugins.sampling import SamplePass
+
     integ = scene.integrator()
     total = np.zeros((len(o), 3))
     for k in range(passes):
-        integ.set_pass(0, k, passes, seed)
-        c = integ.trace(scene, mi.Ray3f(mi.Point3f(*o.T.astype(np.float32)), mi.Vector3f(*d.T.astype(np.float32))))[0]
+        ray = mi.Ray3f(mi.Point3f(*o.T.astype(np.float32)), mi.Vector3f(*d.T.astype(np.float32)))
+        c = integ.trace(scene, ray, sample_pass=SamplePass(0, k, passes, seed))[0]
         dr.eval(c)                                                    # one kernel for the three channels
         total += np.stack([np.asarray(c.x), np.asarray(c.y), np.asarray(c.z)], axis=-1)
     return total / passes

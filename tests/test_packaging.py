@@ -30,6 +30,7 @@ def test_the_wheel_builds_without_deprecation_warnings(tmp_path: Path) -> None:
     (wheel,) = tmp_path.glob("a5mi-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
     sources = {f"a5mi/{p.relative_to(ROOT / 'a5mi').as_posix()}" for p in (ROOT / "a5mi").rglob("*.py")}
-    sources |= {f"a5mi/{folder}/{p.name}" for folder in ("plugins", "converters") for p in (ROOT / folder).glob("*.py")}
+    sources |= {f"a5mi/{folder}/{p.relative_to(ROOT / folder).as_posix()}" for folder in ("plugins", "converters")
+                for p in (ROOT / folder).rglob("*.py")}
     assert sources <= set(names), f"missing from the wheel: {sorted(sources - set(names))}"  # every package listed
     assert any(n.endswith("licenses/LICENSE") for n in names)

@@ -1,0 +1,112 @@
+"""The kernel's inputs besides the rays: :class:`Features` (compile-time flags) and :class:`SceneData` (opaque values).
+
+:func:`build_features` is the one place where an integrator's parameters and the scene decide which blocks a
+kernel contains (SPEC B.3's options, docs/EXTENSIONS.md E.2, E.4, E.7-E.10, record mode). The kernel reads the
+flags only as ``if dr.hint(features.x, mode='scalar'):`` (plain Python at trace time), so equal features mean
+one compiled kernel for any number of scenes; everything a scene changes travels in :class:`SceneData`, whose
+values are ``dr.opaque`` (a literal would be baked into the kernel and force a recompile per scene).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, NamedTuple, Protocol
+
+import mitsuba as mi
+
+from .lights import Lights, has_area_lights
+
+if TYPE_CHECKING:
+    from ..media import MediumParams
+    from ..planes import PlaneSet
+    from ..triangle_rule import RuleTable
+
+
+class Features(NamedTuple):
+    """Which blocks a kernel contains; every field is a Python value baked into the compiled kernel. Immutable
+    (a NamedTuple, not a frozen dataclass: Dr.Jit's symbolic loops carry every value read in a loop as state and
+    write dataclass fields back, which a frozen dataclass refuses; a tuple is rebuilt instead).
+
+    ============== ======== ===================================================================
+    field          type     the block
+    ============== ======== ===================================================================
+    shadows        bool     shadow rays of the light loop (SPEC B.3 ``S``)
+    phong          bool     the handout's highlight ``clamp(L·R)^shininess lightColor ⊙ ks``
+    fresnel        str      Fresnel mode of refracting hits: ``a5`` | ``schlick`` | ``exact``
+    reflection     bool     mirror children (``-reflection_off``: false)
+    refraction     bool     refracted children (``-refraction_off``: false)
+    area_lights    bool     E.2: stratified light samples, the emission of a light seen directly
+    glossy         bool     E.4: sampled GGX facets of materials with roughness > 0
+    bump           bool     E.7: the bump / normal-mapped shading normal
+    media          bool     E.8, E.9: transmittance and in-scattering of segments in air
+    dispersion     bool     E.10: a wavelength per lane, Cauchy n(λ), the w(λ) weight
+    environment    bool     the scene has an environment emitter (else misses are black)
+    triangle_rule  bool     some mesh carries the binary's triangle data (plugins/triangle_rule.py)
+    record         bool     record mode: the ray tree's values are scattered into a recorder
+    stack_size     int      entries of the pending-ray stack (:func:`stack_size`)
+    ============== ======== ===================================================================
+    """
+
+    shadows: bool = False
+    phong: bool = False
+    fresnel: str = "a5"
+    reflection: bool = True
+    refraction: bool = True
+    area_lights: bool = False
+    glossy: bool = False
+    bump: bool = False
+    media: bool = False
+    dispersion: bool = False
+    environment: bool = False
+    triangle_rule: bool = False
+    record: bool = False
+    stack_size: int = 8
+
+
+class SceneData(NamedTuple):
+    """The per-scene values of a kernel call, all opaque: ``max_depth`` (bounce budget), ``ambient``, ``tmin``
+    (of secondary and shadow rays), the :class:`~.lights.Lights`, the planes (plugins/planes.py), the
+    triangle-rule table (None: no rule mesh) and the medium (None: no medium)."""
+
+    max_depth: mi.UInt32
+    ambient: mi.Color3f
+    tmin: mi.Float
+    lights: Lights
+    planes: PlaneSet
+    rules: RuleTable | None
+    medium: MediumParams | None
+
+
+class FeatureSource(Protocol):
+    """What :func:`build_features` reads from an integrator: its checked parameters."""
+
+    shadows: bool
+    phong: bool
+    fresnel: str
+    reflection: bool
+    refraction: bool
+    glossy: bool
+    bump: bool
+    dispersion: bool
+    max_depth: int
+    glossy_samples: int
+
+
+def stack_size(max_depth: int, glossy_samples: int = 1) -> int:
+    """Pending-ray stack entries for a bounce budget: depth-first, pop one / push two, so ``max_depth + 1``;
+    a glossy camera hit pushes ``2 G`` children (docs/EXTENSIONS.md E.4), so ``max_depth + 2 G - 1``.
+
+    Rounded up to at least 8, so every budget from 0 to 7 shares one compiled kernel.
+    """
+    return max(8, max_depth + 2 * glossy_samples - 1)
+
+
+def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, record: bool = False) -> Features:
+    """The :class:`Features` of a kernel call: the integrator's flags, what ``scene`` holds (area lights, an
+    environment) and what ``data`` carries (a triangle-rule table, a medium)."""
+    return Features(
+        shadows=source.shadows, phong=source.phong, fresnel=source.fresnel, reflection=source.reflection,
+        refraction=source.refraction, area_lights=has_area_lights(scene), glossy=source.glossy,
+        bump=source.bump, media=data.medium is not None, dispersion=source.dispersion,
+        environment=scene.environment() is not None, triangle_rule=data.rules is not None, record=record,
+        stack_size=stack_size(source.max_depth, source.glossy_samples),
+    )

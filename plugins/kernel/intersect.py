@@ -1,0 +1,81 @@
+"""One hit query for every kernel: meshes as the binary sees them, spheres, exact planes (SPEC A.6, B.3).
+
+:func:`intersect` is the nearest hit with ``t > t_min`` of a ray ``(o, d)``: Mitsuba's scene (meshes by the
+binary's triangle and octree rules, plugins/triangle_rule.py and plugins/octree_rule.py; spheres exactly), then
+the analytic planes (plugins/planes.py, ``t = (offset − n·o)/(n·d)``), the nearer one winning. The result is one
+:class:`Hit` whose ``si`` describes a plane hit too (``p = o + t d``, shading frame about ``n/|n|``, ``uv = 0``),
+so the material and light code never asks which kind of surface it is. :func:`visible` is SPEC B.3's shadow
+test ``S``: nothing the binary sees with ``tmin < t < dist`` between ``p`` and the light (planes up to +∞ for a
+directional light, which the binary places at FLT_MAX).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import drjit as dr
+import mitsuba as mi
+
+from .. import octree_rule
+from ..planes import PlaneSet, intersect_planes, plane_bsdf, plane_mirror_normal, plane_normal
+from ..triangle_rule import RuleTable
+
+
+class Hit(NamedTuple):
+    """A ray's nearest hit: ``si`` (planes folded in), ``t`` (+inf on a miss), ``p = o + t d``, ``n`` the shading
+    normal (SPEC N, not flipped toward the viewer), ``hit``, ``on_plane`` and ``plane`` (its index), ``row``
+    (the rule-table row of the mesh face hit, 0 for none: what the children leave, plugins/octree_rule.py) and
+    ``bsdf`` (the plane's or the shape's)."""
+
+    si: mi.SurfaceInteraction3f
+    t: mi.Float
+    p: mi.Point3f
+    n: mi.Vector3f
+    hit: mi.Bool
+    on_plane: mi.Bool
+    plane: mi.UInt32
+    row: mi.UInt32
+    bsdf: mi.BSDFPtr
+
+
+def intersect(scene: mi.Scene, planes: PlaneSet, rules: RuleTable | None, o: mi.Point3f, d: mi.Vector3f,
+              t_min: mi.Float, origin: mi.UInt32) -> Hit:
+    """The :class:`Hit` of ``(o, d)`` with ``t > t_min`` (module docstring); ``origin``: the rule-table row of the
+    face the ray leaves (0: none), ``rules`` the scene's table (None: no rule mesh)."""
+    width = dr.width(d)
+    # Mitsuba rays have no tmin: start at o + tmin d and add tmin back to t. Meshes: as the binary's octree
+    # and triangle test see them (plugins/octree_rule.py).
+    si, offset, row = octree_rule.intersect(scene, o, d, t_min, dr.full(mi.Bool, True, width), rules, origin)
+    shape_hit = si.is_valid()
+    t_hit = dr.select(shape_hit, si.t + offset, dr.inf)
+    on_plane, t_hit, plane_idx = intersect_planes(planes, o, d, t_min, t_hit, dr.full(mi.Bool, True, width))
+    hit = shape_hit | on_plane
+    row = dr.select(on_plane, 0, row)                   # a plane's children leave no mesh face
+    p = o + t_hit * d                                   # SPEC: p = o + t d
+    n = dr.select(on_plane, plane_normal(planes, plane_idx, on_plane),
+                  mi.Vector3f(si.sh_frame.n))           # SPEC N: not flipped toward the viewer
+    si.p = dr.select(hit, p, si.p)
+    si.t = dr.select(hit, t_hit, si.t)
+    si.n = dr.select(on_plane, n, si.n)
+    si.sh_frame = dr.select(on_plane, mi.Frame3f(n), si.sh_frame)
+    si.uv = dr.select(on_plane, mi.Point2f(0.0), si.uv)
+    si.wi = dr.select(on_plane, si.sh_frame.to_local(-d), si.wi)
+    bsdf = dr.select(on_plane, plane_bsdf(planes, plane_idx, on_plane), si.bsdf())
+    return Hit(si, t_hit, p, n, hit, on_plane, plane_idx, row, bsdf)
+
+
+def mirror_normal(planes: PlaneSet, on_plane: mi.Bool, plane: mi.UInt32, n: mi.Vector3f) -> mi.Vector3f:
+    """The normal mirror and refracted rays turn about: ``n``, except on plane ``plane`` (where ``on_plane``),
+    which the binary mirrors about its normal as written (``plane_<id>_mirror_normal``, plugins/planes.py)."""
+    return dr.select(on_plane, plane_mirror_normal(planes, plane, on_plane), n)
+
+
+def visible(scene: mi.Scene, planes: PlaneSet, p: mi.Point3f, d_light: mi.Vector3f, tmin: mi.Float,
+            dist: mi.Float, far: mi.Bool, active: mi.Bool) -> mi.Bool:
+    """SPEC B.3's ``S`` on the lanes of ``active``: no shape the binary sees (plugins/octree_rule.py) and no plane
+    with ``tmin < t < dist`` on the ray ``p + t d_light``; ``far`` (a directional light): planes up to +∞."""
+    seen = mi.Bool(active)
+    seen &= ~octree_rule.occluded(scene, p, d_light, tmin, dist, active)
+    blocked, _, _ = intersect_planes(planes, p, d_light, tmin, dr.select(far, dr.inf, dist), seen)
+    seen &= ~blocked
+    return seen

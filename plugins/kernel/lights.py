@@ -1,0 +1,171 @@
+"""The light loop of SPEC B.3 (and A.3, docs/EXTENSIONS.md E.1, E.2): ``Σ_lights S · clamp(L·N, 0) · lightColor ⊙ kd``.
+
+A *light* is an emitter with a delta flag (``a5_point``, ``a5_spot``, stock ``directional``) or an ``a5_area``
+emitter (:func:`is_light`: the one rule). Each is asked ``sample_direction(p)``, which gives ``L``, the colour
+arriving at ``p`` and the distance to the light (for the stock ``directional``: ``2 max(R, |p − c|)`` of the
+scene's bounding sphere, past every object, as the binary's FLT_MAX). An area light (E.2) is sampled ``S`` times,
+stratified over its samples and the ``-spp`` passes (E.5, dimension ``node · 256 + k``), and averaged; its shadow
+ray stops short of the light's own shape (``dist · (1 − 10⁻⁴)``). With ``phong`` the handout's highlight
+``clamp(L·R)^shininess · lightColor ⊙ ks`` (``R`` the mirror direction, normalised; ``shininess = 0``: 1) is added
+per light. An area light seen directly adds its ``eval`` (:func:`emission`).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, NamedTuple
+
+import drjit as dr
+import mitsuba as mi
+
+from ..sampling import Stochastic, stratified_2d
+from ..syntax import syntax
+from .intersect import visible
+
+if TYPE_CHECKING:
+    from ..whitted_record import TreeRecorder
+    from .features import Features, SceneData
+
+
+class Lights(NamedTuple):
+    """The scene's lights as gatherable arrays: ``emitters`` (pointers; one null entry when there are none),
+    ``count`` (opaque), per light its sample count ``samples`` (1 for a delta light) and ``area`` (1 for an
+    area light, E.2)."""
+
+    emitters: mi.EmitterPtr
+    count: mi.UInt32
+    samples: mi.UInt32
+    area: mi.UInt32
+
+
+def area_samples(e: mi.Emitter) -> int | None:
+    """The sample count of an ``a5_area`` emitter (its ``samples`` parameter), None for any other emitter."""
+    samples = getattr(e, "samples", None)
+    return None if samples is None else int(samples)
+
+
+def is_light(e: mi.Emitter) -> bool:
+    """A light of the light loop: a delta emitter (SPEC A.3, E.1) or an ``a5_area`` emitter (E.2)."""
+    return mi.has_flag(e.flags(), mi.EmitterFlags.Delta) or area_samples(e) is not None
+
+
+def has_area_lights(scene: mi.Scene) -> bool:
+    """Whether the kernel needs E.2's blocks: some emitter is an ``a5_area`` light or sits on a shape."""
+    return any(area_samples(e) is not None or e.get_shape() is not None for e in scene.emitters())
+
+
+def lights_of(scene: mi.Scene) -> Lights:
+    """The :class:`Lights` of ``scene``, in ``scene.emitters()`` order."""
+    emitters = scene.emitters()
+    idx = [i for i, e in enumerate(emitters) if is_light(e)]
+    lights = [emitters[i] for i in idx]
+    samples = mi.UInt32([1 if area_samples(e) is None else area_samples(e) for e in lights] or [1])
+    area = mi.UInt32([0 if area_samples(e) is None else 1 for e in lights] or [0])
+    if not idx:
+        return Lights(dr.zeros(mi.EmitterPtr, 1), dr.opaque(mi.UInt32, 0), samples, area)
+    ptrs = dr.gather(mi.EmitterPtr, scene.emitters_dr(), mi.UInt32(idx))
+    dr.eval(ptrs)
+    return Lights(ptrs, dr.opaque(mi.UInt32, len(idx)), samples, area)
+
+
+class LightSample(NamedTuple):
+    """One sample of one light at a hit (:func:`sample`): ``term`` (``clamp(L·N, 0) lightColor ⊙ kd``, plus the
+    Phong highlight with ``phong``), ``seen`` (SPEC ``S``), ``d_light`` (SPEC ``L``), ``light_color``, ``dist``
+    (the light's distance), ``far`` (a directional light; only with ``shadows``) and ``highlight`` (only with
+    ``phong``)."""
+
+    term: mi.Color3f
+    seen: mi.Bool
+    d_light: mi.Vector3f
+    light_color: mi.Color3f
+    dist: mi.Float
+    far: mi.Bool | None
+    highlight: mi.Float | None
+
+
+def sample(scene: mi.Scene, data: SceneData, f: Features, emitter: mi.EmitterPtr, is_area: mi.Bool,
+           si: mi.SurfaceInteraction3f, p: mi.Point3f, hit: mi.Bool, n: mi.Vector3f, kd: mi.Color3f,
+           specular: mi.Color3f, shininess: mi.Float, r_view: mi.Vector3f, u: mi.Point2f) -> LightSample:
+    """The light ``emitter`` (``is_area``: an E.2 light) seen from the hit ``si`` (point ``p``, lanes ``hit``,
+    shading normal ``n``, material ``kd``, ``specular``, ``shininess``, mirror direction ``r_view``) through the
+    unit-square sample ``u`` (module docstring); :func:`direct` loops over lights and samples."""
+    ds, light_color = emitter.sample_direction(si, u, hit)
+    d_light = ds.d                                               # SPEC L
+    seen = mi.Bool(hit)                                          # SPEC S
+    far = None
+    if dr.hint(f.shadows, mode="scalar"):
+        dist = dr.select(is_area, ds.dist * (1.0 - 1e-4), ds.dist)   # not the light's own shape
+        far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0   # directional: the binary's FLT_MAX
+        seen = visible(scene, data.planes, p, d_light, data.tmin, dist, far, hit)
+    term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * kd
+    highlight = None
+    if dr.hint(f.phong, mode="scalar"):
+        l_dot_r = dr.maximum(dr.dot(d_light, dr.normalize(r_view)), 0.0)
+        highlight = dr.select(shininess == 0.0, 1.0, dr.power(l_dot_r, shininess))
+        term += highlight * light_color * specular
+    return LightSample(term, seen, d_light, light_color, ds.dist, far, highlight)
+
+
+def sample_point(rng: Stochastic, node: mi.UInt32, k: mi.UInt32, j: mi.UInt32, n_samples: mi.UInt32,
+                 counter: mi.UInt32) -> mi.Point2f:
+    """E.2's sample ``j`` of ``n_samples`` of light ``k`` at ray-tree node ``node``, stratified over the samples
+    and the ``-spp`` passes (E.5 dimension ``node · 256 + k``, draws ``counter``, ``counter + 1``)."""
+    return stratified_2d(rng.pixel_key, rng.pass_key, node * 256 + k, rng.pass_index * n_samples + j,
+                         rng.passes * n_samples, counter)
+
+
+@syntax
+def direct(scene: mi.Scene, data: SceneData, f: Features, si: mi.SurfaceInteraction3f, p: mi.Point3f,
+           hit: mi.Bool, n: mi.Vector3f, kd: mi.Color3f, specular: mi.Color3f, shininess: mi.Float,
+           r_view: mi.Vector3f, local: mi.Color3f, rng: Stochastic, node: mi.UInt32, counter: mi.UInt32,
+           n_shadow: mi.Float, rec: TreeRecorder | None = None,
+           at: mi.UInt32 | None = None) -> tuple[mi.Color3f, mi.UInt32, mi.Float]:
+    """The light loop of SPEC B.3 at a hit (module docstring): ``local + Σ_lights (1/S) Σ_samples S·term``, with
+    ``counter`` advanced by two draws per light sample and ``n_shadow`` by the shadow rays traced; returns
+    ``(local, counter, n_shadow)``. Arguments as :func:`sample`; ``node``: the ray-tree node (E.5 dimensions);
+    ``rec`` / ``at``: record mode's recorder and node number."""
+    k = dr.zeros(mi.UInt32, dr.width(p))
+    while hit & (k < data.lights.count):
+        emitter = dr.gather(mi.EmitterPtr, data.lights.emitters, k, hit)
+        # E.2: S stratified samples of an area light (S = 1 and the sample unused for the others)
+        n_samples = dr.gather(mi.UInt32, data.lights.samples, k, hit)
+        is_area = dr.gather(mi.UInt32, data.lights.area, k, hit) > 0
+        acc = dr.zeros(mi.Color3f, dr.width(p))
+        j = dr.zeros(mi.UInt32, dr.width(p))
+        while hit & (j < n_samples):
+            u = mi.Point2f(0.5)
+            if dr.hint(f.area_lights, mode="scalar"):
+                u = sample_point(rng, node, k, j, n_samples, counter)
+            counter += 2
+            ls = sample(scene, data, f, emitter, is_area, si, p, hit, n, kd, specular, shininess, r_view, u)
+            if dr.hint(f.shadows, mode="scalar"):
+                n_shadow += dr.select(hit, 1.0, 0.0)
+            acc += dr.select(ls.seen, ls.term, 0.0)
+            if dr.hint(f.record, mode="scalar"):
+                record(rec, scene, data, f, at, k, p, hit, n, ls, is_area, n_samples)
+            j += 1
+        local += acc * (1.0 / mi.Float(dr.maximum(n_samples, 1)))
+        k += 1
+    return local, counter, n_shadow
+
+
+def record(rec: TreeRecorder, scene: mi.Scene, data: SceneData, f: Features, at: mi.UInt32, k: mi.UInt32,
+           p: mi.Point3f, hit: mi.Bool, n: mi.Vector3f, ls: LightSample, is_area: mi.Bool,
+           n_samples: mi.UInt32) -> None:
+    """Record mode: light ``k``'s values at node ``at`` (an area light keeps its last sample's ray and verdict);
+    with shadows also the occluder's identity (a nearest-hit query of its own)."""
+    if dr.hint(f.shadows, mode="scalar"):
+        dist = dr.select(is_area, ls.dist * (1.0 - 1e-4), ls.dist)
+        rec.occluder(scene, data.planes, at, k, p, ls.d_light, data.tmin, dist, ls.far, hit)
+    if dr.hint(f.phong, mode="scalar"):
+        rec.light(at, k, highlight=ls.highlight)
+    rec.light(at, k, valid=hit, L=ls.d_light, n_dot_l=dr.dot(ls.d_light, n), light_color=ls.light_color,
+              dist=ls.dist, visible=ls.seen, tested=f.shadows,
+              term=ls.term * (1.0 / mi.Float(dr.maximum(n_samples, 1))))
+
+
+def emission(scene: mi.Scene, si: mi.SurfaceInteraction3f, on_shape: mi.Bool, local: mi.Color3f) -> mi.Color3f:
+    """``local`` plus the ``eval`` of an area light's shape (E.2) hit by the ray, on the lanes ``on_shape``
+    (hits not on a plane)."""
+    emitter = si.emitter(scene, on_shape)
+    sees_light = on_shape & (emitter != None)  # noqa: E711 - a Dr.Jit pointer comparison
+    return dr.select(sees_light, local + mi.Color3f(emitter.eval(si, sees_light)), local)
