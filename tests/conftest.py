@@ -92,10 +92,11 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             item.add_marker(pytest.mark.course_data)
 
 
-#: Test files that must not run at the same time as each other on two pytest-xdist workers, by shared group: the
-#: sandbox tests count every live process of the sandbox's uid range (:data:`a5mi.grade.sandbox.UID_BASE`),
-#: and the class grader starts such processes.
-XDIST_GROUPS = {"test_grade_sandbox.py": "grade-sandbox", "test_grade_class.py": "grade-sandbox"}
+#: Files that start sandboxed runs (user ids in a5mi.sandbox's range) run on one worker, one after the other:
+#: test_grade_sandbox and test_hostile_class check that no process of that range is left after a run, which
+#: another file's run in progress would break.
+XDIST_GROUPS = {name: "sandbox" for name in ("test_grade_sandbox.py", "test_grade_class.py", "test_hostile_class.py",
+                                              "test_difftest.py")}
 
 if importlib.util.find_spec("xdist") is not None:
     def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:

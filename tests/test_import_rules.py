@@ -209,3 +209,11 @@ def test_describe_reads_every_file_without_importing_mitsuba(scenes_dir: Path) -
             "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('mitsuba', 'drjit'))\n"
             "assert not bad, bad\n")
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+def test_every_module_is_under_450_lines() -> None:
+    """ARCHITECTURE.md "Module sizes": each module of a5mi/, plugins/ and converters/ owns one step and stays
+    under 450 lines."""
+    long = {str(p.relative_to(ROOT)): n for folder in ("a5mi", "plugins", "converters")
+            for p in sorted((ROOT / folder).rglob("*.py")) if (n := len(p.read_text().splitlines())) >= 450}
+    assert long == {}

@@ -7,9 +7,9 @@ sandbox as ``a5mi grade`` (:func:`a5mi.sandbox.run_sandboxed`: an unprivileged u
 network, its own PID namespace, only ``/usr``, the course data, its own folder and ``--allow-read`` paths visible,
 the time limit). Without bubblewrap it does not run unless asked by name (``--no-sandbox``,
 :attr:`Binary.require_sandbox` off). It writes BMP; only a regular file it created itself is taken
-(:func:`a5mi.sandbox.open_output`) and decoded without privileges (:func:`a5mi.sandbox.decode_levels`). a5mi
-renders the same folder's scene in this process (:func:`a5mi.session.render`), so compiled kernels are reused
-across scenes.
+(:func:`a5mi.sandbox_outputs.open_output`) and decoded without privileges
+(:func:`a5mi.sandbox_outputs.decode_levels`). a5mi renders the same folder's scene in this process
+(:func:`a5mi.session.render`), so compiled kernels are reused across scenes.
 
 Metrics (:func:`a5mi.compare.compare_arrays`): PSNR ``10 log10(255² / MSE)`` over all channels, the share of
 pixels whose largest channel error is > 2/255, and the maximum error.
@@ -27,7 +27,8 @@ import numpy as np
 
 from a5mi.compare import Metrics, compare_arrays
 from a5mi.errors import UserError
-from a5mi.sandbox import TOO_LARGE, Limits, OutputRefused, decode_levels, open_output, run_sandboxed
+from a5mi.sandbox import Limits, OutputRefused, run_sandboxed
+from a5mi.sandbox_outputs import TOO_LARGE, decode_levels, open_output
 
 from .generate import GenScene
 

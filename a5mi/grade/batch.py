@@ -98,7 +98,8 @@ class GradeOutcome:
 
 
 #: Modules whose code decides a verdict; their source is part of the grader version (:func:`grader_version`).
-VERDICT_MODULES = ("a5mi.grade.run", "a5mi.grade.verdict", "a5mi.sandbox", "a5mi.compare", "a5mi.imageio")
+VERDICT_MODULES = ("a5mi.grade.run", "a5mi.grade.verdict", "a5mi.sandbox", "a5mi.sandbox_outputs", "a5mi.compare",
+                   "a5mi.imageio")
 
 
 def grader_version() -> str:

@@ -8,9 +8,9 @@
    limit, ``over memory`` on a memory failure, ``crash`` on a signal or a non-zero exit (with stderr's tail);
 2. otherwise the image the case names must be in the submission folder (a student who rendered at home);
 3. ``no output`` without the image; ``unreadable`` if it is not a regular file the program wrote
-   (:func:`a5mi.sandbox.open_output`: a symbolic link anywhere on its path, a hard link, a FIFO, another
+   (:func:`a5mi.sandbox_outputs.open_output`: a symbolic link anywhere on its path, a hard link, a FIFO, another
    owner, too many bytes; no byte of such a file is read) or cannot be decoded (decoded without privileges,
-   :func:`a5mi.sandbox.decode_levels`); ``wrong size`` if its size is not the reference's (an image of more
+   :func:`a5mi.sandbox_outputs.decode_levels`); ``wrong size`` if its size is not the reference's (an image of more
    than :data:`MAX_PIXELS_FACTOR` times the reference's pixels is not decoded at all), else ``match`` /
    ``close`` / ``wrong`` by :func:`a5mi.grade.verdict.judge`.
 """
@@ -30,7 +30,8 @@ import numpy as np
 from a5mi.grade.cases import Case
 from a5mi.grade.verdict import Thresholds, judge, measure, points_for
 from a5mi.imageio import read_levels, write_image
-from a5mi.sandbox import TOO_LARGE, Limits, OutputRefused, RunResult, decode_levels, open_output, run_sandboxed
+from a5mi.sandbox import Limits, OutputRefused, RunResult, run_sandboxed
+from a5mi.sandbox_outputs import TOO_LARGE, decode_levels, open_output
 
 #: Characters of stderr kept in a result (the tail).
 STDERR_KEEP = 2000
@@ -147,7 +148,7 @@ def grade_one(task: Task) -> dict[str, Any]:
 
 
 def _judge_output(task: Task, folder: Path, rel: str, owner: int | None, run_info: dict[str, Any]) -> dict[str, Any]:
-    """Judge ``folder/rel``, taken only as :func:`a5mi.sandbox.open_output` allows and decoded unprivileged."""
+    """Judge ``folder/rel``, taken only as :func:`a5mi.sandbox_outputs.open_output` allows and decoded unprivileged."""
     out = task.case.output
     ref, sigma = read_levels(task.reference_png), np.load(task.sigma_npy)
     rh, rw = ref.shape[:2]
