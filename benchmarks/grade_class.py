@@ -32,7 +32,7 @@ from a5mi.grade.batch import GradeSettings, grade_class, run_plain
 from a5mi.grade.cases import DEFAULT_COMMANDS, load_cases
 from a5mi.grade.references import build_reference
 from a5mi.grade.run import Task
-from a5mi.grade.sandbox import Limits
+from a5mi.sandbox import Limits
 
 A5 = str(Path(sys.executable).with_name("a5"))
 #: defect -> what the wrapper adds to / removes from the a5 command line ("" = none, None = no a5 run)

@@ -40,8 +40,8 @@ from a5mi.errors import UserError
 from a5mi.grade.cases import Case
 from a5mi.grade.references import build_reference, cache_key
 from a5mi.grade.run import Task, grade_one
-from a5mi.grade.sandbox import Limits, isolation
 from a5mi.grade.verdict import Thresholds
+from a5mi.sandbox import Limits, isolation
 
 
 @dataclass
