@@ -69,7 +69,7 @@ test-all: setup lint
 	$(PYTEST)
 
 # The thorough hypothesis profile (tests/conftest.py): ten times the examples of `make test`, random seeds;
-# plus the issue-19 mutation campaign (tests/fuzzing.py) through real renders, bounded in time and seeded:
+# plus the mutation campaign (tests/fuzzing.py) through real renders, bounded in time and seeded:
 # `make fuzz FUZZ_SECONDS=300 FUZZ_SEED=7`; counts in out/fuzz-report.json.
 FUZZ_SECONDS ?= 1800
 FUZZ_SEED ?= 1

@@ -1,4 +1,4 @@
-"""Fidelity against the sample solution: re-render the reference images and measure (issue 6).
+"""Fidelity against the sample solution: re-render the reference images and measure (SPEC C, docs/FIDELITY.md).
 
 ``reference/README.md`` (beside SPEC.md) names the flags of each reference image by its suffix; every image is
 300 x 300, rendered from inside ``scenes/``. :func:`render_reference` renders the same scene with the same flags

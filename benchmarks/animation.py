@@ -1,4 +1,4 @@
-"""Benchmark of ``a5mi animate`` (issue 17; BENCHMARKS.md "Animation"): the demo's frames with N local Dask workers.
+"""Benchmark of ``a5mi animate`` (BENCHMARKS.md "Animation"): the demo's frames with N local Dask workers.
 
 For each ``--workers`` count the frames ``--frames A:B`` of ``scenes/animation.txt`` are rendered from scratch
 (a fresh folder) at ``--size`` with the a5 flags ``--flags``; printed as JSON: wall time of the whole run

@@ -1,4 +1,4 @@
-"""Batch renders against separate processes, alternated (issue 20; BENCHMARKS.md run E).
+"""Batch renders against separate processes, alternated (BENCHMARKS.md, the batch tables).
 
 Per repetition, under the same contention: the four assignment test commands as four warm ``a5`` processes
 (``-size 300 300 -shadows -bounces 4 -jitter -filter``, run from the scenes' folder), then one ``a5mi render``

@@ -1,4 +1,4 @@
-"""Benchmark of ``a5mi grade`` (issue 13; the table of BENCHMARKS.md "Grading a class").
+"""Benchmark of ``a5mi grade`` (the table of BENCHMARKS.md "Grading a class").
 
 A generated class of N students x the handout's four cases (at SIZE x SIZE), each student a small wrapper
 around ``.venv/bin/a5`` with one seeded defect or none, graded

@@ -1,4 +1,4 @@
-"""The mutation campaign of issue 19: mutated course scenes with random flags through the real commands.
+"""The mutation campaign of ``make fuzz``: mutated course scenes with random flags through the real commands.
 
 Each mutant is a course scene with a few token-level mutations (:func:`mutate`) and a random command line
 (:func:`random_flags`: tiny sizes, bounces <= 5 so a glass ray tree stays small). It is run through

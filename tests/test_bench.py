@@ -1,4 +1,4 @@
-"""Tests of ``a5mi bench``'s own logic (issue 7): parsing, scene lookup, tables, ray replay bookkeeping,
+"""Tests of ``a5mi bench``'s own logic: parsing, scene lookup, tables, ray replay bookkeeping,
 child-process measurement. Never a timed assertion: only counts, shapes, exit codes and memory lower bounds."""
 
 from __future__ import annotations

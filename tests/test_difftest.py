@@ -1,4 +1,4 @@
-"""``a5mi difftest`` (issue 12) without the sample solution: the "other binary" is a5 itself with one option
+"""``a5mi difftest`` (docs/DIFFTEST.md) without the sample solution: the "other binary" is a5 itself with one option
 changed (``-fresnel schlick``), a real executable run the way a5soln is (sandboxed, in its own folder).
 
 Physics of the chosen difference (README "Cross-check"): ``-fresnel a5`` and ``schlick`` agree wherever no

@@ -1,4 +1,4 @@
-"""Issue 12: planes intersected analytically by ``a5_whitted`` (SPEC A.6), checked against hand computation.
+"""Planes intersected analytically by ``a5_whitted`` (SPEC A.6), checked against hand computation.
 
 The tilted-plane scene: ``Plane { normal 0 1 0.05 offset -1 }`` under a directional light, with a sphere
 casting a shadow, rendered with ``-shadows``. The expectation is computed per pixel in float64 from the B.2

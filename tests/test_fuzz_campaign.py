@@ -1,4 +1,4 @@
-"""Issue 19: the mutation campaign (tests/fuzzing.py) through mi.load_dict and a real render.
+"""The mutation campaign of ``make fuzz`` (tests/fuzzing.py) through mi.load_dict and a real render.
 
 ``make test`` runs a fast seeded sample; ``make fuzz`` the campaign proper, bounded in time
 (``A5MI_FUZZ_SECONDS``, 1800 in the Makefile), seeded (``A5MI_FUZZ_SEED``), at least ``A5MI_FUZZ_COUNT``

@@ -125,7 +125,7 @@ def test_b5_damaged_cache_is_rejected_and_rebuilt(tmp_path, monkeypatch, damage)
         state_path.write_bytes(b"")
     elif damage == "truncated_values":
         values_path.write_bytes(values_path.read_bytes()[:1000])
-    elif damage in ("fifo_values", "fifo_state"):  # issue 19: a FIFO would block np.load forever
+    elif damage in ("fifo_values", "fifo_state"):  # a FIFO would block np.load forever
         path = values_path if damage == "fifo_values" else state_path
         path.unlink()
         os.mkfifo(path)

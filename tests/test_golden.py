@@ -1,4 +1,4 @@
-"""Golden images of the project's own scenes (issue 6): rendered by a5mi, checked by eye once, compared each run.
+"""Golden images of the project's own scenes: rendered by a5mi, checked by eye once, compared each run.
 
 Each case renders ``scenes/NAME.txt`` at 150 x 150 with the assignment's flags and compares it with
 ``tests/golden/NAME.FLAGS.png`` using :mod:`a5mi.compare`: PSNR >= 60 dB and at most 0.1% of pixels off by more

@@ -1,4 +1,4 @@
-"""The verdict thresholds, calibrated (issue 13): on the four handout scenes at 100 x 100, a5mi renders with
+"""The verdict thresholds, calibrated: on the four handout scenes at 100 x 100, a5mi renders with
 other jitter seeds are all ``match`` and renders with shadows, bounces, refraction, reflection, the filter or
 the marble switched off or changed are all ``wrong`` (docs/GRADING.md has the table at 300 x 300)."""
 

@@ -1,4 +1,4 @@
-"""a5mi grade end to end: a generated class covering every verdict, on a 2-worker LocalCluster (issue 13).
+"""a5mi grade end to end: a generated class covering every verdict, on a 2-worker LocalCluster (docs/GRADING.md).
 
 Each "student" is a small script wrapping ``.venv/bin/a5`` with one seeded defect (or none), or a folder of
 images. The class is graded three times on a ``LocalCluster`` of 2 worker processes bound to 127.0.0.1:

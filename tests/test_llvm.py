@@ -57,7 +57,7 @@ def test_real_llvm15_library_is_detected_without_name_version(tmp_path: Path) ->
 
 
 def test_variant_activation_refuses_old_llvm_in_a_subprocess(tmp_path: Path) -> None:
-    """The whole import path: no Dr.Jit abort, one line, non-zero exit (issue 2)."""
+    """The whole import path: no Dr.Jit abort, one line, non-zero exit."""
     fake = tmp_path / "libLLVM-15.so"
     fake.write_bytes(b"\x7fELF")
     code = (
@@ -74,7 +74,7 @@ def test_variant_activation_refuses_old_llvm_in_a_subprocess(tmp_path: Path) -> 
 
 
 def test_a5_cli_with_only_llvm15_prints_the_fix_and_writes_nothing(tmp_path: Path, scenes_dir: Path) -> None:
-    """Issue 2: the real command line, LLVM 15 forced: one line, exit 2, no output file, no abort."""
+    """The real command line, LLVM 15 forced: one line, exit 2, no output file, no abort."""
     fake = tmp_path / "libLLVM-15.so"
     fake.write_bytes(b"\x7fELF")
     out = tmp_path / "out.png"
@@ -91,7 +91,7 @@ def test_a5_cli_with_only_llvm15_prints_the_fix_and_writes_nothing(tmp_path: Pat
 
 
 def test_library_loaded_through_ld_library_path_is_checked(tmp_path: Path) -> None:
-    """Issue 19, item 10: an LLVM 15 ``libLLVM.so`` first on LD_LIBRARY_PATH is what Dr.Jit loads (the file
+    """An LLVM 15 ``libLLVM.so`` first on LD_LIBRARY_PATH is what Dr.Jit loads (the file
     search of llvm.find prefers the newest); the render is refused with one line, exit 2, instead of
     aborting (134, LLVM ERROR) at the first kernel."""
     old = next((p for p in ("/usr/lib/x86_64-linux-gnu/libLLVM-15.so.1", "/usr/lib/x86_64-linux-gnu/libLLVM-15.so")

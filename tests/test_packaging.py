@@ -1,4 +1,4 @@
-"""Packaging (issue 18): one version source, an SPDX licence with its file, a build without deprecation warnings."""
+"""Packaging: one version source, an SPDX licence with its file, a build without deprecation warnings."""
 
 from __future__ import annotations
 

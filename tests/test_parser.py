@@ -220,7 +220,7 @@ def test_a_shipped_sibenik(a5_data: Path) -> None:
     assert scene.warnings == ()
 
 
-# ------------------------------------------------------------------------------------ fuzzing (issue 8)
+# ------------------------------------------------------------------------------------ fuzzing
 def _fuzz_sources() -> list[tuple[str, list[str]]]:
     from a5mi import data_dir
 
@@ -234,7 +234,7 @@ FUZZ_WORDS = ["{", "}", "0", "-1", "1e999", "nan", "inf", "abc", "#", "1}", "{x"
               "MaterialIndex", "numObjects", "Noise", "color", "Matrix4f", "Rotate", "99999999999", "\x00", "é"]
 
 
-def test_issue8_fuzz_mutated_scenes_raise_only_scene_errors_with_positions() -> None:
+def test_fuzz_mutated_scenes_raise_only_scene_errors_with_positions() -> None:
     """2,000+ mutations (delete, duplicate, swap, replace, truncate tokens) of the real scenes: the parser
     either succeeds or raises SceneError with a position inside the text; never any other exception."""
     from conftest import examples

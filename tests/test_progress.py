@@ -1,4 +1,4 @@
-"""The render progress bar (issue 18): moves between tiles on the measured rate, only on a terminal."""
+"""The render progress bar: moves between tiles on the measured rate, only on a terminal."""
 
 from __future__ import annotations
 

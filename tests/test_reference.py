@@ -1,6 +1,6 @@
-"""Regression against the sample solution's renders in ``reference/`` (issue 6, SPEC C).
+"""Regression against the sample solution's renders in ``reference/`` (SPEC C).
 
-Per image: PSNR >= 60 dB and fewer than 0.1% of pixels off by more than 2/255 (issue 12: planes intersected
+Per image: PSNR >= 60 dB and fewer than 0.1% of pixels off by more than 2/255 (planes intersected
 exactly, mesh hits decided by the binary's own triangle test, plugins/triangle_rule.py). The lowest image is
 ``scene10_sphere.b4`` at 67.2 dB; ``scene06_bunny_1k.b4``, at 58.6 dB before the triangle rule (5 grazing
 mirror rays whose re-hit of the bunny hung on float32 rounding noise in the binary's t), is at 88.6 dB. The
@@ -42,7 +42,7 @@ def test_matches_sample_solution(case, variant, tmp_path) -> None:
 
 @pytest.mark.slow
 def test_b4_marble_plane_of_scene10_matches_reference_plane_pixels(variant, a5_data) -> None:
-    """Issue 4: the Perlin-marble plane of scene10, pixel for pixel, against ``scene10_sphere.b0-jitter-filter``.
+    """SPEC B.4: the Perlin-marble plane of scene10, pixel for pixel, against ``scene10_sphere.b0-jitter-filter``.
 
     Plane pixels = output pixels whose whole 3x3 supersample block and neighbours (the blur's reach) see the
     plane first (normal (0, 1, 0)) at t < 50; the horizon row (t ~ 16,000, where one ulp of direction changes

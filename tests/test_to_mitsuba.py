@@ -319,10 +319,10 @@ def test_paths_resolve_against_the_scene_folder_and_missing_files_are_errors(sce
     for face in ("left", "right", "up", "down", "front", "back"):
         (tmp_path / "cm" / f"{face}.bmp").write_bytes(b"BM")
     with pytest.raises(SceneSemanticError, match=r"t.txt:18:13: error: cubeMap face '.*left.bmp' is not a readable"):
-        describe(parse_file(tmp_path / "t.txt"))  # faces are read whole when resolved (issue 8)
+        describe(parse_file(tmp_path / "t.txt"))  # faces are read whole when resolved
     for face in ("left", "right", "up", "down", "front", "back"):
         shutil.copy(scenes_dir / "tex" / "head.bmp", tmp_path / "cm" / f"{face}.bmp")
-    # Issue 12: a referenced texture is checked wherever it is used, even on cube.obj (no uv) where it
+    # A referenced texture is checked wherever it is used, even on cube.obj (no uv) where it
     # cannot show: missing -> error at the file name; readable -> a warning at the shape.
     text = (tmp_path / "t.txt").read_text()
     line = text[:text.index("nope.bmp")].count("\n") + 1
@@ -398,7 +398,7 @@ def test_shipped_scene_loads_stock(variant: str, path: Path) -> None:
 def test_shipped_scene_loads_with_a5_plugins(variant: str, path: Path) -> None:
     model = parse_file(path)
     scene = _load(to_dict(describe(model), RenderOptions(8, 8)))
-    # Planes are not Mitsuba shapes here: a5_whitted intersects them analytically (issue 12).
+    # Planes are not Mitsuba shapes here: a5_whitted intersects them analytically (SPEC A.6).
     n_planes = sum(type(p.primitive).__name__ == "Plane" for p in model.objects)
     assert len(scene.shapes()) == len(model.objects) - n_planes
     assert len(scene.integrator().planes) == n_planes
@@ -452,7 +452,7 @@ def test_a6_stock_plane_stand_in_is_exact_to_far_below_tmin(variant: str, scenes
     """The ``--stock`` stand-in (a rectangle of half-size PLANE_HALF_SIZE centred below the camera): every B.2
     pixel ray (300 x 300) that meets the infinite plane at 0 < t < PLANE_HALF_SIZE/2 hits the rectangle, no
     other ray does, and each hit point lies within 1e-5 (tmin/100) of the plane, tilted planes included (a
-    1e7 rectangle is off by 1e-2 on the tilted one: issue 12)."""
+    1e7 rectangle is off by 1e-2 on the tilted one)."""
     import mitsuba as mi
 
     from a5mi.plugins.camera import camera_rays
@@ -496,7 +496,7 @@ def test_a6_horizon_row_matches_the_reference_image(variant: str, a5_data: Path,
     jj, ii = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
     c = model.camera
     ray = camera_rays(c.center, c.direction, c.up, c.angle, mi.Float(ii.ravel()), mi.Float(jj.ravel()), n, n)
-    t_first = np.array(scene.integrator().trace(scene, ray)[2]).reshape(n, n)  # analytic planes (issue 12)
+    t_first = np.array(scene.integrator().trace(scene, ray)[2]).reshape(n, n)  # analytic planes (SPEC A.6)
     hit = np.isfinite(t_first)  # [j, i], j = 0 the bottom row
     plane = next(p for p in model.objects if type(p.primitive).__name__ == "Plane")
     nw, off = world_plane(plane.primitive, plane.to_world)

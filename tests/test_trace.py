@@ -1,4 +1,4 @@
-"""Issue 14, ``a5mi trace``: the recorded ray tree is the render's (sums equal the rendered pixels on every
+"""``a5mi trace`` (docs/TRACE.md): the recorded ray tree is the render's (sums equal the rendered pixels on every
 course scene), each printed term equals the hand-worked value on three small scenes, ``--diff`` names the
 term a broken render gets wrong, and bad input is one line with exit 2.
 

@@ -1,4 +1,4 @@
-"""Issue 12: mesh hits evaluated with the sample solution's own triangle test (plugins/triangle_rule.py).
+"""Mesh hits evaluated with the sample solution's own triangle test (plugins/triangle_rule.py).
 
 The binary solves ``[a−b | a−c | d] (β, γ, t) = a − o`` in float32 with vecmath's cofactor inverse and
 accepts ``t >= tmin`` (not strictly greater). For a ray that leaves a triangle at a grazing angle its ``t``

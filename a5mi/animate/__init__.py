@@ -1,4 +1,4 @@
-"""Keyframed animation and motion blur (docs/EXTENSIONS.md E.11, E.12; issue 17).
+"""Keyframed animation and motion blur (docs/EXTENSIONS.md E.11, E.12).
 
 * :mod:`.warm`: one warm Mitsuba scene per process, updated per frame through ``mi.traverse`` (no kernel
   recompilation), and the motion-blur rule of E.12;

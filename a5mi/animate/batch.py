@@ -1,4 +1,4 @@
-"""Render an animation's frames here or across Dask workers (docs/EXTENSIONS.md E.11; issue 17).
+"""Render an animation's frames here or across Dask workers (docs/EXTENSIONS.md E.11).
 
 :func:`render_animation` finds the frames of ``A:B`` that are not done (:mod:`.frames`; all of them unless
 ``resume``), then renders them

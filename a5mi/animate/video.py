@@ -1,4 +1,4 @@
-"""Frames to a video with ``imageio-ffmpeg`` (its ffmpeg binary ships in the PyPI wheel; issue 17).
+"""Frames to a video with ``imageio-ffmpeg`` (its ffmpeg binary ships in the PyPI wheel; docs/ANIMATION.md).
 
 ``.mp4``: H.264 (``libx264``, ``yuv420p``, quality 8 of 10), sizes rounded by ffmpeg's 2-pixel blocks.
 ``.gif``: one palette for the whole clip (``palettegen`` / ``paletteuse``), looping. The file is written

@@ -1,4 +1,4 @@
-"""Batch renders in one process (issue 20): the cost of each extra render against its kernel + filter + write.
+"""Batch renders in one process (docs/SPEED.md): the cost of each extra render against its kernel + filter + write.
 
 * **in-process** (:func:`measure_batch`): per scene, one :class:`a5mi.session.RenderSession` render that is
   written (warm-up: builds the scene, loads the kernel from the disk cache), then ``renders`` more renders of
@@ -27,7 +27,7 @@ from typing import Any
 from a5mi.bench.floor import _chdir
 from a5mi.bench.process import ProcessRun, run_process
 
-#: Target of issue 20: an extra render in a batch costs at most this times its kernel + filter + write.
+#: Target (docs/SPEED.md): an extra render in a batch costs at most this times its kernel + filter + write.
 TARGET_BATCH_RATIO = 1.3
 
 

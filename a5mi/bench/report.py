@@ -67,7 +67,7 @@ def _ratio(a: float | None, b: float | None) -> float | None:
 
 
 def _batch_tables(extra: dict[str, Any]) -> list[str]:
-    """The batch figures of :mod:`a5mi.bench.batch` (issue 20), when measured."""
+    """The batch figures of :mod:`a5mi.bench.batch`, when measured."""
     from a5mi.bench.batch import TARGET_BATCH_RATIO
 
     out: list[str] = []

@@ -23,12 +23,12 @@ TEST_SCENES: tuple[str, ...] = ("scene06_bunny_1k", "scene10_sphere", "scene11_c
 #: Used when ``reference/README.md`` cannot be read: a5soln, 2-vCPU Xeon, one core, ``-jitter -filter -bounces 4``.
 PUBLISHED_A5SOLN: dict[str, float] = {"scene06": 5.7, "scene10": 4.8, "scene11": 3.5, "scene12": 64.7}
 
-#: Targets of issue 20 (issue 7's were 0.6 s, 3 s, 2x, 1 GB; reported, never asserted by a timed test).
+#: Speed targets (docs/SPEED.md; reported, never asserted by a timed test).
 TARGET_WARM_S = 0.5
 TARGET_COLD_S = 1.5
 TARGET_FLOOR_RATIO = 1.5
 TARGET_PEAK_MB = 300.0
-#: a5soln / warm a5 on scene12 (issue 20).
+#: a5soln / warm a5 on scene12 (docs/SPEED.md).
 TARGET_SPEEDUP_SCENE12 = 100.0
 
 #: Stages printed by ``a5 -v`` (its ``render`` = compile + execute + the tile loop's Python work).

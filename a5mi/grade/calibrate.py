@@ -1,4 +1,4 @@
-"""Calibration of the verdict thresholds (issue 13; the table of ``docs/GRADING.md``).
+"""Calibration of the verdict thresholds (the table of ``docs/GRADING.md``).
 
 For each handout scene (``-shadows -bounces 4 -jitter -filter`` at ``size``), the reference and noise band of
 :mod:`a5mi.grade.references` are built, then a5mi renders the case as students would get it:

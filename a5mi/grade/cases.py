@@ -1,4 +1,4 @@
-"""Grading cases: a5 command lines, the image each names and its points (issue 13, ``docs/GRADING.md``).
+"""Grading cases: a5 command lines, the image each names and its points (``docs/GRADING.md``).
 
 A ``CASES.toml`` lists the cases as an array of tables::
 

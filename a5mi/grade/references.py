@@ -1,4 +1,4 @@
-"""Reference images and noise bands of grading cases, rendered by a5mi once and cached (issue 13).
+"""Reference images and noise bands of grading cases, rendered by a5mi once and cached (docs/GRADING.md).
 
 For a case (scene + a5 flags, :class:`~a5mi.grade.cases.Case`) the reference is a5mi's render through the
 normal library path (parse -> :func:`~a5mi.converters.describe.describe` -> :func:`a5mi.session.render`,
@@ -72,7 +72,7 @@ def render_levels(scene: Path, options: object) -> np.ndarray:
 
 def render_many(scene: Path, options: list[object]) -> list[np.ndarray]:
     """:func:`render_levels` of ``scene`` for each of ``options``, as one batch: the scene parsed, described
-    and built once, the kernels reused (:class:`a5mi.session.RenderSession`, issue 20); the images are
+    and built once, the kernels reused (:class:`a5mi.session.RenderSession`); the images are
     bit-identical to separate renders."""
     from a5mi.session import RenderSession, describe_file
 

@@ -1,4 +1,4 @@
-"""Verdicts of one submitted image against its reference (issue 13; thresholds: ``docs/GRADING.md``).
+"""Verdicts of one submitted image against its reference (thresholds: ``docs/GRADING.md``).
 
 Jittered renders of a correct ray tracer differ from the reference wherever the jitter samples matter (edges,
 shadow boundaries, refraction): 2-24% of the pixels of a correct 100x100 ``-jitter -filter`` render drawn with
