@@ -21,16 +21,18 @@ The result per triangle is a bit mask over *patterns*: slot ``(zmask - 1) * 8 + 
 zero axes (x=1, y=2, z=4; 1..6) and ``neg`` the finite axes with a negative component (same bits). A hit
 on a triangle whose slot bit is 0 is one the binary does not see.
 
-**Bounds.** The binary builds its whole octree up front and has no other leaf rule, so a mesh with more
-than :data:`MAX_TRIG` triangles sharing one region (8 coincident faces, thin faces crossing at a point)
-makes every node there split down to level 9, about 8^9 nodes: ``a5soln`` itself runs out of memory or
-time on it (8 copies of one triangle: 1.7 GB and still building at 60 s). Here nodes split only when the
-traversal visits them, a node whose triangles are all reached already is not entered (the reach set is the
-union of the reachable leaves' triangles, and a leaf holds a subset of its ancestors'), and the work has a
-budget: :data:`MAX_REFS` triangle references held by split nodes and :data:`MAX_STATES` traversal states.
-Over budget, the emulation has no binary behaviour to reproduce, so every face is marked as reached by
-every pattern (the mesh is intersected exactly) and :func:`reach_masks` reports the fallback, which the
-converter turns into one warning at the mesh's ``obj_file`` (E.4 / SPEC A.6 meshes).
+**Bounds.** The binary builds its whole octree up front and has no other leaf rule, so a mesh with more than
+:data:`MAX_TRIG` triangles sharing one region (8 coincident faces, thin faces crossing at a point) makes
+every node there split down to level 9, about 8^9 nodes: ``a5soln`` itself runs out of memory or time on it
+(8 copies of one triangle: 1.7 GB and still building at 60 s; the two over-budget meshes of
+tests/test_degenerate_meshes.py, 300 slivers and 30 copies of an 800-face grid: 1.1-1.2 GB and not done at
+60 s). Here nodes split only when the traversal visits them, a node whose triangles are all reached already
+is not entered (the reach set is the union of the reachable leaves' triangles, and a leaf holds a subset of
+its ancestors'), and the work has a budget: :data:`MAX_REFS` triangle references held by split nodes and
+:data:`MAX_STATES` traversal states. Over budget every face is marked as reached by every pattern (the mesh
+is intersected exactly, except that a ``-0.0`` component still hides it, plugins/octree_rule.py) and
+:func:`reach_masks` reports the fallback, which the converter turns into one warning at the mesh's
+``obj_file`` (SPEC A.6, TriangleMesh).
 """
 
 from __future__ import annotations
