@@ -28,11 +28,11 @@ every node there split down to level 9, about 8^9 nodes: ``a5soln`` itself runs 
 tests/test_degenerate_meshes.py, 300 slivers and 30 copies of an 800-face grid: 1.1-1.2 GB and not done at
 60 s). Here nodes split only when the traversal visits them, a node whose triangles are all reached already
 is not entered (the reach set is the union of the reachable leaves' triangles, and a leaf holds a subset of
-its ancestors'), and the work has a budget: :data:`MAX_REFS` triangle references held by split nodes and
-:data:`MAX_STATES` traversal states. Over budget every face is marked as reached by every pattern (the mesh
-is intersected exactly, except that a ``-0.0`` component still hides it, plugins/octree_rule.py) and
-:func:`reach_masks` reports the fallback, which the converter turns into one warning at the mesh's
-``obj_file`` (SPEC A.6, TriangleMesh).
+its ancestors'), and the work has a budget: :data:`MAX_REFS` triangle references held by split nodes,
+:data:`MAX_STATES` traversal states and :data:`MAX_NODES` nodes. Over budget every face is marked as reached
+by every pattern (the mesh is intersected exactly, except that a ``-0.0`` component still hides it,
+plugins/octree_rule.py) and :func:`reach_masks` reports the fallback, which the converter turns into one
+warning at the mesh's ``obj_file`` (SPEC A.6, TriangleMesh).
 """
 
 from __future__ import annotations
@@ -59,13 +59,16 @@ MAX_LEVEL = 8
 #: reached".
 MAX_REFS = 2_000_000
 MAX_STATES = 100_000
+#: Budget on the nodes made by splits (~500 bytes each; the course meshes make at most 25 k: sibenik2.obj).
+MAX_NODES = 200_000
 #: Pattern slots: zmask 1..6 times the 8 sign combinations.
 N_SLOTS = 48
 _F = "F"  # a finite t value of unknown order
 
 
 class OverBudget(Exception):
-    """The octree emulation needs more than :data:`MAX_REFS` references or :data:`MAX_STATES` states."""
+    """The octree emulation needs more than :data:`MAX_REFS` references, :data:`MAX_STATES` states or
+    :data:`MAX_NODES` nodes."""
 
 
 class _Node:
@@ -87,6 +90,9 @@ class _Node:
         if self._children is None:
             mid = ((self.mn + self.mx) / np.float32(2)).astype(np.float32)
             tree = self.tree
+            tree.nodes += 8
+            if tree.nodes > tree.max_nodes:
+                raise OverBudget
             a_mn, a_mx = tree.tmn[self.trigs], tree.tmx[self.trigs]
             kids = []
             for i in range(8):
@@ -103,19 +109,21 @@ class _Node:
 
 
 class _Tree:
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, max_refs: int, max_states: int) -> None:
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, max_refs: int, max_states: int,
+                 max_nodes: int) -> None:
         v = np.asarray(vertices, dtype=np.float32)
         tri = v[np.asarray(faces, dtype=np.int64)]
         self.tmn, self.tmx = tri.min(axis=1), tri.max(axis=1)
-        self.refs, self.states = 0, 0
-        self.max_refs, self.max_states = max_refs, max_states
+        self.refs, self.states, self.nodes = 0, 0, 1
+        self.max_refs, self.max_states, self.max_nodes = max_refs, max_states, max_nodes
         self.root = _Node(self, v.min(axis=0), v.max(axis=0), np.arange(len(faces), dtype=np.int32), 0)
 
 
-def build(vertices: np.ndarray, faces: np.ndarray, max_refs: int = MAX_REFS, max_states: int = MAX_STATES) -> _Node:
+def build(vertices: np.ndarray, faces: np.ndarray, max_refs: int = MAX_REFS, max_states: int = MAX_STATES,
+          max_nodes: int = MAX_NODES) -> _Node:
     """The root of the binary's octree (module docstring) on float32 object-space ``vertices`` (N, 3) and
     ``faces`` (F, 3); nodes split when first visited, within the budget (:class:`OverBudget` beyond it)."""
-    return _Tree(vertices, faces, max_refs, max_states).root
+    return _Tree(vertices, faces, max_refs, max_states, max_nodes).root
 
 
 def _lt(a: object, b: object) -> tuple[bool, ...]:
@@ -312,10 +320,10 @@ _ALL = float((1 << 24) - 1)
 
 
 def _compute_masks(vertices: np.ndarray, faces: np.ndarray, max_refs: int = MAX_REFS,
-                   max_states: int = MAX_STATES) -> tuple[np.ndarray, bool]:
+                   max_states: int = MAX_STATES, max_nodes: int = MAX_NODES) -> tuple[np.ndarray, bool]:
     """:func:`reach_masks` without the cache: ``(masks, exact)``; ``exact`` is False when the budget ran out
     and every bit is set."""
-    root = build(vertices, faces, max_refs, max_states)
+    root = build(vertices, faces, max_refs, max_states, max_nodes)
     words = np.zeros((len(faces), 2), dtype=np.int64)
     try:
         for zmask in range(1, 7):

@@ -126,13 +126,13 @@ def test_over_the_budget_every_face_is_reached() -> None:
 
 
 def test_a_small_budget_falls_back_on_a_course_mesh(scenes_dir: Path) -> None:
-    """The states budget is enforced as well as the references budget; the default one leaves the course
-    meshes exact (their masks are checked against the traversal in test_octree_rule.py)."""
+    """The states and nodes budgets are enforced as well as the references budget; the default one leaves
+    the course meshes exact (their masks are checked against the traversal in test_octree_rule.py)."""
     mesh = load_obj(scenes_dir / "diamond.obj")
     exact_masks, exact = octree._compute_masks(mesh.vertices, mesh.faces)
     assert exact and (_bits(exact_masks) != (1 << 48) - 1).any()
-    for refs, states in ((10**9, 50), (100, 10**9)):
-        masks, exact = octree._compute_masks(mesh.vertices, mesh.faces, refs, states)
+    for refs, states, nodes in ((10**9, 50, 10**9), (100, 10**9, 10**9), (10**9, 10**9, 100)):
+        masks, exact = octree._compute_masks(mesh.vertices, mesh.faces, refs, states, nodes)
         assert not exact and (_bits(masks) == (1 << 48) - 1).all()
 
 
@@ -145,7 +145,9 @@ def test_course_meshes_are_well_within_the_budget(scenes_dir: Path, name: str) -
         for neg in range(8):
             if not neg & zmask:
                 octree.reachable_trigs(root, zmask, neg)
-    assert root.tree.refs < octree.MAX_REFS / 4 and root.tree.states < octree.MAX_STATES / 4
+    tree = root.tree
+    assert tree.refs < octree.MAX_REFS / 4 and tree.states < octree.MAX_STATES / 4
+    assert tree.nodes < octree.MAX_NODES / 4
 
 
 def _write_obj(path: Path, v: np.ndarray, f: np.ndarray) -> None:
