@@ -233,14 +233,15 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
         check_placement(p)
     meshes: dict[str, ObjMesh] = {}  # each OBJ file read once, in order of first use
     obj_paths: dict[str, Path] = {}
-    reach: dict[str, np.ndarray] = {}  # the binary's octree rule per OBJ (object space, so once per file)
+    reach: dict[str, np.ndarray | None] = {}  # the binary's octree rule per OBJ (object space, so once per file)
     for p in placed:
         prim = p.primitive
         if isinstance(prim, TriangleMesh) and prim.obj_file not in meshes:
             obj_paths[prim.obj_file], meshes[prim.obj_file] = files.load_mesh(scene, prim.obj_file,
                                                                                prim.obj_file_loc)
             warnings.extend(meshes[prim.obj_file].warnings)
-            reach[prim.obj_file] = octree.reach_masks(meshes[prim.obj_file].vertices, meshes[prim.obj_file].faces)
+            reach[prim.obj_file] = None if stock else octree.reach_masks(  # stock: no a5 rule attributes
+                meshes[prim.obj_file].vertices, meshes[prim.obj_file].faces, warnings=warnings, loc=prim.obj_file_loc)
     centre = geometry_centre(placed, meshes)
 
     decoded: files.Decoded = {}  # each image file decoded once, even when several materials name it

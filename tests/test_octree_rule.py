@@ -146,7 +146,8 @@ def test_reach_masks_are_cached_by_mesh_content(tmp_path, monkeypatch, a5_data) 
     for damage in (b"", b"garbage", files[0].read_bytes()[:-4] + b"\0\0\0\0"):
         files[0].write_bytes(damage)
         assert np.array_equal(octree.reach_masks(mesh.vertices, mesh.faces, folder=tmp_path), fresh)
-        assert np.array_equal(np.load(files[0])[:-1].reshape(-1, 2), fresh.astype(np.uint32))  # rewritten
+        words = np.load(files[0])  # rewritten: the mask words, the exact flag, the CRC
+        assert np.array_equal(words[:-2].reshape(-1, 2), fresh.astype(np.uint32)) and words[-2] == 1
 
 
 def test_reach_masks_without_a_writable_cache_are_computed(tmp_path) -> None:
