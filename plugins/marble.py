@@ -121,6 +121,10 @@ class A5Marble(BlendTexture):
         }
     """
 
+    #: The ``traverse`` names; the two colours are differentiable.
+    PARAMS = ("color1", "color2", "frequency", "amplitude", "octaves")
+    DIFFERENTIABLE = ("color1", "color2")
+
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)
         c1 = _rgb_param(props, "color1", (0.0, 0.0, 0.0))
@@ -136,9 +140,6 @@ class A5Marble(BlendTexture):
         self.frequency = mi.Float(frequency)
         self.amplitude = mi.Float(amplitude)
         self._make_opaque()
-
-    PARAMS = ("color1", "color2", "frequency", "amplitude", "octaves")
-    DIFFERENTIABLE = ("color1", "color2")
 
     def _make_opaque(self) -> None:
         dr.make_opaque(self.color1, self.color2, self.octaves, self.frequency, self.amplitude)

@@ -62,6 +62,9 @@ class A5Solid(BlendTexture):
                'color2': {'type': 'rgb', 'value': [0.3, 0.15, 0.05]}, 'frequency': 20.0, 'amplitude': 1.0}
     """
 
+    #: The ``traverse`` names, all non-differentiable.
+    PARAMS = ("color1", "color2", "octaves", "frequency", "amplitude", "scale", "axis", "center")
+
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)
         kind = props.get("kind", "")
@@ -84,9 +87,6 @@ class A5Solid(BlendTexture):
         self.axis = mi.Vector3f(*(c / length for c in axis))
         self.center = mi.Point3f(*_vec3(props, "center", (0.0, 0.0, 0.0)))
         self._make_opaque()
-
-    #: The ``traverse`` names, all non-differentiable.
-    PARAMS = ("color1", "color2", "octaves", "frequency", "amplitude", "scale", "axis", "center")
 
     def _make_opaque(self) -> None:
         dr.make_opaque(self.color1, self.color2, self.octaves, self.frequency, self.amplitude, self.scale,
