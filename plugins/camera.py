@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from functools import partial
 
 import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from a5mi.plugins.params import vec3_param
 from a5mi.vecmath32 import _cross32, _normalize32, camera_basis  # noqa: F401 - the camera's float32 basis
 
 #: Film-position samples within this many pixels of a pixel centre are snapped onto it (see A5Camera).
@@ -89,19 +91,8 @@ def camera_rays(
     return mi.Ray3f(origin, mi.Vector3f(dx / norm, dy / norm, dz / norm))
 
 
-def _vec3(props: mi.Properties, name: str, default: Sequence[float] | None) -> tuple[float, float, float]:
-    if name not in props:
-        if default is None:
-            raise ValueError(f"a5_camera: parameter '{name}' is required")
-        return (float(default[0]), float(default[1]), float(default[2]))
-    value = props[name]
-    try:
-        r = (float(value[0]), float(value[1]), float(value[2]))
-    except (TypeError, IndexError, ValueError):
-        raise ValueError(f"a5_camera: parameter '{name}' must be 3 numbers, got {value!r}") from None
-    if not all(math.isfinite(c) for c in r):
-        raise ValueError(f"a5_camera: parameter '{name}' must be finite, got {r}")
-    return r
+#: A 3-number parameter of ``a5_camera`` (:func:`a5mi.plugins.params.vec3_param`).
+_vec3 = partial(vec3_param, "a5_camera")
 
 
 class A5Camera(mi.Sensor):

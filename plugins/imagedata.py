@@ -124,31 +124,13 @@ class ImageAtlas:
         dr.make_opaque(self.data, self.offsets, self.widths, self.heights)
 
     def sample(self, u: mi.Float, v: mi.Float, image: mi.UInt32 | int = 0, active: mi.Bool | bool = True) -> mi.Color3f:
-        """Output tex(u, v) of image number ``image`` (a per-lane index), as in the module docstring."""
-        idx = mi.UInt32(image)
-        off = dr.gather(mi.UInt32, self.offsets, idx, active)
-        w = dr.gather(mi.Int32, self.widths, idx, active)
-        h = dr.gather(mi.Int32, self.heights, idx, active)
-        x = u * mi.Float(w)
-        y = (1.0 - v) * mi.Float(h)
-        ix = mi.Int32(x)  # truncation toward zero, like (int)x
-        iy = mi.Int32(y)
-        a = x - mi.Float(ix)
-        b = y - mi.Float(iy)
-        x0 = mi.UInt32(dr.clip(ix, 0, w - 1))
-        x1 = mi.UInt32(dr.clip(ix + 1, 0, w - 1))
-        y0 = mi.UInt32(dr.clip(iy, 0, h - 1))
-        y1 = mi.UInt32(dr.clip(iy + 1, 0, h - 1))
-        wu = mi.UInt32(w)
-
-        def px(xi: mi.UInt32, yi: mi.UInt32) -> mi.Color3f:
-            p = dr.gather(mi.UInt32, self.data, off + yi * wu + xi, active)
-            return mi.Color3f(mi.Float(p & 0xFF), mi.Float((p >> 8) & 0xFF), mi.Float(p >> 16))
-
-        c = (1.0 - a) * (1.0 - b) * px(x0, y0)
-        c += a * (1.0 - b) * px(x1, y0)
-        c += (1.0 - a) * b * px(x0, y1)
-        c += a * b * px(x1, y1)
+        """Output tex(u, v) of image number ``image`` (a per-lane index), as in the module docstring: the
+        bilinear blend (1−a)(1−b)·P00 + a(1−b)·P10 + (1−a)b·P01 + ab·P11 of the :meth:`texels`, over 255."""
+        (p00, p10, p01, p11), a, b, _, _ = self.texels(u, v, image, active)
+        c = (1.0 - a) * (1.0 - b) * p00
+        c += a * (1.0 - b) * p10
+        c += (1.0 - a) * b * p01
+        c += a * b * p11
         return dr.select(active, c / 255.0, 0.0)
 
     def texels(self, u: mi.Float, v: mi.Float, image: mi.UInt32 | int = 0, active: mi.Bool | bool = True
@@ -164,7 +146,7 @@ class ImageAtlas:
         h = dr.gather(mi.Int32, self.heights, idx, active)
         x = u * mi.Float(w)
         y = (1.0 - v) * mi.Float(h)
-        ix = mi.Int32(x)
+        ix = mi.Int32(x)  # truncation toward zero, like (int)x
         iy = mi.Int32(y)
         a = x - mi.Float(ix)
         b = y - mi.Float(iy)

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 import drjit as dr
 import mitsuba as mi
 
+from a5mi.plugins.params import put_params
 from a5mi.plugins.perlin import octave_noise
 
 
@@ -22,7 +23,56 @@ def _rgb_param(props: mi.Properties, name: str, default: Sequence[float]) -> mi.
     return mi.ScalarColor3f(r, g, b)
 
 
-class A5Marble(mi.Texture):
+class BlendTexture(mi.Texture):
+    """A texture kd = t·color1 + (1 − t)·color2 with t = ``blend(p)`` at the world-space point (SPEC B.4 for
+    the marble, docs/EXTENSIONS.md E.6 for the solids). A subclass sets ``color1``, ``color2``, a ``blend``,
+    ``_make_opaque`` (every value opaque) and ``PARAMS``/``DIFFERENTIABLE``, the ``traverse`` names."""
+
+    PARAMS: tuple[str, ...] = ()
+    DIFFERENTIABLE: tuple[str, ...] = ()
+    color1: mi.Color3f
+    color2: mi.Color3f
+
+    def blend(self, p: mi.Point3f) -> mi.Float:
+        """t in [0, 1] at the world-space point ``p``, as float32: each subclass's formula."""
+        raise NotImplementedError(f"{type(self).__name__} defines no blend")
+
+    def _make_opaque(self) -> None:
+        """Make every parameter an opaque JIT value (one kernel serves every value)."""
+        raise NotImplementedError(f"{type(self).__name__} defines no _make_opaque")
+
+    def eval(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
+        """kd at ``si.p``."""
+        return self.color_at(si.p)
+
+    def color_at(self, p: mi.Point3f) -> mi.Color3f:
+        """kd = t·color1 + (1 − t)·color2 at the world-space point ``p``."""
+        t = self.blend(p)
+        return t * self.color1 + (1.0 - t) * self.color2
+
+    def eval_3(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
+        return self.eval(si, active)
+
+    def eval_1(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Float:
+        """Channel mean of kd (used by stock plugins that want a scalar texture)."""
+        return dr.mean(self.eval(si, active))
+
+    def mean(self) -> float:
+        """(color1 + color2)/2 averaged over channels: exact for the marble (its t is symmetric about 1/2), an
+        estimate for the solids."""
+        return float(dr.mean(dr.mean(0.5 * (self.color1 + self.color2)))[0])
+
+    def is_spatially_varying(self) -> bool:
+        return True
+
+    def traverse(self, cb: mi.TraversalCallback) -> None:
+        put_params(cb, self, self.PARAMS, self.DIFFERENTIABLE)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        self._make_opaque()
+
+
+class A5Marble(BlendTexture):
     """Marble texture of the 6.837 a5 sample solution (SPEC B.4, ``Noise`` block of A.5).
 
     .. list-table::
@@ -71,6 +121,10 @@ class A5Marble(mi.Texture):
         }
     """
 
+    #: The ``traverse`` names; the two colours are differentiable.
+    PARAMS = ("color1", "color2", "frequency", "amplitude", "octaves")
+    DIFFERENTIABLE = ("color1", "color2")
+
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)
         c1 = _rgb_param(props, "color1", (0.0, 0.0, 0.0))
@@ -90,45 +144,12 @@ class A5Marble(mi.Texture):
     def _make_opaque(self) -> None:
         dr.make_opaque(self.color1, self.color2, self.octaves, self.frequency, self.amplitude)
 
-    def eval(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
-        """Output the marble colour kd at ``si.p`` (formula in the class docstring)."""
-        return self.color_at(si.p)
-
-    def color_at(self, p: mi.Point3f) -> mi.Color3f:
-        """kd = t·color1 + (1 − t)·color2 at the world-space point ``p`` (SPEC B.4)."""
-        t = self.blend(p)
-        return t * self.color1 + (1.0 - t) * self.color2
-
     def blend(self, p: mi.Point3f) -> mi.Float:
         """t = clamp(0.5·sin((double)(float)(frequency·p.x) + amplitude·N) + 0.5, 0, 1), as float32."""
         n = octave_noise(p, self.octaves)
         arg = mi.Float64(p.x * self.frequency) + mi.Float64(self.amplitude) * n
         t = dr.clip(0.5 * dr.sin(arg) + 0.5, 0.0, 1.0)
         return mi.Float(t)
-
-    def eval_3(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
-        return self.eval(si, active)
-
-    def eval_1(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Float:
-        """Channel mean of kd (used by stock plugins that want a scalar texture)."""
-        return dr.mean(self.eval(si, active))
-
-    def mean(self) -> float:
-        """Mean over the colour range: (color1 + color2)/2 averaged over channels (t is symmetric)."""
-        return float(dr.mean(dr.mean(0.5 * (self.color1 + self.color2)))[0])
-
-    def is_spatially_varying(self) -> bool:
-        return True
-
-    def traverse(self, cb: mi.TraversalCallback) -> None:
-        cb.put("color1", self.color1, mi.ParamFlags.Differentiable)
-        cb.put("color2", self.color2, mi.ParamFlags.Differentiable)
-        cb.put("frequency", self.frequency, mi.ParamFlags.NonDifferentiable)
-        cb.put("amplitude", self.amplitude, mi.ParamFlags.NonDifferentiable)
-        cb.put("octaves", self.octaves, mi.ParamFlags.NonDifferentiable)
-
-    def parameters_changed(self, keys: list[str]) -> None:
-        self._make_opaque()
 
     def to_string(self) -> str:
         return (

@@ -3,26 +3,15 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from functools import partial
 
 import drjit as dr
 import mitsuba as mi
 
+from a5mi.plugins.params import put_params, vec3_param
 
-def _vec3_param(props: mi.Properties, name: str, default: Sequence[float] | None) -> tuple[float, ...]:
-    """Read a 3-number parameter (point, vector or rgb), naming the parameter on error."""
-    if name not in props:
-        if default is None:
-            raise ValueError(f"a5_point: parameter '{name}' is required")
-        return tuple(float(c) for c in default)
-    value = props[name]
-    try:
-        out = tuple(float(value[i]) for i in range(3))
-    except (TypeError, IndexError, ValueError):
-        raise ValueError(f"a5_point: parameter '{name}' must be 3 numbers, got {value!r}") from None
-    if not all(math.isfinite(c) for c in out):
-        raise ValueError(f"a5_point: parameter '{name}' must be finite, got {out}")
-    return out
+#: A 3-number parameter of ``a5_point`` (:func:`a5mi.plugins.params.vec3_param`).
+_vec3_param = partial(vec3_param, "a5_point")
 
 
 def light_sample(emitter: mi.Emitter, it: mi.Interaction3f, p: mi.Point3f, d: mi.Vector3f, dist: mi.Float,
@@ -145,9 +134,7 @@ class A5PointLight(mi.Emitter):
         return mi.ScalarBoundingBox3f(p)
 
     def traverse(self, cb: mi.TraversalCallback) -> None:
-        cb.put("position", self.position, mi.ParamFlags.NonDifferentiable)
-        cb.put("color", self.color, mi.ParamFlags.Differentiable)
-        cb.put("falloff", self.falloff, mi.ParamFlags.NonDifferentiable)
+        put_params(cb, self, ("position", "color", "falloff"), differentiable=("color",))
 
     def parameters_changed(self, keys: list[str]) -> None:
         self._make_opaque()

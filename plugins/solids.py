@@ -20,32 +20,24 @@ double; t is rounded to float32, as in the marble.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from functools import partial
 
 import drjit as dr
 import mitsuba as mi
 
+from a5mi.plugins.marble import BlendTexture
+from a5mi.plugins.params import vec3_param
 from a5mi.plugins.perlin import octave_noise, turbulence
 
 #: The kinds of ``a5_solid`` (the scene blocks ``Wood``, ``Turbulence``, ``Veins``).
 KINDS: tuple[str, ...] = ("wood", "turbulence", "veins")
 
 
-def _vec3(props: mi.Properties, name: str, default: Sequence[float]) -> tuple[float, float, float]:
-    """A 3-number parameter (rgb, point or vector) as Python floats, naming the parameter on error."""
-    if name not in props:
-        return (float(default[0]), float(default[1]), float(default[2]))
-    value = props[name]
-    try:
-        out = (float(value[0]), float(value[1]), float(value[2]))
-    except (TypeError, IndexError, ValueError):
-        raise ValueError(f"a5_solid: parameter '{name}' must be 3 numbers, got {value!r}") from None
-    if not all(math.isfinite(c) for c in out):
-        raise ValueError(f"a5_solid: parameter '{name}' must be finite, got {out}")
-    return out
+#: A 3-number parameter of ``a5_solid`` (:func:`a5mi.plugins.params.vec3_param`).
+_vec3 = partial(vec3_param, "a5_solid")
 
 
-class A5Solid(mi.Texture):
+class A5Solid(BlendTexture):
     """Procedural solid texture (docs/EXTENSIONS.md E.6; formulas in the module docstring).
 
     ============ ======== =========== =====================================================
@@ -69,6 +61,9 @@ class A5Solid(mi.Texture):
         'kd': {'type': 'a5_solid', 'kind': 'wood', 'color1': {'type': 'rgb', 'value': [0.6, 0.4, 0.2]},
                'color2': {'type': 'rgb', 'value': [0.3, 0.15, 0.05]}, 'frequency': 20.0, 'amplitude': 1.0}
     """
+
+    #: The ``traverse`` names, all non-differentiable.
+    PARAMS = ("color1", "color2", "octaves", "frequency", "amplitude", "scale", "axis", "center")
 
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)
@@ -113,36 +108,6 @@ class A5Solid(mi.Texture):
         arg = mi.Float64(self.frequency * x) + mi.Float64(self.amplitude) * n
         return mi.Float(dr.clip(0.5 * dr.sin(arg) + 0.5, 0.0, 1.0))
 
-    def color_at(self, p: mi.Point3f) -> mi.Color3f:
-        """kd = t·color1 + (1 − t)·color2 at ``p``."""
-        t = self.blend(p)
-        return t * self.color1 + (1.0 - t) * self.color2
-
-    def eval(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
-        """kd at ``si.p``."""
-        return self.color_at(si.p)
-
-    def eval_3(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
-        return self.eval(si, active)
-
-    def eval_1(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Float:
-        """Channel mean of kd."""
-        return dr.mean(self.eval(si, active))
-
-    def mean(self) -> float:
-        """(color1 + color2)/2 averaged over channels (an estimate: t is not symmetric for every kind)."""
-        return float(dr.mean(dr.mean(0.5 * (self.color1 + self.color2)))[0])
-
-    def is_spatially_varying(self) -> bool:
-        return True
-
-    def traverse(self, cb: mi.TraversalCallback) -> None:
-        flags = mi.ParamFlags.NonDifferentiable
-        for name in ("color1", "color2", "octaves", "frequency", "amplitude", "scale", "axis", "center"):
-            cb.put(name, getattr(self, name), flags)
-
-    def parameters_changed(self, keys: list[str]) -> None:
-        self._make_opaque()
 
     def to_string(self) -> str:
         return (f"A5Solid[kind={self.kind!r}, color1={self.color1}, color2={self.color2}, octaves={self.octaves}, "

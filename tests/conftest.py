@@ -20,6 +20,7 @@ import importlib.util
 import os
 import shutil
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +38,21 @@ settings.register_profile("thorough", max_examples=1000, deadline=None, database
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "fast"))
 
 
+#: A textured unit square, the OBJ of the texture tests: z = 0, facing +z, corners (±1, ±1), uv (0,0)..(1,1)
+#: (dp_du = (2, 0, 0), dp_dv = (0, 2, 0)).
+QUAD_OBJ = """v -1 -1 0
+v 1 -1 0
+v 1 1 0
+v -1 1 0
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+f 1/1 2/2 3/3
+f 1/1 3/3 4/4
+"""
+
+
 def rgb(*v: float) -> dict[str, Any]:
     """A Mitsuba dict colour ``{'type': 'rgb', 'value': [r, g, b]}``."""
     return {"type": "rgb", "value": list(v)}
@@ -48,6 +64,33 @@ def a5_material(**kw: Any) -> dict[str, Any]:
     for key, value in kw.items():
         out[key] = rgb(*value) if isinstance(value, tuple) else value
     return out
+
+
+def assert_error_at(marked: str, message: str) -> None:
+    """``marked`` is scene text with one ``^`` just before the character an error must point at: parsing the
+    text without the mark raises a SceneError holding ``message`` at that 1-based line:col (the positioned
+    errors ``FILE:LINE:COL: error: ...`` of docs/EXTENSIONS.md, at the offending keyword or number)."""
+    from a5mi.converters.a5_parser import parse_text
+    from a5mi.converters.errors import SceneError
+
+    before, mark, after = marked.partition("^")
+    assert mark, "the scene text has no ^ mark"
+    line, col = before.count("\n") + 1, len(before) - before.rfind("\n")
+    with pytest.raises(SceneError) as err:
+        parse_text(before + after)
+    assert message in err.value.msg, err.value.msg
+    assert (err.value.loc.line, err.value.loc.col) == (line, col), err.value.loc
+
+
+def positioned_error_test(scene: Callable[[str], str], cases: list[tuple[str, str]]) -> Callable[[str, str], None]:
+    """A test parametrized over ``cases`` (a fragment with its ``^`` mark, the message): the scene text
+    ``scene(fragment)`` fails to parse at the mark (:func:`assert_error_at`). Bind it to a ``test_`` name."""
+
+    @pytest.mark.parametrize(("fragment", "message"), cases)
+    def test(fragment: str, message: str) -> None:
+        assert_error_at(scene(fragment), message)
+
+    return test
 
 
 def examples(n: int) -> int:

@@ -122,24 +122,25 @@ def test_scene_without_animation_is_todays_scene() -> None:
     assert keyframes.scene_at(still, 1.0) is still
 
 
+def track(body: str) -> str:
+    """An Animation block of 3 frames at 24 fps holding the one Track ``body``."""
+    return f"Animation {{ frames 3 fps 24 Track {{ {body} }} }}"
+
+
 @pytest.mark.parametrize(("tail", "where", "message"), [
     ("Animation { fps 24 }", "23:1", "Animation needs 'frames'"),
     ("Animation { frames 0 fps 24 }", "23:20", "frames must be between 1"),
     ("Animation { frames 3 fps 24 shutter 2 }", "23:29", "shutter must be between 0 and 1"),
-    ("Animation { frames 3 fps 24 Track { Light 7 color linear key 0 1 1 1 } }", "23:45", "Light 7 out of range"),
-    ("Animation { frames 3 fps 24 Track { Light 1 position linear key 0 1 1 1 } }", "23:45",
-     "is a DirectionalLight: it has no keyframable 'position'"),
-    ("Animation { frames 3 fps 24 Track { Camera center linear key 1 0 0 1 key 1 0 0 2 } }", "23:70",
-     "key times must increase"),
-    ("Animation { frames 3 fps 24 Track { Camera center cubic key 0 0 0 1 } }", "23:51", "expected linear or smooth"),
-    ("Animation { frames 3 fps 24 Track { Transform 3 1 linear key 0 1 2 3 } }", "23:49",
+    (track("Light 7 color linear key 0 1 1 1"), "23:45", "Light 7 out of range"),
+    (track("Light 1 position linear key 0 1 1 1"), "23:45", "is a DirectionalLight: it has no keyframable 'position'"),
+    (track("Camera center linear key 1 0 0 1 key 1 0 0 2"), "23:70", "key times must increase"),
+    (track("Camera center cubic key 0 0 0 1"), "23:51", "expected linear or smooth"),
+    (track("Transform 3 1 linear key 0 1 2 3"), "23:49",
      "Transform 3 keyword 1 is YRotate: each key needs 1 numbers, found 3"),
-    ("Animation { frames 3 fps 24 Track { Transform 9 0 linear key 0 1 } }", "23:49", "Transform 9 out of range"),
-    ("Animation { frames 3 fps 24 Track { Transform 1 0 linear key 0 0 0 0 key 1 x } }", "23:76",
-     "expected a number after 'key', found 'x'"),
-    ("Animation { frames 3 fps 24 Track { Camera angle linear key 0 30 key 1 200 } }", "23:44",
-     "camera angle 200 is outside"),
-    ("Animation { frames 3 fps 24 Track { Camera zoom linear key 0 1 } }", "23:44", "expected center, direction"),
+    (track("Transform 9 0 linear key 0 1"), "23:49", "Transform 9 out of range"),
+    (track("Transform 1 0 linear key 0 0 0 0 key 1 x"), "23:76", "expected a number after 'key', found 'x'"),
+    (track("Camera angle linear key 0 30 key 1 200"), "23:44", "camera angle 200 is outside"),
+    (track("Camera zoom linear key 0 1"), "23:44", "expected center, direction"),
 ])
 def test_parser_errors_are_positioned(tail: str, where: str, message: str) -> None:
     with pytest.raises(SceneError) as err:

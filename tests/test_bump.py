@@ -7,21 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import QUAD_OBJ
 
 W = 24  # image size of every test render
 
-# A unit square in z = 0 facing the camera (+z), uv (0,0)..(1,1): dp_du = (2, 0, 0), dp_dv = (0, 2, 0).
-OBJ = """v -1 -1 0
-v 1 -1 0
-v 1 1 0
-v -1 1 0
-vt 0 0
-vt 1 0
-vt 1 1
-vt 0 1
-f 1/1 2/2 3/3
-f 1/1 3/3 4/4
-"""
 
 SCENE = """PerspectiveCamera {{ center 0.3 -0.2 4 direction 0 0 -1 up 0 1 0 angle 20 }}
 Lights {{ numLights 2
@@ -40,7 +29,7 @@ Group {{ numObjects 2
 def _write(tmp_path: Path, maps: str, images: dict[str, np.ndarray]) -> Path:
     from a5mi import imageio
 
-    (tmp_path / "quad.obj").write_text(OBJ)
+    (tmp_path / "quad.obj").write_text(QUAD_OBJ)
     for name, pixels in images.items():
         imageio.write_image(tmp_path / name, pixels.astype(np.float32) / 255.0)
     scene = tmp_path / "s.txt"
@@ -235,7 +224,7 @@ def test_mirror_rays_leave_about_the_perturbed_normal(tmp_path: Path, variant: s
     is exactly (0, 1, 0)); without -bump it goes back to the black background."""
     from a5mi import imageio
 
-    (tmp_path / "quad.obj").write_text(OBJ)
+    (tmp_path / "quad.obj").write_text(QUAD_OBJ)
     tilt = np.full((8, 8, 3), 128, dtype=np.uint8)
     tilt[..., 0] = 255
     tilt[..., 2] = 255

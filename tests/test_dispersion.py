@@ -8,9 +8,9 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import positioned_error_test
 
 from a5mi.converters.a5_parser import parse_text
-from a5mi.converters.errors import SceneError
 
 A, B = 1.6, 0.02
 APEX = 60.0
@@ -72,20 +72,14 @@ def test_dispersion_keyword_parses() -> None:
     assert (again.materials[1].refraction_index, again.materials[1].dispersion) == (1.4, None)
 
 
-@pytest.mark.parametrize(("glass", "message", "before"), [
-    ("dispersion 0 0.01", "dispersion A (the index far in the infrared) must be positive, found 0", "dispersion "),
-    ("dispersion 1.5 -0.5", "gives the index -1.625 at 400 nm", "dispersion 1.5 "),
-    ("dispersion 1.5 }", "expected a number after 'dispersion', found '}'", "dispersion 1.5 "),
-    ("dispersion x 1", "expected a number after 'dispersion', found 'x'", "dispersion "),
-])
-def test_dispersion_errors_are_positioned(glass: str, message: str, before: str) -> None:
-    """Each error sits at the offending number (line 6, its column), as the course grammar's errors do."""
-    text = _scene_text(glass, "Sphere { center 0 0 0 radius 1 }", 2)
-    with pytest.raises(SceneError) as err:
-        parse_text(text)
-    line = text.split("\n")[5]
-    assert message in err.value.msg and err.value.loc.line == 6
-    assert err.value.loc.col == line.index(glass) + len(before) + 1
+# Each error sits at the offending number (line 6, its column), as the course grammar's errors do.
+test_dispersion_errors_are_positioned = positioned_error_test(
+    lambda glass: _scene_text(glass, "Sphere { center 0 0 0 radius 1 }", 2), [
+        ("dispersion ^0 0.01", "dispersion A (the index far in the infrared) must be positive, found 0"),
+        ("dispersion 1.5 ^-0.5", "gives the index -1.625 at 400 nm"),
+        ("dispersion 1.5 ^}", "expected a number after 'dispersion', found '}'"),
+        ("dispersion ^x 1", "expected a number after 'dispersion', found 'x'"),
+    ])
 
 
 # ------------------------------------------------------------------------------------------------ weights

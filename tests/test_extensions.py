@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import positioned_error_test
 
 from a5mi.converters.a5_parser import parse_text
 from a5mi.converters.errors import SceneError
@@ -49,20 +50,14 @@ def _floor_values(mi: Any, scene: Any, points: np.ndarray, lanes: int, seed: int
 
 
 # ------------------------------------------------------------------------------------------------ grammar
-@pytest.mark.parametrize(("snippet", "message", "keyword"), [
-    ("SpotLight { position 0 1 0 direction 0 -1 0 color 1 1 1 angle 95 }", "between 0 and 90", "angle"),
-    ("AreaLight { corner 0 1 0 edge1 1 0 0 edge2 2 0 0 color 1 1 1 }", "non-zero area", "edge2"),
-    ("SphereLight { center 0 1 0 radius 0 color 1 1 1 }", "radius must be positive", "radius"),
-    ("AreaLight { corner 0 1 0 edge1 1 0 0 edge2 0 0 1 color 1 1 1 samples 0 }", "samples must be", "samples"),
-])
-def test_light_errors_are_positioned(snippet: str, message: str, keyword: str) -> None:
-    """The error sits at the offending keyword (line 2, its column), as the course grammar's errors do."""
-    text = FLOOR_SCENE.format(light=snippet, n=1, extra="")
-    with pytest.raises(SceneError) as err:
-        parse_text(text)
-    line = text.split("\n")[1]
-    assert message in err.value.msg and err.value.loc.line == 2
-    assert err.value.loc.col == line.index(f" {keyword} ") + 2
+# The error sits at the offending keyword (line 2, its column), as the course grammar's errors do.
+test_light_errors_are_positioned = positioned_error_test(
+    lambda light: FLOOR_SCENE.format(light=light, n=1, extra=""), [
+        ("SpotLight { position 0 1 0 direction 0 -1 0 color 1 1 1 ^angle 95 }", "between 0 and 90"),
+        ("AreaLight { corner 0 1 0 edge1 1 0 0 ^edge2 2 0 0 color 1 1 1 }", "non-zero area"),
+        ("SphereLight { center 0 1 0 ^radius 0 color 1 1 1 }", "radius must be positive"),
+        ("AreaLight { corner 0 1 0 edge1 1 0 0 edge2 0 0 1 color 1 1 1 ^samples 0 }", "samples must be"),
+    ])
 
 
 def test_camera_and_material_keywords() -> None:

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import QUAD_OBJ
 
 from a5mi.cli import run, run_a5mi
 from a5mi.imageio import read_levels
@@ -102,18 +103,6 @@ def test_convert_writes_render_flags_as_mitsuba_defaults(tmp_path: Path, scenes_
     assert tuple(scene.sensors()[0].film().size()) == (12, 8)
     assert scene.sensors()[0].sampler().sample_count() == 9
 
-
-QUAD_OBJ = """v -1 -1 0
-v 1 -1 0
-v 1 1 0
-v -1 1 0
-vt 0 0
-vt 1 0
-vt 1 1
-vt 0 1
-f 1/1 2/2 3/3
-f 1/1 3/3 4/4
-"""
 
 TEXTURED_SCENE = """PerspectiveCamera { center 0.3 0.2 4 direction -0.1 -0.05 -1 up 0 1 0 angle 45 }
 Lights { numLights 1 DirectionalLight { direction -0.3 -0.5 -1 color 0.9 0.9 0.9 } }

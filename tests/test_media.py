@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import positioned_error_test
 
 from a5mi.converters import volgrid
 from a5mi.converters.a5_parser import parse_text
@@ -63,19 +64,13 @@ def _rays(depths: list[float]) -> tuple[np.ndarray, np.ndarray]:
 
 
 # --------------------------------------------------------------------------------------------------- grammar
-@pytest.mark.parametrize(("block", "message", "keyword"), [
-    ("Fog { color 1 1 1 density -0.5 }", "density must not be negative", "density"),
-    ("Fog { color 1 2 1 density 0.5 }", "single-scattering albedo", "color"),
-    ("Fog { color 1 1 1 density 0.5 steps 0 }", "steps must be between 1 and 1024", "steps"),
-    ("Volume { grid g.vol density 1 min 0 0 0 max 1 0 1 }", "max must exceed min", "max"),
-])
-def test_medium_errors_are_positioned(block: str, message: str, keyword: str) -> None:
-    text = WALL.format(light="0 0 -1", medium=block, wall="1 1 1", n=1, extra="")
-    with pytest.raises(SceneError) as err:
-        parse_text(text)
-    line = text.split("\n")[3]
-    assert message in err.value.msg and err.value.loc.line == 4
-    assert err.value.loc.col == line.index(f" {keyword} ") + 2
+test_medium_errors_are_positioned = positioned_error_test(
+    lambda block: WALL.format(light="0 0 -1", medium=block, wall="1 1 1", n=1, extra=""), [
+        ("Fog { color 1 1 1 ^density -0.5 }", "density must not be negative"),
+        ("Fog { ^color 1 2 1 density 0.5 }", "single-scattering albedo"),
+        ("Fog { color 1 1 1 density 0.5 ^steps 0 }", "steps must be between 1 and 1024"),
+        ("Volume { grid g.vol density 1 min 0 0 0 ^max 1 0 1 }", "max must exceed min"),
+    ])
 
 
 def test_one_medium_and_missing_grid(tmp_path: Path) -> None:
