@@ -1,9 +1,19 @@
 """The console scripts ``a5`` and ``a5mi``: signals first (:mod:`a5mi.interrupts`), then the command layer.
 
 The scripts import this small module instead of :mod:`a5mi.cli` so that SIGINT, SIGTERM and SIGHUP are routed
-before the ~50 ms of imports of the command layer: a Ctrl-C at any moment after the interpreter has started
-ends with one line and ``128 + signal`` (:meth:`a5mi.errors.ExitStatus.signal`; docs/CLI.md "Exit status"),
-never a traceback. The console scripts exit with the status the command layer returns.
+before the ~50 ms of imports of the command layer: the handlers are installed when this module is imported
+(the console-script wrapper's ``from a5mi.entry import ...``, its first statement after ``import sys``), so a
+Ctrl-C at any moment after that ends with one line and ``128 + signal``
+(:meth:`a5mi.errors.ExitStatus.signal`; docs/CLI.md "Exit status"), never a traceback. Earlier moments belong
+to the interpreter: before it installs its own SIGINT handler the signal's default action ends the process
+(the shell reports 130, nothing is written); while it imports ``site`` (the ``.pth`` files of the
+environment) a SIGINT is ``Fatal Python error: init_import_site``, which no code of this package can reach.
+
+Standard streams (docs/CLI.md "Exit status"): a closed descriptor 0, 1 or 2 (``2>&-``) is re-opened on
+``/dev/null`` before anything else, so no file the program opens can take its number and receive
+diagnostics, and a diagnostic that cannot be printed never costs the outputs (:class:`a5mi.cli.app.Console`).
+A closed output pipe ends with 141 (``a5mi -h | true``), a result that cannot be written (a closed stdout,
+a full disk) with one line and 2. The console scripts exit with the status the command layer returns.
 """
 
 from __future__ import annotations
@@ -11,36 +21,110 @@ from __future__ import annotations
 import os
 import sys
 
+from a5mi import interrupts
 
-def _install(prog: str) -> None:
-    from a5mi import interrupts
+_PROG = {"name": "a5" if os.path.basename(sys.argv[0] if sys.argv else "") == "a5" else "a5mi"}
 
-    def report(signum: int) -> None:  # the watchdog's line (the command layer's guard prints the others)
-        import signal
 
+def _report(signum: int) -> None:  # the watchdog's line (the command layer's guard prints the others)
+    import signal
+
+    try:
+        os.write(2, f"{_PROG['name']}: error: interrupted ({signal.Signals(signum).name})\n".encode())
+    except (OSError, ValueError):
+        pass
+
+
+def _standard_streams() -> None:
+    """Re-open a closed descriptor 0, 1 or 2 on ``/dev/null`` and give Python a stream object for it."""
+    for fd, name, mode in ((0, "stdin", "r"), (1, "stdout", "w"), (2, "stderr", "w")):
         try:
-            os.write(2, f"{prog}: error: interrupted ({signal.Signals(signum).name})\n".encode())
-        except (OSError, ValueError):
+            os.fstat(fd)
+            continue
+        except OSError:
             pass
+        try:
+            null = os.open(os.devnull, os.O_RDWR)
+            if null != fd:
+                os.dup2(null, fd)
+                os.close(null)
+        except OSError:
+            continue
+        if fd == 1:
+            sys.stdout = _ClosedOutput()  # type: ignore[assignment]
+        elif getattr(sys, name) is None:
+            stream = open(fd, mode, closefd=False, errors="backslashreplace")  # noqa: SIM115 - for the process
+            setattr(sys, name, stream)
 
-    interrupts.install(report)
+
+class _ClosedOutput:
+    """Standard output that was closed when the program started: a result written to it is an error
+    (``EBADF``, as coreutils report it), reported as one line by the command layer."""
+
+    def write(self, text: str) -> int:
+        import errno
+
+        raise OSError(errno.EBADF, os.strerror(errno.EBADF))
+
+    def flush(self) -> None:
+        pass
+
+    def isatty(self) -> bool:
+        return False
+
+    def fileno(self) -> int:
+        return 1
+
+
+_standard_streams()  # before any descriptor is opened (the watchdog's pipe would take a closed 0, 1 or 2)
+interrupts.install(_report)  # at import: the earliest moment this package runs
+
+
+def _quiet_exit() -> None:
+    """Flush stdout and stderr now; one that cannot be flushed (a closed pipe, a full disk) is pointed at
+    ``/dev/null``, so the interpreter's own flush at exit prints no ``Exception ignored`` lines."""
+    for fd, stream in ((1, sys.stdout), (2, sys.stderr)):
+        if stream is None:
+            continue
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            try:
+                null = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(null, fd)
+                os.close(null)
+            except OSError:
+                pass
 
 
 def _run(prog: str) -> int:
-    _install(prog)
-    from a5mi import interrupts
-
+    _PROG["name"] = prog
     try:
         from a5mi import cli
+        from a5mi.errors import ExitStatus, UserError
 
         interrupts.check()  # a signal that arrived during the imports
-        status = cli.run(sys.argv[1:]) if prog == "a5" else cli.run_a5mi(sys.argv[1:])
+        try:
+            status = cli.run(sys.argv[1:]) if prog == "a5" else cli.run_a5mi(sys.argv[1:])
+        except BrokenPipeError:  # a result printed outside the command's guard (``a5mi -h``)
+            status = ExitStatus.BROKEN_PIPE
+        except UserError as exc:  # a result that could not be written outside the guard
+            cli.Console(prog).error(str(exc))
+            status = ExitStatus.USAGE
     except interrupts.Interrupted as exc:  # before the guard runs
         line = f"{prog}: error: interrupted ({exc.name})\n".encode()
-        interrupts.report_once(lambda: os.write(2, line) and None)
+
+        def emit() -> None:
+            try:
+                os.write(2, line)
+            except OSError:
+                pass
+
+        interrupts.report_once(emit)
         status = exc.status
     interrupts.ignore()  # the outcome is decided: shutdown is not interrupted
-    return status
+    _quiet_exit()
+    return int(status)
 
 
 def a5() -> None:
