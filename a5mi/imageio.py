@@ -159,11 +159,13 @@ def _write_temp(p: Path, img: npt.ArrayLike) -> str:
         spec = oiio.ImageSpec(w, h, c, fmt)
         if _extension(p) == ".png":
             spec.attribute("png:compressionLevel", PNG_COMPRESSION)
-        ok = out.open(tmp, spec) and out.write_image(pixels)
-        err = out.geterror() if not ok else ""
-        ok = out.close() and ok
+        with native_stderr() as native:
+            ok = out.open(tmp, spec) and out.write_image(pixels)
+            err = out.geterror() if not ok else ""
+            ok = out.close() and ok
         if not ok:
-            raise ImageWriteError(f"{p}: write failed: {err or out.geterror() or 'unknown OpenImageIO error'}")
+            err = _with_native(err or out.geterror() or "unknown OpenImageIO error", native)
+            raise ImageWriteError(f"{p}: write failed: {err}")
         _verify(p, tmp, pixels)
         os.chmod(tmp, _target_mode(p))
     except BaseException:
@@ -322,6 +324,54 @@ def write_images(outputs: Sequence[tuple[str | os.PathLike[str], npt.ArrayLike]]
         raise
 
 
+@contextmanager
+def native_stderr() -> Iterator[list[str]]:
+    """Capture what C libraries print on descriptor 2 in the body (libpng's ``libpng error: ...`` lines while
+    OpenImageIO decodes or encodes): the descriptor points at a temporary file for the body and is restored
+    after it; the yielded list then holds the captured text as one line (whitespace runs folded), empty when
+    nothing was printed. The caller folds it into its one error line or drops it (the one-line rule of
+    docs/CLI.md "Exit status"). When the descriptor cannot be redirected the body runs unchanged."""
+    captured: list[str] = []
+    import sys
+
+    try:
+        if sys.stderr is not None:
+            sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
+    try:
+        saved = os.dup(2)
+    except OSError:
+        yield captured
+        return
+    sink = tempfile.TemporaryFile()
+    try:
+        os.dup2(sink.fileno(), 2)
+    except OSError:
+        os.close(saved)
+        sink.close()
+        yield captured
+        return
+    try:
+        yield captured
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        sink.seek(0)
+        text = " ".join(sink.read(4096).decode("utf-8", "replace").split())
+        sink.close()
+        if text:
+            captured.append(text)
+
+
+def _with_native(reason: str, native: list[str]) -> str:
+    """``reason`` plus the text a C library printed (:func:`native_stderr`) when it adds something."""
+    extra = native[0] if native else ""
+    if not extra or extra.removeprefix("libpng error: ") in reason:
+        return reason
+    return f"{reason} ({extra})" if reason else extra
+
+
 def _decode(p: Path, dtype: str | None) -> tuple[np.ndarray, bool]:
     """The one OpenImageIO reader of the project: the whole image at ``p`` as (H, W, C), row 0 = the top row,
     and whether the file stores 8 bits per channel. ``dtype``: ``"uint8"`` (converted by OpenImageIO when the
@@ -338,9 +388,10 @@ def _decode(p: Path, dtype: str | None) -> tuple[np.ndarray, bool]:
         raise fail("the file is empty")
     import OpenImageIO as oiio  # deferred: only the commands that read images pay for it
 
-    inp = oiio.ImageInput.open(str(p))
+    with native_stderr() as native:
+        inp = oiio.ImageInput.open(str(p))
     if inp is None:
-        raise fail(oiio.geterror() or "unknown format")
+        raise fail(_with_native(oiio.geterror() or "unknown format", native))
     try:
         spec = inp.spec()
         need = resources.image_bytes(spec.width, spec.height, spec.nchannels)
@@ -350,8 +401,10 @@ def _decode(p: Path, dtype: str | None) -> tuple[np.ndarray, bool]:
                        f"{resources.gb(have or 0)} is available")
         native = spec.format.basetype == oiio.UINT8
         want = dtype or ("uint8" if native else "float")
-        data = inp.read_image(0, 0, 0, spec.nchannels, want) if spec.width > 0 and spec.height > 0 else None
-        reason = "" if data is not None else (inp.geterror() or oiio.geterror() or "no pixel data")
+        with native_stderr() as native:
+            data = inp.read_image(0, 0, 0, spec.nchannels, want) if spec.width > 0 and spec.height > 0 else None
+        reason = "" if data is not None else _with_native(inp.geterror() or oiio.geterror() or "no pixel data",
+                                                          native)
     finally:
         inp.close()
     if data is None:

@@ -150,3 +150,65 @@ def test_render_memory_model() -> None:
     streamed = resources.render_bytes(2100, 2100, width=700, height=700, aovs=False, jitter=True, filtered=True,
                                       tile_rays=1 << 20)
     assert plain - streamed == (2100 * 2100 - 700 * 700) * resources.SAMPLE_BYTES
+
+
+# ------------------------------------------------------------------------------- C libraries' own stderr
+def _corrupt_png(path: Path) -> None:
+    """A PNG whose image data fails its CRC (libpng prints ``libpng error: IDAT: CRC error`` on fd 2)."""
+    imageio.write_image(path, _noise(16, 16))
+    data = bytearray(path.read_bytes())
+    data[-20] ^= 0xFF
+    path.write_bytes(bytes(data))
+
+
+def test_libpng_errors_are_folded_into_the_one_error(tmp_path: Path, capfd) -> None:
+    """Decoding a corrupt PNG: one ImageReadError naming the cause; nothing printed on the process's stderr."""
+    _corrupt_png(tmp_path / "bad.png")
+    with pytest.raises(imageio.ImageReadError, match="PNG read error"):
+        imageio.read_uint8(tmp_path / "bad.png")
+    assert capfd.readouterr().err == ""
+
+
+def test_disk_full_png_write_prints_nothing_else(tiny_fs: Path, capfd) -> None:
+    """A PNG cut short by a full disk: the read-back check's libpng error is part of the one error."""
+    _fill(tiny_fs, 8192)
+    with pytest.raises(ImageWriteError, match="write failed"):
+        imageio.write_image(tiny_fs / "o.png", _noise())
+    assert capfd.readouterr().err == ""
+
+
+@pytest.mark.parametrize("use", ["texture", "cube", "bump"])
+def test_corrupt_png_input_is_one_line(tmp_path: Path, use: str) -> None:
+    """``a5`` with a corrupt PNG texture, cube-map face or bump map: exactly one error line, exit 2."""
+    import sys
+
+    from a5mi.spec import CUBE_FACES
+
+    mat = "diffuseColor 1 1 1"
+    bg = "Background { color 0 0 0 ambientLight 0.2 0.2 0.2 }"
+    flags: list[str] = []
+    if use == "texture":
+        _corrupt_png(tmp_path / "t.png")
+        mat += " texture t.png"
+    elif use == "bump":
+        _corrupt_png(tmp_path / "t.png")
+        imageio.write_image(tmp_path / "k.png", _noise(16, 16))
+        mat += " texture k.png bump t.png"
+        flags = ["-bump"]
+    else:
+        (tmp_path / "cube").mkdir()
+        for face in CUBE_FACES:
+            imageio.write_image(tmp_path / "cube" / f"{face}.png", _noise(16, 16))
+        _corrupt_png(tmp_path / "cube" / f"{CUBE_FACES[0]}.png")
+        bg = "Background { color 0 0 0 ambientLight 0.2 0.2 0.2 cubeMap cube }"
+    (tmp_path / "s.txt").write_text(
+        "PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
+        "Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }\n" + bg + "\n"
+        f"Materials {{ numMaterials 1 Material {{ {mat} }} }}\n"
+        "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file m.obj } }\n")
+    (tmp_path / "m.obj").write_text("v -1 -1 0\nv 1 -1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n")
+    p = subprocess.run([sys.executable, "-m", "a5mi", "-input", "s.txt", "-output", "o.png", "-size", "8", "8",
+                        *flags], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    lines = p.stderr.splitlines()
+    assert p.returncode == 2 and len(lines) == 1 and "PNG read error" in lines[0], p.stderr
+    assert not (tmp_path / "o.png").exists()
