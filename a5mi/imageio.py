@@ -159,12 +159,12 @@ def _write_temp(p: Path, img: npt.ArrayLike) -> str:
         spec = oiio.ImageSpec(w, h, c, fmt)
         if _extension(p) == ".png":
             spec.attribute("png:compressionLevel", PNG_COMPRESSION)
-        with native_stderr() as native:
+        with native_stderr() as printed:
             ok = out.open(tmp, spec) and out.write_image(pixels)
             err = out.geterror() if not ok else ""
             ok = out.close() and ok
         if not ok:
-            err = _with_native(err or out.geterror() or "unknown OpenImageIO error", native)
+            err = _with_native(err or out.geterror() or "unknown OpenImageIO error", printed)
             raise ImageWriteError(f"{p}: write failed: {err}")
         _verify(p, tmp, pixels)
         os.chmod(tmp, _target_mode(p))
@@ -388,10 +388,10 @@ def _decode(p: Path, dtype: str | None) -> tuple[np.ndarray, bool]:
         raise fail("the file is empty")
     import OpenImageIO as oiio  # deferred: only the commands that read images pay for it
 
-    with native_stderr() as native:
+    with native_stderr() as printed:
         inp = oiio.ImageInput.open(str(p))
     if inp is None:
-        raise fail(_with_native(oiio.geterror() or "unknown format", native))
+        raise fail(_with_native(oiio.geterror() or "unknown format", printed))
     try:
         spec = inp.spec()
         need = resources.image_bytes(spec.width, spec.height, spec.nchannels)
@@ -401,10 +401,10 @@ def _decode(p: Path, dtype: str | None) -> tuple[np.ndarray, bool]:
                        f"{resources.gb(have or 0)} is available")
         native = spec.format.basetype == oiio.UINT8
         want = dtype or ("uint8" if native else "float")
-        with native_stderr() as native:
+        with native_stderr() as printed:
             data = inp.read_image(0, 0, 0, spec.nchannels, want) if spec.width > 0 and spec.height > 0 else None
         reason = "" if data is not None else _with_native(inp.geterror() or oiio.geterror() or "no pixel data",
-                                                          native)
+                                                          printed)
     finally:
         inp.close()
     if data is None:
