@@ -372,11 +372,14 @@ def _with_native(reason: str, native: list[str]) -> str:
     return f"{reason} ({extra})" if reason else extra
 
 
-def _decode(p: Path, dtype: str | None) -> tuple[np.ndarray, bool]:
+def _decode(p: Path, dtype: str | None, copy_bytes: int = 0, pixel_bytes: int = 0) -> tuple[np.ndarray, bool]:
     """The one OpenImageIO reader of the project: the whole image at ``p`` as (H, W, C), row 0 = the top row,
     and whether the file stores 8 bits per channel. ``dtype``: ``"uint8"`` (converted by OpenImageIO when the
     file is deeper), ``"float"``, or None (uint8 for 8-bit files, float32 otherwise). Raises
-    :class:`ImageReadError` whose ``reason`` is the cause without the path (empty, not an image, truncated)."""
+    :class:`ImageReadError` whose ``reason`` is the cause without the path (empty, not an image, truncated).
+    The header's size is checked before decoding: :func:`a5mi.resources.image_bytes` plus ``copy_bytes`` per
+    sample and ``pixel_bytes`` per pixel (the caller's converted copies) must fit in
+    :func:`a5mi.resources.available`."""
 
     def fail(reason: str) -> ImageReadError:
         reason = " ".join(reason.split()) or "unknown error"  # OpenImageIO messages may span lines
@@ -394,7 +397,8 @@ def _decode(p: Path, dtype: str | None) -> tuple[np.ndarray, bool]:
         raise fail(_with_native(oiio.geterror() or "unknown format", printed))
     try:
         spec = inp.spec()
-        need = resources.image_bytes(spec.width, spec.height, spec.nchannels)
+        need = resources.image_bytes(spec.width, spec.height, spec.nchannels) \
+            + spec.width * spec.height * (spec.nchannels * copy_bytes + pixel_bytes)
         enough, have = resources.fits(need)
         if not enough:
             raise fail(f"{spec.width}x{spec.height} pixels need about {resources.gb(need)} of memory to decode; "
@@ -425,7 +429,7 @@ def read_image(path: str | os.PathLike[str]) -> npt.NDArray[np.float32]:
 
     Raises :class:`ImageReadError` for a missing, unreadable or corrupt file.
     """
-    a, native = _decode(Path(path), None)
+    a, native = _decode(Path(path), None, copy_bytes=8)  # the float32 copy and its scaled copy
     if native:
         return a.astype(np.float32) / np.float32(255.0)
     return a.astype(np.float32)
@@ -434,7 +438,8 @@ def read_image(path: str | os.PathLike[str]) -> npt.NDArray[np.float32]:
 def read_levels(path: str | os.PathLike[str]) -> npt.NDArray[np.float64]:
     """An image as float64 8-bit levels (H, W, 3), row 0 = top: 8-bit files exactly 0..255, deeper files
     ``value·255``; grey replicated to three channels, alpha dropped. Raises :class:`ImageReadError`."""
-    a, native = _decode(Path(path), None)
+    # the float64 copy and its scaled copy; grey replicated to three float64 channels
+    a, native = _decode(Path(path), None, copy_bytes=16, pixel_bytes=24)
     img = a.astype(np.float64) * (1.0 if native else 255.0)
     if img.shape[2] < 3:
         img = np.repeat(img[:, :, :1], 3, axis=2)
