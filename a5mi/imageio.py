@@ -417,6 +417,36 @@ def _decode(p: Path, dtype: str | None, copy_bytes: int = 0, pixel_bytes: int = 
     return a, native
 
 
+def check_image_fits(path: str | os.PathLike[str], copy_bytes: int = 0) -> tuple[int, int, int]:
+    """Read only the header of the image at ``path`` and raise :class:`ImageReadError` unless its decoded
+    pixels fit in memory: :func:`a5mi.resources.image_bytes` plus ``copy_bytes`` per sample must fit in
+    :func:`a5mi.resources.available` (for a decoder that is not this module's, e.g. Mitsuba's ``bitmap``).
+    Returns (width, height, channels)."""
+    p = Path(path)
+
+    def fail(reason: str) -> ImageReadError:
+        reason = " ".join(reason.split()) or "unknown error"
+        return ImageReadError(f"{p}: cannot read image: {reason}", reason=reason)
+
+    import OpenImageIO as oiio
+
+    with native_stderr() as printed:
+        inp = oiio.ImageInput.open(str(p))
+    if inp is None:
+        raise fail(_with_native(oiio.geterror() or "unknown format", printed))
+    try:
+        spec = inp.spec()
+        w, h, c = spec.width, spec.height, spec.nchannels
+    finally:
+        inp.close()
+    need = resources.image_bytes(w, h, c) + w * h * c * copy_bytes
+    enough, have = resources.fits(need)
+    if not enough:
+        raise fail(f"{w}x{h} pixels need about {resources.gb(need)} of memory to decode; "
+                   f"{resources.gb(have or 0)} is available")
+    return w, h, c
+
+
 def read_uint8(path: str | os.PathLike[str]) -> npt.NDArray[np.uint8]:
     """An image file as (H, W, C) ``uint8`` exactly as OpenImageIO's ``read_image(..., "uint8")`` gives it
     (row 0 = top; SPEC A.4 uses the file's bytes as they are). Raises :class:`ImageReadError`."""
