@@ -300,3 +300,15 @@ def test_render_xml_image_bomb_is_refused_by_its_header(textured_xml: Path, caps
     capsys.readouterr()
     assert cli.run_a5mi(["render-xml", str(textured_xml), "-o", str(textured_xml.parent / "o.png")]) == 2
     assert "30000x30000 pixels need about" in _one_line(capsys)
+
+
+@pytest.mark.parametrize("obj", ["Sphere { center 0 0 0 radius 1e-40 }", "Sphere { center 0 0 0 radius 3e38 }",
+                                 "Transform { UniformScale 1e30 Sphere { center 0 0 0 radius 1 } }"])
+def test_mitsuba_warnings_never_reach_stdout(tmp_path: Path, obj: str) -> None:
+    """Mitsuba's ``WARN [Sphere] 'to_world' transform shouldn't contain non-uniform scaling!`` (a float32
+    round-off of a uniform scale) is not printed: stdout stays empty and stderr has only a5mi's own lines."""
+    (tmp_path / "s.txt").write_text(_scene("diffuseColor 1 0 0", obj))
+    p = subprocess.run([sys.executable, "-m", "a5mi", "-input", "s.txt", "-output", "o.png", "-size", "8", "8"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and p.stdout == "", p.stdout
+    assert "WARN" not in p.stderr and "non-uniform" not in p.stderr, p.stderr

@@ -428,14 +428,21 @@ def load_scene(path: str, console: Console, *, stock: bool = False, inputs: list
 
 
 def activate_variant(requested: str | None = None) -> str:
-    """:func:`a5mi.variant.activate` with its failures as user errors (the message names the fix)."""
+    """:func:`a5mi.variant.activate` with its failures as user errors (the message names the fix). Mitsuba's
+    own log is then limited to errors: its warnings would be printed on stdout, mixed with the results and
+    outside the one-line rule (a sphere of radius 1e-40 or 3e38, whose float32 scale Mitsuba takes for a
+    non-uniform one); its errors are raised as exceptions and reported by :func:`guarded`."""
     from a5mi import interrupts, variant
 
     try:
         with interrupts.deferred():  # a signal in the middle of loading Dr.Jit would break the interpreter
-            return variant.activate(requested)
+            name = variant.activate(requested)
     except variant.VariantError as exc:
         raise UserError(str(exc)) from None
+    import mitsuba as mi
+
+    mi.set_log_level(mi.LogLevel.Error)
+    return name
 
 
 __all__ = ["EXIT_STATUS_TABLE", "Command", "Console", "ProgressBar", "activate_variant", "exception_summary",
