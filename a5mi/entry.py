@@ -1,9 +1,11 @@
 """The console scripts ``a5`` and ``a5mi``: signals first (:mod:`a5mi.interrupts`), then the command layer.
 
 The scripts import this small module instead of :mod:`a5mi.cli` so that SIGINT, SIGTERM and SIGHUP are routed
-before the ~50 ms of imports of the command layer: the handlers are installed when this module is imported
-(the console-script wrapper's ``from a5mi.entry import ...``, its first statement after ``import sys``), so a
-Ctrl-C at any moment after that ends with one line and ``128 + signal``
+before the ~50 ms of imports of the command layer: a handler that only records the signal is this module's
+first statement (the console-script wrapper's ``from a5mi.entry import ...`` is its first statement after
+``import sys``; only the package's ``__init__`` runs before it), the full handlers of :mod:`a5mi.interrupts`
+follow and raise a recorded signal at their first check, so a Ctrl-C at any moment after that ends with one
+line and ``128 + signal``
 (:meth:`a5mi.errors.ExitStatus.signal`; docs/CLI.md "Exit status"), never a traceback. Earlier moments belong
 to the interpreter: before it installs its own SIGINT handler the signal's default action ends the process
 (the shell reports 130, nothing is written); while it imports ``site`` (the ``.pth`` files of the
@@ -18,17 +20,29 @@ a full disk) with one line and 2. The console scripts exit with the status the c
 
 from __future__ import annotations
 
-import os
-import sys
+import _signal  # the interpreter's built-in module: no search of the import path
 
-from a5mi import interrupts
+_EARLY: list[int] = []
+
+
+def _early(signum: int, frame: object) -> None:
+    _EARLY.append(signum)  # held until :mod:`a5mi.interrupts` is installed, then raised at its first check
+
+
+for _sig in (_signal.SIGINT, _signal.SIGTERM, _signal.SIGHUP):  # first thing: before any other import
+    if _sig == _signal.SIGINT or _signal.getsignal(_sig) != _signal.SIG_IGN:  # nohup's SIG_IGN stays
+        _signal.signal(_sig, _early)
+
+import os  # noqa: E402 - after the handlers above
+import signal  # noqa: E402
+import sys  # noqa: E402
+
+from a5mi import interrupts  # noqa: E402
 
 _PROG = {"name": "a5" if os.path.basename(sys.argv[0] if sys.argv else "") == "a5" else "a5mi"}
 
 
 def _report(signum: int) -> None:  # the watchdog's line (the command layer's guard prints the others)
-    import signal
-
     try:
         os.write(2, f"{_PROG['name']}: error: interrupted ({signal.Signals(signum).name})\n".encode())
     except (OSError, ValueError):
@@ -77,7 +91,9 @@ class _ClosedOutput:
 
 
 _standard_streams()  # before any descriptor is opened (the watchdog's pipe would take a closed 0, 1 or 2)
-interrupts.install(_report)  # at import: the earliest moment this package runs
+interrupts.install(_report)  # replaces the early handler
+if _EARLY:
+    interrupts.hold(_EARLY[0])  # raised by the first interrupts.check()
 
 
 def _quiet_exit() -> None:

@@ -177,3 +177,36 @@ def test_a_result_that_cannot_be_written_is_one_line(tmp_path: Path, stdout: str
         reason = "No space left on device"
     assert p.returncode == 2
     assert p.stderr.decode().splitlines() == [f"{argv[0]}: error: cannot write to standard output: {reason}"]
+
+
+# ------------------------------------------------------------------------------------------ the earliest signals
+EARLY = r"""
+import os, signal, sys
+if sys.argv[1] == "ignored":  # a shell's background job (cmd &) starts with SIGINT ignored
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class SignalOnImport:  # the signal arrives while a5mi.entry imports a5mi.interrupts
+    def find_spec(self, name, path, target=None):
+        if name == "a5mi.interrupts":
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+
+
+sys.meta_path.insert(0, SignalOnImport())
+sys.argv = ["a5", "-input", "s.txt", "-output", "o.png", "-size", "8", "8"]
+from a5mi.entry import a5
+a5()
+"""
+
+
+@pytest.mark.parametrize("start", ["default", "ignored"])
+def test_sigint_during_the_first_imports_is_130(tmp_path: Path, start: str) -> None:
+    """A Ctrl-C while the console script imports its first modules (before a5mi.interrupts is installed):
+    recorded by the handler that is a5mi.entry's first statement and raised at the first check: one line,
+    130, nothing written; also for a background job (SIGINT ignored at start, which a5 overrides)."""
+    (tmp_path / "s.txt").write_text(SMALL)
+    p = subprocess.run([sys.executable, "-c", EARLY, start], cwd=tmp_path, capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 130 and p.stderr.splitlines() == ["a5: error: interrupted (SIGINT)"], p.stderr
+    assert _leftovers(tmp_path) == []
