@@ -49,9 +49,11 @@ def _report(signum: int) -> None:  # the watchdog's line (the command layer's gu
         pass
 
 
-def _standard_streams() -> None:
-    """Re-open a closed descriptor 0, 1 or 2 on ``/dev/null`` and give Python a stream object for it."""
-    for fd, name, mode in ((0, "stdin", "r"), (1, "stdout", "w"), (2, "stderr", "w")):
+def _reopen_closed() -> tuple[int, ...]:
+    """Re-open a closed descriptor 0, 1 or 2 on ``/dev/null`` (descriptors only: the stream objects are the
+    command layer's, :func:`a5mi.cli.app.standard_streams`); returns the descriptors that were closed."""
+    closed = []
+    for fd in (0, 1, 2):
         try:
             os.fstat(fd)
             continue
@@ -64,61 +66,24 @@ def _standard_streams() -> None:
                 os.close(null)
         except OSError:
             continue
-        if fd == 1:
-            sys.stdout = _ClosedOutput()  # type: ignore[assignment]
-        elif getattr(sys, name) is None:
-            stream = open(fd, mode, closefd=False, errors="backslashreplace")  # noqa: SIM115 - for the process
-            setattr(sys, name, stream)
+        closed.append(fd)
+    return tuple(closed)
 
 
-class _ClosedOutput:
-    """Standard output that was closed when the program started: a result written to it is an error
-    (``EBADF``, as coreutils report it), reported as one line by the command layer."""
-
-    def write(self, text: str) -> int:
-        import errno
-
-        raise OSError(errno.EBADF, os.strerror(errno.EBADF))
-
-    def flush(self) -> None:
-        pass
-
-    def isatty(self) -> bool:
-        return False
-
-    def fileno(self) -> int:
-        return 1
-
-
-_standard_streams()  # before any descriptor is opened (the watchdog's pipe would take a closed 0, 1 or 2)
+_CLOSED = _reopen_closed()  # before any descriptor is opened (the watchdog's pipe would take a closed 0, 1 or 2)
 interrupts.install(_report)  # replaces the early handler
 if _EARLY:
     interrupts.hold(_EARLY[0])  # raised by the first interrupts.check()
-
-
-def _quiet_exit() -> None:
-    """Flush stdout and stderr now; one that cannot be flushed (a closed pipe, a full disk) is pointed at
-    ``/dev/null``, so the interpreter's own flush at exit prints no ``Exception ignored`` lines."""
-    for fd, stream in ((1, sys.stdout), (2, sys.stderr)):
-        if stream is None:
-            continue
-        try:
-            stream.flush()
-        except (OSError, ValueError):
-            try:
-                null = os.open(os.devnull, os.O_WRONLY)
-                os.dup2(null, fd)
-                os.close(null)
-            except OSError:
-                pass
 
 
 def _run(prog: str) -> int:
     _PROG["name"] = prog
     try:
         from a5mi import cli
+        from a5mi.cli.app import standard_streams
         from a5mi.errors import ExitStatus, UserError
 
+        standard_streams(_CLOSED)
         interrupts.check()  # a signal that arrived during the imports
         try:
             status = cli.run(sys.argv[1:]) if prog == "a5" else cli.run_a5mi(sys.argv[1:])
@@ -139,7 +104,9 @@ def _run(prog: str) -> int:
         interrupts.report_once(emit)
         status = exc.status
     interrupts.ignore()  # the outcome is decided: shutdown is not interrupted
-    _quiet_exit()
+    from a5mi.cli.app import flush_standard_streams  # loaded already unless a signal came first
+
+    flush_standard_streams()
     return int(status)
 
 

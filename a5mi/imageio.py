@@ -332,13 +332,6 @@ def native_stderr() -> Iterator[list[str]]:
     nothing was printed. The caller folds it into its one error line or drops it (the one-line rule of
     docs/CLI.md "Exit status"). When the descriptor cannot be redirected the body runs unchanged."""
     captured: list[str] = []
-    import sys
-
-    try:
-        if sys.stderr is not None:
-            sys.stderr.flush()
-    except (OSError, ValueError):
-        pass
     try:
         saved = os.dup(2)
     except OSError:

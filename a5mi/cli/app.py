@@ -183,6 +183,46 @@ class _NullStream:
         raise OSError("standard stream closed")
 
 
+class _ClosedOutput(_NullStream):
+    """Standard output that was closed when the program started: a result written to it is an error
+    (``EBADF``, as coreutils report it), reported as one line (:func:`write_result`)."""
+
+    def write(self, text: str) -> int:
+        import errno
+
+        raise OSError(errno.EBADF, os.strerror(errno.EBADF))
+
+
+def standard_streams(closed: Iterable[int]) -> None:
+    """The stream objects of descriptors that were closed at start (``closed``; :mod:`a5mi.entry` has
+    re-opened them on ``/dev/null``): stdout writes fail with ``EBADF`` (a result has nowhere to go), stderr
+    and stdin read and write ``/dev/null`` (diagnostics are dropped)."""
+    for fd in closed:
+        if fd == 1:
+            sys.stdout = _ClosedOutput()  # type: ignore[assignment]
+        elif fd == 2 and sys.stderr is None:
+            sys.stderr = open(2, "w", closefd=False, errors="backslashreplace")  # noqa: SIM115 - the process's
+        elif fd == 0 and sys.stdin is None:
+            sys.stdin = open(0, closefd=False)  # noqa: SIM115 - the process's
+
+
+def flush_standard_streams() -> None:
+    """Flush stdout and stderr at the end; one that cannot be flushed (a closed pipe, a full disk) is pointed
+    at ``/dev/null``, so the interpreter's own flush at exit prints no ``Exception ignored`` lines."""
+    for fd, stream in ((1, sys.stdout), (2, sys.stderr)):
+        if stream is None:
+            continue
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            try:
+                null = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(null, fd)
+                os.close(null)
+            except OSError:
+                pass
+
+
 def write_diagnostic(stream: Any, text: str) -> None:
     """Write ``text`` to a diagnostic stream; a stream that cannot take it (closed, full, hung up) drops it."""
     try:
