@@ -1,46 +1,113 @@
 """The console scripts ``a5`` and ``a5mi``: signals first (:mod:`a5mi.interrupts`), then the command layer.
 
 The scripts import this small module instead of :mod:`a5mi.cli` so that SIGINT, SIGTERM and SIGHUP are routed
-before the ~50 ms of imports of the command layer: a Ctrl-C at any moment after the interpreter has started
-ends with one line and ``128 + signal`` (:meth:`a5mi.errors.ExitStatus.signal`; docs/CLI.md "Exit status"),
-never a traceback. The console scripts exit with the status the command layer returns.
+before the ~50 ms of imports of the command layer: a handler that only records the signal is this module's
+first statement (the console-script wrapper's ``from a5mi.entry import ...`` is its first statement after
+``import sys``; only the package's ``__init__`` runs before it), the full handlers of :mod:`a5mi.interrupts`
+follow and raise a recorded signal at their first check, so a Ctrl-C at any moment after that ends with one
+line and ``128 + signal``
+(:meth:`a5mi.errors.ExitStatus.signal`; docs/CLI.md "Exit status"), never a traceback. Earlier moments belong
+to the interpreter: before it installs its own SIGINT handler the signal's default action ends the process
+(the shell reports 130, nothing is written); while it imports ``site`` (the ``.pth`` files of the
+environment) a SIGINT is ``Fatal Python error: init_import_site``, which no code of this package can reach.
+
+Standard streams (docs/CLI.md "Exit status"): a closed descriptor 0, 1 or 2 (``2>&-``) is re-opened on
+``/dev/null`` before anything else, so no file the program opens can take its number and receive
+diagnostics, and a diagnostic that cannot be printed never costs the outputs (:class:`a5mi.cli.app.Console`).
+A closed output pipe ends with 141 (``a5mi -h | true``), a result that cannot be written (a closed stdout,
+a full disk) with one line and 2. The console scripts exit with the status the command layer returns.
 """
 
 from __future__ import annotations
 
-import os
-import sys
+import _signal  # the interpreter's built-in module: no search of the import path
+
+_EARLY: list[int] = []
 
 
-def _install(prog: str) -> None:
-    from a5mi import interrupts
+def _early(signum: int, frame: object) -> None:
+    _EARLY.append(signum)  # held until :mod:`a5mi.interrupts` is installed, then raised at its first check
 
-    def report(signum: int) -> None:  # the watchdog's line (the command layer's guard prints the others)
-        import signal
 
+for _sig in (_signal.SIGINT, _signal.SIGTERM, _signal.SIGHUP):  # first thing: before any other import
+    if _sig == _signal.SIGINT or _signal.getsignal(_sig) != _signal.SIG_IGN:  # nohup's SIG_IGN stays
+        _signal.signal(_sig, _early)
+
+import os  # noqa: E402 - after the handlers above
+import signal  # noqa: E402
+import sys  # noqa: E402
+
+from a5mi import interrupts  # noqa: E402
+
+_PROG = {"name": "a5" if os.path.basename(sys.argv[0] if sys.argv else "") == "a5" else "a5mi"}
+
+
+def _report(signum: int) -> None:  # the watchdog's line (the command layer's guard prints the others)
+    try:
+        os.write(2, f"{_PROG['name']}: error: interrupted ({signal.Signals(signum).name})\n".encode())
+    except (OSError, ValueError):
+        pass
+
+
+def _reopen_closed() -> tuple[int, ...]:
+    """Re-open a closed descriptor 0, 1 or 2 on ``/dev/null`` (descriptors only: the stream objects are the
+    command layer's, :func:`a5mi.cli.app.standard_streams`); returns the descriptors that were closed."""
+    closed = []
+    for fd in (0, 1, 2):
         try:
-            os.write(2, f"{prog}: error: interrupted ({signal.Signals(signum).name})\n".encode())
-        except (OSError, ValueError):
+            os.fstat(fd)
+            continue
+        except OSError:
             pass
+        try:
+            null = os.open(os.devnull, os.O_RDWR)
+            if null != fd:
+                os.dup2(null, fd)
+                os.close(null)
+        except OSError:
+            continue
+        closed.append(fd)
+    return tuple(closed)
 
-    interrupts.install(report)
+
+_CLOSED = _reopen_closed()  # before any descriptor is opened (the watchdog's pipe would take a closed 0, 1 or 2)
+interrupts.install(_report)  # replaces the early handler
+if _EARLY:
+    interrupts.hold(_EARLY[0])  # raised by the first interrupts.check()
 
 
 def _run(prog: str) -> int:
-    _install(prog)
-    from a5mi import interrupts
-
+    _PROG["name"] = prog
     try:
         from a5mi import cli
+        from a5mi.cli.app import standard_streams
+        from a5mi.errors import ExitStatus, UserError
 
+        standard_streams(_CLOSED)
         interrupts.check()  # a signal that arrived during the imports
-        status = cli.run(sys.argv[1:]) if prog == "a5" else cli.run_a5mi(sys.argv[1:])
+        try:
+            status = cli.run(sys.argv[1:]) if prog == "a5" else cli.run_a5mi(sys.argv[1:])
+        except BrokenPipeError:  # a result printed outside the command's guard (``a5mi -h``)
+            status = ExitStatus.BROKEN_PIPE
+        except UserError as exc:  # a result that could not be written outside the guard
+            cli.Console(prog).error(str(exc))
+            status = ExitStatus.USAGE
     except interrupts.Interrupted as exc:  # before the guard runs
         line = f"{prog}: error: interrupted ({exc.name})\n".encode()
-        interrupts.report_once(lambda: os.write(2, line) and None)
+
+        def emit() -> None:
+            try:
+                os.write(2, line)
+            except OSError:
+                pass
+
+        interrupts.report_once(emit)
         status = exc.status
     interrupts.ignore()  # the outcome is decided: shutdown is not interrupted
-    return status
+    from a5mi.cli.app import flush_standard_streams  # loaded already unless a signal came first
+
+    flush_standard_streams()
+    return int(status)
 
 
 def a5() -> None:

@@ -159,11 +159,13 @@ def _write_temp(p: Path, img: npt.ArrayLike) -> str:
         spec = oiio.ImageSpec(w, h, c, fmt)
         if _extension(p) == ".png":
             spec.attribute("png:compressionLevel", PNG_COMPRESSION)
-        ok = out.open(tmp, spec) and out.write_image(pixels)
-        err = out.geterror() if not ok else ""
-        ok = out.close() and ok
+        with native_stderr() as printed:
+            ok = out.open(tmp, spec) and out.write_image(pixels)
+            err = out.geterror() if not ok else ""
+            ok = out.close() and ok
         if not ok:
-            raise ImageWriteError(f"{p}: write failed: {err or out.geterror() or 'unknown OpenImageIO error'}")
+            err = _with_native(err or out.geterror() or "unknown OpenImageIO error", printed)
+            raise ImageWriteError(f"{p}: write failed: {err}")
         _verify(p, tmp, pixels)
         os.chmod(tmp, _target_mode(p))
     except BaseException:
@@ -322,11 +324,55 @@ def write_images(outputs: Sequence[tuple[str | os.PathLike[str], npt.ArrayLike]]
         raise
 
 
-def _decode(p: Path, dtype: str | None) -> tuple[np.ndarray, bool]:
+@contextmanager
+def native_stderr() -> Iterator[list[str]]:
+    """Capture what C libraries print on descriptor 2 in the body (libpng's ``libpng error: ...`` lines while
+    OpenImageIO decodes or encodes): the descriptor points at a temporary file for the body and is restored
+    after it; the yielded list then holds the captured text as one line (whitespace runs folded), empty when
+    nothing was printed. The caller folds it into its one error line or drops it (the one-line rule of
+    docs/CLI.md "Exit status"). When the descriptor cannot be redirected the body runs unchanged."""
+    captured: list[str] = []
+    try:
+        saved = os.dup(2)
+    except OSError:
+        yield captured
+        return
+    sink = tempfile.TemporaryFile()
+    try:
+        os.dup2(sink.fileno(), 2)
+    except OSError:
+        os.close(saved)
+        sink.close()
+        yield captured
+        return
+    try:
+        yield captured
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        sink.seek(0)
+        text = " ".join(sink.read(4096).decode("utf-8", "replace").split())
+        sink.close()
+        if text:
+            captured.append(text)
+
+
+def _with_native(reason: str, native: list[str]) -> str:
+    """``reason`` plus the text a C library printed (:func:`native_stderr`) when it adds something."""
+    extra = native[0] if native else ""
+    if not extra or extra.removeprefix("libpng error: ") in reason:
+        return reason
+    return f"{reason} ({extra})" if reason else extra
+
+
+def _decode(p: Path, dtype: str | None, copy_bytes: int = 0, pixel_bytes: int = 0) -> tuple[np.ndarray, bool]:
     """The one OpenImageIO reader of the project: the whole image at ``p`` as (H, W, C), row 0 = the top row,
     and whether the file stores 8 bits per channel. ``dtype``: ``"uint8"`` (converted by OpenImageIO when the
     file is deeper), ``"float"``, or None (uint8 for 8-bit files, float32 otherwise). Raises
-    :class:`ImageReadError` whose ``reason`` is the cause without the path (empty, not an image, truncated)."""
+    :class:`ImageReadError` whose ``reason`` is the cause without the path (empty, not an image, truncated).
+    The header's size is checked before decoding: :func:`a5mi.resources.image_bytes` plus ``copy_bytes`` per
+    sample and ``pixel_bytes`` per pixel (the caller's converted copies) must fit in
+    :func:`a5mi.resources.available`."""
 
     def fail(reason: str) -> ImageReadError:
         reason = " ".join(reason.split()) or "unknown error"  # OpenImageIO messages may span lines
@@ -338,26 +384,60 @@ def _decode(p: Path, dtype: str | None) -> tuple[np.ndarray, bool]:
         raise fail("the file is empty")
     import OpenImageIO as oiio  # deferred: only the commands that read images pay for it
 
-    inp = oiio.ImageInput.open(str(p))
+    with native_stderr() as printed:
+        inp = oiio.ImageInput.open(str(p))
     if inp is None:
-        raise fail(oiio.geterror() or "unknown format")
+        raise fail(_with_native(oiio.geterror() or "unknown format", printed))
     try:
         spec = inp.spec()
-        need = resources.image_bytes(spec.width, spec.height, spec.nchannels)
+        need = resources.image_bytes(spec.width, spec.height, spec.nchannels) \
+            + spec.width * spec.height * (spec.nchannels * copy_bytes + pixel_bytes)
         enough, have = resources.fits(need)
         if not enough:
             raise fail(f"{spec.width}x{spec.height} pixels need about {resources.gb(need)} of memory to decode; "
                        f"{resources.gb(have or 0)} is available")
         native = spec.format.basetype == oiio.UINT8
         want = dtype or ("uint8" if native else "float")
-        data = inp.read_image(0, 0, 0, spec.nchannels, want) if spec.width > 0 and spec.height > 0 else None
-        reason = "" if data is not None else (inp.geterror() or oiio.geterror() or "no pixel data")
+        with native_stderr() as printed:
+            data = inp.read_image(0, 0, 0, spec.nchannels, want) if spec.width > 0 and spec.height > 0 else None
+        reason = "" if data is not None else _with_native(inp.geterror() or oiio.geterror() or "no pixel data",
+                                                          printed)
     finally:
         inp.close()
     if data is None:
         raise fail(reason)
     a = np.asarray(data).reshape(spec.height, spec.width, spec.nchannels)
     return a, native
+
+
+def check_image_fits(path: str | os.PathLike[str], copy_bytes: int = 0) -> tuple[int, int, int]:
+    """Read only the header of the image at ``path`` and raise :class:`ImageReadError` unless its decoded
+    pixels fit in memory: :func:`a5mi.resources.image_bytes` plus ``copy_bytes`` per sample must fit in
+    :func:`a5mi.resources.available` (for a decoder that is not this module's, e.g. Mitsuba's ``bitmap``).
+    Returns (width, height, channels)."""
+    p = Path(path)
+
+    def fail(reason: str) -> ImageReadError:
+        reason = " ".join(reason.split()) or "unknown error"
+        return ImageReadError(f"{p}: cannot read image: {reason}", reason=reason)
+
+    import OpenImageIO as oiio
+
+    with native_stderr() as printed:
+        inp = oiio.ImageInput.open(str(p))
+    if inp is None:
+        raise fail(_with_native(oiio.geterror() or "unknown format", printed))
+    try:
+        spec = inp.spec()
+        w, h, c = spec.width, spec.height, spec.nchannels
+    finally:
+        inp.close()
+    need = resources.image_bytes(w, h, c) + w * h * c * copy_bytes
+    enough, have = resources.fits(need)
+    if not enough:
+        raise fail(f"{w}x{h} pixels need about {resources.gb(need)} of memory to decode; "
+                   f"{resources.gb(have or 0)} is available")
+    return w, h, c
 
 
 def read_uint8(path: str | os.PathLike[str]) -> npt.NDArray[np.uint8]:
@@ -372,7 +452,7 @@ def read_image(path: str | os.PathLike[str]) -> npt.NDArray[np.float32]:
 
     Raises :class:`ImageReadError` for a missing, unreadable or corrupt file.
     """
-    a, native = _decode(Path(path), None)
+    a, native = _decode(Path(path), None, copy_bytes=8)  # the float32 copy and its scaled copy
     if native:
         return a.astype(np.float32) / np.float32(255.0)
     return a.astype(np.float32)
@@ -381,7 +461,8 @@ def read_image(path: str | os.PathLike[str]) -> npt.NDArray[np.float32]:
 def read_levels(path: str | os.PathLike[str]) -> npt.NDArray[np.float64]:
     """An image as float64 8-bit levels (H, W, 3), row 0 = top: 8-bit files exactly 0..255, deeper files
     ``value·255``; grey replicated to three channels, alpha dropped. Raises :class:`ImageReadError`."""
-    a, native = _decode(Path(path), None)
+    # the float64 copy and its scaled copy; grey replicated to three float64 channels
+    a, native = _decode(Path(path), None, copy_bytes=16, pixel_bytes=24)
     img = a.astype(np.float64) * (1.0 if native else 255.0)
     if img.shape[2] < 3:
         img = np.repeat(img[:, :, :1], 3, axis=2)

@@ -134,6 +134,12 @@ def ignore() -> None:
             pass
 
 
+def hold(signum: int) -> None:
+    """Record ``signum`` as arrived and deferred (a signal caught before :func:`install`, by a handler that
+    could only note it): the next :func:`check` raises it."""
+    _state["pending"] = _state["pending"] or int(signum)
+
+
 def pending() -> int:
     """The deferred signal number, 0 when none."""
     return int(_state["pending"])
@@ -173,5 +179,5 @@ def protected() -> Iterator[None]:
         _state["protect"] -= 1
 
 
-__all__ = ["GRACE", "SIGNALS", "Interrupted", "check", "deferred", "ignore", "install", "pending", "protected",
-           "report_once"]
+__all__ = ["GRACE", "SIGNALS", "Interrupted", "check", "deferred", "hold", "ignore", "install", "pending",
+           "protected", "report_once"]

@@ -15,6 +15,9 @@ buffer, 1024 bytes in later versions) and a scene file at most :data:`MAX_SCENE_
 if it is a regular file (:func:`a5mi.imageio.read_regular`: a FIFO or ``/dev/zero`` is refused). Tokens are
 found with one C-level regular expression per line and every pattern is linear in the token length, so
 hostile input costs time proportional to its size.
+
+Line ends (SPEC A.0): ``\r\n``, a lone ``\r`` (classic Mac OS) and ``\n`` each end one line, in any mix, so
+positions count lines as an editor shows them (:func:`split_lines`).
 """
 
 from __future__ import annotations
@@ -39,6 +42,9 @@ WORD: Final = re.compile(r"[^ \t\r\n\v\f]+")
 MAX_TOKEN: Final = 1023
 #: The largest scene file read (the course scenes are under 10 KB; meshes live in OBJ files).
 MAX_SCENE_BYTES: Final = 16 << 20
+#: One line end: CR LF, a lone CR or LF (the alternatives are tried in this order, so CR LF is one end).
+LINE_END: Final = re.compile(r"\r\n|\r|\n")
+_LINE_END_BYTES: Final = re.compile(rb"\r\n|\r|\n")
 
 
 @dataclass(frozen=True)
@@ -50,11 +56,19 @@ class Token:
     glued: bool = False  # a '}' split off a number ("20}"), see the module docstring
 
 
+def split_lines(text: str) -> list[str]:
+    """The lines of ``text`` without their ends (:data:`LINE_END`: CR LF, lone CR and LF each end one line);
+    ``n`` line ends give ``n + 1`` lines, as ``str.split``."""
+    return LINE_END.split(text)
+
+
 def _line_col(data: bytes, offset: int) -> tuple[int, int]:
-    """1-based (line, column) of byte ``offset``; the column counts bytes, which is exact for ASCII."""
-    line = data.count(b"\n", 0, offset) + 1
-    col = offset - (data.rfind(b"\n", 0, offset) + 1) + 1
-    return line, col
+    """1-based (line, column) of byte ``offset`` (line ends as :func:`split_lines`); the column counts bytes,
+    which is exact for ASCII."""
+    line, start = 1, 0
+    for m in _LINE_END_BYTES.finditer(data, 0, offset):
+        line, start = line + 1, m.end()
+    return line, offset - start + 1
 
 
 def decode(data: bytes, path: str) -> str:
@@ -90,7 +104,7 @@ def read_source(path: str | Path) -> str:
 def tokenize(text: str, path: str = "<string>") -> list[Token]:
     """Split ``text`` into :class:`Token` s (SPEC A.0); a brace glued to another character is an error."""
     tokens: list[Token] = []
-    for line_no, line in enumerate(text.split("\n"), start=1):
+    for line_no, line in enumerate(split_lines(text), start=1):
         for m in WORD.finditer(line):
             start, word = m.start(), m.group()
             if len(word) > MAX_TOKEN:

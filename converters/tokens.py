@@ -23,7 +23,7 @@ from collections.abc import Callable, Mapping
 from typing import Final, TypeVar
 
 from .errors import FileLoc, SceneSemanticError, SceneSyntaxError, shown
-from .lexer import NUMBER, Token, tokenize
+from .lexer import NUMBER, Token, split_lines, tokenize
 
 #: ``F``: ``%f`` accepts more (hex floats, "nan", "inf"); the grammar takes plain decimal numbers only.
 FLOAT_RE: Final = re.compile(NUMBER)  # ASCII digits, linear (converters/lexer.py)
@@ -65,7 +65,7 @@ class TokenStream:
 
     def __init__(self, text: str, path: str) -> None:
         self.path = path
-        self.lines = text.split("\n")
+        self.lines = split_lines(text)
         self.tokens = tokenize(text, path)
         self.pos = 0
         self.warnings: list[tuple[FileLoc, str]] = []

@@ -4,6 +4,7 @@ one line, exit 2 and nothing written; outputs never destroy inputs; ``a5mi conve
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -260,3 +261,75 @@ def test_convert_into_a_read_only_folder_leaves_nothing(convert_dir: Path, capsy
     line = _one_line(capsys)
     assert "output folder" in line and line.endswith("is not writable")
     assert list(out.iterdir()) == []
+
+
+# ------------------------------------------------------------------------------- render-xml: one line, checked first
+@pytest.fixture
+def textured_xml(tmp_path: Path) -> Path:
+    """A converted scene with an OBJ mesh (a PLY) and a texture (a5 plugins), rendered 8x8."""
+    imageio.write_image(tmp_path / "t.png", np.full((4, 4, 3), 0.5, np.float32))
+    (tmp_path / "m.obj").write_text("v -1 -1 0\nv 1 -1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n")
+    (tmp_path / "s.txt").write_text(_scene("diffuseColor 1 1 1 texture t.png", "TriangleMesh { obj_file m.obj }"))
+    assert cli.run_a5mi(["convert", str(tmp_path / "s.txt"), "-o", str(tmp_path / "s.xml"), "-size", "8",
+                         "8"]) == 0
+    return tmp_path / "s.xml"
+
+
+@pytest.mark.parametrize("remove,match", [
+    ("s_images", r"s.xml:\d+:\d+: error: file 's_images/texture_000_t.png' not found"),
+    ("s_meshes", r"s.xml:\d+:\d+: error: file 's_meshes/mesh_000.ply' not found"),
+])
+def test_render_xml_checks_the_files_it_names_first(textured_xml: Path, capsys, monkeypatch, remove: str,
+                                                    match: str) -> None:
+    """A missing texture or PLY: one line at the XML position, before Mitsuba is asked (no std::bad_alloc,
+    no traceback of the plugin)."""
+    shutil.rmtree(textured_xml.parent / remove)
+    monkeypatch.chdir(textured_xml.parent / "s_meshes" if remove == "s_images" else textured_xml.parent)
+    capsys.readouterr()
+    assert cli.run_a5mi(["render-xml", str(textured_xml), "-o", str(textured_xml.parent / "o.png")]) == 2
+    line = _one_line(capsys)
+    assert re.search(match, line), line
+    assert not (textured_xml.parent / "o.png").exists()
+
+
+def test_render_xml_plugin_errors_are_one_positioned_line(textured_xml: Path, capsys) -> None:
+    """angle nan: the plugin's exception, at the sensor's position, no flattened traceback."""
+    bad = textured_xml.parent / "nan.xml"
+    bad.write_text(re.sub(r'name="angle" value="[^"]*"', 'name="angle" value="nan"', textured_xml.read_text()))
+    capsys.readouterr()
+    assert cli.run_a5mi(["render-xml", str(bad), "-o", str(bad.parent / "o.png")]) == 2
+    line = _one_line(capsys)
+    assert re.fullmatch(rf"{re.escape(str(bad))}:\d+:\d+: error: failed to instantiate sensor plugin of type "
+                        r'"a5_camera": ValueError: a5_camera: camera angle .*got nan', line), line
+    assert "Traceback" not in line and "File " not in line
+
+
+def test_render_xml_refuses_a_film_beyond_memory(textured_xml: Path, capsys) -> None:
+    capsys.readouterr()
+    assert cli.run_a5mi(["render-xml", str(textured_xml), "-o", str(textured_xml.parent / "o.png"), "-D",
+                         "width=100000", "-D", "height=100000"]) == 2
+    line = _one_line(capsys)
+    assert "a 100000x100000 film at 1 samples per pixel needs about" in line and "is available" in line
+
+
+def test_render_xml_image_bomb_is_refused_by_its_header(textured_xml: Path, capsys, monkeypatch) -> None:
+    """A stock or a5 bitmap whose header promises more pixels than memory holds: refused before decoding."""
+    from hostile import png_bomb
+
+    (textured_xml.parent / "s_images" / "texture_000_t.png").write_bytes(png_bomb(30000))
+    monkeypatch.setenv("A5MI_MEMORY_LIMIT", str(4 << 30))
+    capsys.readouterr()
+    assert cli.run_a5mi(["render-xml", str(textured_xml), "-o", str(textured_xml.parent / "o.png")]) == 2
+    assert "30000x30000 pixels need about" in _one_line(capsys)
+
+
+@pytest.mark.parametrize("obj", ["Sphere { center 0 0 0 radius 1e-40 }", "Sphere { center 0 0 0 radius 3e38 }",
+                                 "Transform { UniformScale 1e30 Sphere { center 0 0 0 radius 1 } }"])
+def test_mitsuba_warnings_never_reach_stdout(tmp_path: Path, obj: str) -> None:
+    """Mitsuba's ``WARN [Sphere] 'to_world' transform shouldn't contain non-uniform scaling!`` (a float32
+    round-off of a uniform scale) is not printed: stdout stays empty and stderr has only a5mi's own lines."""
+    (tmp_path / "s.txt").write_text(_scene("diffuseColor 1 0 0", obj))
+    p = subprocess.run([sys.executable, "-m", "a5mi", "-input", "s.txt", "-output", "o.png", "-size", "8", "8"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and p.stdout == "", p.stdout
+    assert "WARN" not in p.stderr and "non-uniform" not in p.stderr, p.stderr

@@ -150,3 +150,133 @@ def test_render_memory_model() -> None:
     streamed = resources.render_bytes(2100, 2100, width=700, height=700, aovs=False, jitter=True, filtered=True,
                                       tile_rays=1 << 20)
     assert plain - streamed == (2100 * 2100 - 700 * 700) * resources.SAMPLE_BYTES
+
+
+# ------------------------------------------------------------------------------- C libraries' own stderr
+def _corrupt_png(path: Path) -> None:
+    """A PNG whose image data fails its CRC (libpng prints ``libpng error: IDAT: CRC error`` on fd 2)."""
+    imageio.write_image(path, _noise(16, 16))
+    data = bytearray(path.read_bytes())
+    data[-20] ^= 0xFF
+    path.write_bytes(bytes(data))
+
+
+def test_libpng_errors_are_folded_into_the_one_error(tmp_path: Path, capfd) -> None:
+    """Decoding a corrupt PNG: one ImageReadError naming the cause; nothing printed on the process's stderr."""
+    _corrupt_png(tmp_path / "bad.png")
+    with pytest.raises(imageio.ImageReadError, match="PNG read error"):
+        imageio.read_uint8(tmp_path / "bad.png")
+    assert capfd.readouterr().err == ""
+
+
+def test_disk_full_png_write_prints_nothing_else(tiny_fs: Path, capfd) -> None:
+    """A PNG cut short by a full disk: the read-back check's libpng error is part of the one error."""
+    _fill(tiny_fs, 8192)
+    with pytest.raises(ImageWriteError, match="write failed"):
+        imageio.write_image(tiny_fs / "o.png", _noise())
+    assert capfd.readouterr().err == ""
+
+
+@pytest.mark.parametrize("use", ["texture", "cube", "bump"])
+def test_corrupt_png_input_is_one_line(tmp_path: Path, use: str) -> None:
+    """``a5`` with a corrupt PNG texture, cube-map face or bump map: exactly one error line, exit 2."""
+    import sys
+
+    from a5mi.spec import CUBE_FACES
+
+    mat = "diffuseColor 1 1 1"
+    bg = "Background { color 0 0 0 ambientLight 0.2 0.2 0.2 }"
+    flags: list[str] = []
+    if use == "texture":
+        _corrupt_png(tmp_path / "t.png")
+        mat += " texture t.png"
+    elif use == "bump":
+        _corrupt_png(tmp_path / "t.png")
+        imageio.write_image(tmp_path / "k.png", _noise(16, 16))
+        mat += " texture k.png bump t.png"
+        flags = ["-bump"]
+    else:
+        (tmp_path / "cube").mkdir()
+        for face in CUBE_FACES:
+            imageio.write_image(tmp_path / "cube" / f"{face}.png", _noise(16, 16))
+        _corrupt_png(tmp_path / "cube" / f"{CUBE_FACES[0]}.png")
+        bg = "Background { color 0 0 0 ambientLight 0.2 0.2 0.2 cubeMap cube }"
+    (tmp_path / "s.txt").write_text(
+        "PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
+        "Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }\n" + bg + "\n"
+        f"Materials {{ numMaterials 1 Material {{ {mat} }} }}\n"
+        "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file m.obj } }\n")
+    (tmp_path / "m.obj").write_text("v -1 -1 0\nv 1 -1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n")
+    p = subprocess.run([sys.executable, "-m", "a5mi", "-input", "s.txt", "-output", "o.png", "-size", "8", "8",
+                        *flags], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    lines = p.stderr.splitlines()
+    assert p.returncode == 2 and len(lines) == 1 and "PNG read error" in lines[0], p.stderr
+    assert not (tmp_path / "o.png").exists()
+
+
+# ------------------------------------------------------------------------------- the process's own memory limits
+def _under_address_limit(limit: int):
+    import resource
+
+    return lambda: resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+
+
+def test_available_memory_counts_the_address_space_limit(tmp_path: Path) -> None:
+    """``ulimit -v``: available() is at most the RLIMIT_AS soft limit less the reserve."""
+    import sys
+
+    from a5mi import resources
+
+    limit = 3 << 30
+    p = subprocess.run([sys.executable, "-c", "from a5mi import resources; print(resources.available())"],
+                       capture_output=True, text=True, preexec_fn=_under_address_limit(limit), timeout=60,
+                       env={k: v for k, v in os.environ.items() if k != "A5MI_MEMORY_LIMIT"})
+    assert p.returncode == 0, p.stderr
+    assert 0 < int(p.stdout) <= limit - resources.address_space_reserve()
+
+
+def test_a5_refuses_a_render_beyond_ulimit_v_at_once(tmp_path: Path) -> None:
+    """``a5 -size 5000 5000`` (about 1.7 GB) under a 2.5 GB address-space limit: one line and 2 before
+    anything is read, not a MemoryError after the render started."""
+    import sys
+
+    (tmp_path / "s.txt").write_text("PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
+                                    "Lights { numLights 0 }\nMaterials { numMaterials 0 }\n"
+                                    "Group { numObjects 0 }\n")
+    p = subprocess.run([sys.executable, "-m", "a5mi", "-input", "s.txt", "-output", "o.png", "-size", "5000",
+                        "5000"], cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                       preexec_fn=_under_address_limit(5 << 29))
+    assert p.returncode == 2 and p.stderr.splitlines() == [p.stderr.strip()], p.stderr
+    assert "-size 5000 5000 needs about" in p.stderr and "is available" in p.stderr
+    assert not (tmp_path / "o.png").exists()
+
+
+@pytest.mark.parametrize("reader", ["read_uint8", "read_levels"])
+def test_an_image_bomb_is_refused_by_its_header_under_ulimit_v(tmp_path: Path, reader: str) -> None:
+    """A 2.6 MB PNG of 30000 x 30000 pixels under a 3 GB address-space limit: refused by its header's size
+    (one ImageReadError), never ``std::bad_alloc`` or a MemoryError halfway through the decode."""
+    import sys
+
+    from hostile import png_bomb
+
+    (tmp_path / "bomb.png").write_bytes(png_bomb(30000))
+    code = (f"from a5mi import imageio\ntry:\n    imageio.{reader}('bomb.png')\n"
+            "except imageio.ImageReadError as e:\n    print(e)\n")
+    p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                       preexec_fn=_under_address_limit(3 << 30),
+                       env={k: v for k, v in os.environ.items() if k != "A5MI_MEMORY_LIMIT"})
+    assert p.returncode == 0 and p.stderr == "", p.stderr
+    assert "30000x30000 pixels need about" in p.stdout, p.stdout
+
+
+def test_levels_count_their_float64_copies(tmp_path: Path, monkeypatch) -> None:
+    """read_levels converts to float64 (two copies) and replicates grey: its estimate includes them."""
+    from a5mi import resources
+
+    imageio.write_image(tmp_path / "g.png", np.zeros((100, 100, 1), np.uint8))
+    need = resources.image_bytes(100, 100, 1) + 100 * 100 * (16 + 24)
+    monkeypatch.setenv("A5MI_MEMORY_LIMIT", str(need - 1))
+    with pytest.raises(imageio.ImageReadError, match="100x100 pixels need"):
+        imageio.read_levels(tmp_path / "g.png")
+    monkeypatch.setenv("A5MI_MEMORY_LIMIT", str(need))
+    assert imageio.read_levels(tmp_path / "g.png").shape == (100, 100, 3)

@@ -126,3 +126,88 @@ def test_closed_pipe_is_quiet(tmp_path: Path) -> None:
     finally:
         os.close(w)
     assert p.returncode == 141 and p.stderr == b""
+
+
+# ------------------------------------------------------------------------------------------ standard streams
+A5MI = [sys.executable, "-c", "from a5mi.entry import a5mi; a5mi()"]
+#: SMALL with a '}' glued to a number: a warning is printed on stderr before the render.
+WARNS = SMALL.replace("radius 1 }", "radius 1}")
+
+
+def _closing(fd: int):
+    return lambda: os.close(fd)
+
+
+@pytest.mark.parametrize("stderr", ["closed", "full"])
+def test_a_diagnostic_that_cannot_be_printed_never_costs_the_image(tmp_path: Path, stderr: str) -> None:
+    """``a5 ... 2>&-`` and ``2>/dev/full``: the warning is lost, the image is written, exit 0."""
+    (tmp_path / "s.txt").write_text(WARNS)
+    argv = [*A5, "-input", "s.txt", "-output", "o.png", "-size", "8", "8"]
+    if stderr == "closed":
+        p = subprocess.run(argv, cwd=tmp_path, stdout=subprocess.PIPE, preexec_fn=_closing(2), timeout=120)
+    else:
+        with open("/dev/full", "w") as full:
+            p = subprocess.run(argv, cwd=tmp_path, stdout=subprocess.PIPE, stderr=full, timeout=120)
+    assert p.returncode == 0 and p.stdout == b""
+    assert (tmp_path / "o.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("argv", [["-h"], ["--version"], ["compare", "-h"]])
+def test_a5mi_into_a_closed_pipe_is_quiet(tmp_path: Path, argv: list[str]) -> None:
+    """``a5mi -h | true``: 141 and nothing on stderr, as ``a5 -h | true``."""
+    r, w = os.pipe()
+    os.close(r)
+    try:
+        p = subprocess.run([*A5MI, *argv], stdout=w, stderr=subprocess.PIPE, cwd=tmp_path, timeout=60)
+    finally:
+        os.close(w)
+    assert p.returncode == 141 and p.stderr == b""
+
+
+@pytest.mark.parametrize("stdout", ["closed", "full"])
+@pytest.mark.parametrize("argv", [["a5mi", "--version"], ["a5mi", "-h"], ["a5", "-h"]])
+def test_a_result_that_cannot_be_written_is_one_line(tmp_path: Path, stdout: str, argv: list[str]) -> None:
+    """stdout closed (``>&-``) or on ``/dev/full``: one line naming the cause and exit 2, no traceback."""
+    cmd = [*(A5 if argv[0] == "a5" else A5MI), *argv[1:]]
+    if stdout == "closed":
+        p = subprocess.run(cmd, stderr=subprocess.PIPE, cwd=tmp_path, preexec_fn=_closing(1), timeout=60)
+        reason = "Bad file descriptor"
+    else:
+        with open("/dev/full", "w") as full:
+            p = subprocess.run(cmd, stdout=full, stderr=subprocess.PIPE, cwd=tmp_path, timeout=60)
+        reason = "No space left on device"
+    assert p.returncode == 2
+    assert p.stderr.decode().splitlines() == [f"{argv[0]}: error: cannot write to standard output: {reason}"]
+
+
+# ------------------------------------------------------------------------------------------ the earliest signals
+EARLY = r"""
+import os, signal, sys
+if sys.argv[1] == "ignored":  # a shell's background job (cmd &) starts with SIGINT ignored
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class SignalOnImport:  # the signal arrives while a5mi.entry imports a5mi.interrupts
+    def find_spec(self, name, path, target=None):
+        if name == "a5mi.interrupts":
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+
+
+sys.meta_path.insert(0, SignalOnImport())
+sys.argv = ["a5", "-input", "s.txt", "-output", "o.png", "-size", "8", "8"]
+from a5mi.entry import a5
+a5()
+"""
+
+
+@pytest.mark.parametrize("start", ["default", "ignored"])
+def test_sigint_during_the_first_imports_is_130(tmp_path: Path, start: str) -> None:
+    """A Ctrl-C while the console script imports its first modules (before a5mi.interrupts is installed):
+    recorded by the handler that is a5mi.entry's first statement and raised at the first check: one line,
+    130, nothing written; also for a background job (SIGINT ignored at start, which a5 overrides)."""
+    (tmp_path / "s.txt").write_text(SMALL)
+    p = subprocess.run([sys.executable, "-c", EARLY, start], cwd=tmp_path, capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 130 and p.stderr.splitlines() == ["a5: error: interrupted (SIGINT)"], p.stderr
+    assert _leftovers(tmp_path) == []

@@ -58,7 +58,8 @@ def test_render_xml_is_the_a5_render(scene10, tmp_path: Path, capsys: pytest.Cap
     bad.write_text("<scene version='3.0.0'><shape type='nosuchplugin'/></scene>")
     assert run_a5mi(["render-xml", str(bad), "-o", str(tmp_path / "z.png")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith(f"a5mi render-xml: error: {bad}:") and not (tmp_path / "z.png").exists()
+    assert err == [f'{bad}:1:25: error: failed to instantiate shape plugin of type "nosuchplugin": Plugin '
+                   '"nosuchplugin" not found!'] and not (tmp_path / "z.png").exists()
 
 
 def test_documented_python_example_runs(tmp_path: Path) -> None:

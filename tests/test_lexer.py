@@ -22,6 +22,27 @@ def test_a0_crlf_and_tabs_are_whitespace() -> None:
     assert [(t.text, t.loc.line, t.loc.col) for t in toks] == [("a", 1, 1), ("b", 2, 2), ("c", 2, 4)]
 
 
+@pytest.mark.parametrize("end", ["\r", "\n", "\r\n"])
+def test_a0_every_line_end_counts_one_line(end: str) -> None:
+    """A lone CR (classic Mac OS), LF and CR LF each end one line: positions as an editor shows them."""
+    toks = tokenize(end.join(["a", "  b", "", "c"]), "s.txt")
+    assert [(t.text, t.loc.line, t.loc.col) for t in toks] == [("a", 1, 1), ("b", 2, 3), ("c", 4, 1)]
+
+
+def test_a0_mixed_line_ends_give_the_editor_position(tmp_path: Path) -> None:
+    """An error on line 5 of a file with CR, LF and CR LF ends, from the parser and from the byte checks."""
+    from a5mi.converters.a5_parser import parse_file
+
+    head = "PerspectiveCamera {\r center 0 0 10\n direction 0 0 -1\r\n up 0 1 0\r\r"
+    (tmp_path / "s.txt").write_text(head + "  angle x }\n", newline="")
+    with pytest.raises(SceneError) as e:
+        parse_file(str(tmp_path / "s.txt"))
+    assert (e.value.loc.line, e.value.loc.col) == (6, 9)
+    with pytest.raises(SceneSyntaxError) as e:
+        decode((head + "  \xff").encode("latin-1"), "s.txt")
+    assert (e.value.loc.line, e.value.loc.col) == (6, 3)
+
+
 def test_a0_brace_glued_to_a_word_is_an_error_at_the_brace() -> None:
     with pytest.raises(SceneSyntaxError) as e:
         tokenize("Sphere {center 0 0 0", "s.txt")

@@ -121,7 +121,11 @@ class Command:
 class Console:
     """The only printer: results on stdout, warnings / notes / errors on stderr (one line each).
 
-    ``quiet`` drops warnings (``-q``); errors and results are always printed."""
+    ``quiet`` drops warnings (``-q``); errors and results are always printed. A diagnostic that cannot be
+    printed (stderr closed, a full disk, a hung-up terminal) is dropped: it never costs the command its
+    outputs. A result that cannot be printed is the command's failure: a closed pipe raises
+    ``BrokenPipeError`` (exit 141 through :func:`guarded`), any other write error a :class:`UserError`
+    (``cannot write to standard output: No space left on device``, exit 2)."""
 
     def __init__(self, prog: str, *, quiet: bool = False, out: TextIO | None = None,
                  err: TextIO | None = None) -> None:
@@ -130,33 +134,116 @@ class Console:
 
     @property
     def out(self) -> TextIO:
-        return self._out or sys.stdout
+        return self._out or sys.stdout or _NullStream()
 
     @property
     def err(self) -> TextIO:
-        return self._err or sys.stderr
+        return self._err or sys.stderr or _NullStream()
 
     def result(self, text: str) -> None:
-        """A command's answer (a table, JSON, help): stdout."""
-        print(text, file=self.out)
+        """A command's answer (a table, JSON, help): stdout, flushed at once so that a write error is this
+        command's (see the class docstring)."""
+        write_result(self.out, text + "\n")
+
+    def _diagnostic(self, text: str) -> None:
+        write_diagnostic(self.err, text + "\n")
 
     def note(self, text: str) -> None:
         """Progress and statistics (``-v``): stderr."""
-        print(text, file=self.err)
+        self._diagnostic(text)
 
     def warnings(self, items: Iterable[tuple[Any, str]]) -> None:
         """``FILE:LINE:COL: warning: ...`` per (loc, message), unless quiet."""
         for loc, msg in items:
             if not self.quiet:
-                print(f"{loc}: warning: {msg}", file=self.err)
+                self._diagnostic(f"{loc}: warning: {msg}")
 
     def error(self, msg: str) -> None:
         """One error line: positioned messages as they are, others as ``PROG: error: msg``."""
         line = msg if ": error: " in msg else f"{self.prog}: error: {msg}"
-        print(line.split("\n")[0], file=self.err)
+        self._diagnostic(line.split("\n")[0])
 
     def progress(self, enabled: bool) -> ProgressBar:
         return ProgressBar(self.err, enabled=enabled)
+
+
+class _NullStream:
+    """Stands for a standard stream the interpreter could not open (``2>&-``): takes every write, no terminal."""
+
+    def write(self, text: str) -> int:
+        return len(text)
+
+    def flush(self) -> None:
+        pass
+
+    def isatty(self) -> bool:
+        return False
+
+    def fileno(self) -> int:
+        raise OSError("standard stream closed")
+
+
+class _ClosedOutput(_NullStream):
+    """Standard output that was closed when the program started: a result written to it is an error
+    (``EBADF``, as coreutils report it), reported as one line (:func:`write_result`)."""
+
+    def write(self, text: str) -> int:
+        import errno
+
+        raise OSError(errno.EBADF, os.strerror(errno.EBADF))
+
+
+def standard_streams(closed: Iterable[int]) -> None:
+    """The stream objects of descriptors that were closed at start (``closed``; :mod:`a5mi.entry` has
+    re-opened them on ``/dev/null``): stdout writes fail with ``EBADF`` (a result has nowhere to go), stderr
+    and stdin read and write ``/dev/null`` (diagnostics are dropped)."""
+    for fd in closed:
+        if fd == 1:
+            sys.stdout = _ClosedOutput()  # type: ignore[assignment]
+        elif fd == 2 and sys.stderr is None:
+            sys.stderr = open(2, "w", closefd=False, errors="backslashreplace")  # noqa: SIM115 - the process's
+        elif fd == 0 and sys.stdin is None:
+            sys.stdin = open(0, closefd=False)  # noqa: SIM115 - the process's
+
+
+def flush_standard_streams() -> None:
+    """Flush stdout and stderr at the end; one that cannot be flushed (a closed pipe, a full disk) is pointed
+    at ``/dev/null``, so the interpreter's own flush at exit prints no ``Exception ignored`` lines."""
+    for fd, stream in ((1, sys.stdout), (2, sys.stderr)):
+        if stream is None:
+            continue
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            try:
+                null = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(null, fd)
+                os.close(null)
+            except OSError:
+                pass
+
+
+def write_diagnostic(stream: Any, text: str) -> None:
+    """Write ``text`` to a diagnostic stream; a stream that cannot take it (closed, full, hung up) drops it."""
+    try:
+        stream.write(text)
+        stream.flush()
+    except (OSError, ValueError, AttributeError):
+        pass
+
+
+def write_result(stream: Any, text: str) -> None:
+    """Write ``text`` to the result stream and flush: ``BrokenPipeError`` as it is (exit 141), other write
+    errors as one-line :class:`UserError`s (exit 2)."""
+    try:
+        stream.write(text)
+        stream.flush()
+    except BrokenPipeError:
+        raise
+    except (OSError, ValueError) as exc:
+        _silence_stdout()  # the unwritten buffer must not fail again at exit
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise UserError(f"cannot write to standard output: {reason}") from None
 
 
 class ProgressBar:
@@ -200,8 +287,7 @@ class ProgressBar:
             self._thread.join()
         with self._lock:
             if self.shown and not self.finished:
-                self.stream.write("\n")
-                self.stream.flush()
+                write_diagnostic(self.stream, "\n")
                 self.finished = True
 
     def _run(self) -> None:
@@ -255,12 +341,10 @@ class ProgressBar:
         complete = self.total > 0 and self.done >= self.total
         if (now - self.start < self.delay and not complete) or (not self.shown and complete):
             return
-        self.stream.write("\r" + self.line(now))
-        self.stream.flush()
+        write_diagnostic(self.stream, "\r" + self.line(now))
         self.shown = True
         if complete:
-            self.stream.write("\n")
-            self.stream.flush()
+            write_diagnostic(self.stream, "\n")
             self.finished = True
 
 
@@ -294,12 +378,12 @@ def guarded(console: Console, debug: bool, body: Callable[[], int]) -> int:
         return body()
     except SceneError as exc:
         if debug:
-            traceback.print_exc()
+            write_diagnostic(console.err, traceback.format_exc())
         console.error(str(exc) if exc.loc is not None else exc.msg)
         return ExitStatus.USAGE
     except UserError as exc:
         if debug:
-            traceback.print_exc()
+            write_diagnostic(console.err, traceback.format_exc())
         console.error(str(exc))
         return ExitStatus.USAGE
     except KeyboardInterrupt as exc:
@@ -313,7 +397,7 @@ def guarded(console: Console, debug: bool, body: Callable[[], int]) -> int:
         return ExitStatus.BROKEN_PIPE
     except Exception as exc:  # noqa: BLE001 - the last line of defence: report a bug, not a traceback
         if debug:
-            traceback.print_exc()
+            write_diagnostic(console.err, traceback.format_exc())
         else:
             detail = exception_summary(exc)
             console.note(f"{console.prog}: internal error: {type(exc).__name__}{': ' + detail if detail else ''} "
@@ -384,14 +468,21 @@ def load_scene(path: str, console: Console, *, stock: bool = False, inputs: list
 
 
 def activate_variant(requested: str | None = None) -> str:
-    """:func:`a5mi.variant.activate` with its failures as user errors (the message names the fix)."""
+    """:func:`a5mi.variant.activate` with its failures as user errors (the message names the fix). Mitsuba's
+    own log is then limited to errors: its warnings would be printed on stdout, mixed with the results and
+    outside the one-line rule (a sphere of radius 1e-40 or 3e38, whose float32 scale Mitsuba takes for a
+    non-uniform one); its errors are raised as exceptions and reported by :func:`guarded`."""
     from a5mi import interrupts, variant
 
     try:
         with interrupts.deferred():  # a signal in the middle of loading Dr.Jit would break the interpreter
-            return variant.activate(requested)
+            name = variant.activate(requested)
     except variant.VariantError as exc:
         raise UserError(str(exc)) from None
+    import mitsuba as mi
+
+    mi.set_log_level(mi.LogLevel.Error)
+    return name
 
 
 __all__ = ["EXIT_STATUS_TABLE", "Command", "Console", "ProgressBar", "activate_variant", "exception_summary",
