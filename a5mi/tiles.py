@@ -43,7 +43,7 @@ PACKET_ALIGN = 64
 PROGRESS_STEPS = 4
 #: ... of at least this many samples each: every launch re-traces the integrator in Python (about 50-90 ms
 #: for the course scenes on the shared 2-core machine), so finer tiles would cost more than they show; the
-#: bar moves between tiles on the measured rate (a5mi.cli.app.ProgressBar).
+#: bar moves between tiles on the measured rate (a5mi.cli.progress.ProgressBar).
 MIN_TILE_RAYS = 1 << 18
 
 

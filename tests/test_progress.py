@@ -5,7 +5,7 @@ from __future__ import annotations
 import io
 import time
 
-from a5mi.cli.app import ProgressBar
+from a5mi.cli.progress import ProgressBar
 
 
 class _Clock:
