@@ -186,20 +186,21 @@ def convert_dir(tmp_path: Path) -> Path:
 
 def test_convert_never_writes_through_symlinks_and_replaces_the_set(convert_dir: Path, mi, capsys) -> None:
     """Item 6: symlinks in the meshes folder or at the envmap are replaced, not followed; stale PLYs of an
-    earlier conversion go; a second conversion leaves exactly the files of a fresh one."""
+    earlier conversion go (its folder carries the conversion's marker); a second conversion leaves exactly the
+    files of a fresh one."""
     out = convert_dir / "out"
     victim = convert_dir / "victim.ply"
     victim.write_bytes(b"precious")
-    (out / "o_meshes").mkdir()
+    assert cli.run_a5mi(["convert", str(convert_dir / "in" / "s.txt"), "-o", str(out / "o.xml"), "-q"]) == 0
+    first = _files(out)
+    assert sorted(first) == ["o.xml", "o_meshes", "o_meshes/.a5mi-convert", "o_meshes/mesh_000.ply"]
+    os.unlink(out / "o_meshes" / "mesh_000.ply")
     os.symlink(victim, out / "o_meshes" / "mesh_000.ply")
     (out / "o_meshes" / "mesh_007.ply").write_bytes(b"stale")
     os.symlink(victim, out / "o_envmap.exr")
     assert cli.run_a5mi(["convert", str(convert_dir / "in" / "s.txt"), "-o", str(out / "o.xml"), "-q"]) == 0
     assert victim.read_bytes() == b"precious"
-    first = _files(out)
-    assert sorted(first) == ["o.xml", "o_meshes", "o_meshes/mesh_000.ply"]
     assert not (out / "o_meshes" / "mesh_000.ply").is_symlink()
-    assert cli.run_a5mi(["convert", str(convert_dir / "in" / "s.txt"), "-o", str(out / "o.xml"), "-q"]) == 0
     assert _files(out) == first
     capsys.readouterr()
 
@@ -220,6 +221,7 @@ def test_convert_refuses_before_writing(convert_dir: Path, capsys, case: str, ma
         (out / "o.xml").mkdir()
     else:
         (out / "o_meshes").mkdir()
+        (out / "o_meshes" / ".a5mi-convert").write_text("")  # a conversion's folder, then used as an input
         shutil.copy(convert_dir / "in" / "m.obj", out / "o_meshes" / "m.obj")
         shutil.copy(scene, out / "o_meshes" / "s.txt")
         scene = out / "o_meshes" / "s.txt"
