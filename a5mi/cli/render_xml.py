@@ -35,12 +35,49 @@ FLAGS: tuple[Flag, ...] = (
 )
 
 
+def referenced_files(scene: str, defines: dict[str, str]) -> list[str]:
+    """The files an XML scene names (every ``filename`` attribute or ``<string name="filename">`` value, its
+    ``$NAME`` parameters replaced by ``-D`` values, else the file's ``<default>`` ones), each resolved as
+    Mitsuba does: beside the XML first, then the working directory. Raises :class:`UserError` when one exists but
+    is not a regular file or folder (a FIFO or device would block ``mi.load_file``; read only regular files,
+    as :func:`a5mi.imageio.read_regular`), or when the XML cannot be read."""
+    import re
+    import xml.etree.ElementTree as ET
+
+    from a5mi.errors import FileReadError
+    from a5mi.imageio import file_kind, read_regular
+
+    try:
+        root = ET.fromstring(read_regular(scene, 1 << 28, "scene"))
+    except FileReadError as exc:
+        raise UserError(str(exc)) from None
+    except ET.ParseError:
+        return [scene]  # Mitsuba reports the syntax error with its position
+    params = {e.get("name", ""): e.get("value", "") for e in root.iter("default")}
+    params.update(defines)
+    names = [e.get("filename") for e in root.iter() if e.get("filename")]
+    names += [e.get("value") for e in root.iter("string") if e.get("name") == "filename" and e.get("value")]
+    base = os.path.dirname(os.path.abspath(scene))
+    found = [scene]
+    for name in names:
+        name = re.sub(r"\$(\w+)", lambda m: params.get(m.group(1), m.group(0)), str(name))
+        for path in (os.path.join(base, name), os.path.abspath(name)):
+            if os.path.lexists(path):
+                if file_kind(path) not in ("regular file", "folder"):
+                    raise UserError(f"{scene}: '{name}' is not a regular file ({file_kind(path)})")
+                found.append(path)
+                break
+    return found
+
+
 def run_render_xml(args: Args, console: Console) -> int:
-    from a5mi import imageio
+    from a5mi import clobber, imageio
 
     imageio.check_output_path(args.output)
     if not os.path.isfile(args.scene):
         raise UserError(f"cannot read '{args.scene}': no such file")
+    clobber.check_outputs([("-o", args.output)], referenced_files(args.scene, dict(args.define or ())),
+                          of=f" of '{args.scene}'")
     activate_variant(args.variant)
     import mitsuba as mi
     import numpy as np
