@@ -15,6 +15,7 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import stat
@@ -113,10 +114,9 @@ def check_target(path: str | os.PathLike[str]) -> Path:
                               "temporary name)")
     try:
         os.stat(p)
-    except FileNotFoundError:
-        pass
-    except OSError as exc:
-        raise ImageWriteError(f"{_short(p)}: {exc.strerror or exc}") from None
+    except OSError as exc:  # missing (or under a file: the folder checks below say so); else a loop, EACCES
+        if exc.errno not in (errno.ENOENT, errno.ENOTDIR):
+            raise ImageWriteError(f"{_short(p)}: {exc.strerror or exc}") from None
     if not folder.is_dir():
         above = next((q for q in (folder, *folder.parents) if q.exists()), None)
         if above is not None and not above.is_dir():
