@@ -12,8 +12,7 @@ and the verdict is ``match`` when the share of such pixels is <= ``match``, ``cl
 ``wrong`` above (sizes must agree first: ``wrong size``). A pixel with a NaN or infinite channel (in either
 image, or in ``sigma``) is beyond noise, and an image with any such pixel (``max_error`` not finite,
 :func:`a5mi.compare.compare_arrays`) is ``wrong`` whatever the share: a non-finite value is never a match.
-Without a noise band (``sigma`` None) sigma is 0 and
-the rule is the plain share of pixels over ``NOISE_FLOOR``.
+Without a noise band (``sigma`` None) sigma is 0 and the rule is the plain share of pixels over ``NOISE_FLOOR``.
 
 The other metrics are reported, not judged on: PSNR, mean absolute error, share of pixels > 2/255
 (:mod:`a5mi.compare`) and NVIDIA FLIP (LDR mean, heatmap; PyPI ``flip-evaluator``).
