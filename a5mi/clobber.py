@@ -1,4 +1,4 @@
-"""Outputs never destroy inputs or each other (issue 19, item 5).
+"""Outputs never destroy inputs or each other, for every command (docs/GUARANTEES.md).
 
 Every file a command writes is compared, before anything is rendered, with every file the scene reads (the
 scene itself, its OBJ meshes, textures and cube-map faces) and with the other outputs, by resolved path
@@ -48,9 +48,10 @@ def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
     return ra == rb or (ia is not None and ia == ib)
 
 
-def check_outputs(outputs: Sequence[tuple[str, str | os.PathLike[str]]], inputs: Iterable[str | os.PathLike[str]]
-                  ) -> None:
-    """Raise :class:`UsageError` when an output (``(flag, path)``) is an input or another output."""
+def check_outputs(outputs: Sequence[tuple[str, str | os.PathLike[str]]], inputs: Iterable[str | os.PathLike[str]],
+                  of: str = " of the scene") -> None:
+    """Raise :class:`UsageError` when an output (``(flag, path)``) is an input or another output; ``of`` ends
+    the words "is the input file '...'" (what the inputs belong to)."""
     ins = list(inputs)
     for k, (role, path) in enumerate(outputs):
         for other_role, other in outputs[:k]:
@@ -58,7 +59,7 @@ def check_outputs(outputs: Sequence[tuple[str, str | os.PathLike[str]]], inputs:
                 raise UsageError(f"{other_role} '{other}' and {role} '{path}' are the same file")
         for src in ins:
             if same_file(path, src):
-                raise UsageError(f"{role} '{path}' is the input file '{src}' of the scene: it would be overwritten")
+                raise UsageError(f"{role} '{path}' is the input file '{src}'{of}: it would be overwritten")
 
 
 def check_folder_holds_no_input(role: str, folder: str | os.PathLike[str],

@@ -8,7 +8,10 @@ multiplied by 255 first, without quantising):
 * ``share_over``  share of pixels whose largest channel error exceeds ``threshold`` levels (default 2);
 * ``max_error``   largest channel error, in levels;
 * ``bbox``        (x0, y0, x1, y1), inclusive, of the pixels over the threshold, in file coordinates
-  (row 0 = top row of the file), or None.
+  (row 0 = top row of the file), or None;
+* ``nonfinite``   pixels with a NaN or infinite channel in either image. Such a channel's error is +inf (a value
+  that is not a number is no match for any value, itself included), so the pixel is over every threshold,
+  ``max_error`` and ``mean_error`` are inf and PSNR is -inf; JSON writes these non-finite figures as null.
 
 ``a5mi compare A B [--diff OUT.png [--scale N|auto]] [--json]`` prints them; ``--diff`` writes A, B and a
 false-colour heatmap of the largest channel error side by side (:func:`colormap` of ``error / scale``: black 0,
@@ -47,28 +50,35 @@ class Metrics:
     threshold: float
     width: int
     height: int
+    nonfinite: int = 0
 
     def summary(self) -> str:
         """One line, e.g. ``PSNR 67.3 dB, mean 0.02/255, 0.01% of pixels > 2/255, max 14/255``."""
-        psnr = "inf" if math.isinf(self.psnr) else f"{self.psnr:.1f}"
+        psnr = f"{self.psnr:.1f}" if math.isfinite(self.psnr) else f"{self.psnr:g}"
+        odd = f", {self.nonfinite} pixels not finite" if self.nonfinite else ""
         return (
             f"PSNR {psnr} dB, mean {self.mean_error:.3f}/255, {100 * self.share_over:.2f}% of pixels "
-            f"> {self.threshold:g}/255, max {self.max_error:g}/255"
+            f"> {self.threshold:g}/255, max {self.max_error:g}/255{odd}"
         )
 
     def to_json(self) -> str:
-        d = asdict(self)
-        d["psnr"] = None if math.isinf(self.psnr) else self.psnr
-        return json.dumps(d)
+        """Strict JSON: an infinite PSNR (identical images) and every non-finite figure (``nonfinite`` > 0)
+        are null."""
+        d = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in asdict(self).items()}
+        return json.dumps(d, allow_nan=False)
 
 
 def compare_arrays(a: np.ndarray, b: np.ndarray, threshold: float = DEFAULT_THRESHOLD) -> Metrics:
     """Metrics of two (H, W, 3) arrays in levels (see module docstring for the formulas)."""
     if a.shape != b.shape:
         raise CompareError(f"image sizes differ: {a.shape[1]}x{a.shape[0]} vs {b.shape[1]}x{b.shape[0]}")
-    diff = np.abs(a.astype(np.float64) - b.astype(np.float64))
-    mse = float(np.mean(diff**2))
-    psnr = math.inf if mse == 0 else 10.0 * math.log10(255.0**2 / mse)
+    a64, b64 = a.astype(np.float64), b.astype(np.float64)
+    odd = ~(np.isfinite(a64) & np.isfinite(b64))
+    with np.errstate(invalid="ignore", over="ignore"):
+        diff = np.abs(a64 - b64)
+        diff[odd] = math.inf
+        mse = float(np.mean(diff**2))
+    psnr = math.inf if mse == 0 else -math.inf if math.isinf(mse) else 10.0 * math.log10(255.0**2 / mse)
     per_pixel = diff.max(axis=2)
     over = per_pixel > threshold
     bbox = None
@@ -84,6 +94,7 @@ def compare_arrays(a: np.ndarray, b: np.ndarray, threshold: float = DEFAULT_THRE
         threshold=threshold,
         width=a.shape[1],
         height=a.shape[0],
+        nonfinite=int(odd.any(axis=2).sum()) if odd.ndim == 3 else int(odd.sum()),
     )
 
 
@@ -103,8 +114,18 @@ STOPS = np.array([[0, 0, 0], [0, 0, 1], [0, 1, 0], [1, 1, 0], [1, 0, 0]], dtype=
 def auto_scale(a: np.ndarray, b: np.ndarray) -> float:
     """``--scale auto``: the :data:`AUTO_PERCENTILE` th percentile of the per-pixel largest channel error, in
     levels, rounded up to a whole level (at least 1), so single-pixel outliers saturate and the bulk shows."""
-    err = np.abs(a.astype(np.float64) - b.astype(np.float64)).max(axis=2)
+    err = _error(a, b)
+    err = err[np.isfinite(err)]  # a non-finite pixel is red at any scale
     return max(1.0, float(np.ceil(np.percentile(err, AUTO_PERCENTILE)))) if err.size else 1.0
+
+
+def _error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per pixel, the largest channel error in levels; +inf where either image is not finite."""
+    a64, b64 = a.astype(np.float64), b.astype(np.float64)
+    with np.errstate(invalid="ignore", over="ignore"):
+        err = np.abs(a64 - b64)
+    err[~(np.isfinite(a64) & np.isfinite(b64))] = np.inf
+    return err.max(axis=2)
 
 
 def colormap(t: np.ndarray) -> np.ndarray:
@@ -119,8 +140,8 @@ def colormap(t: np.ndarray) -> np.ndarray:
 
 def heatmap(a: np.ndarray, b: np.ndarray, full_scale: float = DEFAULT_SCALE) -> np.ndarray:
     """False colour of the largest channel error ``e``: :func:`colormap` of ``e / full_scale`` (red at and
-    beyond ``full_scale`` levels)."""
-    return colormap(np.abs(a - b).max(axis=2) / full_scale)
+    beyond ``full_scale`` levels; a pixel that is not finite is red)."""
+    return colormap(_error(a, b) / full_scale)
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -268,7 +289,8 @@ def montage(a: np.ndarray, b: np.ndarray, caption: str, scale: float = DEFAULT_S
     out[r0:r1, c0:c1] = colormap(np.linspace(0.0, 1.0, c1 - c0))[None, :, :]
     items = [(x, lay.labels_top, label) for x, label in bar_labels(scale, lay.bar_cols)]
     items += [(MARGIN, lay.caption_top + i * LINE_HEIGHT, line) for i, line in enumerate(lay.caption_lines)]
-    return draw_text(np.rint(out).astype(np.uint8), items)
+    return draw_text(np.rint(np.nan_to_num(out, nan=0.0, posinf=255.0, neginf=0.0).clip(0, 255)).astype(np.uint8),
+                     items)
 
 
 def write_diff(a: np.ndarray, b: np.ndarray, metrics: Metrics, path: str | Path, labels: tuple[str, str],

@@ -15,6 +15,7 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import stat
@@ -53,14 +54,69 @@ def _extension(path: str | os.PathLike[str]) -> str:
 
 
 def check_output_path(path: str | os.PathLike[str]) -> Path:
-    """Raise :class:`ImageWriteError` unless ``path`` can be written: known extension, existing writable
-    folder, not a directory. Called by the CLI **before** rendering. Returns the path."""
+    """Raise :class:`ImageWriteError` unless ``path`` can be written: known extension, then
+    :func:`check_target`. Called by the CLI **before** rendering. Returns the path."""
     p = Path(path)
     ext = _extension(p)
     if ext not in BYTE_FORMATS and ext not in FLOAT_FORMATS:
         found = f"unknown image extension '{ext}'" if ext else "no image extension"
-        raise ImageWriteError(f"{p}: {found} (expected one of {' '.join(EXTENSIONS)})")
+        raise ImageWriteError(f"{_short(p)}: {found} (expected one of {' '.join(EXTENSIONS)})")
+    return check_target(p)
+
+
+def _short(p: str | os.PathLike[str], limit: int = 120) -> str:
+    s = str(p)
+    return s if len(s) <= limit else f"{s[:40]}...{s[-60:]} ({len(os.fsencode(s))} bytes)"
+
+
+#: ``FS_IOC_GETFLAGS`` and its immutable / append-only bits (linux/fs.h): such a file cannot be replaced.
+_FS_IOC_GETFLAGS, _FS_LOCKED = 0x80086601, 0x10 | 0x20
+
+
+def _locked(p: Path) -> bool:
+    """True when the existing regular file ``p`` is immutable or append-only (``chattr +i`` / ``+a``)."""
+    try:
+        import fcntl
+        import struct
+
+        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | os.O_NOFOLLOW | getattr(os, "O_CLOEXEC", 0))
+    except (ImportError, OSError):
+        return False
+    try:
+        flags = struct.unpack("l", fcntl.ioctl(fd, _FS_IOC_GETFLAGS, struct.pack("l", 0)))[0]
+    except OSError:
+        return False
+    finally:
+        os.close(fd)
+    return bool(flags & _FS_LOCKED)
+
+
+def check_target(path: str | os.PathLike[str]) -> Path:
+    """Raise :class:`ImageWriteError` unless the file ``path`` can be written atomically (a temporary beside
+    it, then ``os.replace``): its name and the temporary's fit ``NAME_MAX`` and ``PATH_MAX``, the folder
+    exists and is writable, the path resolves (no symlink loop), it is not a folder or special file, and an
+    existing file may be replaced (not immutable or append-only, not another user's in a sticky folder).
+    Every check runs before anything renders. Returns the path."""
+    p = Path(path)
     folder = p.parent if str(p.parent) else Path(".")
+    try:
+        name_max = os.pathconf(folder, "PC_NAME_MAX")
+        path_max = os.pathconf(folder, "PC_PATH_MAX")
+    except (OSError, ValueError):
+        name_max, path_max = 255, 4096
+    temp = f"{temp_prefix(p.name)}xxxxxxxx{p.suffix}"
+    name_bytes, temp_bytes = len(os.fsencode(p.name)), len(os.fsencode(temp))
+    if temp_bytes > name_max:
+        raise ImageWriteError(f"{_short(p)}: the file name is too long ({name_bytes} bytes; with its temporary "
+                              f"name the limit is {name_max - temp_bytes + name_bytes})")
+    if len(os.fsencode(str(folder / temp))) >= path_max:
+        raise ImageWriteError(f"{_short(p)}: the path is too long (the limit is {path_max} bytes, with the "
+                              "temporary name)")
+    try:
+        os.stat(p)
+    except OSError as exc:  # missing (or under a file: the folder checks below say so); else a loop, EACCES
+        if exc.errno not in (errno.ENOENT, errno.ENOTDIR):
+            raise ImageWriteError(f"{_short(p)}: {exc.strerror or exc}") from None
     if not folder.is_dir():
         above = next((q for q in (folder, *folder.parents) if q.exists()), None)
         if above is not None and not above.is_dir():
@@ -74,6 +130,8 @@ def check_output_path(path: str | os.PathLike[str]) -> Path:
         raise ImageWriteError(f"{p}: exists and is not a regular file ({file_kind(p)})")
     if p.is_symlink() or p.exists():
         _check_replaceable(p, folder)
+    if p.is_file() and not p.is_symlink() and _locked(p):
+        raise ImageWriteError(f"{p}: cannot replace it: the file is immutable or append-only (chattr)")
     return p
 
 

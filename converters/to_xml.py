@@ -24,7 +24,10 @@ Writing is all or nothing and never outside the set: the XML, ``{stem}_meshes/``
 and ``{stem}_envmap.exr`` are written into a fresh hidden staging folder beside the XML
 (``.{name}.a5mi-{pid}-...``) and then moved into place entry by entry with ``rename``, which replaces a
 symlink already there instead of writing through it; an earlier ``{stem}_meshes/`` or ``{stem}_images/`` is
-replaced whole (no stale file stays) and an earlier ``{stem}_envmap.exr`` that this conversion does not write
+replaced whole (no stale file stays) only when a conversion made it: each folder a conversion writes holds the
+marker file :data:`MARKER`, and a folder without it that is not empty is the user's and is never replaced
+(:func:`check_replaceable` raises :class:`~a5mi.errors.UsageError`, before anything is written); and an
+earlier ``{stem}_envmap.exr`` that this conversion does not write
 is removed. The XML is renamed last. Any failure before the moves leaves every existing file as it was and
 removes the staging folder; signals wait for the moves (:func:`a5mi.interrupts.protected`).
 """
@@ -238,6 +241,27 @@ def write_xml(desc: SceneDescription, path: str | Path, options: RenderOptions |
     return xml_path
 
 
+#: The marker file in every folder a conversion writes (``{stem}_meshes/``, ``{stem}_images/``).
+MARKER = ".a5mi-convert"
+
+
+def check_replaceable(folder: str | os.PathLike[str]) -> None:
+    """Raise :class:`~a5mi.errors.UsageError` when ``folder`` is a folder (not a symlink) a conversion did not
+    write (no :data:`MARKER`) and holds anything: replacing it would delete the user's files."""
+    from a5mi.errors import UsageError
+
+    p = Path(folder)
+    if p.is_symlink() or not p.is_dir() or (p / MARKER).is_file():
+        return
+    try:
+        empty = next(os.scandir(p), None) is None
+    except OSError:
+        empty = False
+    if not empty:
+        raise UsageError(f"{p}: this folder was not written by a5mi convert (no {MARKER} in it) and a conversion "
+                         "would replace it: remove or rename it, or write the XML elsewhere")
+
+
 def set_names(xml_path: Path) -> tuple[str, str, str, str]:
     """The entries a conversion to ``xml_path`` owns beside it: the XML, ``{stem}_meshes``, ``{stem}_envmap.exr``,
     ``{stem}_images``."""
@@ -254,6 +278,10 @@ def _commit(staging: Path, folder: Path, xml_path: Path) -> None:
     """Move the staged set into ``folder`` (module docstring): the meshes folder and the envmap first, each old
     entry moved aside into ``staging`` (so it is removed with it, without following links), the XML last."""
     xml_name, mesh_name, env_name, image_name = set_names(xml_path)
+    for name in (mesh_name, image_name):
+        check_replaceable(folder / name)
+        if (staging / name).is_dir():
+            (staging / name / MARKER).write_text("written by a5mi convert: the next conversion replaces this folder\n")
     aside = staging / ".replaced"
     aside.mkdir()
     for name in (mesh_name, env_name, image_name):

@@ -217,6 +217,7 @@ def test_a5mi_convert(tmp_path, scene, monkeypatch, capsys, variant) -> None:
     written = []
     fake = type(sys)("a5mi.converters.to_xml")
     fake.write_xml = lambda desc, path, options=None, *, stock=False, spp=None: written.append((desc, path, stock))
+    fake.check_replaceable = lambda folder: None
     monkeypatch.setitem(sys.modules, "a5mi.converters.to_xml", fake)
     assert cli.run_a5mi(["convert", scene, "-o", str(tmp_path / "s.xml"), "--stock"]) == 0
     (model, path, stock), = written

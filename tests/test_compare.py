@@ -285,3 +285,79 @@ def test_cli_bad_scale_is_a_usage_error(tmp_path, value, capsys) -> None:
     assert run_a5mi(["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--diff",
                      str(tmp_path / "d.png"), "--scale", value]) == 2
     assert "--scale" in capsys.readouterr().err and not (tmp_path / "d.png").exists()
+
+
+# ------------------------------------------------------------------------------- non-finite pixels
+def _exr_pair(tmp_path, size: int = 20):
+    """Two float images (EXR) equal but for one NaN and one +inf pixel in B: 2 of size^2 pixels."""
+    from a5mi.imageio import write_image
+
+    a = np.full((size, size, 3), 0.5, np.float32)
+    b = a.copy()
+    b[0, 0, 0], b[3, 4, 1] = np.nan, np.inf
+    write_image(tmp_path / "a.exr", a)
+    write_image(tmp_path / "b.exr", b)
+    return tmp_path / "a.exr", tmp_path / "b.exr"
+
+
+def test_non_finite_channels_are_infinite_errors() -> None:
+    """A NaN or infinite channel in either image is an error of +inf (module docstring): over every threshold,
+    max and mean inf, PSNR -inf, counted in ``nonfinite``; the JSON stays strict (null, never NaN)."""
+    a, b = _img(3, 3), _img(3, 3)
+    b[0, 0, 0], b[1, 1, 2], a[2, 2, 1] = math.nan, math.inf, -math.inf
+    m = compare_arrays(a, b, 2.0)
+    assert m.nonfinite == 3 and m.share_over == pytest.approx(3 / 9)
+    assert math.isinf(m.max_error) and math.isinf(m.mean_error) and m.psnr == -math.inf
+    assert m.bbox == (0, 0, 2, 2)
+    doc = json.loads(m.to_json())
+    assert doc["psnr"] is None and doc["max_error"] is None and doc["nonfinite"] == 3
+    both_nan = compare_arrays(np.full((2, 2, 3), math.nan), np.full((2, 2, 3), math.nan))
+    assert both_nan.nonfinite == 4 and both_nan.share_over == 1.0  # NaN is no match for NaN either
+
+
+def test_grade_verdict_never_scores_non_finite_pixels() -> None:
+    """docs/GRADING.md: one non-finite pixel in 10,000 (0.01%, under the 1% 'match' share) is still 'wrong',
+    with or without a noise band; a NaN in sigma does not hide a pixel either."""
+    from a5mi.grade.verdict import beyond_noise, judge, measure
+
+    ref = _img(100, 100)
+    for bad in (math.nan, math.inf):
+        student = ref.copy()
+        student[50, 50, 0] = bad
+        for sigma in (None, np.full(ref.shape, 0.5)):
+            metrics, _ = measure(student, ref, sigma, flip=False)
+            assert metrics.beyond_noise == pytest.approx(1e-4)
+            assert judge(metrics) == "wrong"
+            assert metrics.as_dict()["max_error"] is None
+    sigma = np.zeros(ref.shape)
+    sigma[1, 1, 1] = math.nan
+    assert beyond_noise(ref, ref, sigma)[1, 1] and beyond_noise(ref, ref, sigma).sum() == 1
+    assert judge(measure(ref.copy(), ref, flip=False)[0]) == "match"
+
+
+def test_cli_compare_nan_and_inf_pixels_differ(tmp_path, capsys) -> None:
+    """``a5mi compare`` of EXRs with a NaN and an inf pixel (0.5% of the pixels): verdict wrong, exit 1, strict
+    JSON; the --diff montage paints them red."""
+    from a5mi.cli import run_a5mi
+
+    a, b = _exr_pair(tmp_path)
+    assert run_a5mi(["compare", str(a), str(b)]) == 1
+    out = capsys.readouterr().out
+    assert "verdict: wrong" in out and "2 pixels not finite" in out and "PSNR -inf dB" in out and "nan/" not in out
+    assert run_a5mi(["compare", str(a), str(b), "--json", "--diff", str(tmp_path / "d.png"), "--scale", "auto"]) == 1
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["verdict"] == "wrong" and doc["nonfinite"] == 2 and doc["psnr"] is None
+    heat = read_levels(tmp_path / "d.png")[:20, 2 * (20 + 4):]
+    assert heat[0, 0].tolist() == [255, 0, 0] and heat[3, 4].tolist() == [255, 0, 0]
+    assert heat[10, 10].tolist() == [0, 0, 0]
+
+
+@pytest.mark.parametrize("value", ["-1", "-0.5", "nan"])
+def test_cli_negative_threshold_is_a_usage_error(tmp_path, value, capsys) -> None:
+    """--threshold counts pixels whose error exceeds it: errors are >= 0, so it must be a number >= 0."""
+    from a5mi.cli import run_a5mi
+
+    a, _ = _exr_pair(tmp_path)
+    assert run_a5mi(["compare", str(a), str(a), "--threshold", value]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("a5mi compare: error: --threshold expects")

@@ -118,7 +118,7 @@ def _internal_cases(tmp: Path, scene: str) -> dict[str, tuple[list[str], str]]:
         "crosscheck": ([scene, "-o", str(tmp / "m.png")], "a5mi.cli.crosscheck.load_scene"),
         "converge": ([scene], "a5mi.cli.converge.load_scene"),
         "bench": (["--no-process", "--no-inprocess"], "a5mi.bench.resolve_scenes"),
-        "grade": ([str(tmp), "-o", str(tmp / "report")], "a5mi.cli.grade.settings_of"),
+        "grade": ([str(tmp / "subs"), "-o", str(tmp / "report")], "a5mi.cli.grade.settings_of"),
         "render-xml": ([str(tmp / "s.xml"), "-o", str(tmp / "o.png")], "a5mi.imageio.check_output_path"),
         "completion": (["bash"], "a5mi.cli.completion.bash_script"),
         "difftest": (["--binary", str(tmp / "a5")], "a5mi.difftest.runner.check_binary"),

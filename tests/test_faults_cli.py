@@ -208,20 +208,21 @@ def convert_dir(tmp_path: Path) -> Path:
 
 def test_convert_never_writes_through_symlinks_and_replaces_the_set(convert_dir: Path, mi, capsys) -> None:
     """Item 6: symlinks in the meshes folder or at the envmap are replaced, not followed; stale PLYs of an
-    earlier conversion go; a second conversion leaves exactly the files of a fresh one."""
+    earlier conversion go (its folder carries the conversion's marker); a second conversion leaves exactly the
+    files of a fresh one."""
     out = convert_dir / "out"
     victim = convert_dir / "victim.ply"
     victim.write_bytes(b"precious")
-    (out / "o_meshes").mkdir()
+    assert cli.run_a5mi(["convert", str(convert_dir / "in" / "s.txt"), "-o", str(out / "o.xml"), "-q"]) == 0
+    first = _files(out)
+    assert sorted(first) == ["o.xml", "o_meshes", "o_meshes/.a5mi-convert", "o_meshes/mesh_000.ply"]
+    os.unlink(out / "o_meshes" / "mesh_000.ply")
     os.symlink(victim, out / "o_meshes" / "mesh_000.ply")
     (out / "o_meshes" / "mesh_007.ply").write_bytes(b"stale")
     os.symlink(victim, out / "o_envmap.exr")
     assert cli.run_a5mi(["convert", str(convert_dir / "in" / "s.txt"), "-o", str(out / "o.xml"), "-q"]) == 0
     assert victim.read_bytes() == b"precious"
-    first = _files(out)
-    assert sorted(first) == ["o.xml", "o_meshes", "o_meshes/mesh_000.ply"]
     assert not (out / "o_meshes" / "mesh_000.ply").is_symlink()
-    assert cli.run_a5mi(["convert", str(convert_dir / "in" / "s.txt"), "-o", str(out / "o.xml"), "-q"]) == 0
     assert _files(out) == first
     capsys.readouterr()
 
@@ -242,6 +243,7 @@ def test_convert_refuses_before_writing(convert_dir: Path, capsys, case: str, ma
         (out / "o.xml").mkdir()
     else:
         (out / "o_meshes").mkdir()
+        (out / "o_meshes" / ".a5mi-convert").write_text("")  # a conversion's folder, then used as an input
         shutil.copy(convert_dir / "in" / "m.obj", out / "o_meshes" / "m.obj")
         shutil.copy(scene, out / "o_meshes" / "s.txt")
         scene = out / "o_meshes" / "s.txt"
@@ -333,3 +335,116 @@ def test_mitsuba_warnings_never_reach_stdout(tmp_path: Path, obj: str) -> None:
                        cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert p.returncode == 0 and p.stdout == "", p.stdout
     assert "WARN" not in p.stderr and "non-uniform" not in p.stderr, p.stderr
+
+
+# ------------------------------------------------------------------------------- special files never block
+def _a5mi_process(cwd: Path, argv: list[str]) -> subprocess.CompletedProcess[str]:
+    """``a5mi ARGV`` in a child process with a time limit (a blocking open must fail the test, not hang it)."""
+    py = "import sys; from a5mi.entry import a5mi; sys.argv = ['a5mi'] + sys.argv[1:]; a5mi()"
+    try:
+        return subprocess.run([sys.executable, "-c", py, *argv], cwd=cwd, capture_output=True, text=True,
+                              timeout=60, env={**os.environ, "A5MI_CACHE_DIR": str(cwd)})
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"a5mi {' '.join(argv)} blocked for 60 s")
+
+
+XML_MESH = """<scene version="3.0.0">
+    <shape type="ply"><string name="filename" value="{mesh}"/></shape>
+</scene>
+"""
+
+
+@pytest.mark.parametrize("argv,match", [
+    (["compare", "a.png", "a.png", "--noise", "fifo"], "--noise: cannot read 'fifo': not a regular file (FIFO)"),
+    (["render", "--jobs", "fifo"], "cannot read the jobs file 'fifo': not a regular file (FIFO)"),
+    (["render", "--jobs", "/dev/zero"], "cannot read the jobs file '/dev/zero': not a regular file (character"),
+    (["render-xml", "fifo.xml", "-o", "o.png"], "fifo.xml:2:23: error: 'fifo' is not a regular file (FIFO)"),
+    (["render-xml", "zero.xml", "-o", "o.png"],
+     "zero.xml:2:23: error: '/dev/zero' is not a regular file (character device)"),
+])
+def test_special_files_are_refused_not_waited_on(tmp_path: Path, argv: list[str], match: str) -> None:
+    """As ``a5 -input``: inputs are read only if they are regular files (:func:`a5mi.imageio.read_regular`);
+    a FIFO or a device named as the noise band, the jobs file or an XML scene's mesh is one line, exit 2."""
+    os.mkfifo(tmp_path / "fifo")
+    imageio.write_image(tmp_path / "a.png", np.zeros((2, 2, 3), np.float32))
+    (tmp_path / "fifo.xml").write_text(XML_MESH.format(mesh="fifo"))
+    (tmp_path / "zero.xml").write_text(XML_MESH.format(mesh="/dev/zero"))
+    p = _a5mi_process(tmp_path, argv)
+    assert p.returncode == 2, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and match in lines[0], p.stderr
+    assert not (tmp_path / "o.png").exists()
+
+
+# ------------------------------------------------------------------------------- unwritable outputs: exit 2
+def _no_render(monkeypatch) -> None:
+    def render(*a, **k):  # the checks come before the render
+        raise AssertionError("rendered before the output was checked")
+
+    monkeypatch.setattr(session, "render", render)
+
+
+@pytest.mark.parametrize("case,match", [
+    ("loop", "loop.png: Too many levels of symbolic links"),
+    ("name300", "the file name is too long (300 bytes"),
+    ("name240", "the file name is too long (240 bytes"),  # fits NAME_MAX, its temporary does not
+    ("path_max", "the path is too long (the limit is"),
+])
+def test_unwritable_output_names_are_one_line_before_rendering(tmp_path: Path, monkeypatch, capsys, case: str,
+                                                               match: str) -> None:
+    (tmp_path / "s.txt").write_text(_scene("diffuseColor 1 1 1"))
+    monkeypatch.chdir(tmp_path)
+    os.symlink("loop2.png", "loop.png")
+    os.symlink("loop.png", "loop2.png")
+    out = {"loop": "loop.png", "name300": "a" * 296 + ".png", "name240": "b" * 236 + ".png",
+           "path_max": "/".join(["c" * 200] * 21) + "/o.png"}[case]
+    _no_render(monkeypatch)
+    before = _files(tmp_path)
+    assert cli.run(["-input", "s.txt", "-output", out, "-size", "8", "8"]) == 2
+    line = _one_line(capsys)
+    assert line.startswith("a5: error: ") and match in line and len(line) < 300, line
+    assert _files(tmp_path) == before
+
+
+def test_immutable_output_is_refused_before_rendering(tmp_path: Path, monkeypatch, capsys) -> None:
+    """``chattr +i`` (or ``+a``): the file cannot be replaced, which ``os.replace`` would find only after the
+    render; refused before it, the file untouched."""
+    if shutil.which("chattr") is None:
+        pytest.skip("needs chattr")
+    (tmp_path / "s.txt").write_text(_scene("diffuseColor 1 1 1"))
+    (tmp_path / "o.png").write_bytes(b"kept")
+    for flag in ("+i", "+a"):
+        if subprocess.run(["chattr", flag, str(tmp_path / "o.png")], capture_output=True).returncode != 0:
+            pytest.skip("this filesystem or user cannot set chattr flags")
+        try:
+            monkeypatch.chdir(tmp_path)
+            _no_render(monkeypatch)
+            assert cli.run(["-input", "s.txt", "-output", "o.png", "-size", "8", "8"]) == 2
+            assert _one_line(capsys) == "a5: error: o.png: cannot replace it: the file is immutable or append-only " \
+                                        "(chattr)"
+        finally:
+            subprocess.run(["chattr", flag.replace("+", "-"), str(tmp_path / "o.png")], check=True)
+        assert (tmp_path / "o.png").read_bytes() == b"kept"
+
+
+@pytest.mark.parametrize("argv,match", [
+    (["-o", "file"], "a5mi grade: error: -o 'file': exists and is not a folder"),
+    (["-o", "r", "--timeout", "-1"], "a5mi grade: error: --timeout expects a number more than 0"),
+    (["-o", "r", "--timeout", "0"], "a5mi grade: error: --timeout expects a number more than 0"),
+    (["-o", "r", "--scheduler", "tcp://127.0.0.1:1", "--insecure-scheduler"],
+     "a5mi grade: error: --scheduler tcp://127.0.0.1:1: cannot connect: Connection refused"),
+])
+def test_grade_mistakes_fail_fast_and_leave_nothing(tmp_path: Path, monkeypatch, capsys, argv, match) -> None:
+    """An existing file as the report folder, a timeout that is not positive, a scheduler nothing listens on
+    (within seconds, not after Dask's 30 s): one line, exit 2, no report folder left behind."""
+    import time
+
+    (tmp_path / "subs" / "alice").mkdir(parents=True)
+    (tmp_path / "file").write_text("mine")
+    monkeypatch.chdir(tmp_path)
+    before = _files(tmp_path)
+    t0 = time.perf_counter()
+    assert cli.run_a5mi(["grade", "subs", *argv]) == 2
+    assert time.perf_counter() - t0 < 10
+    assert _one_line(capsys).startswith(match)
+    assert _files(tmp_path) == before

@@ -139,10 +139,12 @@ def test_converted_folder_can_be_moved(tmp_path: Path, scenes_dir: Path) -> None
     xml = out / "my scene.xml"
     assert run_a5mi(["convert", str(src / "s.txt"), "-o", str(xml), *flags]) == 0
     names = sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file())
-    assert names == ["my scene.xml", "my scene_images/cubemap/back.png", "my scene_images/cubemap/down.png",
+    assert names == ["my scene.xml", "my scene_images/.a5mi-convert",
+                     "my scene_images/cubemap/back.png", "my scene_images/cubemap/down.png",
                      "my scene_images/cubemap/front.png", "my scene_images/cubemap/left.png",
                      "my scene_images/cubemap/right.png", "my scene_images/cubemap/up.png",
-                     "my scene_images/texture_000_char.png", "my scene_meshes/mesh_000.ply"]
+                     "my scene_images/texture_000_char.png", "my scene_meshes/.a5mi-convert",
+                     "my scene_meshes/mesh_000.ply"]
     files = [e.get("value") for e in ET.parse(xml).getroot().iter("string") if e.get("name") == "filename"]
     assert files and all(not Path(f).is_absolute() and str(tmp_path) not in f for f in files), files
     assert run_a5mi(["render-xml", str(xml), "-o", str(tmp_path / "before.png")]) == 0

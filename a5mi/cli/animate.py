@@ -51,10 +51,12 @@ def check_animate_args(args: Args) -> None:
 def run_animate(args: Args, console: Console) -> int:
     from pathlib import Path
 
+    from a5mi import clobber
     from a5mi.animate import batch, video
     from a5mi.animate import frames as framefiles
     from a5mi.cli.app import load_scene
     from a5mi.converters.a5_parser import parse_file
+    from a5mi.imageio import check_target
 
     require("tqdm", "animate")  # the optional modules this run uses, checked before anything renders
     if args.workers is not None or args.scheduler is not None:
@@ -62,16 +64,25 @@ def run_animate(args: Args, console: Console) -> int:
     if args.video is not None:
         require("imageio_ffmpeg", "animate")
         video.check_video_path(args.video)
+        check_target(args.video)
     out = Path(args.output)
     if out.exists() and not out.is_dir():
         raise UserError(f"-o '{out}' is not a folder")
-    load_scene(args.scene, console)  # warnings, and every file the scene names checked, before rendering
+    inputs: list[Path] = []
+    load_scene(args.scene, console, inputs=inputs)  # warnings, and every file the scene names, before rendering
     anim = parse_file(args.scene).animation
     if anim is None:
         raise UserError(f"'{args.scene}' has no Animation block (docs/EXTENSIONS.md E.11)")
     a, b = args.frames if args.frames is not None else (0, anim.frames)
     if b > anim.frames:
         raise UsageError(f"--frames {a}:{b}: the animation has {anim.frames} frames (0 to {anim.frames - 1})")
+    if args.video is not None:
+        clobber.check_outputs([("--video", args.video)], inputs)
+    if out.is_dir():  # a frame or its checksum over an input (frames are distinct by name: one check each)
+        for f in range(a, b):
+            image = framefiles.frame_path(out, f)
+            for path in (image, framefiles.checksum_path(image)):
+                clobber.check_outputs([("-o", path)], inputs)
     options = render_options(args, count_rays=False)
     if args.workers is None and args.scheduler is None:
         activate_variant(args.variant)

@@ -56,6 +56,9 @@ EXIT_NOTE = (f"A batch ends with the status of its worst failed job ({int(ExitSt
              f"{int(ExitStatus.USAGE)}); two jobs writing one file is a {int(ExitStatus.USAGE)} before anything "
              "renders.")
 
+#: Largest jobs file read (bytes).
+MAX_JOBS_BYTES = 64 << 20
+
 #: Dests of a job line that name an output file (relative ones go into --output-dir).
 _OUTPUTS = ("output", "normals_output", "depth_output")
 
@@ -123,12 +126,15 @@ def _checked(job: Job, check: Any) -> Job:
 
 def _file_jobs(path: str, base: Args, render_flags: tuple[Flag, ...], out_dir: str | None, check: Any,
                first: int) -> list[Job]:
-    from a5mi.errors import UserError
+    from a5mi.errors import FileReadError, UserError
+    from a5mi.imageio import read_regular
 
-    try:
-        lines = Path(path).read_text(encoding="utf-8").splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"cannot read the jobs file '{path}': {getattr(exc, 'strerror', None) or exc}") from None
+    try:  # a regular file only: a FIFO or device is refused, never waited on
+        lines = read_regular(path, MAX_JOBS_BYTES, "the jobs file").decode("utf-8").splitlines()
+    except FileReadError as exc:
+        raise UserError(f"cannot read the jobs file '{path}': {exc.reason}") from None
+    except UnicodeDecodeError as exc:
+        raise UserError(f"cannot read the jobs file '{path}': {exc}") from None
     jobs: list[Job] = []
     for lineno, line in enumerate(lines, 1):
         if not line.strip() or line.lstrip().startswith("#"):

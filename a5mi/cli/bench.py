@@ -45,6 +45,13 @@ def run_bench(args: Args, console: Console) -> int:
         paths = bench.resolve_scenes(args.scenes)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
+    if args.json_file is not None:
+        from a5mi import clobber
+        from a5mi.imageio import check_target
+
+        check_target(args.json_file)
+        clobber.check_outputs([("--json-file", args.json_file)],
+                              [*paths, *([settings.a5soln] if settings.a5soln else [])], of="")
     if not settings.no_inprocess:
         activate_variant(None)
 

@@ -17,7 +17,7 @@ import json
 import os
 
 from a5mi.cli.app import Command, Console
-from a5mi.cli.flags import Args, Flag, Positional, json_flag, number, real, text
+from a5mi.cli.flags import Args, Flag, Positional, json_flag, number, real, real_in, text
 from a5mi.errors import ExitStatus, UsageError
 
 
@@ -37,7 +37,8 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--scale",), "scale", "--diff heatmap full scale in levels (red at N/255 and beyond), or auto: the "
          "99.9th percentile of the error", 1, _scale, 16.0, "N|auto"),
     json_flag("the metrics and the verdict"),
-    Flag(("--threshold",), "threshold", "levels (of 255) a pixel may be off before it counts", 1, real, 2.0, "L"),
+    Flag(("--threshold",), "threshold", "levels (of 255) a pixel may be off before it counts", 1, real_in(0.0), 2.0,
+         "L"),
     Flag(("--flip",), "flip", "also compute NVIDIA FLIP (mean, LDR)",
          default=False, show_default=False),
     Flag(("--flip-map",), "flip_map", "write the FLIP heatmap (implies --flip)", 1, text, metavar="OUT.png"),
@@ -49,28 +50,41 @@ FLAGS: tuple[Flag, ...] = (
 
 
 def _noise(path: str | None, shape: tuple[int, ...]):  # noqa: ANN202 - numpy array or None
+    """The ``--noise`` sigma: a regular file (:func:`a5mi.imageio.read_regular`: a FIFO or device is refused,
+    never waited on) holding an ``.npy`` array of the images' shape, every value finite and >= 0."""
     if path is None:
         return None
+    import io
+
     import numpy as np
 
+    from a5mi.errors import FileReadError
+    from a5mi.imageio import read_regular
+
     try:
-        sigma = np.load(path)
-    except (OSError, ValueError) as exc:
+        data = read_regular(path, int(np.prod(shape)) * 16 + (1 << 16), "--noise")
+        sigma = np.load(io.BytesIO(data), allow_pickle=False)
+    except FileReadError as exc:
+        raise UsageError(f"--noise: cannot read '{path}': {exc.reason}") from None
+    except (OSError, ValueError, EOFError) as exc:
         raise UsageError(f"--noise: cannot read '{path}': {exc}") from None
     if sigma.shape != shape:
         raise UsageError(f"--noise: '{path}' has shape {sigma.shape}, the images {shape}")
+    if not np.issubdtype(sigma.dtype, np.number) or not np.all(np.isfinite(sigma)) or np.any(sigma < 0):
+        raise UsageError(f"--noise: '{path}' holds values that are not finite numbers >= 0")
     return sigma
 
 
 def run_compare(args: Args, console: Console) -> int:
-    from a5mi import compare
+    from a5mi import clobber, compare
     from a5mi.grade import verdict
     from a5mi.imageio import check_output_path, read_levels, write_image
 
     a_path, b_path = args.images
-    for out in (args.diff, args.flip_map):
-        if out is not None:
-            check_output_path(out)
+    outs = [(flag, out) for flag, out in (("--diff", args.diff), ("--flip-map", args.flip_map)) if out is not None]
+    for _, out in outs:
+        check_output_path(out)
+    clobber.check_outputs(outs, [a_path, b_path, *([args.noise] if args.noise else [])], of="")
     if not 0 <= args.match <= args.close <= 1:
         raise UsageError(f"--match and --close must satisfy 0 <= match <= close <= 1 (found {args.match:g}, "
                          f"{args.close:g})")
@@ -105,8 +119,9 @@ def run_compare(args: Args, console: Console) -> int:
         if scale is not None:
             console.result(f"{args.diff}: A | B | |A-B| heatmap, full scale {scale:g}/255")
         flip = "" if graded.flip is None else f", FLIP {graded.flip:.4f}"
+        odd = "" if not metrics.nonfinite else f"; {metrics.nonfinite} pixels not finite (NaN or inf)"
         console.result(f"verdict: {decided} ({100 * graded.beyond_noise:.2f}% of pixels beyond "
-                       f"{'the noise band' if args.noise else f'{verdict.NOISE_FLOOR:g}/255'}{flip})")
+                       f"{'the noise band' if args.noise else f'{verdict.NOISE_FLOOR:g}/255'}{flip}{odd})")
     return ExitStatus.OK if decided == "match" else ExitStatus.DIFFER
 
 

@@ -36,7 +36,7 @@ def check_convert_outputs(xml: str) -> tuple[str, str, str, str]:
     file, ``{stem}_meshes`` and ``{stem}_images`` are not files and ``{stem}_envmap.exr`` not a folder (a symlink
     there is replaced, never followed). Returns the paths of the XML, the meshes folder, the envmap and the
     images folder."""
-    from a5mi.imageio import file_kind
+    from a5mi.imageio import check_target, file_kind
 
     if not xml.endswith(".xml"):
         raise UsageError(f"the output must end in .xml, found '{xml}'")
@@ -52,6 +52,11 @@ def check_convert_outputs(xml: str) -> tuple[str, str, str, str]:
     for path, want in ((xml, "regular file"), (meshes, "folder"), (envmap, "regular file"), (images, "folder")):
         if os.path.exists(path) and not os.path.islink(path) and file_kind(path) != want:
             raise UsageError(f"{path}: exists and is a {file_kind(path)}, not a {want}: remove or rename it")
+    from a5mi.converters.to_xml import check_replaceable
+
+    for path in (meshes, images):  # a folder the user made is never replaced
+        check_replaceable(path)
+    check_target(xml)
     return xml, meshes, envmap, images
 
 

@@ -48,8 +48,12 @@ def run_crosscheck(args: Args, console: Console) -> int:
     from a5mi.imageio import check_output_path
 
     out = args.output or f"{Path(args.scene).stem}_crosscheck.png"
+    from a5mi import clobber
+
     check_output_path(out)
-    desc = load_scene(args.scene, console, bump=bool(args.bump))
+    inputs: list[Any] = []
+    desc = load_scene(args.scene, console, bump=bool(args.bump), inputs=inputs)
+    clobber.check_outputs([("-o", out)], inputs)
     activate_variant(None)
     options = xc.CrosscheckOptions(width=args.width, height=args.height, bounces=args.bounces, spp=args.spp,
                                    bump=bool(args.bump))

@@ -57,6 +57,12 @@ def run_difftest(args: Args, console: Console) -> int:
                      "SANDBOXED (rlimits, its own user id and a temporary folder only)")
     allow = tuple(p for p in (args.allow_read or "").split(":") if p)
     binary = Binary(check_binary(args.binary), allow, not args.no_sandbox)  # run_campaign hands it to the runner
+    if args.json_file:
+        from a5mi import clobber
+        from a5mi.imageio import check_target
+
+        check_target(args.json_file)
+        clobber.check_outputs([("--json-file", args.json_file)], [args.binary], of="")
     if args.timeout <= 0:
         raise UsageError("--timeout must be positive")
     data = require_data_dir() / "scenes"

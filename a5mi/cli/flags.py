@@ -119,6 +119,20 @@ def real(flag: str, values: list[str]) -> float:
     return number(flag, values[0])
 
 
+def real_in(lo: float, hi: float = math.inf, *, open_lo: bool = False) -> Convert:
+    """A finite float in ``[lo, hi]`` (``(lo, hi]`` with ``open_lo``)."""
+
+    def convert(flag: str, values: list[str]) -> float:
+        value = number(flag, values[0])
+        if value < lo or (open_lo and value == lo) or value > hi:
+            low = f"more than {lo:g}" if open_lo else f"at least {lo:g}"
+            high = "" if math.isinf(hi) else f" and at most {hi:g}"
+            raise UsageError(f"{flag} expects a number {low}{high}, found '{_excerpt(values[0])}'")
+        return value
+
+    return convert
+
+
 def choice(options: Sequence[str]) -> Convert:
     def convert(flag: str, values: list[str]) -> str:
         if values[0] not in options:

@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 
 from a5mi.cli.app import Command, Console
-from a5mi.cli.flags import Args, Flag, Positional, integer, real, text
+from a5mi.cli.flags import Args, Flag, Positional, integer, real, real_in, text
 from a5mi.errors import ExitStatus, UsageError, UserError
 from a5mi.extras import require
 
@@ -35,7 +35,7 @@ FLAGS: tuple[Flag, ...] = (
          metavar="FILE"),
     Flag(("--insecure-scheduler",), "insecure_scheduler", "allow a plain tcp:// --scheduler (anyone who reaches "
          "it can run code on its workers)", default=False, show_default=False),
-    Flag(("--timeout",), "timeout", "wall-clock seconds per case", 1, real, 120.0, "S"),
+    Flag(("--timeout",), "timeout", "wall-clock seconds per case", 1, real_in(0.0, 1e6, open_lo=True), 120.0, "S"),
     Flag(("--memory",), "memory", "address-space limit per case", 1, integer(64, 1 << 22), 4096, "MB"),
     Flag(("--resume",), "resume", "skip the cases already in REPORT_DIR/journal.jsonl", default=False,
          show_default=False),
@@ -105,6 +105,57 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
         read_only=allow, thresholds=Thresholds(args.match, args.close), flip=args.flip)
 
 
+def check_report_dir(args: Args) -> None:
+    """``-o``: a folder or nothing yet (never a file), and neither the submissions, scenes or reference folder
+    nor inside one of them (the report would be graded, or overwrite an input; a5mi.clobber's rule: resolved
+    paths and inodes)."""
+    from a5mi import clobber
+
+    out = args.output
+    if os.path.lexists(out) and not os.path.isdir(out):
+        raise UsageError(f"-o '{out}': exists and is not a folder")
+    real = os.path.realpath(out)
+    for flag, folder in (("SUBMISSIONS", args.submissions), ("--scenes", args.scenes),
+                         ("--reference", args.reference)):
+        if folder is None:
+            continue
+        root = os.path.realpath(folder)
+        if clobber.same_file(out, folder) or real.startswith(root.rstrip(os.sep) + os.sep):
+            raise UsageError(f"-o '{out}' is {'' if clobber.same_file(out, folder) else 'inside '}the {flag} folder "
+                             f"'{folder}': the report would be written among the inputs")
+
+
+def check_reachable(address: str | None, timeout: float = 5.0) -> None:
+    """Fail fast, before anything is written, when nothing listens at ``--scheduler`` (a TCP connection to its
+    host and port, default 8786, within ``timeout`` seconds) instead of after Dask's 30 s."""
+    import socket
+    from urllib.parse import urlsplit
+
+    if address is None or not address.startswith(("tcp://", "tls://")):
+        return
+    try:
+        parts = urlsplit(address)
+        host, port = parts.hostname, parts.port or 8786
+    except ValueError as exc:
+        raise UsageError(f"--scheduler '{address[:60]}': {exc}") from None
+    if not host:
+        raise UsageError(f"--scheduler '{address[:60]}': no host")
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        raise UsageError(f"--scheduler {address[:60]}: cannot connect: {exc.strerror or exc}") from None
+
+
+def _remove_if_empty(folder: str) -> None:
+    """Remove ``folder`` when it holds folders only (what a run that failed before grading made)."""
+    import shutil
+
+    for _, _, files in os.walk(folder):
+        if files:
+            return
+    shutil.rmtree(folder, ignore_errors=True)
+
+
 def _has_executables(submissions: str) -> bool:
     """Whether a student folder of ``submissions`` holds an executable ``a5`` (a program to run)."""
     root = Path(submissions)
@@ -118,7 +169,10 @@ def run_grade(args: Args, console: Console) -> int:
 
     for module in ("distributed", "cryptography", "tqdm") + (("flip_evaluator",) if args.flip else ()):
         require(module, "grade")  # before the cluster starts: a worker would journal it as each case's error
+    check_report_dir(args)
     settings = settings_of(args)
+    check_reachable(args.scheduler)
+    fresh = not os.path.lexists(args.output)
     why = sandbox.refusal()
     if why and _has_executables(args.submissions):
         if not args.no_sandbox:
@@ -140,6 +194,10 @@ def run_grade(args: Args, console: Console) -> int:
 
     try:
         outcome = grade_class(settings, progress)
+    except BaseException:
+        if fresh:
+            _remove_if_empty(args.output)  # leave no empty report folder behind
+        raise
     finally:
         if bar is not None:
             bar.close()

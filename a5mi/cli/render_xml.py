@@ -59,6 +59,9 @@ def referenced_files(scene: str, defines: dict[str, str]) -> list[tuple[str, int
     well-formed XML gives [] (Mitsuba reports it with its position)."""
     import xml.parsers.expat
 
+    from a5mi.errors import FileReadError
+    from a5mi.imageio import read_regular
+
     defaults: dict[str, str] = {}
     found: list[tuple[str, int, int]] = []
     parser = xml.parsers.expat.ParserCreate()
@@ -71,9 +74,10 @@ def referenced_files(scene: str, defines: dict[str, str]) -> list[tuple[str, int
 
     parser.StartElementHandler = start
     try:
-        with open(scene, "rb") as f:
-            parser.ParseFile(f)
-    except (xml.parsers.expat.ExpatError, OSError, ValueError):
+        parser.Parse(read_regular(scene, 1 << 28, "scene"), True)  # never open a FIFO or a device
+    except FileReadError as exc:
+        raise UserError(str(exc)) from None
+    except (xml.parsers.expat.ExpatError, ValueError):
         return []
     values = {**defaults, **defines}
 
@@ -83,13 +87,15 @@ def referenced_files(scene: str, defines: dict[str, str]) -> list[tuple[str, int
     return [(substitute(v), line, col) for v, line, col in found]
 
 
-def check_files(scene: str, defines: dict[str, str]) -> None:
-    """Every file the XML names exists as a regular file and every image fits in memory (module docstring);
-    raises :class:`UserError` with the XML position."""
+def check_files(scene: str, defines: dict[str, str]) -> list[Path]:
+    """Every file the XML names exists as a regular file (a FIFO or a device would block ``mi.load_file``) or a
+    folder, and every image fits in memory (module docstring); raises :class:`UserError` with the XML position.
+    Returns the files and folders found, as resolved (the inputs an output must not replace)."""
     from a5mi import imageio
     from a5mi.errors import ImageReadError
 
     base = Path(scene).parent
+    found: list[Path] = []
     for value, line, col in referenced_files(scene, defines):
         where = f"{scene}:{line}:{col}: error:"
         candidates = [Path(value)] if os.path.isabs(value) else [base / value, Path(value)]
@@ -103,13 +109,15 @@ def check_files(scene: str, defines: dict[str, str]) -> None:
         elif path.is_file():
             images = [path] if path.suffix.lower() in _IMAGE_SUFFIXES else []
         else:
-            raise UserError(f"{where} '{value[:200]}' is not a regular file or folder")
+            raise UserError(f"{where} '{value[:200]}' is not a regular file ({imageio.file_kind(path)})")
+        found.append(path)
         for image in images[:64]:
             try:
                 imageio.check_image_fits(image, _BITMAP_COPY_BYTES)
             except ImageReadError as exc:
                 shown = value if image == path else f"{value}/{image.name}"
                 raise UserError(f"{where} image '{shown[:200]}': {exc.reason}") from None
+    return found
 
 
 def mitsuba_error(scene: str, exc: BaseException) -> str:
@@ -144,13 +152,14 @@ def check_film(scene: object, spp: int) -> None:
 
 
 def run_render_xml(args: Args, console: Console) -> int:
-    from a5mi import imageio
+    from a5mi import clobber, imageio
 
     imageio.check_output_path(args.output)
     if not os.path.isfile(args.scene):
         raise UserError(f"cannot read '{args.scene}': no such file")
     defines = dict(args.define or ())
-    check_files(args.scene, defines)
+    named = check_files(args.scene, defines)
+    clobber.check_outputs([("-o", args.output)], [args.scene, *named], of=f" of '{args.scene}'")
     activate_variant(args.variant)
     import mitsuba as mi
     import numpy as np

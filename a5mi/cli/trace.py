@@ -54,13 +54,22 @@ def check_trace_args(args: Args) -> None:
             raise TraceError(f"--svg '{args.svg}' must end in .svg")
         if not os.path.isdir(folder) or not os.access(folder, os.W_OK):
             raise ImageWriteError(f"--svg '{args.svg}': folder '{folder}' does not exist or is not writable")
+        from a5mi import clobber
+        from a5mi.imageio import check_target
+
+        check_target(args.svg)
+        clobber.check_outputs([("--svg", args.svg)], [args.input, *([args.diff] if args.diff else [])])
 
 
 def run_trace(args: Args, console: Console) -> int:
+    from a5mi import clobber
     from a5mi.trace import report
     from a5mi.trace.core import Tracer, to_top_left
 
-    desc = load_scene(args.input, console)
+    inputs: list[Any] = []
+    desc = load_scene(args.input, console, inputs=inputs)
+    if args.svg is not None:  # nor any file the scene reads
+        clobber.check_outputs([("--svg", args.svg)], inputs)
     activate_variant(args.variant)
     options = render_options(args, normals=False, depth=None, count_rays=False)
     tracer = Tracer(desc, options)

@@ -9,8 +9,10 @@ different jitter seeds (:mod:`a5mi.grade.references`). A pixel is *beyond noise*
     max_c ( |s_c - r_c| - (NOISE_K * sigma_c + NOISE_FLOOR) ) > 0          (levels of 255)
 
 and the verdict is ``match`` when the share of such pixels is <= ``match``, ``close`` when <= ``close``,
-``wrong`` above (sizes must agree first: ``wrong size``). Without a noise band (``sigma`` None) sigma is 0 and
-the rule is the plain share of pixels over ``NOISE_FLOOR``.
+``wrong`` above (sizes must agree first: ``wrong size``). A pixel with a NaN or infinite channel (in either
+image, or in ``sigma``) is beyond noise, and an image with any such pixel (``max_error`` not finite,
+:func:`a5mi.compare.compare_arrays`) is ``wrong`` whatever the share: a non-finite value is never a match.
+Without a noise band (``sigma`` None) sigma is 0 and the rule is the plain share of pixels over ``NOISE_FLOOR``.
 
 The other metrics are reported, not judged on: PSNR, mean absolute error, share of pixels > 2/255
 (:mod:`a5mi.compare`) and NVIDIA FLIP (LDR mean, heatmap; PyPI ``flip-evaluator``).
@@ -57,12 +59,12 @@ class ImageMetrics:
     flip: float | None
 
     def as_dict(self) -> dict[str, Any]:
-        d = asdict(self)
-        d["psnr"] = None if math.isinf(self.psnr) else round(self.psnr, 3)
+        d = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in asdict(self).items()}
+        d["psnr"] = None if not math.isfinite(self.psnr) else round(self.psnr, 3)
         return d
 
     def summary(self) -> str:
-        psnr = "inf" if math.isinf(self.psnr) else f"{self.psnr:.1f}"
+        psnr = f"{self.psnr:.1f}" if math.isfinite(self.psnr) else f"{self.psnr:g}"
         flip = "" if self.flip is None else f", FLIP {self.flip:.4f}"
         return (f"{100 * self.beyond_noise:.2f}% of pixels beyond noise, PSNR {psnr} dB, mean "
                 f"{self.mean_error:.3f}/255, {100 * self.share_over_2:.2f}% > 2/255{flip}")
@@ -70,9 +72,10 @@ class ImageMetrics:
 
 def beyond_noise(student: np.ndarray, reference: np.ndarray, sigma: np.ndarray | None) -> np.ndarray:
     """Boolean (H, W): pixels whose error exceeds the noise band (module docstring formula)."""
-    band = NOISE_FLOOR + (0.0 if sigma is None else NOISE_K * sigma)
-    excess = np.abs(student.astype(np.float64) - reference.astype(np.float64)) - band
-    return excess.max(axis=2) > 0
+    band = NOISE_FLOOR + (0.0 if sigma is None else NOISE_K * np.asarray(sigma, dtype=np.float64))
+    with np.errstate(invalid="ignore", over="ignore"):
+        excess = np.abs(student.astype(np.float64) - reference.astype(np.float64)) - band
+        return ~(excess.max(axis=2) <= 0)  # NaN (a non-finite value anywhere) counts as beyond noise
 
 
 def flip_map(reference: np.ndarray, student: np.ndarray) -> tuple[np.ndarray, float]:
@@ -98,7 +101,10 @@ def measure(student: np.ndarray, reference: np.ndarray, sigma: np.ndarray | None
 
 
 def judge(metrics: ImageMetrics, thresholds: Thresholds = Thresholds()) -> str:
-    """``match`` / ``close`` / ``wrong`` from the share of pixels beyond noise."""
+    """``match`` / ``close`` / ``wrong`` from the share of pixels beyond noise; ``wrong`` when any pixel is not
+    finite (``max_error`` inf or NaN)."""
+    if not math.isfinite(metrics.max_error):
+        return "wrong"
     if metrics.beyond_noise <= thresholds.match:
         return "match"
     return "close" if metrics.beyond_noise <= thresholds.close else "wrong"
