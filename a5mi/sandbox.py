@@ -137,7 +137,7 @@ def _probe(bwrap: str, as_root: bool) -> str:
     """Run ``/bin/true`` in a sandbox as a run would; ``""`` if it works, else why not (one line)."""
     with tempfile.TemporaryDirectory(prefix="a5mi-probe-") as tmp:
         work = Path(tmp)
-        uid = _run_uid() if as_root else None
+        uid = fresh_uid() if as_root else None
         if uid is not None:
             os.chown(work, uid, uid)
         cmd = _bwrap_command(bwrap, ["/bin/true"], work, (), uid, 16)
@@ -182,7 +182,7 @@ def refusal(flag: str = "--no-sandbox") -> str:
             f"run them with rlimits and their own user id only")
 
 
-def _run_uid() -> int | None:
+def fresh_uid() -> int | None:
     """A fresh user id for this run when root (pid and a clock make collisions between workers unlikely)."""
     if os.geteuid() != 0 or shutil.which("setpriv") is None:
         return None
@@ -310,7 +310,7 @@ def run_sandboxed(argv: Sequence[str], workdir: str | os.PathLike[str], limits: 
     if not sandbox and limits.require_sandbox:
         raise SandboxUnavailable(refusal())
     work = Path(os.path.realpath(workdir))
-    uid = _run_uid()
+    uid = fresh_uid()
     private_tmp = None
     if not sandbox:  # bubblewrap's /tmp is a private tmpfs; without it, a private folder beside the work folder
         private_tmp = Path(tempfile.mkdtemp(prefix=f".{work.name}.tmp-", dir=work.parent))
@@ -397,5 +397,5 @@ def _drain(proc: subprocess.Popen[bytes], limits: Limits, t0: float) -> tuple[by
 
 
 __all__ = ["ETC_FILES", "INSTALL_HINT", "Limits", "MEMORY_PATTERNS", "NOT_SANDBOXED", "OutputRefused", "RunResult",
-           "SandboxUnavailable", "UID_BASE", "UID_SPAN", "bwrap_path", "command_line", "isolation", "kill_uid",
-           "refusal", "run_sandboxed", "sandbox_problem"]
+           "SandboxUnavailable", "UID_BASE", "UID_SPAN", "bwrap_path", "command_line", "fresh_uid", "isolation",
+           "kill_uid", "refusal", "run_sandboxed", "sandbox_problem"]

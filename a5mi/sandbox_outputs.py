@@ -22,10 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from a5mi.sandbox import Limits, OutputRefused, run_sandboxed
+from a5mi.sandbox import Limits, OutputRefused, fresh_uid, run_sandboxed, sandbox_problem
 
 #: How the decoder child is told no pixels were decoded (too many for the caller's bound).
 TOO_LARGE = "too large"
+#: The largest image file the decoder child reads.
+MAX_IMAGE_BYTES = 256 << 20
 
 _KINDS = ((stat.S_ISLNK, "a symbolic link"), (stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"),
           (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"))
@@ -119,17 +121,21 @@ def decode_levels(fd: int, suffix: str, max_pixels: int, work_parent: str | os.P
         os.chmod(work, 0o755)
         limits = Limits(timeout=timeout, memory_mb=2048, fsize_mb=max(64, (max_pixels * 24 >> 20) + 1), nproc=64,
                         keep_bytes=4096, require_sandbox=False)
-        run = run_sandboxed([sys.executable, "-I", "-m", "a5mi.sandbox_outputs", "decode", suffix, str(max_pixels),
-                             str(256 << 20)], work, limits, read_only=_decoder_paths(),
-                            env={"OPENIMAGEIO_THREADS": "1", "OMP_NUM_THREADS": "1"}, stdin=fd)
-        owner = run.uid if run.uid is not None else os.geteuid()
+        if sandbox_problem():  # no bubblewrap: a forked child of this process drops to the run's user id
+            uid, why, timed_out = _decode_forked(fd, suffix, max_pixels, work, limits)
+        else:
+            run = run_sandboxed([sys.executable, "-I", "-m", "a5mi.sandbox_outputs", "decode", suffix,
+                                 str(max_pixels), str(MAX_IMAGE_BYTES)], work, limits, read_only=_decoder_paths(),
+                                env={"OPENIMAGEIO_THREADS": "1", "OMP_NUM_THREADS": "1"}, stdin=fd)
+            uid, why, timed_out = run.uid, (run.stderr_tail.strip().splitlines() or [""])[-1], run.timed_out
+        owner = uid if uid is not None else os.geteuid()
         try:
             info_fd = open_output(work, "info.json", owner=owner, max_bytes=4096)
             with os.fdopen(info_fd, "rb") as f:
                 info = json.loads(f.read(4097))
             w, h, error = int(info["width"]), int(info["height"]), str(info["error"])
         except (OutputRefused, ValueError, KeyError, TypeError) as exc:
-            why = "timed out" if run.timed_out else (run.stderr_tail.strip().splitlines() or [str(exc)])[-1]
+            why = "timed out" if timed_out else why or str(exc)
             return Decoded(0, 0, None, f"the image decoder failed: {why[:200]}")
         if error:
             return Decoded(w, h, None, error)
@@ -148,6 +154,54 @@ def decode_levels(fd: int, suffix: str, max_pixels: int, work_parent: str | os.P
         shutil.rmtree(work, ignore_errors=True)
 
 
+def _decode_forked(fd: int, suffix: str, max_pixels: int, work: Path, limits: Limits,
+                   ) -> tuple[int | None, str, bool]:
+    """:func:`_decode_child` in a forked child when bubblewrap cannot be used: the child already holds the
+    decoder's modules (a fresh interpreter under the run's user id could not read a virtual environment in a
+    folder only root may enter), then takes the rlimits of ``limits``, its own session, the run's fresh user
+    id (:func:`a5mi.sandbox.fresh_uid`, when root) and ``work`` as its folder, and reads the image on ``fd``.
+    Returns (user id, why it failed, timed out); the parent kills it after ``limits.timeout`` seconds."""
+    import resource
+    import signal
+    import time
+
+    import OpenImageIO  # noqa: F401 - imported before the fork, so the child needs no file of this process
+
+    uid = fresh_uid()
+    if uid is not None:
+        os.chown(work, uid, uid)
+    pid = os.fork()
+    if pid == 0:  # the child: never returns
+        code = 1
+        try:
+            os.setsid()
+            for kind, value in ((resource.RLIMIT_AS, limits.memory_mb << 20), (resource.RLIMIT_CORE, 0),
+                                (resource.RLIMIT_CPU, int(limits.timeout) + 1),
+                                (resource.RLIMIT_FSIZE, limits.fsize_mb << 20)):
+                resource.setrlimit(kind, (value, value))
+            os.chdir(work)
+            if uid is not None:
+                os.setgroups([])
+                os.setgid(uid)
+                os.setuid(uid)
+            os.dup2(fd, 0)
+            code = _decode_child(suffix, max_pixels, MAX_IMAGE_BYTES)
+        finally:
+            os._exit(code)
+    deadline = time.monotonic() + limits.timeout
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            break
+        if time.monotonic() > deadline:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            return uid, "", True
+        time.sleep(0.01)
+    code = os.waitstatus_to_exitcode(status)
+    return uid, "" if code == 0 else f"exit status {code}", False
+
+
 def _decode_child(suffix: str, max_pixels: int, max_bytes: int) -> int:
     """The decoder child (``python -m a5mi.sandbox_outputs decode SUFFIX MAX_PIXELS MAX_BYTES``): stdin's image to
     ``info.json`` (``width``, ``height``, ``error``) and ``levels.npy`` in the working folder."""
@@ -164,7 +218,7 @@ def _decode_child(suffix: str, max_pixels: int, max_bytes: int) -> int:
     if len(data) > max_bytes:
         return finish(0, 0, f"more than {max_bytes} bytes")
     safe = "".join(c for c in suffix if c.isalnum() or c == ".")[:12]
-    path = Path(tempfile.gettempdir()) / f"image{safe}"
+    path = Path(f"image{safe}")  # in the working folder: the child's own
     path.write_bytes(data)
     import OpenImageIO as oiio
 
