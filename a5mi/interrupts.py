@@ -16,7 +16,7 @@ finished :data:`GRACE` seconds after a signal, the watchdog reports it (the ``re
 :func:`install`, once) and ends the process with ``os._exit(128 + signum)``. It never does so inside a
 :func:`protected` block (an atomic write or rename: the clean-up must run); it waits for the block to end.
 A temporary that a hard exit leaves (a cache file being written in another thread) has this process's pid in
-its name and is removed by the next run (:func:`a5mi.imageio.remove_stale`).
+its name and is removed by the next run (:func:`a5mi.paths.remove_stale`).
 
 A leaf module: standard library only.
 """

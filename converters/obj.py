@@ -33,7 +33,7 @@ from typing import Literal
 import numpy as np
 
 from a5mi.errors import FileReadError
-from a5mi.imageio import read_regular
+from a5mi.paths import read_regular
 
 from .errors import FileLoc, SceneSemanticError
 

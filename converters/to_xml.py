@@ -44,8 +44,8 @@ from typing import Any
 import numpy as np
 
 from a5mi import interrupts
-from a5mi.imageio import remove_stale, temp_prefix
 from a5mi.options import RenderOptions
+from a5mi.paths import remove_stale, temp_prefix
 from a5mi.spec import CUBE_FACES
 
 from . import materials

@@ -363,7 +363,7 @@ XML_MESH = """<scene version="3.0.0">
      "zero.xml:2:23: error: '/dev/zero' is not a regular file (character device)"),
 ])
 def test_special_files_are_refused_not_waited_on(tmp_path: Path, argv: list[str], match: str) -> None:
-    """As ``a5 -input``: inputs are read only if they are regular files (:func:`a5mi.imageio.read_regular`);
+    """As ``a5 -input``: inputs are read only if they are regular files (:func:`a5mi.paths.read_regular`);
     a FIFO or a device named as the noise band, the jobs file or an XML scene's mesh is one line, exit 2."""
     os.mkfifo(tmp_path / "fifo")
     imageio.write_image(tmp_path / "a.png", np.zeros((2, 2, 3), np.float32))

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from a5mi import imageio
+from a5mi import imageio, paths
 from a5mi.errors import ImageWriteError, UserError
 
 
@@ -101,16 +101,16 @@ def test_read_regular_refuses_special_files(tmp_path: Path) -> None:
     fifo = tmp_path / "f.txt"
     os.mkfifo(fifo)
     with pytest.raises(UserError, match=r"not a regular file \(FIFO\)"):
-        imageio.read_regular(fifo, 1000, "scene file")
+        paths.read_regular(fifo, 1000, "scene file")
     with pytest.raises(UserError, match=r"not a regular file \(character device\)"):
-        imageio.read_regular("/dev/zero", 1000, "scene file")
+        paths.read_regular("/dev/zero", 1000, "scene file")
     with pytest.raises(UserError, match=r"not a regular file \(folder\)"):
-        imageio.read_regular(tmp_path, 1000, "scene file")
+        paths.read_regular(tmp_path, 1000, "scene file")
     big = tmp_path / "big.txt"
     big.write_bytes(b"a" * 1001)
     with pytest.raises(UserError, match="1001 bytes is more than the limit of 1000 bytes"):
-        imageio.read_regular(big, 1000, "scene file")
-    assert imageio.read_regular(big, 1001) == b"a" * 1001
+        paths.read_regular(big, 1000, "scene file")
+    assert paths.read_regular(big, 1001) == b"a" * 1001
 
 
 def test_output_that_is_a_fifo_or_device_is_refused(tmp_path: Path) -> None:

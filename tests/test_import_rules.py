@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = {"a5mi": "a5mi", "converters": "a5mi.converters", "plugins": "a5mi.plugins"}
 #: The ``a5mi`` modules every layer may import (standard library, numpy and OpenImageIO only, and each other).
 LEAVES = frozenset({"a5mi", "a5mi.spec", "a5mi.options", "a5mi.imageio", "a5mi.errors", "a5mi.interrupts",
-                    "a5mi.resources", "a5mi.vecmath32", "a5mi.arrays"})
+                    "a5mi.resources", "a5mi.vecmath32", "a5mi.arrays", "a5mi.paths"})
 
 
 def _sources(folder: str) -> list[Path]:

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy.typing as npt
 
-from a5mi import imageio
+from a5mi import imageio, paths
 
 EXTENSION = ".png"
 
@@ -60,12 +60,12 @@ def frame_done(folder: str | os.PathLike[str], frame: int) -> bool:
 
 def missing_frames(folder: str | os.PathLike[str], frames: Iterable[int]) -> list[int]:
     """The frames of ``frames`` that are not done (missing or damaged), in order; the temporaries that a
-    killed process left for them are removed (:func:`a5mi.imageio.remove_stale`)."""
+    killed process left for them are removed (:func:`a5mi.paths.remove_stale`)."""
     out = []
     for f in frames:
         p = frame_path(folder, f)
-        imageio.remove_stale(folder, p.name)
-        imageio.remove_stale(folder, checksum_path(p).name)
+        paths.remove_stale(folder, p.name)
+        paths.remove_stale(folder, checksum_path(p).name)
         if not frame_done(folder, f):
             out.append(f)
     return out

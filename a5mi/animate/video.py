@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from a5mi import imageio
+from a5mi import imageio, paths
 from a5mi.errors import ImageWriteError
 from a5mi.extras import require
 
@@ -45,7 +45,7 @@ def encode(path: str | os.PathLike[str], frame_files: Iterable[Path], fps: float
     h, w = first.shape[:2]
     gif = p.suffix.lower() == ".gif"
     folder = p.parent if str(p.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=imageio.temp_prefix(p.name), suffix=p.suffix, dir=folder)
+    fd, tmp = tempfile.mkstemp(prefix=paths.temp_prefix(p.name), suffix=p.suffix, dir=folder)
     os.close(fd)
     try:
         kwargs = (dict(codec="gif", pix_fmt_out="rgb8", macro_block_size=1,

@@ -56,7 +56,7 @@ def run_animate(args: Args, console: Console) -> int:
     from a5mi.animate import frames as framefiles
     from a5mi.cli.app import load_scene
     from a5mi.converters.a5_parser import parse_file
-    from a5mi.imageio import check_target
+    from a5mi.paths import check_target
 
     require("tqdm", "animate")  # the optional modules this run uses, checked before anything renders
     if args.workers is not None or args.scheduler is not None:

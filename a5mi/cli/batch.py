@@ -127,7 +127,7 @@ def _checked(job: Job, check: Any) -> Job:
 def _file_jobs(path: str, base: Args, render_flags: tuple[Flag, ...], out_dir: str | None, check: Any,
                first: int) -> list[Job]:
     from a5mi.errors import FileReadError, UserError
-    from a5mi.imageio import read_regular
+    from a5mi.paths import read_regular
 
     try:  # a regular file only: a FIFO or device is refused, never waited on
         lines = read_regular(path, MAX_JOBS_BYTES, "the jobs file").decode("utf-8").splitlines()

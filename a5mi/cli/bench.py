@@ -47,7 +47,7 @@ def run_bench(args: Args, console: Console) -> int:
         raise UsageError(str(exc)) from None
     if args.json_file is not None:
         from a5mi import clobber
-        from a5mi.imageio import check_target
+        from a5mi.paths import check_target
 
         check_target(args.json_file)
         clobber.check_outputs([("--json-file", args.json_file)],

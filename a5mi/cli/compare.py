@@ -50,7 +50,7 @@ FLAGS: tuple[Flag, ...] = (
 
 
 def _noise(path: str | None, shape: tuple[int, ...]):  # noqa: ANN202 - numpy array or None
-    """The ``--noise`` sigma: a regular file (:func:`a5mi.imageio.read_regular`: a FIFO or device is refused,
+    """The ``--noise`` sigma: a regular file (:func:`a5mi.paths.read_regular`: a FIFO or device is refused,
     never waited on) holding an ``.npy`` array of the images' shape, every value finite and >= 0."""
     if path is None:
         return None
@@ -59,7 +59,7 @@ def _noise(path: str | None, shape: tuple[int, ...]):  # noqa: ANN202 - numpy ar
     import numpy as np
 
     from a5mi.errors import FileReadError
-    from a5mi.imageio import read_regular
+    from a5mi.paths import read_regular
 
     try:
         data = read_regular(path, int(np.prod(shape)) * 16 + (1 << 16), "--noise")

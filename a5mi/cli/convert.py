@@ -36,7 +36,7 @@ def check_convert_outputs(xml: str) -> tuple[str, str, str, str]:
     file, ``{stem}_meshes`` and ``{stem}_images`` are not files and ``{stem}_envmap.exr`` not a folder (a symlink
     there is replaced, never followed). Returns the paths of the XML, the meshes folder, the envmap and the
     images folder."""
-    from a5mi.imageio import check_target, file_kind
+    from a5mi.paths import check_target, file_kind
 
     if not xml.endswith(".xml"):
         raise UsageError(f"the output must end in .xml, found '{xml}'")

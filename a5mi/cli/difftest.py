@@ -59,7 +59,7 @@ def run_difftest(args: Args, console: Console) -> int:
     binary = Binary(check_binary(args.binary), allow, not args.no_sandbox)  # run_campaign hands it to the runner
     if args.json_file:
         from a5mi import clobber
-        from a5mi.imageio import check_target
+        from a5mi.paths import check_target
 
         check_target(args.json_file)
         clobber.check_outputs([("--json-file", args.json_file)], [args.binary], of="")

@@ -60,7 +60,7 @@ def referenced_files(scene: str, defines: dict[str, str]) -> list[tuple[str, int
     import xml.parsers.expat
 
     from a5mi.errors import FileReadError
-    from a5mi.imageio import read_regular
+    from a5mi.paths import read_regular
 
     defaults: dict[str, str] = {}
     found: list[tuple[str, int, int]] = []
@@ -91,7 +91,7 @@ def check_files(scene: str, defines: dict[str, str]) -> list[Path]:
     """Every file the XML names exists as a regular file (a FIFO or a device would block ``mi.load_file``) or a
     folder, and every image fits in memory (module docstring); raises :class:`UserError` with the XML position.
     Returns the files and folders found, as resolved (the inputs an output must not replace)."""
-    from a5mi import imageio
+    from a5mi import imageio, paths
     from a5mi.errors import ImageReadError
 
     base = Path(scene).parent
@@ -109,7 +109,7 @@ def check_files(scene: str, defines: dict[str, str]) -> list[Path]:
         elif path.is_file():
             images = [path] if path.suffix.lower() in _IMAGE_SUFFIXES else []
         else:
-            raise UserError(f"{where} '{value[:200]}' is not a regular file ({imageio.file_kind(path)})")
+            raise UserError(f"{where} '{value[:200]}' is not a regular file ({paths.file_kind(path)})")
         found.append(path)
         for image in images[:64]:
             try:

@@ -55,7 +55,7 @@ def check_trace_args(args: Args) -> None:
         if not os.path.isdir(folder) or not os.access(folder, os.W_OK):
             raise ImageWriteError(f"--svg '{args.svg}': folder '{folder}' does not exist or is not writable")
         from a5mi import clobber
-        from a5mi.imageio import check_target
+        from a5mi.paths import check_target
 
         check_target(args.svg)
         clobber.check_outputs([("--svg", args.svg)], [args.input, *([args.diff] if args.diff else [])])
