@@ -31,7 +31,6 @@ import numpy as np
 
 from a5mi import bitmapfont
 from a5mi.errors import UserError
-from a5mi.imageio import read_levels
 
 DEFAULT_THRESHOLD = 2.0
 
@@ -96,10 +95,6 @@ def compare_arrays(a: np.ndarray, b: np.ndarray, threshold: float = DEFAULT_THRE
         height=a.shape[0],
         nonfinite=int(odd.any(axis=2).sum()) if odd.ndim == 3 else int(odd.sum()),
     )
-
-
-def compare_files(a: str | Path, b: str | Path, threshold: float = DEFAULT_THRESHOLD) -> Metrics:
-    return compare_arrays(read_levels(a), read_levels(b), threshold)
 
 
 #: Full scale of the ``--diff`` heatmap, in levels (1/255 units), unless ``--scale`` says otherwise.

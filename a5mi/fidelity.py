@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from a5mi import data_dir
-from a5mi.compare import Metrics, compare_arrays, read_levels
+from a5mi.compare import Metrics, compare_arrays
+from a5mi.imageio import read_levels
 
 #: reference suffix -> driver flags (reference/README.md)
 SUFFIX_FLAGS: dict[str, dict[str, object]] = {

@@ -121,9 +121,7 @@ def _rebuild(node: Node, ops: dict[int, dict[int, tuple[float, ...]]], counter: 
         return node if child is node.child else dataclasses.replace(node, child=child)
     new_ops = tuple(dataclasses.replace(op, values=changed[j]) if j in changed else op
                     for j, op in enumerate(node.ops))
-    m = np.eye(4)
-    for op in new_ops:
-        m = transforms.apply_keyword(m, op.kind, op.values)
+    m = transforms.compose([(op.kind, op.values) for op in new_ops])
     det = float(np.linalg.det(m[:3, :3]))
     if not math.isfinite(det) or det == 0.0 or not np.all(np.isfinite(m)):
         raise SceneSemanticError(f"keyframed Transform {index} is singular (determinant {det:g}) at this time",

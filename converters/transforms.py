@@ -133,11 +133,6 @@ def transform_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
     return p @ m[:3, :3].T + m[:3, 3]
 
 
-def transform_vectors(m: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``A v`` for directions (w = 0), ``A`` the upper 3x3."""
-    return np.asarray(v, dtype=np.float64) @ m[:3, :3].T
-
-
 def normal_matrix(m: np.ndarray) -> np.ndarray:
     """``(A⁻¹)ᵀ``, the 3x3 that maps normals (SPEC B.3); not renormalising is the caller's choice."""
     return np.linalg.inv(m[:3, :3]).T

@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from a5mi.compare import compare_arrays, read_levels, write_diff
+from a5mi.compare import compare_arrays, write_diff
+from a5mi.imageio import read_levels
 
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN = Path(__file__).resolve().parent / "golden"

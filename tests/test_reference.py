@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import pytest
 
-from a5mi.compare import read_levels
 from a5mi.fidelity import cases, measure
+from a5mi.imageio import read_levels
 
 PSNR_FLOOR = 60.0
 SHARE_CEILING = 0.001
