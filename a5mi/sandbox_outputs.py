@@ -180,6 +180,7 @@ def _decode_forked(fd: int, suffix: str, max_pixels: int, work: Path, limits: Li
                                 (resource.RLIMIT_FSIZE, limits.fsize_mb << 20)):
                 resource.setrlimit(kind, (value, value))
             os.chdir(work)
+            os.environ["TMPDIR"] = tempfile.tempdir = str(work)  # scratch files of the decoder: its own folder
             if uid is not None:
                 os.setgroups([])
                 os.setgid(uid)
