@@ -158,8 +158,9 @@ def _decode_forked(fd: int, suffix: str, max_pixels: int, work: Path, limits: Li
                    ) -> tuple[int | None, str, bool]:
     """:func:`_decode_child` in a forked child when bubblewrap cannot be used: the child already holds the
     decoder's modules (a fresh interpreter under the run's user id could not read a virtual environment in a
-    folder only root may enter), then takes the rlimits of ``limits``, its own session, the run's fresh user
-    id (:func:`a5mi.sandbox.fresh_uid`, when root) and ``work`` as its folder, and reads the image on ``fd``.
+    folder only root may enter), then takes the rlimits of ``limits`` (the address space on top of what the
+    fork inherited), its own session, the run's fresh user id (:func:`a5mi.sandbox.fresh_uid`, when root)
+    and ``work`` as its folder, and reads the image on ``fd``.
     Returns (user id, why it failed, timed out); the parent kills it after ``limits.timeout`` seconds."""
     import resource
     import signal
@@ -175,9 +176,13 @@ def _decode_forked(fd: int, suffix: str, max_pixels: int, work: Path, limits: Li
         code = 1
         try:
             os.setsid()
-            for kind, value in ((resource.RLIMIT_AS, limits.memory_mb << 20), (resource.RLIMIT_CORE, 0),
+            # a forked child keeps this process's address space: the decoder's bound comes on top of it
+            in_use = int(Path("/proc/self/statm").read_text().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+            for kind, value in ((resource.RLIMIT_AS, in_use + (limits.memory_mb << 20)), (resource.RLIMIT_CORE, 0),
                                 (resource.RLIMIT_CPU, int(limits.timeout) + 1),
                                 (resource.RLIMIT_FSIZE, limits.fsize_mb << 20)):
+                hard = resource.getrlimit(kind)[1]
+                value = value if hard == resource.RLIM_INFINITY else min(value, hard)
                 resource.setrlimit(kind, (value, value))
             os.chdir(work)
             os.environ["TMPDIR"] = tempfile.tempdir = str(work)  # scratch files of the decoder: its own folder

@@ -300,10 +300,19 @@ def test_without_bubblewrap_a_run_is_refused_unless_asked(monkeypatch, tmp_path)
     assert r.returncode == 0 and r.isolation == "rlimits"
 
 
-def test_without_bubblewrap_images_are_still_decoded_unprivileged(monkeypatch) -> None:
-    """An image submission needs no sandbox to run: without bubblewrap its image is decoded by a child under the
-    rlimits and its own user id, and graded."""
+@pytest.mark.parametrize("reserved_gb", [0, 3])
+def test_without_bubblewrap_images_are_still_decoded_unprivileged(monkeypatch, tmp_path, reserved_gb) -> None:
+    """An image submission needs no sandbox to run: without bubblewrap its image is decoded by a forked child
+    under the rlimits and its own user id, and graded; also from a grader whose address space is already past
+    the decoder's 2 GB bound (a worker after renders: ``reserved_gb`` of untouched address space) and whose
+    TMPDIR the run's user id cannot enter."""
+    import mmap
+
     monkeypatch.setenv("A5MI_NO_BWRAP", "1")
+    private = tmp_path / "private"
+    private.mkdir(mode=0o700)
+    monkeypatch.setattr(tempfile, "tempdir", str(private))
+    reserve = mmap.mmap(-1, reserved_gb << 30) if reserved_gb else None
     base = Path(tempfile.mkdtemp(prefix="a5mi-nobwrap-", dir="/tmp"))
     try:
         base.chmod(0o755)
@@ -323,6 +332,8 @@ def test_without_bubblewrap_images_are_still_decoded_unprivileged(monkeypatch) -
         import shutil
 
         shutil.rmtree(base, ignore_errors=True)
+        if reserve is not None:
+            reserve.close()
 
 
 def test_mktemp_and_an_absolute_home_work_with_a_relative_work_root(world, monkeypatch) -> None:
