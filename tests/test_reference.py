@@ -2,7 +2,7 @@
 
 Per image: PSNR >= 60 dB and fewer than 0.1% of pixels off by more than 2/255 (planes intersected
 exactly, mesh hits decided by the binary's own triangle test, plugins/triangle_rule.py). The lowest image is
-``scene10_sphere.b4`` at 67.2 dB; ``scene06_bunny_1k.b4``, at 58.6 dB before the triangle rule (5 grazing
+``scene10_sphere.b4`` at 67.1 dB; ``scene06_bunny_1k.b4``, at 58.6 dB before the triangle rule (5 grazing
 mirror rays whose re-hit of the bunny hung on float32 rounding noise in the binary's t), is at 88.6 dB. The
 measured figures are in the README's table (``a5mi fidelity`` regenerates it).
 """
