@@ -242,6 +242,35 @@ def _with_native(reason: str, native: list[str]) -> str:
     return f"{reason} ({extra})" if reason else extra
 
 
+def _read_error(p: Path, reason: str) -> ImageReadError:
+    """The one error of an unreadable image: ``PATH: cannot read image: REASON`` (OpenImageIO's messages may
+    span lines: one line here)."""
+    reason = " ".join(reason.split()) or "unknown error"
+    return ImageReadError(f"{p}: cannot read image: {reason}", reason=reason)
+
+
+def _open_input(p: Path) -> Any:
+    """OpenImageIO's ``ImageInput`` of ``p`` (the header read), or :class:`ImageReadError` with what the
+    format library printed folded in (:func:`native_stderr`)."""
+    import OpenImageIO as oiio  # deferred: only the commands that read images pay for it
+
+    with native_stderr() as printed:
+        inp = oiio.ImageInput.open(str(p))
+    if inp is None:
+        raise _read_error(p, _with_native(oiio.geterror() or "unknown format", printed))
+    return inp
+
+
+def _require_memory(p: Path, w: int, h: int, c: int, copy_bytes: int = 0, pixel_bytes: int = 0) -> None:
+    """Raise :class:`ImageReadError` unless decoding a ``w x h x c`` image fits in memory:
+    ``resources.image_bytes(w, h, c) + w h (c copy_bytes + pixel_bytes) <= resources.available()``."""
+    need = resources.image_bytes(w, h, c) + w * h * (c * copy_bytes + pixel_bytes)
+    enough, have = resources.fits(need)
+    if not enough:
+        raise _read_error(p, f"{w}x{h} pixels need about {resources.gb(need)} of memory to decode; "
+                             f"{resources.gb(have or 0)} is available")
+
+
 def _decode(p: Path, dtype: str | None, copy_bytes: int = 0, pixel_bytes: int = 0) -> tuple[np.ndarray, bool]:
     """The one OpenImageIO reader of the project: the whole image at ``p`` as (H, W, C), row 0 = the top row,
     and whether the file stores 8 bits per channel. ``dtype``: ``"uint8"`` (converted by OpenImageIO when the
@@ -252,8 +281,7 @@ def _decode(p: Path, dtype: str | None, copy_bytes: int = 0, pixel_bytes: int = 
     :func:`a5mi.resources.available`."""
 
     def fail(reason: str) -> ImageReadError:
-        reason = " ".join(reason.split()) or "unknown error"  # OpenImageIO messages may span lines
-        return ImageReadError(f"{p}: cannot read image: {reason}", reason=reason)
+        return _read_error(p, reason)
 
     if not p.is_file():
         raise fail("no such image file") if not p.exists() else fail("not a regular file")
@@ -261,18 +289,10 @@ def _decode(p: Path, dtype: str | None, copy_bytes: int = 0, pixel_bytes: int = 
         raise fail("the file is empty")
     import OpenImageIO as oiio  # deferred: only the commands that read images pay for it
 
-    with native_stderr() as printed:
-        inp = oiio.ImageInput.open(str(p))
-    if inp is None:
-        raise fail(_with_native(oiio.geterror() or "unknown format", printed))
+    inp = _open_input(p)
     try:
         spec = inp.spec()
-        need = resources.image_bytes(spec.width, spec.height, spec.nchannels) \
-            + spec.width * spec.height * (spec.nchannels * copy_bytes + pixel_bytes)
-        enough, have = resources.fits(need)
-        if not enough:
-            raise fail(f"{spec.width}x{spec.height} pixels need about {resources.gb(need)} of memory to decode; "
-                       f"{resources.gb(have or 0)} is available")
+        _require_memory(p, spec.width, spec.height, spec.nchannels, copy_bytes, pixel_bytes)
         native = spec.format.basetype == oiio.UINT8
         want = dtype or ("uint8" if native else "float")
         with native_stderr() as printed:
@@ -293,27 +313,13 @@ def check_image_fits(path: str | os.PathLike[str], copy_bytes: int = 0) -> tuple
     :func:`a5mi.resources.available` (for a decoder that is not this module's, e.g. Mitsuba's ``bitmap``).
     Returns (width, height, channels)."""
     p = Path(path)
-
-    def fail(reason: str) -> ImageReadError:
-        reason = " ".join(reason.split()) or "unknown error"
-        return ImageReadError(f"{p}: cannot read image: {reason}", reason=reason)
-
-    import OpenImageIO as oiio
-
-    with native_stderr() as printed:
-        inp = oiio.ImageInput.open(str(p))
-    if inp is None:
-        raise fail(_with_native(oiio.geterror() or "unknown format", printed))
+    inp = _open_input(p)
     try:
         spec = inp.spec()
         w, h, c = spec.width, spec.height, spec.nchannels
     finally:
         inp.close()
-    need = resources.image_bytes(w, h, c) + w * h * c * copy_bytes
-    enough, have = resources.fits(need)
-    if not enough:
-        raise fail(f"{w}x{h} pixels need about {resources.gb(need)} of memory to decode; "
-                   f"{resources.gb(have or 0)} is available")
+    _require_memory(p, w, h, c, copy_bytes)
     return w, h, c
 
 
