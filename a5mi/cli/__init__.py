@@ -15,21 +15,22 @@ from a5mi.cli.app import EXIT_STATUS_TABLE, Command, Console, exception_summary,
 from a5mi.cli.flags import Args
 from a5mi.errors import ExitStatus
 
-#: ``a5mi`` sub-command -> ("module:COMMAND", one-line summary for ``a5mi -h``).
-SUBCOMMANDS: dict[str, tuple[str, str]] = {
-    "render": ("a5mi.cli.render:RENDER", "render a scene (the a5 flags)"),
-    "convert": ("a5mi.cli.convert:CONVERT", "convert a scene to Mitsuba XML (+ PLY meshes)"),
-    "compare": ("a5mi.cli.compare:COMPARE", "PSNR, mean error, share of pixels > 2/255 of two images (+ diff)"),
-    "fidelity": ("a5mi.cli.fidelity:FIDELITY", "re-render the reference images and print the fidelity table"),
-    "crosscheck": ("a5mi.cli.crosscheck:CROSSCHECK", "a5 Whitted vs Mitsuba's path tracer on the same rays"),
-    "converge": ("a5mi.cli.converge:CONVERGE", "time and RMSE per spp of the extension's sampling (EXTENSIONS E.5)"),
-    "bench": ("a5mi.cli.bench:BENCH", "time the stages (cold/warm), optionally against a5soln"),
-    "grade": ("a5mi.cli.grade:GRADE", "grade a class's ray tracers: sandboxed, on Dask, HTML/CSV/JSON report"),
-    "render-xml": ("a5mi.cli.render_xml:RENDER_XML", "render any Mitsuba XML with the a5mi plugins registered"),
-    "completion": ("a5mi.cli.completion:COMPLETION", "print a bash/zsh completion script"),
-    "difftest": ("a5mi.cli.difftest:DIFFTEST", "random scenes rendered by a5mi and another a5 binary, compared"),
-    "trace": ("a5mi.cli.trace:TRACE", "the ray tree of one pixel with every term, checked against the render"),
-    "animate": ("a5mi.cli.animate:ANIMATE", "render an Animation block's frames (here or on Dask) + a video"),
+#: ``a5mi`` sub-command -> its one-line summary for ``a5mi -h``; the command is ``COMMAND`` (the name upper-cased,
+#: ``-`` as ``_``) of the module ``a5mi.cli.NAME`` (:func:`command`).
+SUBCOMMANDS: dict[str, str] = {
+    "render": "render a scene (the a5 flags)",
+    "convert": "convert a scene to Mitsuba XML (+ PLY meshes)",
+    "compare": "PSNR, mean error, share of pixels > 2/255 of two images (+ diff)",
+    "fidelity": "re-render the reference images and print the fidelity table",
+    "crosscheck": "a5 Whitted vs Mitsuba's path tracer on the same rays",
+    "converge": "time and RMSE per spp of the extension's sampling (EXTENSIONS E.5)",
+    "bench": "time the stages (cold/warm), optionally against a5soln",
+    "grade": "grade a class's ray tracers: sandboxed, on Dask, HTML/CSV/JSON report",
+    "render-xml": "render any Mitsuba XML with the a5mi plugins registered",
+    "completion": "print a bash/zsh completion script",
+    "difftest": "random scenes rendered by a5mi and another a5 binary, compared",
+    "trace": "the ray tree of one pixel with every term, checked against the render",
+    "animate": "render an Animation block's frames (here or on Dask) + a video",
 }
 
 A5MI_USAGE = """\
@@ -46,8 +47,10 @@ exit status (every command; 1 only from a command that gives a verdict):
 
 def command(name: str) -> Command:
     """The :class:`Command` of sub-command ``name`` (a KeyError for an unknown name)."""
-    module, attr = SUBCOMMANDS[name][0].split(":")
-    return getattr(importlib.import_module(module), attr)
+    if name not in SUBCOMMANDS:
+        raise KeyError(name)
+    module = name.replace("-", "_")
+    return getattr(importlib.import_module(f"a5mi.cli.{module}"), module.upper())
 
 
 def parse_a5_args(argv: Sequence[str]) -> Args:
@@ -77,7 +80,7 @@ def run_a5mi(argv: Sequence[str]) -> int:
     if argv[:1] == ["help"] and len(argv) > 1:
         argv = [argv[1], "-h", *argv[2:]]
     if not argv or argv[0] in ("-h", "--help", "-help", "help"):
-        commands = "\n".join(f"  {name:<12}{summary}" for name, (_, summary) in SUBCOMMANDS.items())
+        commands = "\n".join(f"  {name:<12}{summary}" for name, summary in SUBCOMMANDS.items())
         statuses = "\n".join(f"  {status:<12}{meaning}" for status, meaning in EXIT_STATUS_TABLE)
         text = A5MI_USAGE.format(commands=commands, statuses=statuses)
         if argv:
