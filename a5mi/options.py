@@ -21,6 +21,12 @@ AOV_MODES: tuple[str, ...] = ("main", "quadrant")
 #: ``normal`` -> nx, ny, nz; ``depth`` -> t; ``class`` -> 0 miss / 1 opaque / 2 the ray tree touches glass;
 #: ``counts`` -> n_reflection, n_refraction, n_shadow (rays traced per camera ray).
 AOV_GROUPS: tuple[str, ...] = ("normal", "depth", "class", "counts")
+#: ``-integrator`` modes: name -> the Mitsuba integrator plugin that renders it. ``whitted`` is the sample
+#: solution's (SPEC B.3); the others are docs/EXTENSIONS.md's physically based modes. Every a5 integrator plugin
+#: accepts the scene part of ``a5_whitted``'s parameters (``ambient``, ``plane_<id>_*``, ``medium*``,
+#: ``glossy_samples``, ``glossy``, ``dispersion``: converters/to_mitsuba.py ``integrator_dict``) and the
+#: ``aovs`` groups it lists in ``aov_names()``.
+INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted"}
 #: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
 TILE_RAYS: int = 1 << 20
 
@@ -68,6 +74,8 @@ class RenderOptions:
     spp: int = 1
     #: docs/EXTENSIONS.md E.7: bump / normal maps perturb the shading normal (off: the course's ``bump`` is ignored)
     bump: bool = False
+    #: ``-integrator``: a key of :data:`INTEGRATORS` (``whitted``: SPEC B.3)
+    integrator: str = "whitted"
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -77,6 +85,8 @@ class RenderOptions:
             raise ValueError(f"kernel must be one of {', '.join(KERNELS)}, got '{self.kernel}'")
         if self.aov_mode not in AOV_MODES:
             raise ValueError(f"aov_mode must be one of {', '.join(AOV_MODES)}, got '{self.aov_mode}'")
+        if self.integrator not in INTEGRATORS:
+            raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got '{self.integrator}'")
         if self.spp < 1:
             raise ValueError(f"spp must be >= 1, got {self.spp}")
         if self.tile_rays <= 0:
@@ -95,9 +105,15 @@ class RenderOptions:
                   "counts": self.count_rays}
         return tuple(g for g in AOV_GROUPS if wanted[g])
 
+    @property
+    def plugin(self) -> str:
+        """The Mitsuba integrator plugin of :attr:`integrator` (:data:`INTEGRATORS`)."""
+        return INTEGRATORS[self.integrator]
+
     def integrator_params(self) -> dict[str, Any]:
-        """The ``a5_whitted`` parameters these options set (ARCHITECTURE.md, plugin contract); the scene
-        adds ``ambient``. ``aovs`` is a comma-separated list of :data:`AOV_GROUPS` (empty: colour only)."""
+        """The parameters these options set on the :attr:`plugin` integrator (ARCHITECTURE.md, plugin
+        contract); the scene adds ``ambient`` and its planes, medium and material flags. For ``a5_whitted``:
+        ``aovs`` is a comma-separated list of :data:`AOV_GROUPS` (empty: colour only)."""
         params = {"max_depth": int(self.bounces), "shadows": bool(self.shadows), "phong": bool(self.phong),
                   "fresnel": str(self.fresnel), "reflection": bool(self.reflection),
                   "refraction": bool(self.refraction), "aovs": ",".join(self.aov_groups)}

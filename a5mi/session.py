@@ -12,7 +12,7 @@ description it keeps
 * the loaded Mitsuba scene (``mi.load_dict`` of :func:`a5mi.converters.to_mitsuba.to_dict`): its shapes,
   materials and lights do not depend on the render options, only the integrator and the film do, and the
   driver traces its own SPEC B.2 camera rays, so the film is never read;
-* one ``a5_whitted`` integrator per distinct :meth:`~a5mi.options.RenderOptions.integrator_params`
+* one integrator per distinct plugin and :meth:`~a5mi.options.RenderOptions.integrator_params`
   (``-shadows``, ``-bounces``, ``-v``'s counts AOVs, ...), loaded alone from the scene dict's own
   ``integrator`` entry (ambient, the exact planes and their loaded BSDFs) with those parameters replaced, so
   a job renders with exactly the integrator a separate ``a5`` run would build (bit-identical images,
@@ -104,7 +104,7 @@ class _Built:
 
 
 def _integrator_key(options: RenderOptions) -> str:
-    return repr(sorted(options.integrator_params().items()))
+    return repr((options.plugin, sorted(options.integrator_params().items())))
 
 
 class RenderSession:
@@ -151,7 +151,7 @@ class RenderSession:
         integ = entry.integrators.get(ikey)
         if integ is None:
             t0 = time.perf_counter()
-            integ = load({**entry.template, **options.integrator_params()})
+            integ = load({**entry.template, "type": options.plugin, **options.integrator_params()})
             entry.integrators[ikey] = integ
             self.integrators_loaded += 1
             spent += time.perf_counter() - t0

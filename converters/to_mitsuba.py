@@ -86,10 +86,11 @@ ENVMAP_SIZE = (2048, 1024)
 
 
 def integrator_dict(desc: SceneDescription, options: RenderOptions, *, stock: bool) -> dict[str, Any]:
-    """SPEC B.3: ``a5_whitted`` (ambient + the options' parameters), or stock ``path`` (``bounces + 2``)."""
+    """SPEC B.3: ``options.plugin`` (``a5_whitted`` unless ``-integrator`` says otherwise; ambient + the options'
+    parameters + the scene's material flags), or stock ``path`` (``bounces + 2``)."""
     if stock:
         return {"type": "path", "max_depth": int(options.bounces) + 2}
-    d = {"type": "a5_whitted", "ambient": rgb(desc.ambient), **options.integrator_params()}
+    d = {"type": options.plugin, "ambient": rgb(desc.ambient), **options.integrator_params()}
     glossy = max((m.glossy_samples for m in desc.materials if m.roughness > 0.0), default=1)
     if glossy > 1:  # docs/EXTENSIONS.md E.4: the stack holds 2 G children of a glossy camera hit
         d["glossy_samples"] = int(glossy)

@@ -17,7 +17,7 @@ from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, size_flag, text
 from a5mi.errors import ExitStatus, UsageError
-from a5mi.options import AOV_MODES, KERNELS, RenderOptions
+from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, RenderOptions
 from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR
 
 #: Render-buffer samples (3W x 3H with -jitter) accepted at most (~16 GB by a5mi.resources' model); below it
@@ -56,6 +56,8 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          integer(0, 2**63 - 1), metavar="N"),
     Flag(("-spp", "--spp"), "spp", "samples per pixel of area lights, lens and gloss (docs/EXTENSIONS.md E.5)",
          1, integer(1, 65536), 1, "N"),
+    Flag(("-integrator", "--integrator"), "integrator", "whitted (the sample solution's, SPEC B.3) or a physically "
+         "based mode of docs/EXTENSIONS.md", 1, choice(tuple(INTEGRATORS)), "whitted", "NAME"),
     Flag(("-variant", "--variant"), "variant", "llvm (default; or $A5MI_VARIANT), cuda or auto", 1,
          choice(("llvm", "cuda", "auto")), metavar="V"),
     Flag(("-threads", "--threads"), "threads", "Dr.Jit worker threads", 1, integer(1, 1024), metavar="N"),
