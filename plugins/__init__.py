@@ -23,6 +23,8 @@ PLUGIN_MODULES: tuple[str, ...] = (
     "camera",           # a5_camera sensor
     "a5_material",      # a5_material BSDF
     "whitted",          # a5_whitted integrator
+    "photon",           # a5_photon integrator (docs/EXTENSIONS.md E.16)
+    "ppm",              # a5_ppm integrator (docs/EXTENSIONS.md E.17)
 )
 
 def register_all() -> None:

@@ -1,0 +1,148 @@
+"""Photon emission from every light kind (docs/EXTENSIONS.md E.16), in proportion to each light's power.
+
+A photon is a ray ``(o, d)`` with a power ``Φ`` (rgb) and, for the a5 lights, the falloff ``f`` of its light:
+an a5 light (SPEC A.3, E.1, E.2) has no inverse-square law, its colour arriving at distance ``r`` is
+``color / (1 + f r²)``. Read as an irradiance at normal incidence, that light's radiant intensity toward the
+first surface a photon meets at distance ``r`` is ``I = color r² / (1 + f r²)``; so the photon tracer
+(plugins/photon_trace.py) multiplies the power of an a5 photon by ``r² / (1 + f r²)`` at its first hit, and the
+irradiance the photons deposit equals the light loop's ``color cos θ / (1 + f r²)`` exactly. Per kind:
+
+* ``a5_point``: ``o`` = position, ``d`` uniform on the sphere, ``Φ = 4π color / N``;
+* ``a5_spot``: ``d`` uniform in the cone of half-angle ``angle`` about the axis,
+  ``Φ = 2π (1 − cos angle) color · profile(d) / N`` (the E.1 profile);
+* ``a5_area`` parallelogram: ``o`` uniform on it, ``d`` uniform on the sphere (both faces, no cosine at the
+  light: the E.2 mean of point lights), ``Φ = 4π color / N``;
+* ``a5_area`` sphere: ``o`` uniform on the sphere, ``d`` uniform on the outward hemisphere at ``o``,
+  ``Φ = 4π color / N`` (far from the sphere half its points face ``p``: the E.2 value ``color/(1 + f r²)``);
+* any other light (stock ``point``, ``spot``, ``area``, ``directional``, whose ``sample_ray`` draws from a disc
+  covering the scene's bounding sphere): Mitsuba's ``sample_ray``, ``Φ = weight / N``.
+
+``N`` photons in all are split over the lights in proportion to their power ``P_l``, measured by
+:func:`light_powers` as the mean first-hit power of a pilot of photons (for a5 lights it depends on the scene:
+``P = ∫ color r(ω)² / (1 + f r(ω)²) dω``); light ``l`` gets ``N_l = round(N P_l / ΣP)`` photons (at least one
+per light of positive power) and its photons carry ``Φ / N_l``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from .area_light import A5AreaLight
+from .kernel.lights import is_light
+from .point_light import A5PointLight
+from .spot_light import A5SpotLight, profile
+
+
+class PhotonRays(NamedTuple):
+    """Emitted photons (numpy, one row each): ``o``, ``d`` (unit) ``(n, 3)``, ``power`` ``(n, 3)`` (before the
+    a5 first-hit factor), ``falloff`` ``(n,)`` (the a5 light's ``f``; NaN: a stock light, no factor) and
+    ``light`` ``(n,)`` (index into :func:`photon_lights`)."""
+
+    o: np.ndarray
+    d: np.ndarray
+    power: np.ndarray
+    falloff: np.ndarray
+    light: np.ndarray
+
+
+def photon_lights(scene: mi.Scene) -> list[mi.Emitter]:
+    """The emitters that emit photons: the lights of the light loop (``is_light``) and emitters on shapes."""
+    return [e for e in scene.emitters() if is_light(e) or e.get_shape() is not None]
+
+
+def _rng(n: int, seed: int, stream: int) -> mi.PCG32:
+    """A PCG32 of ``n`` lanes for ``(seed, stream)`` (stream: the light and the pass, mixed by the caller)."""
+    state = (seed * 0x9E3779B1 + stream * 0x85EBCA77 + 0x2545F491) & 0xFFFFFFFFFFFFFFFF
+    return mi.PCG32(n, mi.UInt64(state), dr.arange(mi.UInt64, n) * 2 + 1)
+
+
+def _value(x: object) -> np.ndarray:
+    return np.asarray([float(dr.slice(c, 0)) for c in x], dtype=np.float64)
+
+
+def _emit_one(e: mi.Emitter, n: int, rng: mi.PCG32) -> tuple[mi.Point3f, mi.Vector3f, mi.Color3f, float]:
+    """``n`` photons of light ``e``: origins, directions, power per unit count (``Φ N``) and the falloff
+    (NaN for a stock light); module docstring."""
+    u1, u2, u3 = rng.next_float32(), mi.Point2f(rng.next_float32(), rng.next_float32()), mi.Point2f(
+        rng.next_float32(), rng.next_float32())
+    if isinstance(e, A5SpotLight):
+        cos_a = dr.cos(e.angle_rad)
+        local = mi.warp.square_to_uniform_cone(u3, cos_a)
+        d = mi.Frame3f(e.axis).to_world(local)
+        w = 2.0 * dr.pi * (1.0 - cos_a) * profile(dr.dot(d, e.axis), e.angle_rad, e.beam_rad)
+        return mi.Point3f(e.position) + dr.zeros(mi.Point3f, n), d, e.color * w, float(dr.slice(e.falloff, 0))
+    if isinstance(e, A5PointLight):
+        d = mi.warp.square_to_uniform_sphere(u3)
+        return mi.Point3f(e.position) + dr.zeros(mi.Point3f, n), d, e.color * (4.0 * dr.pi), float(
+            dr.slice(e.falloff, 0))
+    if isinstance(e, A5AreaLight):
+        if e.kind == "parallelogram":
+            o = e.corner + u2.x * e.edge1 + u2.y * e.edge2
+            d = mi.warp.square_to_uniform_sphere(u3)
+        else:
+            nrm = mi.warp.square_to_uniform_sphere(u2)
+            o = e.center + (e.radius * (1.0 + 1e-4)) * nrm
+            d = mi.Frame3f(nrm).to_world(mi.warp.square_to_uniform_hemisphere(u3))
+        return o, d, e.color * (4.0 * dr.pi) + dr.zeros(mi.Color3f, n), float(dr.slice(e.falloff, 0))
+    ray, weight = e.sample_ray(dr.zeros(mi.Float, n), u1, u2, u3, True)
+    return ray.o, ray.d, mi.Color3f(weight), math.nan
+
+
+def emit(scene: mi.Scene, counts: list[int], seed: int, pass_index: int) -> PhotonRays:
+    """``counts[l]`` photons of each light of :func:`photon_lights`, each carrying ``Φ / counts[l]`` (module
+    docstring), seeded by ``(seed, pass_index, l)``."""
+    parts = []
+    for li, (e, n) in enumerate(zip(photon_lights(scene), counts, strict=True)):
+        if n <= 0:
+            continue
+        o, d, w, f = _emit_one(e, n, _rng(n, seed, (pass_index << 8) + li))
+        arrays = [np.asarray(o, dtype=np.float64).reshape(3, -1).T, np.asarray(d, dtype=np.float64).reshape(3, -1).T,
+                  np.asarray(w, dtype=np.float64).reshape(3, -1).T / n]
+        o_np, d_np, w_np = (np.broadcast_to(a, (n, 3)) for a in arrays)
+        parts.append((o_np, d_np, w_np, np.full(n, f), np.full(n, li, dtype=np.int32)))
+    if not parts:
+        z = np.zeros((0, 3))
+        return PhotonRays(z, z, z, np.zeros(0), np.zeros(0, dtype=np.int32))
+    return PhotonRays(*(np.ascontiguousarray(np.concatenate(c)) for c in zip(*parts, strict=True)))
+
+
+def first_hit_factor(falloff: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """The a5 factor ``r² / (1 + f r²)`` of a photon's first hit at distance ``r`` (1 for a stock light, NaN
+    ``falloff``; 0 for a miss, ``r = inf``)."""
+    r2 = np.where(np.isfinite(r), r * r, 0.0)
+    a5 = r2 / (1.0 + np.nan_to_num(falloff) * r2)
+    return np.where(np.isnan(falloff), 1.0, a5)
+
+
+def split_counts(total: int, powers: list[float]) -> list[int]:
+    """``N_l = round(N P_l / ΣP)``, at least 1 for a light with ``P_l > 0`` (module docstring)."""
+    s = sum(p for p in powers if p > 0.0)
+    if total <= 0 or s <= 0.0:
+        return [0] * len(powers)
+    return [max(1, round(total * p / s)) if p > 0.0 else 0 for p in powers]
+
+
+def _luminance(rgb: np.ndarray) -> np.ndarray:
+    return rgb @ np.array([0.2126, 0.7152, 0.0722])
+
+
+def light_powers(scene: mi.Scene, first_distance: object, pilot: int = 4096, seed: int = 0) -> list[float]:
+    """Each light's power (luminance), the mean first-hit power of ``pilot`` photons; ``first_distance(o, d)``
+    gives the distance to the first hit of numpy rays (inf on a miss), so a5 lights get their factor."""
+    out = []
+    for li, e in enumerate(photon_lights(scene)):
+        o, d, w, f = _emit_one(e, pilot, _rng(pilot, seed, 0xFFFFFF00 + li))
+        o_np = np.broadcast_to(np.asarray(o, dtype=np.float64).reshape(3, -1).T, (pilot, 3))
+        d_np = np.asarray(d, dtype=np.float64).reshape(3, -1).T
+        w_np = np.broadcast_to(np.asarray(w, dtype=np.float64).reshape(3, -1).T, (pilot, 3))
+        if math.isnan(f):
+            out.append(float(_luminance(w_np).mean()))
+            continue
+        r = first_distance(o_np, d_np)
+        out.append(float((_luminance(w_np) * first_hit_factor(np.full(pilot, f), r)).mean()))
+    return out
