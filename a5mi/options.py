@@ -26,7 +26,9 @@ AOV_GROUPS: tuple[str, ...] = ("normal", "depth", "class", "counts")
 #: accepts the scene part of ``a5_whitted``'s parameters (``ambient``, ``plane_<id>_*``, ``medium*``,
 #: ``glossy_samples``, ``glossy``, ``dispersion``: converters/to_mitsuba.py ``integrator_dict``) and the
 #: ``aovs`` groups it lists in ``aov_names()``.
-INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted"}
+INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted", "photon": "a5_photon", "ppm": "a5_ppm"}
+#: Radiance-estimate filters of ``-integrator photon`` / ``ppm`` (docs/EXTENSIONS.md E.16).
+PHOTON_FILTERS: tuple[str, ...] = ("none", "cone", "epanechnikov")
 #: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
 TILE_RAYS: int = 1 << 20
 
@@ -76,6 +78,16 @@ class RenderOptions:
     bump: bool = False
     #: ``-integrator``: a key of :data:`INTEGRATORS` (``whitted``: SPEC B.3)
     integrator: str = "whitted"
+    #: docs/EXTENSIONS.md E.16, E.17 (``-integrator photon`` / ``ppm``): photons per map (per pass for ppm),
+    #: nearest photons of an estimate, its filter, final-gather rays (0: off), the ppm radius (0: automatic)
+    #: and alpha
+    photons: int = 100000
+    caustic_photons: int = 100000
+    photon_k: int = 50
+    photon_filter: str = "none"
+    final_gather: int = 0
+    ppm_radius: float = 0.0
+    ppm_alpha: float = 2.0 / 3.0
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -87,6 +99,8 @@ class RenderOptions:
             raise ValueError(f"aov_mode must be one of {', '.join(AOV_MODES)}, got '{self.aov_mode}'")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got '{self.integrator}'")
+        if self.photon_filter not in PHOTON_FILTERS:
+            raise ValueError(f"photon_filter must be one of {', '.join(PHOTON_FILTERS)}, got '{self.photon_filter}'")
         if self.spp < 1:
             raise ValueError(f"spp must be >= 1, got {self.spp}")
         if self.tile_rays <= 0:
@@ -119,4 +133,12 @@ class RenderOptions:
                   "refraction": bool(self.refraction), "aovs": ",".join(self.aov_groups)}
         if self.bump:  # docs/EXTENSIONS.md E.7; absent otherwise, so course dicts and XML are unchanged
             params["bump"] = True
+        if self.integrator in ("photon", "ppm"):  # docs/EXTENSIONS.md E.16, E.17
+            del params["phong"]
+            params.update(photons=int(self.photons), caustic_photons=int(self.caustic_photons),
+                          filter=str(self.photon_filter), seed=int(self.seed or 0))
+            if self.integrator == "photon":
+                params.update(k=int(self.photon_k), final_gather=int(self.final_gather))
+            else:
+                params.update(radius=float(self.ppm_radius), alpha=float(self.ppm_alpha))
         return params

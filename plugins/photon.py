@@ -38,7 +38,7 @@ from .kernel.features import SceneData, build_features
 from .kernel.intersect import intersect
 from .kernel.lights import direct, emission, lights_of
 from .kernel.surfaces import background, surface_at
-from .photon_emit import emit, light_powers, split_counts
+from .photon_emit import emit, light_powers, split_counts, to_np3
 from .photon_maps import FILTERS, PhotonMap
 from .photon_trace import CAUSTIC, INDIRECT, PhotonSet, first_distance, trace_photons
 from .photon_walk import facing, specular_step
@@ -81,7 +81,7 @@ def _width(ray: mi.Ray3f, active: mi.Bool | bool) -> int:
 
 
 def _np3(v: Any) -> np.ndarray:
-    return np.asarray(v, dtype=np.float64).reshape(3, -1).T
+    return to_np3(v)
 
 
 def _dr3(cls: type, a: np.ndarray) -> Any:
@@ -95,9 +95,12 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
     point), ``shadows`` bool (false), ``fresnel`` ``a5``/``schlick``/``exact`` (a5), ``reflection``,
     ``refraction`` bool (true), ``seed`` int (0: the photon maps' seed when no pass gives one), ``tmin``
     float (0.001), ``bump`` bool (false); and the scene part of ``a5_whitted``'s parameters (``ambient``,
-    ``plane_<id>_*``, accepted, ``phong``, ``glossy``, ``glossy_samples``, ``dispersion``, ``aovs`` "" only)."""
+    ``plane_<id>_*``, accepted, ``phong``, ``glossy``, ``glossy_samples``, ``dispersion``;
+    ``aovs`` "" or ``counts``: the camera
+    path's n_reflection, n_refraction, n_shadow)."""
 
     name = "a5_photon"
+    takes_sample_pass = True   #: a5mi/passes.py hands ``sample()`` its SamplePass
 
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)
@@ -124,8 +127,9 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
         props.get("ambient", None)                        # the ambient term is off
         props.get("glossy_samples", 1)
         aovs = props.get("aovs", "")
-        if aovs != "":
-            raise ValueError(f"photon integrator: computes no AOVs, got aovs={aovs!r}")
+        if aovs not in ("", "counts"):
+            raise ValueError(f"photon integrator: 'aovs' must be '' or 'counts' (the rays traced), got {aovs!r}")
+        self.aovs = aovs
         self.phong, self.glossy, self.dispersion, self.glossy_samples = False, False, False, 1
         self.planes = planes_from_props(props)
         self._planes = plane_set(self.planes)
@@ -188,7 +192,7 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
         if count == 0 or maps.full is None:
             return np.zeros((count, 3))
         xs, ns = np.repeat(x, m, axis=0), np.repeat(n, m, axis=0)
-        r = mi.PCG32(count * m, mi.UInt64(0x5851F42D4C957F2D), dr.arange(mi.UInt64, count * m) * 2 + 1) \
+        r = mi.PCG32(count * m, dr.opaque(mi.UInt64, 0x5851F42D4C957F2D), dr.arange(mi.UInt64, count * m) * 2 + 1) \
             if rng is None else rng
         u = mi.Point2f(r.next_float32(), r.next_float32())
         d = mi.Frame3f(_dr3(mi.Vector3f, ns)).to_world(mi.warp.square_to_cosine_hemisphere(u))
@@ -206,20 +210,23 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
 
     def radiance(self, scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, active: mi.Bool, maps: Maps,
                  sample_pass: SamplePass | None, sampler: mi.Sampler | None, seed: int,
-                 pass_index: int) -> np.ndarray:
-        """The colour of each camera ray (module docstring), as a numpy ``(width, 3)`` array."""
+                 pass_index: int) -> tuple[np.ndarray, np.ndarray]:
+        """The colour of each camera ray (module docstring) and its rays traced (n_reflection, n_refraction,
+        n_shadow), as numpy ``(width, 3)`` arrays."""
         width = dr.width(d)
         data = self.scene_data(scene)
         f = build_features(self, scene, data)
         rng = stochastic(sample_pass, sampler, width, 1)
         first = 0 if sample_pass is None else int(sample_pass.first_pixel)
-        walk = mi.PCG32(width, mi.UInt64((seed * 0x9E3779B97F4A7C15 + pass_index * 0xD1B54A32D192ED03 + 7)
-                                         % (1 << 64)), (dr.arange(mi.UInt64, width) + first) * 2 + 1)
+        state = (seed * 0x9E3779B97F4A7C15 + pass_index * 0xD1B54A32D192ED03 + 7) % (1 << 64)
+        walk = mi.PCG32(width, dr.opaque(mi.UInt64, state),
+                        (dr.arange(mi.UInt64, width) + dr.opaque(mi.UInt64, first)) * 2 + 1)
         beta = mi.Color3f(1.0) + dr.zeros(mi.Color3f, width)
         live = dr.full(mi.Bool, True, width) & active
         color = np.zeros((width, 3))
         counter = dr.zeros(mi.UInt32, width)
         n_shadow = dr.zeros(mi.Float, width)
+        n_refl, n_refr = dr.zeros(mi.Float, width), dr.zeros(mi.Float, width)
         t_min = dr.zeros(mi.Float, width)
         origin = dr.zeros(mi.UInt32, width)
         for depth in range(self.max_depth + 1):
@@ -235,11 +242,14 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
             diffuse = hit & (dr.max(s.kd) > 0.0)
             local, counter, n_shadow = direct(scene, data, f, h.si, h.p, diffuse, n_f, s.kd / dr.pi,
                                               mi.Color3f(0.0), mi.Float(0.0), d, local, rng,
-                                              mi.UInt32(depth), counter, n_shadow)
+                                              dr.opaque(mi.UInt32, depth), counter, n_shadow)
             step = specular_step(self.fresnel, d, s.n, s.specular, s.ior, walk.next_float32(), self.refraction)
             go = hit & step.alive & (self.reflection | (s.ior > 0.0)) & (depth < self.max_depth)
+            refracted = go & (dr.dot(step.d, h.n) * dr.dot(d, h.n) > 0.0)
+            n_refl += dr.select(go & ~refracted, 1.0, 0.0)
+            n_refr += dr.select(refracted, 1.0, 0.0)
             contrib = beta * local
-            dr.eval(contrib, h.p, n_f, s.kd, diffuse, beta, step.d, step.factor, go, counter, n_shadow)
+            dr.eval(contrib, h.p, n_f, s.kd, diffuse, beta, step.d, step.factor, go, counter, n_shadow, n_refl, n_refr)
             color += _np3(contrib)
             mask = np.asarray(diffuse, dtype=bool)
             if mask.any():
@@ -253,7 +263,8 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
             beta = beta * step.factor
             live = go
             o, d, t_min, origin = h.p, step.d, data.tmin + dr.zeros(mi.Float, width), h.row
-        return color
+        counts = np.stack([np.asarray(n_refl), np.asarray(n_refr), np.asarray(n_shadow)], axis=1)
+        return color, counts.astype(np.float64)
 
     def pass_seed(self, sample_pass: SamplePass | None) -> tuple[int, int]:
         """``(seed, pass index)`` of a call: the pass's, or the ``seed`` parameter and pass 0."""
@@ -270,11 +281,15 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
         d = mi.Vector3f(ray.d) + dr.zeros(mi.Vector3f, width)
         act = dr.full(mi.Bool, True, width) & active
         seed, k = self.pass_seed(sample_pass)
-        color = self.radiance(scene, o, d, act, self.maps(scene, seed, k), sample_pass, sampler, seed, k)
-        return _dr3(mi.Color3f, color), act, []
+        color, counts = self.radiance(scene, o, d, act, self.maps(scene, seed, k), sample_pass, sampler, seed, k)
+        return _dr3(mi.Color3f, color), act, self.aov_values(counts)
+
+    def aov_values(self, counts: np.ndarray) -> list[mi.Float]:
+        """The AOVs of :meth:`aov_names` from the per-lane ray counts."""
+        return [mi.Float(counts[:, i].astype(np.float32)) for i in range(3)] if self.aovs else []
 
     def aov_names(self) -> list[str]:
-        return []
+        return ["n_reflection", "n_refraction", "n_shadow"] if self.aovs else []
 
     def traverse(self, callback: mi.TraversalCallback) -> None:
         flags = int(mi.ParamFlags.NonDifferentiable)

@@ -58,11 +58,15 @@ def photon_lights(scene: mi.Scene) -> list[mi.Emitter]:
 def _rng(n: int, seed: int, stream: int) -> mi.PCG32:
     """A PCG32 of ``n`` lanes for ``(seed, stream)`` (stream: the light and the pass, mixed by the caller)."""
     state = (seed * 0x9E3779B1 + stream * 0x85EBCA77 + 0x2545F491) & 0xFFFFFFFFFFFFFFFF
-    return mi.PCG32(n, mi.UInt64(state), dr.arange(mi.UInt64, n) * 2 + 1)
+    return mi.PCG32(n, dr.opaque(mi.UInt64, state), dr.arange(mi.UInt64, n) * 2 + 1)
 
 
-def _value(x: object) -> np.ndarray:
-    return np.asarray([float(dr.slice(c, 0)) for c in x], dtype=np.float64)
+def to_np3(v: object, n: int | None = None) -> np.ndarray:
+    """A Dr.Jit 3-vector or colour as a numpy ``(n, 3)`` float64 array, one component at a time (a whole
+    ``np.asarray`` ravels it in a kernel whose size is baked in, compiled again for every width)."""
+    cols = [np.asarray(v[i], dtype=np.float64) for i in range(3)]   # type: ignore[index]
+    m = max(len(c) for c in cols) if n is None else n
+    return np.stack([np.broadcast_to(c, (m,)) for c in cols], axis=1)
 
 
 def _emit_one(e: mi.Emitter, n: int, rng: mi.PCG32) -> tuple[mi.Point3f, mi.Vector3f, mi.Color3f, float]:
@@ -101,9 +105,8 @@ def emit(scene: mi.Scene, counts: list[int], seed: int, pass_index: int) -> Phot
         if n <= 0:
             continue
         o, d, w, f = _emit_one(e, n, _rng(n, seed, (pass_index << 8) + li))
-        arrays = [np.asarray(o, dtype=np.float64).reshape(3, -1).T, np.asarray(d, dtype=np.float64).reshape(3, -1).T,
-                  np.asarray(w, dtype=np.float64).reshape(3, -1).T / n]
-        o_np, d_np, w_np = (np.broadcast_to(a, (n, 3)) for a in arrays)
+        dr.eval(o, d, w)
+        o_np, d_np, w_np = to_np3(o, n), to_np3(d, n), to_np3(w, n) / n
         parts.append((o_np, d_np, w_np, np.full(n, f), np.full(n, li, dtype=np.int32)))
     if not parts:
         z = np.zeros((0, 3))
@@ -137,9 +140,8 @@ def light_powers(scene: mi.Scene, first_distance: object, pilot: int = 4096, see
     out = []
     for li, e in enumerate(photon_lights(scene)):
         o, d, w, f = _emit_one(e, pilot, _rng(pilot, seed, 0xFFFFFF00 + li))
-        o_np = np.broadcast_to(np.asarray(o, dtype=np.float64).reshape(3, -1).T, (pilot, 3))
-        d_np = np.asarray(d, dtype=np.float64).reshape(3, -1).T
-        w_np = np.broadcast_to(np.asarray(w, dtype=np.float64).reshape(3, -1).T, (pilot, 3))
+        dr.eval(o, d, w)
+        o_np, d_np, w_np = to_np3(o, pilot), to_np3(d, pilot), to_np3(w, pilot)
         if math.isnan(f):
             out.append(float(_luminance(w_np).mean()))
             continue

@@ -24,7 +24,7 @@ import numpy as np
 
 from .kernel.intersect import intersect
 from .kernel.surfaces import surface_at
-from .photon_emit import PhotonRays
+from .photon_emit import PhotonRays, to_np3
 from .photon_walk import scatter
 
 if TYPE_CHECKING:
@@ -52,7 +52,7 @@ class PhotonSet(NamedTuple):
 
 
 def _np3(v: object) -> np.ndarray:
-    return np.asarray(v, dtype=np.float64).reshape(3, -1).T
+    return to_np3(v)
 
 
 def _dr3(cls: type, a: np.ndarray) -> object:
@@ -79,7 +79,7 @@ def _bounce(scene: mi.Scene, data: SceneData, f: Features, o: np.ndarray, d: np.
     od, dd = _dr3(mi.Point3f, o), _dr3(mi.Vector3f, d)
     h = intersect(scene, data.planes, data.rules, od, dd, data.tmin + dr.zeros(mi.Float, n), dr.zeros(mi.UInt32, n))
     s = surface_at(h.bsdf, h.si, h.hit, h.n, f, None, mi.UInt32(1))
-    rng = mi.PCG32(n, mi.UInt64(state), mi.UInt64(index.astype(np.uint64) * 2 + 1))
+    rng = mi.PCG32(n, dr.opaque(mi.UInt64, state), mi.UInt64(index.astype(np.uint64) * 2 + 1))
     u_lobe, u_fresnel = rng.next_float32(), rng.next_float32()
     u_dir = mi.Point2f(rng.next_float32(), rng.next_float32())
     st = scatter(f.fresnel, dd, s.n, s.kd, s.specular, s.ior, u_lobe, u_fresnel, u_dir, refraction)

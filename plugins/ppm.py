@@ -78,11 +78,13 @@ class A5PPMIntegrator(A5PhotonIntegrator):
         o = mi.Point3f(ray.o) + dr.zeros(mi.Point3f, width)
         d = mi.Vector3f(ray.d) + dr.zeros(mi.Vector3f, width)
         act = dr.full(mi.Bool, True, width) & active
-        total = np.zeros((width, 3))
+        total, counted = np.zeros((width, 3)), np.zeros((width, 3))
         for k in range(self.first_pass, self.first_pass + self.passes):
             maps = self.build_maps(scene, self.seed, k)
-            total += self.radiance(scene, o, d, act, maps, None, sampler, self.seed, k)
-        return _dr3(mi.Color3f, total / self.passes), act, []
+            color, counts = self.radiance(scene, o, d, act, maps, None, sampler, self.seed, k)
+            total += color
+            counted += counts
+        return _dr3(mi.Color3f, total / self.passes), act, self.aov_values(counted / self.passes)
 
     def traverse(self, callback: mi.TraversalCallback) -> None:
         super().traverse(callback)

@@ -17,7 +17,7 @@ from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, size_flag, text
 from a5mi.errors import ExitStatus, UsageError
-from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, RenderOptions
+from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, PHOTON_FILTERS, RenderOptions
 from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR
 
 #: Render-buffer samples (3W x 3H with -jitter) accepted at most (~16 GB by a5mi.resources' model); below it
@@ -27,6 +27,20 @@ MAX_SAMPLES = 1 << 28
 
 def _depth(flag: str, values: list[str]) -> tuple[tuple[float, float], str]:
     return (number(flag, values[0]), number(flag, values[1])), text(flag, values[2:])
+
+
+def _nonneg(flag: str, value: str) -> float:
+    x = number(flag, value)
+    if x < 0.0:
+        raise UsageError(f"{flag} expects a number >= 0, found {value}")
+    return x
+
+
+def _unit(flag: str, value: str) -> float:
+    x = number(flag, value)
+    if not 0.0 < x < 1.0:
+        raise UsageError(f"{flag} expects a number in (0, 1), found {value}")
+    return x
 
 
 #: SPEC B.1 flags, then the extras; dests are RenderOptions fields (plus the output paths).
@@ -58,6 +72,19 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          1, integer(1, 65536), 1, "N"),
     Flag(("-integrator", "--integrator"), "integrator", "whitted (the sample solution's, SPEC B.3) or a physically "
          "based mode of docs/EXTENSIONS.md", 1, choice(tuple(INTEGRATORS)), "whitted", "NAME"),
+    Flag(("-photons", "--photons"), "photons", "photons emitted for the global map (per pass with ppm; E.16)", 1,
+         integer(0, 1 << 26), 100000, "N"),
+    Flag(("-caustic_photons", "--caustic-photons"), "caustic_photons", "photons emitted for the caustic map "
+         "(E.16)", 1, integer(0, 1 << 26), 100000, "N"),
+    Flag(("-k", "--k"), "photon_k", "nearest photons of a photon-map estimate (E.16)", 1, integer(1, 4096), 50, "K"),
+    Flag(("-photon_filter", "--photon-filter"), "photon_filter", "photon estimate filter: none, cone or "
+         "epanechnikov (E.16)", 1, choice(PHOTON_FILTERS), "none", "F"),
+    Flag(("-final_gather", "--final-gather"), "final_gather", "final-gather rays per diffuse point, 0: off (E.16)",
+         1, integer(0, 4096), 0, "M"),
+    Flag(("-ppm_radius", "--ppm-radius"), "ppm_radius", "first ppm radius, 0: 1/50 of the scene's bounding "
+         "sphere (E.17)", 1, lambda f, v: _nonneg(f, v[0]), 0.0, "R"),
+    Flag(("-ppm_alpha", "--ppm-alpha"), "ppm_alpha", "ppm radius schedule alpha in (0, 1) (E.17)", 1,
+         lambda f, v: _unit(f, v[0]), 2.0 / 3.0, "A"),
     Flag(("-variant", "--variant"), "variant", "llvm (default; or $A5MI_VARIANT), cuda or auto", 1,
          choice(("llvm", "cuda", "auto")), metavar="V"),
     Flag(("-threads", "--threads"), "threads", "Dr.Jit worker threads", 1, integer(1, 1024), metavar="N"),
