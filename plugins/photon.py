@@ -38,7 +38,7 @@ from .kernel.features import SceneData, build_features
 from .kernel.intersect import intersect
 from .kernel.lights import direct, emission, lights_of
 from .kernel.surfaces import background, surface_at
-from .photon_emit import emit, light_powers, split_counts, to_np3
+from .photon_emit import emit, light_powers, specular_targets, split_counts, to_np3
 from .photon_maps import FILTERS, PhotonMap
 from .photon_trace import CAUSTIC, INDIRECT, PhotonSet, first_distance, trace_photons
 from .photon_walk import facing, specular_step
@@ -151,11 +151,13 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
 
     def photon_set(self, scene: mi.Scene, n: int, seed: int, pass_index: int, keep: tuple[int, ...],
                    shapes: bool = False) -> PhotonSet:
-        """``n`` photons emitted (in proportion to the lights' powers) and traced; the stored ones of ``keep``."""
+        """``n`` photons emitted (in proportion to the lights' powers) and traced; the stored ones of ``keep``
+        (caustic photons only: point lights aim at the specular shapes, plugins/photon_emit.py)."""
         data = self.scene_data(scene)
         f = build_features(self, scene, data)
-        counts = split_counts(n, light_powers(scene, first_distance(scene, data), seed=seed))
-        rays = emit(scene, counts, seed, pass_index)
+        targets = specular_targets(scene) if keep == (CAUSTIC,) else None
+        counts = split_counts(n, light_powers(scene, first_distance(scene, data), seed=seed, targets=targets))
+        rays = emit(scene, counts, seed, pass_index, targets)
         return trace_photons(scene, data, f, rays, self.photon_depth, seed, pass_index, n, keep,
                              self.refraction, shapes)
 

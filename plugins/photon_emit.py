@@ -14,6 +14,7 @@ irradiance the photons deposit equals the light loop's ``color cos θ / (1 + f r
   light: the E.2 mean of point lights), ``Φ = 4π color / N``;
 * ``a5_area`` sphere: ``o`` uniform on the sphere, ``d`` uniform on the outward hemisphere at ``o``,
   ``Φ = 4π color / N`` (far from the sphere half its points face ``p``: the E.2 value ``color/(1 + f r²)``);
+* caustic photons of a light that is a point: only toward the specular shapes (:func:`_projected`);
 * any other light (stock ``point``, ``spot``, ``area``, ``directional``, whose ``sample_ray`` draws from a disc
   covering the scene's bounding sphere): Mitsuba's ``sample_ray``, ``Φ = weight / N``.
 
@@ -69,9 +70,78 @@ def to_np3(v: object, n: int | None = None) -> np.ndarray:
     return np.stack([np.broadcast_to(c, (m,)) for c in cols], axis=1)
 
 
-def _emit_one(e: mi.Emitter, n: int, rng: mi.PCG32) -> tuple[mi.Point3f, mi.Vector3f, mi.Color3f, float]:
+Targets = list[tuple[np.ndarray, float]]
+
+
+def specular_targets(scene: mi.Scene) -> Targets:
+    """Bounding spheres ``(centre, radius)`` of the shapes whose BSDF has a delta lobe (mirror, glass): where
+    caustic photons of a point light are sent (:func:`_projected`)."""
+    out = []
+    for shape in scene.shapes():
+        if mi.has_flag(shape.bsdf().flags(), mi.BSDFFlags.Delta):
+            bs = shape.bbox().bounding_sphere()
+            out.append((np.array([bs.center[i] for i in range(3)], dtype=np.float64), float(bs.radius)))
+    return out
+
+
+def _point_position(e: mi.Emitter) -> np.ndarray | None:
+    """The position of a light that is a point (a delta position and a degenerate bounding box), else None."""
+    if not mi.has_flag(e.flags(), mi.EmitterFlags.DeltaPosition):
+        return None
+    box = e.bbox()
+    if not box.valid() or any(float(box.max[i] - box.min[i]) > 0.0 for i in range(3)):
+        return None
+    return np.array([float(box.min[i]) for i in range(3)])
+
+
+def _projected(e: mi.Emitter, pos: np.ndarray, targets: Targets, n: int, rng: mi.PCG32
+               ) -> tuple[mi.Point3f, mi.Vector3f, mi.Color3f]:
+    """Caustic photons of the point light ``e`` sent only into the cones ``C_j`` (solid angles ``Ω_j``) that
+    subtend the specular shapes' bounding spheres (Jensen's projection map): cone ``j`` is chosen with
+    probability ``Ω_j / ΣΩ`` and ``d`` uniform in it, so ``pdf(d) = m(d) / ΣΩ`` with ``m(d)`` the number of
+    cones holding ``d``; the power is ``I(d) ΣΩ / m(d)`` (``I`` the radiant intensity: ``color`` (times the
+    E.1 profile) for an a5 light, ``sample_direction`` at unit distance for a stock one)."""
+    cones = []
+    for c, r in targets:
+        v = c - pos
+        dist = float(np.linalg.norm(v))
+        cos_max = -1.0 if dist <= r else math.sqrt(max(0.0, 1.0 - (r / dist) ** 2))
+        cones.append((v / max(dist, 1e-30), cos_max, 2.0 * math.pi * (1.0 - cos_max)))
+    omegas = np.array([c[2] for c in cones])
+    total = float(omegas.sum())
+    cdf = np.cumsum(omegas) / total
+    u_pick = rng.next_float32()
+    u = mi.Point2f(rng.next_float32(), rng.next_float32())
+    pick = np.minimum(np.searchsorted(cdf, np.asarray(u_pick, dtype=np.float64), side="right"), len(cones) - 1)
+    axis = np.stack([cones[j][0] for j in pick]) if len(pick) else np.zeros((0, 3))
+    cos_max = np.array([cones[j][1] for j in pick])
+    d = mi.Frame3f(mi.Vector3f(*(mi.Float(axis[:, i]) for i in range(3)))).to_world(
+        mi.warp.square_to_uniform_cone(u, mi.Float(cos_max)))
+    dr.eval(d)
+    d_np = to_np3(d, n)
+    m = sum(((d_np @ a) >= cm).astype(np.float64) for a, cm, _ in cones)
+    scale = mi.Float(total / np.maximum(m, 1.0))
+    o = mi.Point3f(*(float(x) for x in pos)) + dr.zeros(mi.Point3f, n)
+    if isinstance(e, A5PointLight):
+        intensity = e.color + dr.zeros(mi.Color3f, n)
+        if isinstance(e, A5SpotLight):
+            intensity *= profile(dr.dot(d, e.axis), e.angle_rad, e.beam_rad)
+    else:
+        it = dr.zeros(mi.Interaction3f, n)
+        it.p = o + d
+        _, intensity = e.sample_direction(it, mi.Point2f(0.5), True)
+    return o, d, mi.Color3f(intensity) * scale
+
+
+def _emit_one(e: mi.Emitter, n: int, rng: mi.PCG32, targets: Targets | None = None,
+              ) -> tuple[mi.Point3f, mi.Vector3f, mi.Color3f, float]:
     """``n`` photons of light ``e``: origins, directions, power per unit count (``Φ N``) and the falloff
-    (NaN for a stock light); module docstring."""
+    (NaN for a stock light); module docstring. ``targets``: caustic photons of a point light go toward them
+    only (:func:`_projected`)."""
+    pos = _point_position(e) if targets else None
+    if pos is not None:
+        o, d, w = _projected(e, pos, targets, n, rng)
+        return o, d, w, float(dr.slice(e.falloff, 0)) if isinstance(e, A5PointLight) else math.nan
     u1, u2, u3 = rng.next_float32(), mi.Point2f(rng.next_float32(), rng.next_float32()), mi.Point2f(
         rng.next_float32(), rng.next_float32())
     if isinstance(e, A5SpotLight):
@@ -97,14 +167,15 @@ def _emit_one(e: mi.Emitter, n: int, rng: mi.PCG32) -> tuple[mi.Point3f, mi.Vect
     return ray.o, ray.d, mi.Color3f(weight), math.nan
 
 
-def emit(scene: mi.Scene, counts: list[int], seed: int, pass_index: int) -> PhotonRays:
+def emit(scene: mi.Scene, counts: list[int], seed: int, pass_index: int, targets: Targets | None = None,
+         ) -> PhotonRays:
     """``counts[l]`` photons of each light of :func:`photon_lights`, each carrying ``Φ / counts[l]`` (module
-    docstring), seeded by ``(seed, pass_index, l)``."""
+    docstring), seeded by ``(seed, pass_index, l)``; ``targets``: the caustic emission of :func:`_projected`."""
     parts = []
     for li, (e, n) in enumerate(zip(photon_lights(scene), counts, strict=True)):
         if n <= 0:
             continue
-        o, d, w, f = _emit_one(e, n, _rng(n, seed, (pass_index << 8) + li))
+        o, d, w, f = _emit_one(e, n, _rng(n, seed, (pass_index << 8) + li), targets)
         dr.eval(o, d, w)
         o_np, d_np, w_np = to_np3(o, n), to_np3(d, n), to_np3(w, n) / n
         parts.append((o_np, d_np, w_np, np.full(n, f), np.full(n, li, dtype=np.int32)))
@@ -134,12 +205,13 @@ def _luminance(rgb: np.ndarray) -> np.ndarray:
     return rgb @ np.array([0.2126, 0.7152, 0.0722])
 
 
-def light_powers(scene: mi.Scene, first_distance: object, pilot: int = 4096, seed: int = 0) -> list[float]:
+def light_powers(scene: mi.Scene, first_distance: object, pilot: int = 4096, seed: int = 0,
+                 targets: Targets | None = None) -> list[float]:
     """Each light's power (luminance), the mean first-hit power of ``pilot`` photons; ``first_distance(o, d)``
     gives the distance to the first hit of numpy rays (inf on a miss), so a5 lights get their factor."""
     out = []
     for li, e in enumerate(photon_lights(scene)):
-        o, d, w, f = _emit_one(e, pilot, _rng(pilot, seed, 0xFFFFFF00 + li))
+        o, d, w, f = _emit_one(e, pilot, _rng(pilot, seed, 0xFFFFFF00 + li), targets)
         dr.eval(o, d, w)
         o_np, d_np, w_np = to_np3(o, pilot), to_np3(d, pilot), to_np3(w, pilot)
         if math.isnan(f):
