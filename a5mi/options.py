@@ -78,6 +78,8 @@ class RenderOptions:
     integrator: str = "whitted"
     #: docs/EXTENSIONS.md E.14: ``-integrator path`` plays Russian roulette from this many scatterings on
     rr_depth: int = 5
+    #: docs/EXTENSIONS.md E.15: ``a5_whitted`` gathers indirect light with N cosine-weighted rays per diffuse hit
+    indirect: int = 0
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -89,6 +91,8 @@ class RenderOptions:
             raise ValueError(f"aov_mode must be one of {', '.join(AOV_MODES)}, got '{self.aov_mode}'")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got '{self.integrator}'")
+        if self.indirect < 0:
+            raise ValueError(f"indirect must be >= 0, got {self.indirect}")
         if self.rr_depth < 0:
             raise ValueError(f"rr_depth must be >= 0, got {self.rr_depth}")
         if self.spp < 1:
@@ -123,6 +127,8 @@ class RenderOptions:
                   "refraction": bool(self.refraction), "aovs": ",".join(self.aov_groups)}
         if self.bump:  # docs/EXTENSIONS.md E.7; absent otherwise, so course dicts and XML are unchanged
             params["bump"] = True
+        if self.indirect > 0 and self.plugin == "a5_whitted":  # E.15; absent at 0: course dicts unchanged
+            params["indirect"] = int(self.indirect)
         if self.plugin == "a5_path":  # docs/EXTENSIONS.md E.14
             params["rr_depth"] = int(self.rr_depth)
         return params
