@@ -9,8 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-
-from tests.conftest import a5_material, rgb
+from conftest import a5_material, rgb
 
 N = 200_000
 

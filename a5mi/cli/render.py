@@ -58,6 +58,10 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          1, integer(1, 65536), 1, "N"),
     Flag(("-integrator", "--integrator"), "integrator", "whitted (the sample solution's, SPEC B.3) or a physically "
          "based mode of docs/EXTENSIONS.md", 1, choice(tuple(INTEGRATORS)), "whitted", "NAME"),
+    Flag(("-rr_depth", "--rr-depth"), "rr_depth", "-integrator path: Russian roulette from N scatterings on "
+         "(docs/EXTENSIONS.md E.14)", 1, integer(0, 1 << 16), 5, "N"),
+    Flag(("-indirect", "--indirect"), "indirect", "whitted: N cosine-weighted rays gather indirect light at each "
+         "diffuse hit (docs/EXTENSIONS.md E.15)", 1, integer(0, 4096), 0, "N"),
     Flag(("-variant", "--variant"), "variant", "llvm (default; or $A5MI_VARIANT), cuda or auto", 1,
          choice(("llvm", "cuda", "auto")), metavar="V"),
     Flag(("-threads", "--threads"), "threads", "Dr.Jit worker threads", 1, integer(1, 1024), metavar="N"),
