@@ -26,7 +26,8 @@ AOV_GROUPS: tuple[str, ...] = ("normal", "depth", "class", "counts")
 #: accepts the scene part of ``a5_whitted``'s parameters (``ambient``, ``plane_<id>_*``, ``medium*``,
 #: ``glossy_samples``, ``glossy``, ``dispersion``: converters/to_mitsuba.py ``integrator_dict``) and the
 #: ``aovs`` groups it lists in ``aov_names()``.
-INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted", "photon": "a5_photon", "ppm": "a5_ppm"}
+INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted", "path": "a5_path", "photon": "a5_photon",
+                               "ppm": "a5_ppm"}
 #: Radiance-estimate filters of ``-integrator photon`` / ``ppm`` (docs/EXTENSIONS.md E.16).
 PHOTON_FILTERS: tuple[str, ...] = ("none", "cone", "epanechnikov")
 #: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
@@ -78,6 +79,10 @@ class RenderOptions:
     bump: bool = False
     #: ``-integrator``: a key of :data:`INTEGRATORS` (``whitted``: SPEC B.3)
     integrator: str = "whitted"
+    #: docs/EXTENSIONS.md E.14: ``-integrator path`` plays Russian roulette from this many scatterings on
+    rr_depth: int = 5
+    #: docs/EXTENSIONS.md E.15: ``a5_whitted`` gathers indirect light with N cosine-weighted rays per diffuse hit
+    indirect: int = 0
     #: docs/EXTENSIONS.md E.16, E.17 (``-integrator photon`` / ``ppm``): photons per map (per pass for ppm),
     #: nearest photons of an estimate, its filter, final-gather rays (0: off), the ppm radius (0: automatic)
     #: and alpha
@@ -99,6 +104,10 @@ class RenderOptions:
             raise ValueError(f"aov_mode must be one of {', '.join(AOV_MODES)}, got '{self.aov_mode}'")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got '{self.integrator}'")
+        if self.indirect < 0:
+            raise ValueError(f"indirect must be >= 0, got {self.indirect}")
+        if self.rr_depth < 0:
+            raise ValueError(f"rr_depth must be >= 0, got {self.rr_depth}")
         if self.photon_filter not in PHOTON_FILTERS:
             raise ValueError(f"photon_filter must be one of {', '.join(PHOTON_FILTERS)}, got '{self.photon_filter}'")
         if self.spp < 1:
@@ -133,6 +142,10 @@ class RenderOptions:
                   "refraction": bool(self.refraction), "aovs": ",".join(self.aov_groups)}
         if self.bump:  # docs/EXTENSIONS.md E.7; absent otherwise, so course dicts and XML are unchanged
             params["bump"] = True
+        if self.indirect > 0 and self.plugin == "a5_whitted":  # E.15; absent at 0: course dicts unchanged
+            params["indirect"] = int(self.indirect)
+        if self.plugin == "a5_path":  # docs/EXTENSIONS.md E.14
+            params["rr_depth"] = int(self.rr_depth)
         if self.integrator in ("photon", "ppm"):  # docs/EXTENSIONS.md E.16, E.17
             del params["phong"]
             params.update(photons=int(self.photons), caustic_photons=int(self.caustic_photons),

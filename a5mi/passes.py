@@ -47,7 +47,7 @@ def sample_passes(scene: Any, integrator: Any, sampler: Any, ray: Any, camera: A
     from a5mi.plugins.sampling import LENS_DIM, SamplePass, pixel_keys, stratified_2d
     from a5mi.plugins.whitted import A5WhittedIntegrator
 
-    # takes the pass (a5_whitted, and integrators that say so: a5_photon, a5_ppm); any other samples alone
+    # a5 integrators take the pass (``takes_sample_pass``); any other integrator samples alone
     a5 = isinstance(integrator, A5WhittedIntegrator) or getattr(integrator, "takes_sample_pass", False)
 
     aperture = float(getattr(camera, "aperture", 0.0) or 0.0)

@@ -72,6 +72,10 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          1, integer(1, 65536), 1, "N"),
     Flag(("-integrator", "--integrator"), "integrator", "whitted (the sample solution's, SPEC B.3) or a physically "
          "based mode of docs/EXTENSIONS.md", 1, choice(tuple(INTEGRATORS)), "whitted", "NAME"),
+    Flag(("-rr_depth", "--rr-depth"), "rr_depth", "-integrator path: Russian roulette from N scatterings on "
+         "(docs/EXTENSIONS.md E.14)", 1, integer(0, 1 << 16), 5, "N"),
+    Flag(("-indirect", "--indirect"), "indirect", "whitted: N cosine-weighted rays gather indirect light at each "
+         "diffuse hit (docs/EXTENSIONS.md E.15)", 1, integer(0, 4096), 0, "N"),
     Flag(("-photons", "--photons"), "photons", "photons emitted for the global map (per pass with ppm; E.16)", 1,
          integer(0, 1 << 26), 100000, "N"),
     Flag(("-caustic_photons", "--caustic-photons"), "caustic_photons", "photons emitted for the caustic map "
