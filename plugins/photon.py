@@ -11,9 +11,10 @@ its path weight ``β``:
 
     L = L_e + L_direct + L_caustic + L_indirect
 
-* ``L_e``: the ``eval`` of an area light's shape seen directly;
-* ``L_direct = Σ_lights S · max(L·N, 0) · lightColor ⊙ kd/π`` (the light loop of ``a5_whitted``,
-  plugins/kernel/lights.py, with the Lambert BSDF ``kd/π``; shadows by ``shadows``);
+* ``L_e``: the emission of an area light's shape or of the environment seen directly (E.13);
+* ``L_direct``: next-event estimation of E.13 (plugins/kernel/pbr_lights.py ``direct``: one sample of every
+  light and of the environment, the Lambert BSDF ``kd/π``, shadow rays always), every sample at MIS weight 1:
+  the light the BSDF would find by sampling is not estimated again here (direct photons are not used);
 * ``L_caustic``: the caustic map's estimate (``k`` nearest, plugins/photon_maps.py);
 * ``L_indirect``: the global map's estimate (photons after a diffuse bounce), or with ``final_gather = M``:
   ``(kd/M) Σ_i L_full(y_i)`` over ``M`` cosine-weighted rays to diffuse points ``y_i``, ``L_full`` the estimate
@@ -34,14 +35,15 @@ import numpy as np
 from a5mi.spec import FRESNEL_MODES, TMIN
 
 from . import triangle_rule
+from .kernel import pbr, pbr_lights
 from .kernel.features import SceneData, build_features
-from .kernel.intersect import intersect
-from .kernel.lights import direct, emission, lights_of
-from .kernel.surfaces import background, surface_at
+from .kernel.intersect import intersect, mirror_normal
+from .kernel.lights import lights_of
+from .kernel.surfaces import surface_at
 from .photon_emit import emit, light_powers, specular_targets, split_counts, to_np3
 from .photon_maps import FILTERS, PhotonMap
 from .photon_trace import CAUSTIC, INDIRECT, PhotonSet, first_distance, trace_photons
-from .photon_walk import facing, specular_step
+from .photon_walk import camera_step, facing
 from .planes import plane_set, planes_from_props
 from .sampling import SamplePass, stochastic
 
@@ -149,6 +151,10 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
         return SceneData(dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, 0.0),
                          dr.opaque(mi.Float, self.tmin), lights_of(scene), self._planes, table, None)
 
+    def _pbr_lights(self, scene: mi.Scene) -> pbr_lights.PbrLights:
+        """The E.13 lights of ``scene`` for next-event estimation."""
+        return pbr_lights.lights_of(scene)
+
     def photon_set(self, scene: mi.Scene, n: int, seed: int, pass_index: int, keep: tuple[int, ...],
                    shapes: bool = False) -> PhotonSet:
         """``n`` photons emitted (in proportion to the lights' powers) and traced; the stored ones of ``keep``
@@ -158,8 +164,7 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
         targets = specular_targets(scene) if keep == (CAUSTIC,) else None
         counts = split_counts(n, light_powers(scene, first_distance(scene, data), seed=seed, targets=targets))
         rays = emit(scene, counts, seed, pass_index, targets)
-        return trace_photons(scene, data, f, rays, self.photon_depth, seed, pass_index, n, keep,
-                             self.refraction, shapes)
+        return trace_photons(scene, data, f, rays, self.photon_depth, seed, pass_index, n, keep, shapes)
 
     def build_maps(self, scene: mi.Scene, seed: int, pass_index: int) -> Maps:
         """The :class:`Maps` of the module docstring (global photons, then caustic photons: two streams)."""
@@ -231,27 +236,34 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
         n_refl, n_refr = dr.zeros(mi.Float, width), dr.zeros(mi.Float, width)
         t_min = dr.zeros(mi.Float, width)
         origin = dr.zeros(mi.UInt32, width)
+        n_medium = dr.full(mi.Float, 1.0, width)
         for depth in range(self.max_depth + 1):
             h = intersect(scene, data.planes, data.rules, o, d, t_min, origin)
             hit = h.hit & live
             local = dr.zeros(mi.Color3f, width)
             if f.environment:
-                local += dr.select(live & ~h.hit, background(scene, d, live & ~h.hit), 0.0)
+                local += dr.select(live & ~h.hit, pbr_lights.environment(scene, d, live & ~h.hit)[0], 0.0)
             if f.area_lights:
-                local = emission(scene, h.si, hit & ~h.on_plane, local)
+                local += pbr_lights.emission(scene, h.si, hit & ~h.on_plane, o, d, h.t)[0]
             s = surface_at(h.bsdf, h.si, hit, h.n, f, None, mi.UInt32(1))
             n_f = facing(d, s.n)
             diffuse = hit & (dr.max(s.kd) > 0.0)
-            local, counter, n_shadow = direct(scene, data, f, h.si, h.p, diffuse, n_f, s.kd / dr.pi,
-                                              mi.Color3f(0.0), mi.Float(0.0), d, local, rng,
-                                              dr.opaque(mi.UInt32, depth), counter, n_shadow)
-            step = specular_step(self.fresnel, d, s.n, s.specular, s.ior, walk.next_float32(), self.refraction)
-            go = hit & step.alive & (self.reflection | (s.ior > 0.0)) & (depth < self.max_depth)
+            lambert = pbr.lobes(self.fresnel, s.kd, dr.zeros(mi.Color3f, width), mi.Float(0.0), d, s.n, s.n,
+                                n_medium, diffuse, False, False)
+            lambert = lambert._replace(p_d=dr.select(lambert.p_d > 0.0, 1e-30, 0.0))   # MIS weight 1
+            nee, counter, n_shadow = pbr_lights.direct(scene, data.planes, self._pbr_lights(scene), f.environment,
+                                                       data.tmin, h.si, h.p, lambert, diffuse, rng,
+                                                       dr.opaque(mi.UInt32, depth * 256), counter, n_shadow)
+            local += nee
+            step = camera_step(self.fresnel, d, s.n, mirror_normal(data.planes, h.on_plane, h.plane, s.n), s.specular,
+                               s.ior, n_medium, hit, walk.next_float32(), self.refraction, self.reflection)
+            go = hit & step.alive & (depth < self.max_depth)
             refracted = go & (dr.dot(step.d, h.n) * dr.dot(d, h.n) > 0.0)
             n_refl += dr.select(go & ~refracted, 1.0, 0.0)
             n_refr += dr.select(refracted, 1.0, 0.0)
             contrib = beta * local
-            dr.eval(contrib, h.p, n_f, s.kd, diffuse, beta, step.d, step.factor, go, counter, n_shadow, n_refl, n_refr)
+            dr.eval(contrib, h.p, n_f, s.kd, diffuse, beta, step.d, step.factor, go, counter, n_shadow, n_refl, n_refr,
+                    step.n_medium)
             color += _np3(contrib)
             mask = np.asarray(diffuse, dtype=bool)
             if mask.any():
@@ -264,7 +276,7 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
                 break
             beta = beta * step.factor
             live = go
-            o, d, t_min, origin = h.p, step.d, data.tmin + dr.zeros(mi.Float, width), h.row
+            o, d, t_min, origin, n_medium = h.p, step.d, data.tmin + dr.zeros(mi.Float, width), h.row, step.n_medium
         counts = np.stack([np.asarray(n_refl), np.asarray(n_refr), np.asarray(n_shadow)], axis=1)
         return color, counts.astype(np.float64)
 

@@ -10,13 +10,16 @@ irradiance the photons deposit equals the light loop's ``color cos θ / (1 + f r
 * ``a5_point``: ``o`` = position, ``d`` uniform on the sphere, ``Φ = 4π color / N``;
 * ``a5_spot``: ``d`` uniform in the cone of half-angle ``angle`` about the axis,
   ``Φ = 2π (1 − cos angle) color · profile(d) / N`` (the E.1 profile);
-* ``a5_area`` parallelogram: ``o`` uniform on it, ``d`` uniform on the sphere (both faces, no cosine at the
-  light: the E.2 mean of point lights), ``Φ = 4π color / N``;
-* ``a5_area`` sphere: ``o`` uniform on the sphere, ``d`` uniform on the outward hemisphere at ``o``,
-  ``Φ = 4π color / N`` (far from the sphere half its points face ``p``: the E.2 value ``color/(1 + f r²)``);
+* ``a5_area`` on its shape, read as E.13 says (a surface of radiance ``Le = color / (1 + f r²)``, both faces
+  of a parallelogram, the outside of a sphere): ``o`` uniform on the surface, ``d`` cosine-weighted about the
+  emitting face, ``Φ = π A color / N`` per face (``A`` the area; parallelogram ``2π A color``, sphere
+  ``4π² r² color``), and at the first hit the factor ``1 / (1 + f r²)`` (stored as ``falloff = −1 − f``);
+* an ``a5_area`` without a shape (E.2's mean of point lights): ``o`` uniform on it, ``d`` uniform on the sphere,
+  ``Φ = 4π color / N`` and the point light's first-hit factor;
 * caustic photons of a light that is a point: only toward the specular shapes (:func:`_projected`);
-* any other light (stock ``point``, ``spot``, ``area``, ``directional``, whose ``sample_ray`` draws from a disc
-  covering the scene's bounding sphere): Mitsuba's ``sample_ray``, ``Φ = weight / N``.
+* an environment (stock ``constant``, the background colour) and any other light (stock ``point``, ``spot``,
+  ``area``, ``directional``, whose ``sample_ray`` draws from a disc covering the scene's bounding sphere):
+  Mitsuba's ``sample_ray``, ``Φ = weight / N``.
 
 ``N`` photons in all are split over the lights in proportion to their power ``P_l``, measured by
 :func:`light_powers` as the mean first-hit power of a pilot of photons (for a5 lights it depends on the scene:
@@ -51,9 +54,24 @@ class PhotonRays(NamedTuple):
     light: np.ndarray
 
 
+def _emits_rays(e: mi.Emitter) -> bool:
+    """Whether ``e`` implements ``sample_ray`` (the stock environments do; ``a5_cubemap`` does not)."""
+    try:
+        e.sample_ray(mi.Float(0.0), mi.Float(0.5), mi.Point2f(0.5), mi.Point2f(0.5), True)
+    except Exception:   # noqa: BLE001 - Mitsuba raises a plain RuntimeError / NotImplementedError
+        return False
+    return True
+
+
 def photon_lights(scene: mi.Scene) -> list[mi.Emitter]:
-    """The emitters that emit photons: the lights of the light loop (``is_light``) and emitters on shapes."""
-    return [e for e in scene.emitters() if is_light(e) or e.get_shape() is not None]
+    """The emitters that emit photons: the lights of the light loop (``is_light``), emitters on shapes and an
+    environment whose ``sample_ray`` exists (stock ``constant``, the background colour: rays from a disc
+    covering the scene's bounding sphere; an ``a5_cubemap`` emits none, E.16)."""
+    out = [e for e in scene.emitters() if is_light(e) or e.get_shape() is not None]
+    env = scene.environment()
+    if env is not None and not any(e is env for e in out) and _emits_rays(env):
+        out.append(env)
+    return out
 
 
 def _rng(n: int, seed: int, stream: int) -> mi.PCG32:
@@ -154,15 +172,24 @@ def _emit_one(e: mi.Emitter, n: int, rng: mi.PCG32, targets: Targets | None = No
         d = mi.warp.square_to_uniform_sphere(u3)
         return mi.Point3f(e.position) + dr.zeros(mi.Point3f, n), d, e.color * (4.0 * dr.pi), float(
             dr.slice(e.falloff, 0))
-    if isinstance(e, A5AreaLight):
+    if isinstance(e, A5AreaLight) and e.get_shape() is None:     # E.2's mean of point lights
+        o = e.corner + u2.x * e.edge1 + u2.y * e.edge2 if e.kind == "parallelogram" else \
+            e.center + e.radius * mi.warp.square_to_uniform_sphere(u2)
+        d = mi.warp.square_to_uniform_sphere(u3)
+        return o, d, e.color * (4.0 * dr.pi) + dr.zeros(mi.Color3f, n), float(dr.slice(e.falloff, 0))
+    if isinstance(e, A5AreaLight):                                # E.13: a surface of radiance Le
         if e.kind == "parallelogram":
-            o = e.corner + u2.x * e.edge1 + u2.y * e.edge2
-            d = mi.warp.square_to_uniform_sphere(u3)
+            cross = dr.cross(e.edge1, e.edge2)
+            area = dr.norm(cross)
+            nrm = dr.select(u1 < 0.5, 1.0, -1.0) * (cross / area)
+            o = e.corner + u2.x * e.edge1 + u2.y * e.edge2 + 1e-5 * nrm
+            w = e.color * (2.0 * dr.pi * area)
         else:
             nrm = mi.warp.square_to_uniform_sphere(u2)
             o = e.center + (e.radius * (1.0 + 1e-4)) * nrm
-            d = mi.Frame3f(nrm).to_world(mi.warp.square_to_uniform_hemisphere(u3))
-        return o, d, e.color * (4.0 * dr.pi) + dr.zeros(mi.Color3f, n), float(dr.slice(e.falloff, 0))
+            w = e.color * (4.0 * dr.pi * dr.pi * e.radius * e.radius)
+        d = mi.Frame3f(nrm).to_world(mi.warp.square_to_cosine_hemisphere(u3))
+        return o, d, w + dr.zeros(mi.Color3f, n), -1.0 - float(dr.slice(e.falloff, 0))
     ray, weight = e.sample_ray(dr.zeros(mi.Float, n), u1, u2, u3, True)
     return ray.o, ray.d, mi.Color3f(weight), math.nan
 
@@ -186,10 +213,14 @@ def emit(scene: mi.Scene, counts: list[int], seed: int, pass_index: int, targets
 
 
 def first_hit_factor(falloff: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """The a5 factor ``r² / (1 + f r²)`` of a photon's first hit at distance ``r`` (1 for a stock light, NaN
-    ``falloff``; 0 for a miss, ``r = inf``)."""
+    """The a5 factor of a photon's first hit at distance ``r``: ``r² / (1 + f r²)`` for a point-like a5 light
+    (``falloff = f >= 0``), ``1 / (1 + f r²)`` for an a5 surface light (stored as ``falloff = −1 − f``), 1 for
+    a stock light (NaN); 0 for a miss (``r = inf``)."""
     r2 = np.where(np.isfinite(r), r * r, 0.0)
-    a5 = r2 / (1.0 + np.nan_to_num(falloff) * r2)
+    f = np.nan_to_num(falloff)
+    surface = f <= -1.0
+    f = np.where(surface, -1.0 - f, f)
+    a5 = np.where(surface, np.isfinite(r), r2) / (1.0 + f * r2)
     return np.where(np.isnan(falloff), 1.0, a5)
 
 
@@ -208,7 +239,10 @@ def _luminance(rgb: np.ndarray) -> np.ndarray:
 def light_powers(scene: mi.Scene, first_distance: object, pilot: int = 4096, seed: int = 0,
                  targets: Targets | None = None) -> list[float]:
     """Each light's power (luminance), the mean first-hit power of ``pilot`` photons; ``first_distance(o, d)``
-    gives the distance to the first hit of numpy rays (inf on a miss), so a5 lights get their factor."""
+    gives the distance to the first hit of numpy rays (inf on a miss), so a5 lights get their factor, with
+    ``r`` capped at twice the diameter of the shapes' bounding sphere (an a5 light over an infinite plane
+    has an unbounded power: the share that decides the counts is the power reaching the scene)."""
+    cap = 4.0 * max(float(scene.bbox().bounding_sphere().radius), 1e-3)
     out = []
     for li, e in enumerate(photon_lights(scene)):
         o, d, w, f = _emit_one(e, pilot, _rng(pilot, seed, 0xFFFFFF00 + li), targets)
@@ -217,6 +251,6 @@ def light_powers(scene: mi.Scene, first_distance: object, pilot: int = 4096, see
         if math.isnan(f):
             out.append(float(_luminance(w_np).mean()))
             continue
-        r = first_distance(o_np, d_np)
+        r = np.minimum(first_distance(o_np, d_np), cap)
         out.append(float((_luminance(w_np) * first_hit_factor(np.full(pilot, f), r)).mean()))
     return out

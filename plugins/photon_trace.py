@@ -22,10 +22,10 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .kernel.intersect import intersect
+from .kernel.intersect import intersect, mirror_normal
 from .kernel.surfaces import surface_at
-from .photon_emit import PhotonRays, to_np3
-from .photon_walk import scatter
+from .photon_emit import PhotonRays, first_hit_factor, to_np3
+from .photon_walk import photon_step
 
 if TYPE_CHECKING:
     from .kernel.features import Features, SceneData
@@ -72,19 +72,21 @@ def shape_index(scene: mi.Scene, hit_shape: object, on_plane: object, plane: obj
     return out
 
 
-def _bounce(scene: mi.Scene, data: SceneData, f: Features, o: np.ndarray, d: np.ndarray, index: np.ndarray,
-            state: int, shapes: bool, refraction: bool) -> dict[str, np.ndarray]:
+def _bounce(scene: mi.Scene, data: SceneData, f: Features, o: np.ndarray, d: np.ndarray, n_medium: np.ndarray,
+            index: np.ndarray, state: int, shapes: bool) -> dict[str, np.ndarray]:
     """One bounce of the photons ``(o, d)`` (numpy): hit, material, scatter; numpy results."""
     n = len(o)
     od, dd = _dr3(mi.Point3f, o), _dr3(mi.Vector3f, d)
     h = intersect(scene, data.planes, data.rules, od, dd, data.tmin + dr.zeros(mi.Float, n), dr.zeros(mi.UInt32, n))
     s = surface_at(h.bsdf, h.si, h.hit, h.n, f, None, mi.UInt32(1))
     rng = mi.PCG32(n, dr.opaque(mi.UInt64, state), mi.UInt64(index.astype(np.uint64) * 2 + 1))
-    u_lobe, u_fresnel = rng.next_float32(), rng.next_float32()
+    u_lobe, u_rr = rng.next_float32(), rng.next_float32()
     u_dir = mi.Point2f(rng.next_float32(), rng.next_float32())
-    st = scatter(f.fresnel, dd, s.n, s.kd, s.specular, s.ior, u_lobe, u_fresnel, u_dir, refraction)
+    n_mirror = mirror_normal(data.planes, h.on_plane, h.plane, s.n)
+    st = photon_step(f.fresnel, dd, s.n, n_mirror, s.kd, s.specular, s.ior, mi.Float(n_medium.astype(np.float32)),
+                     h.hit, u_lobe, u_dir, u_rr, f.refraction, f.reflection)
     out = {"t": h.t, "p": h.p, "kd": s.kd, "hit": h.hit, "d": st.d, "factor": st.factor, "alive": st.alive & h.hit,
-           "diffuse": st.diffuse, "on_plane": h.on_plane, "plane": h.plane}
+           "diffuse": st.diffuse, "n_medium": st.n_medium}
     dr.eval(*out.values())
     res = {k: np.asarray(v) for k, v in out.items()}
     for k in ("p", "kd", "d", "factor"):
@@ -95,12 +97,13 @@ def _bounce(scene: mi.Scene, data: SceneData, f: Features, o: np.ndarray, d: np.
 
 def trace_photons(scene: mi.Scene, data: SceneData, f: Features, rays: PhotonRays, max_depth: int, seed: int,
                   pass_index: int, emitted: int, keep: tuple[int, ...] = (DIRECT, CAUSTIC, INDIRECT),
-                  refraction: bool = True, shapes: bool = False) -> PhotonSet:
+                  shapes: bool = False) -> PhotonSet:
     """Trace ``rays`` for up to ``max_depth`` hits and return the photons stored (module docstring) whose kind
     is in ``keep``; ``emitted``: the ``N`` the powers were divided by; ``shapes``: fill ``PhotonSet.shape``
     (``a5mi photons``), else -1."""
     o, d, power = rays.o.copy(), rays.d.copy(), rays.power.copy()
     falloff = rays.falloff.copy()
+    n_medium = np.ones(len(o), dtype=np.float64)           # photons leave the lights in air
     index = np.arange(len(o), dtype=np.int64)
     kind = np.full(len(o), DIRECT, dtype=np.int8)
     stored: list[tuple[np.ndarray, ...]] = []
@@ -108,11 +111,10 @@ def trace_photons(scene: mi.Scene, data: SceneData, f: Features, rays: PhotonRay
         if len(o) == 0:
             break
         state = (seed * 0x9E3779B97F4A7C15 + (pass_index << 20) + depth * 0x632BE59BD9B4E019 + 1) % (1 << 64)
-        b = _bounce(scene, data, f, o, d, index, state, shapes, refraction)
+        b = _bounce(scene, data, f, o, d, n_medium, index, state, shapes)
         if depth == 0:
-            r2 = np.where(b["hit"], b["t"].astype(np.float64) ** 2, 0.0)
-            factor = np.where(np.isnan(falloff), 1.0, r2 / (1.0 + np.nan_to_num(falloff) * r2))
-            power = power * factor[:, None]
+            r = np.where(b["hit"], b["t"].astype(np.float64), np.inf)
+            power = power * first_hit_factor(falloff, r)[:, None]
         store = b["hit"] & (b["kd"].max(axis=1) > 0.0) & np.isin(kind, keep)
         if store.any():
             sh = b["shape"][store] if shapes else np.full(int(store.sum()), -1)
@@ -125,9 +127,10 @@ def trace_photons(scene: mi.Scene, data: SceneData, f: Features, rays: PhotonRay
             alive &= ~b["diffuse"]
         o, d = b["p"][alive], b["d"][alive]
         power = power[alive] * b["factor"][alive]
-        kind, index, falloff = kind[alive], index[alive], falloff[alive]
+        kind, index, falloff, n_medium = kind[alive], index[alive], falloff[alive], b["n_medium"][alive]
         live = power.max(axis=1) > 0.0
-        o, d, power, kind, index, falloff = o[live], d[live], power[live], kind[live], index[live], falloff[live]
+        o, d, power, kind, index = o[live], d[live], power[live], kind[live], index[live]
+        falloff, n_medium = falloff[live], n_medium[live]
     if not stored:
         z = np.zeros((0, 3))
         return PhotonSet(z, z, z, np.zeros(0, dtype=np.int8), np.zeros(0, dtype=np.int64), emitted)
