@@ -80,6 +80,27 @@ def _rng(n: int, seed: int, stream: int) -> mi.PCG32:
     return mi.PCG32(n, dr.opaque(mi.UInt64, state), dr.arange(mi.UInt64, n) * 2 + 1)
 
 
+def scene_ball(scene: mi.Scene) -> tuple[np.ndarray, float]:
+    """``(c, R)``: the bounding sphere of the scene's shapes, the lights' positions and the camera's position
+    (exact planes are not shapes: the lights and the camera bound the part of them that matters)."""
+    box = mi.ScalarBoundingBox3f()
+    box.expand(scene.bbox())
+    for e in scene.emitters():
+        b = e.bbox()     # a point light: its position; infinite or empty for the others
+        if b.valid() and all(math.isfinite(float(b.min[i])) and math.isfinite(float(b.max[i])) for i in range(3)):
+            box.expand(b)
+    for sensor in scene.sensors():
+        centre = getattr(sensor, "center", None)     # a5_camera keeps its centre; stock sensors their transform
+        if centre is None:
+            t = sensor.world_transform().translation()
+            centre = tuple(float(dr.slice(t[i], 0)) for i in range(3))
+        box.expand(mi.ScalarPoint3f(*centre))
+    if not box.valid():
+        return np.zeros(3), 1.0
+    sphere = box.bounding_sphere()
+    return np.array([float(sphere.center[i]) for i in range(3)]), max(float(sphere.radius), 1e-3)
+
+
 def to_np3(v: object, n: int | None = None) -> np.ndarray:
     """A Dr.Jit 3-vector or colour as a numpy ``(n, 3)`` float64 array, one component at a time (a whole
     ``np.asarray`` ravels it in a kernel whose size is baked in, compiled again for every width)."""
@@ -240,9 +261,9 @@ def light_powers(scene: mi.Scene, first_distance: object, pilot: int = 4096, see
                  targets: Targets | None = None) -> list[float]:
     """Each light's power (luminance), the mean first-hit power of ``pilot`` photons; ``first_distance(o, d)``
     gives the distance to the first hit of numpy rays (inf on a miss), so a5 lights get their factor, with
-    ``r`` capped at twice the diameter of the shapes' bounding sphere (an a5 light over an infinite plane
+    ``r`` capped at twice the diameter of :func:`scene_ball` (an a5 light over an infinite plane
     has an unbounded power: the share that decides the counts is the power reaching the scene)."""
-    cap = 4.0 * max(float(scene.bbox().bounding_sphere().radius), 1e-3)
+    cap = 4.0 * scene_ball(scene)[1]
     out = []
     for li, e in enumerate(photon_lights(scene)):
         o, d, w, f = _emit_one(e, pilot, _rng(pilot, seed, 0xFFFFFF00 + li), targets)

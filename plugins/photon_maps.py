@@ -11,9 +11,11 @@ with the density weights ``w_p`` of a disc of radius ``r``:
 * ``cone`` (Jensen, k=1): ``w = (1 − d_p / r) / ((1 − 2/3) π r²) = 3 (1 − d_p/r) / (π r²)``
 * ``epanechnikov``:       ``w = 2 (1 − d_p²/r²) / (π r²)``
 
-each integrating to 1 over the disc. :meth:`PhotonMap.knn` takes the ``k`` nearest photons and ``r`` the
-distance of the farthest (E.16); :meth:`PhotonMap.radius` takes every photon within a given ``r`` per point
-(E.17), through ``cKDTree.sparse_distance_matrix`` between the points' tree and the map's (no Python loop).
+each integrating to 1 over the disc. :meth:`PhotonMap.knn` takes ``r`` = the distance of the ``k``-th nearest
+photon and sums the ``k − 1`` nearer ones (for a Poisson density ``ρ``, ``E[(k − 1)/(π r²)] = ρ``, while
+``k/(π r²)`` is ``k/(k − 1)`` too high) (E.16); :meth:`PhotonMap.radius` takes every photon within a given
+``r`` per point (E.17), through ``cKDTree.sparse_distance_matrix`` between the points' tree and the map's
+(no Python loop).
 """
 
 from __future__ import annotations
@@ -61,6 +63,7 @@ class PhotonMap:
         if k == 1:
             dist, idx = dist[:, None], idx[:, None]
         r = dist[:, -1:]
+        dist, idx = dist[:, :-1], idx[:, :-1]         # the k-th photon sets r and is not counted
         front = np.einsum("mkc,mc->mk", self.dir[idx], n) < 0.0
         w = weights(filter_name, dist, r) * front
         flux = np.einsum("mk,mkc->mc", w, self.power[idx])

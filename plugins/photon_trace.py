@@ -10,6 +10,12 @@ material with ``max kd > 0``, with its position, direction and power and the kin
 * ``CAUSTIC`` (``L S+ D``: one or more mirror / dielectric bounces, no diffuse one: the caustic map),
 * ``INDIRECT`` (``L (S|D)* D (S|D)* D``: after a diffuse bounce: the global map).
 
+Photons are followed inside the ball of radius ``4 R`` about the bounding sphere ``(c, R)`` of the scene's
+shapes, lights and camera (plugins/photon_emit.py ``scene_ball``): a hit farther out (an exact plane far away)
+absorbs the photon. An a5 light over an infinite plane otherwise sends photons of unbounded power (``∝ r²``)
+from arbitrarily far back into the scene; the direct light there is next-event estimation's, only the indirect
+light from beyond ``4 R`` is left out.
+
 Random numbers: a PCG32 per photon, stream = the photon's index, state from ``(seed, pass, bounce)``, so a map
 depends only on its seed and pass, never on how the photons were split or compacted.
 """
@@ -24,7 +30,7 @@ import numpy as np
 
 from .kernel.intersect import intersect, mirror_normal
 from .kernel.surfaces import surface_at
-from .photon_emit import PhotonRays, first_hit_factor, to_np3
+from .photon_emit import PhotonRays, first_hit_factor, scene_ball, to_np3
 from .photon_walk import photon_step
 
 if TYPE_CHECKING:
@@ -104,6 +110,8 @@ def trace_photons(scene: mi.Scene, data: SceneData, f: Features, rays: PhotonRay
     o, d, power = rays.o.copy(), rays.d.copy(), rays.power.copy()
     falloff = rays.falloff.copy()
     n_medium = np.ones(len(o), dtype=np.float64)           # photons leave the lights in air
+    centre, radius = scene_ball(scene)
+    bound = 4.0 * radius                                    # the photons' world (module docstring)
     index = np.arange(len(o), dtype=np.int64)
     kind = np.full(len(o), DIRECT, dtype=np.int8)
     stored: list[tuple[np.ndarray, ...]] = []
@@ -115,11 +123,12 @@ def trace_photons(scene: mi.Scene, data: SceneData, f: Features, rays: PhotonRay
         if depth == 0:
             r = np.where(b["hit"], b["t"].astype(np.float64), np.inf)
             power = power * first_hit_factor(falloff, r)[:, None]
-        store = b["hit"] & (b["kd"].max(axis=1) > 0.0) & np.isin(kind, keep)
+        inside = np.linalg.norm(b["p"] - centre, axis=1) <= bound
+        store = b["hit"] & inside & (b["kd"].max(axis=1) > 0.0) & np.isin(kind, keep)
         if store.any():
             sh = b["shape"][store] if shapes else np.full(int(store.sum()), -1)
             stored.append((b["p"][store], d[store], power[store], kind[store], sh))
-        alive = b["alive"]
+        alive = b["alive"] & inside
         kind = np.where(b["diffuse"], INDIRECT, np.where(kind == DIRECT, CAUSTIC, kind)).astype(np.int8)
         if not any(k in keep for k in (CAUSTIC, INDIRECT)):
             break

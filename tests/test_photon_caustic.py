@@ -95,8 +95,6 @@ def test_caustic_of_a_glass_ball_matches_ptracer(mi) -> None:
 def test_progressive_photon_mapping_converges_to_ptracer(mi) -> None:
     """ppm, 24 passes: the caustic region within 5% and the floor's mean relative error |p − r| / r below 5%
     against ptracer at 16 x 256 spp; and the error of the running mean falls with the passes."""
-    from a5mi.photons.passes import render_ppm
-
     opts = RenderOptions(width=SIZE, height=SIZE, shadows=True, fresnel="exact", integrator="ppm",
                          photons=20000, caustic_photons=50000, bounces=8, seed=1)
     desc, a5, stock = _dicts(mi, opts)
@@ -112,13 +110,11 @@ def test_progressive_photon_mapping_converges_to_ptracer(mi) -> None:
     assert np.abs(mean[floor] - ref[floor]).sum() / ref[floor].sum() < 0.05
     err = [abs(np.mean(passes[:n], axis=0)[shadow].mean() / ref[shadow].mean() - 1.0) for n in (2, 24)]
     assert err[1] < err[0]
-    assert render_ppm is not None
 
 
 def test_diffuse_scene_matches_the_path_tracer(mi) -> None:
     """scenes/diffuse_corner.txt: photon mapping (direct light + global map) against a5_path (64 spp x 4 seeds),
-    image mean within 4 combined sigmas (path: std of the seeds' means / 2; photon: two map seeds, |a − b|/2)
-    plus the kNN estimate's blur bias bound 1% of the indirect share (at most 1% of the mean)."""
+    image mean within 4 combined sigmas (path: std of the seeds' means / 2; photon: two map seeds, |a − b|/2)."""
     from a5mi.converters.to_mitsuba import to_dict
     from a5mi.session import describe_file
 
@@ -133,4 +129,4 @@ def test_diffuse_scene_matches_the_path_tracer(mi) -> None:
     pt = [float(np.asarray(mi.render(scene, seed=s)).mean()) for s in range(4)]
     sigma = math.hypot(np.std(pt, ddof=1) / 2.0, abs(ph[0] - ph[1]) / 2.0)
     gap = abs(np.mean(ph) - np.mean(pt))
-    assert gap < 4.0 * sigma + 0.01 * np.mean(pt), (ph, pt, sigma)
+    assert gap < 4.0 * sigma, (ph, pt, sigma)

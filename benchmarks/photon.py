@@ -1,0 +1,101 @@
+"""Photon mapping speed and time to a given error (BENCHMARKS.md; docs/EXTENSIONS.md E.16).
+
+    A5_DATA=... .venv/bin/python benchmarks/photon.py [--json OUT.json]
+
+On scenes/caustic_sphere.txt (64 x 64, ``-fresnel exact``, the stock point light of the stock conversion):
+
+* photons/s: ``a5_photon.photon_set`` for the global and the caustic map (emission, tracing, storing), warm;
+* kNN queries/s: ``PhotonMap.knn`` (query + front-side filter + filter weights + the sum) against
+  ``cKDTree.query`` alone on the same points and k;
+* time to error: photon mapping with more caustic photons and ptracer with more spp, each timed and scored by
+  the relative error of the caustic-region mean and the floor's mean relative error ``Σ|p − r| / Σ r`` against
+  a ptracer reference of 8 x 1024 spp.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--json")
+    args = ap.parse_args()
+    from a5mi.variant import activate
+
+    activate()
+    import mitsuba as mi
+    from scipy.spatial import cKDTree
+    from test_photon_caustic import SIZE, _caustic_region, _dicts, _ptracer
+
+    from a5mi.options import RenderOptions
+    from a5mi.plugins.photon_maps import PhotonMap
+    from a5mi.plugins.photon_trace import CAUSTIC, DIRECT, INDIRECT
+
+    out: dict = {"load_average": os.getloadavg()}
+    base = RenderOptions(width=SIZE, height=SIZE, shadows=True, fresnel="exact", integrator="photon",
+                         photons=20000, caustic_photons=100000, photon_k=50, bounces=8)
+    desc, a5, stock = _dicts(mi, base)
+    shadow, floor = _caustic_region(desc, SIZE)
+    scene = mi.load_dict(a5)
+    integ = scene.integrator()
+    integ.photon_set(scene, 20000, 0, 0, (DIRECT, CAUSTIC, INDIRECT))          # warm-up: compile
+    integ.photon_set(scene, 20000, 0, 1, (CAUSTIC,))
+    for name, keep, n in (("global", (DIRECT, CAUSTIC, INDIRECT), 200000), ("caustic", (CAUSTIC,), 200000)):
+        t0 = time.perf_counter()
+        ps = integ.photon_set(scene, n, 1, 2, keep)
+        dt = time.perf_counter() - t0
+        out[f"{name}_photons_per_s"] = n / dt
+        out[f"{name}_stored"] = len(ps.pos)
+    ps = integ.photon_set(scene, 200000, 1, 3, (DIRECT, CAUSTIC, INDIRECT))
+    pm = PhotonMap(ps.pos, ps.dir, ps.power)
+    rng = np.random.default_rng(0)
+    q = ps.pos[rng.choice(len(ps.pos), 100000)] + rng.normal(0, 0.01, (100000, 3))
+    n_up = np.tile([0.0, 1.0, 0.0], (len(q), 1))
+    kd = np.full((len(q), 3), 0.8)
+    tree = cKDTree(ps.pos)
+    t0 = time.perf_counter()
+    tree.query(q, k=50)
+    out["ckdtree_query_per_s"] = len(q) / (time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    pm.knn(q, n_up, kd, 50, "cone")
+    out["knn_estimate_per_s"] = len(q) / (time.perf_counter() - t0)
+
+    ref_imgs = _ptracer(mi, stock, 1024, 8)
+    ref = np.mean(ref_imgs, axis=0)
+
+    def score(img: np.ndarray) -> tuple[float, float]:
+        return (abs(img[shadow].mean() / ref[shadow].mean() - 1.0),
+                float(np.abs(img[floor] - ref[floor]).sum() / ref[floor].sum()))
+
+    rows = []
+    for n in (25000, 100000, 400000):
+        d = dict(a5, integrator=dict(a5["integrator"], caustic_photons=n, photons=n // 4, seed=11))
+        t0 = time.perf_counter()
+        img = np.asarray(mi.render(mi.load_dict(d)))[..., 0]
+        rows.append({"method": "a5_photon", "caustic_photons": n, "seconds": time.perf_counter() - t0,
+                     "caustic_err": score(img)[0], "floor_err": score(img)[1]})
+    for spp in (64, 256, 1024):
+        t0 = time.perf_counter()
+        img = _ptracer(mi, stock, spp, 1)[0]
+        rows.append({"method": "ptracer", "spp": spp, "seconds": time.perf_counter() - t0,
+                     "caustic_err": score(img)[0], "floor_err": score(img)[1]})
+    out["time_to_error"] = rows
+    out["load_average_end"] = os.getloadavg()
+    text = json.dumps(out, indent=1, default=float)
+    print(text)
+    if args.json:
+        Path(args.json).write_text(text + "\n")
+
+
+if __name__ == "__main__":
+    main()
