@@ -7,6 +7,7 @@ On scenes/caustic_sphere.txt (64 x 64, ``-fresnel exact``, the stock point light
 * photons/s: ``a5_photon.photon_set`` for the global and the caustic map (emission, tracing, storing), warm;
 * kNN queries/s: ``PhotonMap.knn`` (query + front-side filter + filter weights + the sum) against
   ``cKDTree.query`` alone on the same points and k;
+* ppm: the floor's relative RMSE of the running mean of 1 .. 32 passes and its log-log slope;
 * time to error: photon mapping with more caustic photons and ptracer with more spp, each timed and scored by
   the relative error of the caustic-region mean and the floor's mean relative error ``Σ|p − r| / Σ r`` against
   a ptracer reference of 8 x 1024 spp.
@@ -90,6 +91,23 @@ def main() -> None:
         rows.append({"method": "ptracer", "spp": spp, "seconds": time.perf_counter() - t0,
                      "caustic_err": score(img)[0], "floor_err": score(img)[1]})
     out["time_to_error"] = rows
+
+    # progressive photon mapping: error of the running mean of N passes (RMSE over the floor, relative to the
+    # reference's mean there) and its log-log slope against N
+    ppm = dict(a5, integrator=dict(a5["integrator"], type="a5_ppm", seed=3, photons=10000, caustic_photons=25000))
+    for key in ("k", "final_gather"):
+        ppm["integrator"].pop(key, None)
+    running, errs, t0 = None, [], time.perf_counter()
+    counts = (1, 2, 4, 8, 16, 32)
+    for k in range(counts[-1]):
+        scene_k = mi.load_dict(dict(ppm, integrator=dict(ppm["integrator"], first_pass=k, passes=1)))
+        img = np.asarray(mi.render(scene_k))[..., 0].astype(np.float64)
+        running = img if running is None else running + img
+        if k + 1 in counts:
+            mean = running / (k + 1)
+            errs.append(float(np.sqrt(np.mean((mean[floor] - ref[floor]) ** 2)) / ref[floor].mean()))
+    slope = float(np.polyfit(np.log(counts), np.log(errs), 1)[0])
+    out["ppm"] = {"passes": counts, "rel_rmse": errs, "slope": slope, "seconds": time.perf_counter() - t0}
     out["load_average_end"] = os.getloadavg()
     text = json.dumps(out, indent=1, default=float)
     print(text)

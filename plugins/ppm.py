@@ -3,7 +3,7 @@
 Pass ``i = 1, 2, ...`` is an independent photon-mapping image: its own photon maps (plugins/photon.py, seeded
 by ``(seed, i)``) and a radius shared by every point,
 
-    r_1 = radius  (0: 1/50 of the bounding-sphere radius of the scene's shapes),
+    r_1 = radius  (0: 1/50 of the bounding-sphere radius of the shapes, lights and camera),
     r_(i+1)² = r_i² (i + α) / (i + 1),   so   r_i² = r_1² Π_(j=1)^(i-1) (j + α)/(j + 1)
 
 (``α`` = ``alpha``, default 2/3); the caustic and global estimates take every photon within ``r_i``
@@ -25,6 +25,7 @@ import mitsuba as mi
 import numpy as np
 
 from .photon import A5PhotonIntegrator, Maps, _dr3, _float, _int, _width
+from .photon_emit import scene_ball
 from .sampling import SamplePass
 
 
@@ -53,10 +54,11 @@ class A5PPMIntegrator(A5PhotonIntegrator):
         self.final_gather = 0
 
     def initial_radius(self, scene: mi.Scene) -> float:
-        """``r_1``: ``radius``, or 1/50 of the bounding-sphere radius of the scene's shapes."""
+        """``r_1``: ``radius``, or 1/50 of the radius of the bounding sphere of the shapes, lights and camera
+        (plugins/photon_emit.py ``scene_ball``)."""
         if self.radius > 0.0:
             return self.radius
-        return max(float(scene.bbox().bounding_sphere().radius), 1e-3) / 50.0
+        return scene_ball(scene)[1] / 50.0
 
     def estimate(self, maps: Maps, x: np.ndarray, n: np.ndarray, kd: np.ndarray, pass_index: int) -> np.ndarray:
         r = radius_at(self._r1, self.alpha, pass_index + 1)

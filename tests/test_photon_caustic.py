@@ -119,7 +119,7 @@ def test_diffuse_scene_matches_the_path_tracer(mi) -> None:
     from a5mi.session import describe_file
 
     desc, _ = describe_file(str(SCENES / "diffuse_corner.txt"))
-    opts = RenderOptions(width=40, height=40, shadows=True, integrator="photon", photons=30000, caustic_photons=0,
+    opts = RenderOptions(width=40, height=40, shadows=True, integrator="photon", photons=120000, caustic_photons=0,
                          photon_k=50, bounces=8)
     ph = [float(np.asarray(mi.render(mi.load_dict(to_dict(desc, dataclasses.replace(opts, seed=s))))).mean())
           for s in (1, 2)]
