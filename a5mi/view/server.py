@@ -32,6 +32,8 @@ from importlib import resources as package_data
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
+from a5mi.errors import UserError
+
 #: Seconds between two keep-alive comments of the event stream.
 PING_SECONDS = 15.0
 #: Seconds a trace request waits for the engine.
@@ -222,7 +224,7 @@ def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any
             except json.JSONDecodeError:
                 self._json(400, {"error": "a5mi view: error: the request is not JSON"})
                 return
-            except ValueError as exc:  # ControlError is a UsageError, a ValueError
+            except (UserError, ValueError) as exc:  # ControlError; a RenderOptions check
                 self._json(400, {"error": f"a5mi view: error: {exc}"})
                 return
             jobs.render(options)
@@ -236,7 +238,7 @@ def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any
                 return
             try:
                 doc = jobs.trace(x, y).result(timeout=TRACE_SECONDS)
-            except ValueError as exc:
+            except (UserError, ValueError) as exc:  # TraceError; a SceneError
                 self._json(400, {"error": str(exc) if ": error: " in str(exc) else f"a5mi view: error: {exc}"})
                 return
             except Exception as exc:  # noqa: BLE001 - reported on the page, the server goes on

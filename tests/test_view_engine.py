@@ -1,0 +1,129 @@
+"""``a5mi view``'s engine and loop in this process (no browser): the frame's PNG is ``a5``'s file byte for byte,
+the reference comparison is ``compare``'s, a clicked pixel's tree sums to the pixel and its hit point projects
+onto it, a scene error is one positioned line and keeps the last good image, a save re-renders."""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from view_scenes import a5_png, time_limit, write_scene
+
+from a5mi.options import RenderOptions
+
+OPTS = RenderOptions(width=40, height=40, shadows=True)
+
+
+@pytest.fixture(scope="module")
+def session(variant):  # noqa: ANN001, ANN201 - fixtures
+    from a5mi.session import RenderSession
+
+    return RenderSession()
+
+
+def test_frame_png_is_a5s_file_and_the_reference_comparison_is_compares(tmp_path: Path, session) -> None:  # noqa: ANN001
+    from a5mi import compare
+    from a5mi.imageio import read_levels
+    from a5mi.view.engine import ViewEngine
+
+    with time_limit(120):
+        scene = write_scene(tmp_path / "s.txt")
+        ref_scene = write_scene(tmp_path / "r.txt", "0.1 1 0.1")
+        ref = tmp_path / "ref.png"
+        a5_png(ref_scene, ref, "-size", "40", "40", "-shadows")
+        engine = ViewEngine(str(scene), session, reference=str(ref))
+        frame = engine.render(OPTS)
+        assert frame.render_png == a5_png(scene, tmp_path / "a5.png", "-size", "40", "40", "-shadows")
+        want = compare.compare_arrays(read_levels(tmp_path / "a5.png"), read_levels(ref))
+        assert frame.metrics is not None and frame.metrics["psnr"] == pytest.approx(want.psnr)
+        assert frame.metrics["share_over"] == want.share_over and frame.metrics["verdict"] == "wrong"
+        assert frame.diff_png is not None and frame.reference_png is not None
+        # -jitter -filter through the same session: still a5's bytes
+        jf = dataclasses.replace(OPTS, jitter=True, filter=True)
+        assert engine.render(jf).render_png == a5_png(scene, tmp_path / "jf.png", "-size", "40", "40", "-shadows",
+                                                       "-jitter", "-filter")
+
+
+@pytest.mark.parametrize("flags", [{}, {"jitter": True, "filter": True}])
+def test_trace_sums_to_the_pixel_and_projects_the_camera_hit_onto_it(tmp_path: Path, session, flags) -> None:  # noqa: ANN001
+    from a5mi.imageio import quantize
+    from a5mi.view.engine import ViewEngine
+
+    with time_limit(120):
+        engine = ViewEngine(str(write_scene(tmp_path / "s.txt")), session,
+                            reference=None)
+        frame = engine.render(dataclasses.replace(OPTS, **flags))
+        for x, y in ((20, 22), (8, 30), (35, 5)):
+            doc = engine.trace(x, y)
+            pixel = tuple(int(v) for v in quantize(frame.image[y, x])[:3])
+            assert tuple(doc["image_byte"]) == pixel and tuple(doc["value_byte"]) == pixel
+            if not flags:
+                total = np.array(doc["samples"][0]["sum"], np.float32)
+                assert np.array_equal(total, frame.image[y, x, :3])
+                assert doc["marks"][0] == pytest.approx([x, y], abs=1e-3)  # the camera ray's hit is this pixel
+            assert len(doc["lines"]) >= 3 and doc["diff"] is None
+
+
+def test_scene_error_keeps_the_last_good_image_and_a_save_re_renders(tmp_path: Path, session) -> None:  # noqa: ANN001
+    from a5mi.view.engine import ViewEngine
+    from a5mi.view.live import run_engine
+    from a5mi.view.server import Hub, Jobs
+    from a5mi.view.watcher import Watcher
+
+    with time_limit(120):
+        scene = write_scene(tmp_path / "s.txt")
+        engine = ViewEngine(str(scene), session)
+        hub, jobs, stop = Hub(), Jobs(), threading.Event()
+        watcher = Watcher(lambda: jobs.render(reload=True), interval=0.05)
+        watcher.start()
+        done = threading.Event()
+        errors: list[BaseException] = []
+
+        def wait_version(v: int) -> dict:
+            t0 = time.monotonic()
+            while hub.state().get("version", 0) < v:
+                assert time.monotonic() - t0 < 60, hub.state()
+                time.sleep(0.02)
+            return hub.state()
+
+        def drive() -> None:
+            try:
+                first = wait_version(1)
+                assert first["error"] is None and hub.image("render") is not None
+                good = hub.image("render")
+                scene.write_text(scene.read_text().replace("numObjects 3", "numObjects 3\n    Sphere {\n  radius"))
+                bad = wait_version(2)
+                assert bad["error"].startswith(f"{scene}:") and ": error: " in bad["error"], bad["error"]
+                assert "\n" not in bad["error"] and hub.image("render") == good and bad["frame"] == first["frame"]
+                write_scene(scene, "0.9 0.9 0.1")
+                fixed = wait_version(3)
+                assert fixed["error"] is None and fixed["frame"] == first["frame"] + 1
+                assert hub.image("render") == a5_png(scene, tmp_path / "a5.png", "-size", "40", "40", "-shadows")
+                done.set()
+            except BaseException as exc:  # noqa: BLE001 - re-raised on the main thread
+                errors.append(exc)
+            finally:
+                stop.set()
+
+        # the loop renders on this (the main) thread, as in a5mi view; the checks run beside it
+        checker = threading.Thread(target=drive)
+        checker.start()
+        run_engine(engine, hub, jobs, watcher, OPTS, stop=stop)
+        checker.join(timeout=10)
+        watcher.stop()
+        if errors:
+            raise errors[0]
+        assert done.is_set()
+
+
+def test_binary_argv_is_the_spec_flags() -> None:
+    from a5mi.view.engine import binary_argv
+
+    opts = RenderOptions(width=30, height=20, bounces=2, shadows=True, jitter=True, filter=True, refraction=False,
+                         phong=True)
+    assert binary_argv(opts) == ["-size", "30", "20", "-bounces", "2", "-shadows", "-jitter", "-filter",
+                                 "-refraction_off"]
