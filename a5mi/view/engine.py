@@ -6,7 +6,7 @@ read for :mod:`a5mi.view.watcher`; :meth:`~ViewEngine.render` renders it with a 
 (SPEC B.1-B.5) and returns a :class:`Frame`:
 
 * ``render_png``: the PNG file ``a5 -output X.png`` writes for the same flags (:func:`a5mi.imageio.write_image`
-  of the saved image: SPEC B.1 quantisation ``clamp(floor(255 c + 0.5))``), byte for byte;
+  of the saved image: SPEC B.1 quantisation ``clamp(int(255 c), 0, 255)``, float32 product truncated), byte for byte;
 * the reference: ``--reference IMG`` (read once), or ``--binary PATH``'s render of the same scene with the same
   SPEC B.1 flags, run sandboxed as ``a5mi difftest`` runs it (:func:`a5mi.difftest.runner.run_binary`);
 * ``compare``'s metrics of the pair (:func:`a5mi.compare.compare_arrays`: PSNR ``10 log10(255² / MSE)``, mean
@@ -279,6 +279,10 @@ class ViewEngine:
         shown = 4 if len(pt.block) > 1 else 0
         tree = pt.trees[shown]
         doc = report.trace_json(pt)
+        from a5mi.imageio import quantize
+
+        for sample in doc["samples"]:  # each tree's sum as the 8-bit level a5 would save (SPEC B.1)
+            sample["sum_byte"] = [int(b) for b in quantize(np.array(sample["sum"], np.float32)).ravel()[:3]]
         doc["shown"] = shown
         doc["lines"] = report.tree_lines(tree, frame.options.fresnel, self.desc.ambient)
         doc["text"] = report.format_trace(pt, self.desc.ambient)

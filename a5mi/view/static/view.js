@@ -16,7 +16,6 @@ function el(tag, attrs, ...kids) {
   return e;
 }
 const v3 = (v, d) => "(" + v.map((x) => (x === null ? "nan" : Number(x).toPrecision(d || 6).replace(/\.?0+$/, ""))).join(", ") + ")";
-const byte = (c) => Math.min(255, Math.max(0, Math.floor(255 * c + 0.5)));
 
 // ---------------------------------------------------------------- controls
 function buildControls(controls) {
@@ -107,6 +106,7 @@ for (const name of ["render", "reference", "diff"]) {
   $(name).addEventListener("load", () => {
     const img = $(name);
     img.dataset.frame = img.dataset.pending;
+    img.dataset.loadedAt = Date.now();
     if (name === "render") { sizeOverlay(); drawMarks(null); }
   });
 }
@@ -184,7 +184,7 @@ function showTrace(doc) {
     + doc.pixel[0] + " " + doc.pixel[1] + " (grid " + doc.grid[0] + "x" + doc.grid[1] + ")"
     + (doc.samples.length > 1 ? "; tree of sample " + k + " of " + doc.samples.length : "") }));
   sample.nodes.forEach((n, i) => out.push(nodeView(n, i)));
-  const sumByte = sample.sum.map(byte);
+  const sumByte = sample.sum_byte;
   const pix = doc.image_byte;
   const single = doc.samples.length === 1;
   const agree = single ? sumByte.join() === pix.join() : doc.value_byte.join() === pix.join();
