@@ -120,8 +120,13 @@ def shoot(page, path: Path) -> None:  # noqa: ANN001
     box = page.locator("#render").bounding_box()
     page.mouse.click(box["x"] + 172.5, box["y"] + 150.5)
     page.wait_for_selector("#trace-sum", timeout=120_000)
-    page.locator(".node").nth(1).dispatch_event("mouseenter")  # mark its hit point without scrolling
+    page.locator(".node").nth(2).dispatch_event("mouseenter")  # mark its hit point without scrolling
     page.screenshot(path=str(path))
+    import OpenImageIO as oiio  # Chromium's PNG, recompressed (the README's image stays small)
+
+    buf = oiio.ImageBuf(str(path))
+    buf.specmod().attribute("png:compressionLevel", 9)
+    buf.write(str(path))
 
 
 if __name__ == "__main__":

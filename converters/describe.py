@@ -209,20 +209,23 @@ class SceneDescription:
     medium: MediumDescription | None = None
 
 
-def describe(scene: Scene, *, stock: bool = False, normals: NormalMode = "auto", bump: bool = False
-             ) -> SceneDescription:
+def describe(scene: Scene, *, stock: bool = False, normals: NormalMode = "auto", bump: bool = False,
+             decoded: files.Decoded | None = None) -> SceneDescription:
     """The :class:`SceneDescription` of ``scene``: every file read once, geometry in world space.
 
     Raises :class:`SceneSemanticError` for missing or unreadable meshes, textures or cube-map faces, at the
     keyword that named them (or at the OBJ line at fault), and for geometry that nested ``Transform`` s push
     out of float32 range or make singular, at the primitive. ``stock=True`` adds the warnings of the stock
     conversion's approximations (:mod:`.to_mitsuba`). ``normals``: :func:`.obj.vertex_normals`' rule. numpy's
-    floating-point warnings are silenced here: such overflows are checked and reported as errors instead."""
+    floating-point warnings are silenced here: such overflows are checked and reported as errors instead.
+    ``decoded``: images already decoded by the caller, by resolved path (a caller that re-describes an edited
+    scene, ``a5mi view``, keeps the decoded images whose files did not change); new decodes are added to it."""
     with np.errstate(all="ignore"):
-        return _describe(scene, stock=stock, normals=normals, bump=bump)
+        return _describe(scene, stock=stock, normals=normals, bump=bump, decoded=decoded)
 
 
-def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = False) -> SceneDescription:
+def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = False,
+              decoded: files.Decoded | None = None) -> SceneDescription:
     warnings: list[SceneWarning] = []
     if stock and any(scene.ambient):
         warnings.append((scene.background.loc or scene.camera.loc,  # type: ignore[arg-type]
@@ -244,7 +247,7 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
                 meshes[prim.obj_file].vertices, meshes[prim.obj_file].faces, warnings=warnings, loc=prim.obj_file_loc)
     centre = geometry_centre(placed, meshes)
 
-    decoded: files.Decoded = {}  # each image file decoded once, even when several materials name it
+    decoded = {} if decoded is None else decoded  # each image file decoded once, even when several materials name it
     bg = scene.background
     background: Background
     if bg.cube_map is not None:

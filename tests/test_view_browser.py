@@ -15,7 +15,6 @@ import selectors
 import signal
 import subprocess
 import sys
-import time
 import urllib.error
 import urllib.request
 from pathlib import Path
@@ -33,8 +32,8 @@ FLAGS = ["-size", "48", "48", "-shadows"]
 
 def start_view(*argv: str, cwd: Path) -> tuple[subprocess.Popen[str], str]:
     """``a5mi view ARGV`` as its own process; its URL from the first line of stdout."""
-    proc = subprocess.Popen([str(Path(sys.executable).with_name("a5mi")), "view", *argv], cwd=cwd, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen([str(Path(sys.executable).with_name("a5mi")), "view", *argv], cwd=cwd,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     sel = selectors.DefaultSelector()
     sel.register(proc.stdout, selectors.EVENT_READ)
     if not sel.select(timeout=120):

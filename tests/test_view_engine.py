@@ -127,3 +127,37 @@ def test_binary_argv_is_the_spec_flags() -> None:
                          phong=True)
     assert binary_argv(opts) == ["-size", "30", "20", "-bounces", "2", "-shadows", "-jitter", "-filter",
                                  "-refraction_off"]
+
+
+def test_a_reload_decodes_only_the_images_that_changed(tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001
+    """The six cube-map faces are decoded once; a save of the scene text reuses them, a changed face is read
+    again (and only it)."""
+    from a5mi.converters import files
+    from a5mi.imageio import write_image
+    from a5mi.view.engine import ViewEngine
+
+    (tmp_path / "sky").mkdir()
+    faces = ("left", "right", "up", "down", "front", "back")
+    for k, face in enumerate(faces):
+        write_image(tmp_path / "sky" / f"{face}.png", np.full((4, 4, 3), k / 8.0))
+    scene = tmp_path / "s.txt"
+    scene.write_text(write_scene(tmp_path / "plain.txt").read_text().replace(
+        "    ambientLight 0.2 0.2 0.2", "    ambientLight 0.2 0.2 0.2\n    cubeMap sky"))
+    reads: list[str] = []
+    real = files.imageio.read_uint8
+    monkeypatch.setattr(files.imageio, "read_uint8", lambda p: (reads.append(Path(p).name), real(p))[1])
+    from types import SimpleNamespace
+
+    engine = ViewEngine(str(scene), session=SimpleNamespace(forget=lambda desc: None))
+    time.sleep(0.05)
+    engine.load()
+    assert sorted(reads) == sorted(f"{f}.png" for f in faces)
+    first = engine.desc.background.faces
+    reads.clear()
+    scene.write_text(scene.read_text().replace("0.2 0.1 0.6", "0.3 0.1 0.6"))
+    engine.load()
+    assert reads == [] and engine.desc.background.faces[0] is first[0]
+    write_image(tmp_path / "sky" / "up.png", np.full((4, 4, 3), 0.9))
+    engine.load()
+    up = next(f for f in engine.desc.background.faces if f.path.name == "up.png")
+    assert reads == ["up.png"] and int(up.pixels[0, 0, 0]) == int(np.float32(0.9) * np.float32(255))

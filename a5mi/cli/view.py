@@ -90,6 +90,7 @@ def _serve(args: Args, console: Console, options: object, binary: object) -> int
     finally:
         watcher.stop()
         server.stop()
+        engine.close()
     return ExitStatus.OK
 
 

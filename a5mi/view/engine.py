@@ -127,8 +127,17 @@ class ViewEngine:
         self.frame: Frame | None = None
         self._versions = 0
         self._ref_image: np.ndarray | None = None
+        #: images decoded by earlier loads (resolved path -> converters.files.Image) and their files' stamps
+        self._decoded: dict[Path, Any] = {}
+        self._image_stamps: dict[Path, Any] = {}
         self._binary_cache: dict[tuple[int, tuple[str, ...]], np.ndarray] = {}
         self._scratch = tempfile.mkdtemp(prefix="a5mi-view-")
+
+    def close(self) -> None:
+        """Remove the scratch folder of the PNG encodings."""
+        import shutil
+
+        shutil.rmtree(self._scratch, ignore_errors=True)
 
     # ------------------------------------------------------------------------------------------ the scene
     def load(self, bump: bool | None = None) -> None:
@@ -139,18 +148,45 @@ class ViewEngine:
         from a5mi.converters.a5_parser import parse_file
         from a5mi.converters.describe import describe
 
+        started = time.time_ns()
+        self._keep_unchanged_images()
         try:
             model = parse_file(self.scene)
         except OSError as exc:
             raise UserError(f"cannot read '{self.scene}': {exc.strerror or exc}") from None
         bump = self.bump if bump is None else bump
-        desc = describe(model, bump=bump)
+        try:
+            desc = describe(model, bump=bump, decoded=self._decoded)
+        finally:
+            self._stamp_images(started)
         self.inputs = list(dict.fromkeys([*self.inputs, *scene_inputs(desc, model)]))
         if self.desc is not None:
             self.session.forget(self.desc)
         self.desc, self.bump = desc, bump
         self.warnings = [f"{loc}: warning: {msg}" for loc, msg in [*model.warnings, *desc.warnings]]
         self.loaded_at += 1
+
+    def _keep_unchanged_images(self) -> None:
+        """Drop the decoded images whose file changed (or vanished) since it was decoded."""
+        from .watcher import stamp
+
+        for path, was in list(self._image_stamps.items()):
+            if stamp(path) != was:
+                self._decoded.pop(path, None)
+                del self._image_stamps[path]
+
+    def _stamp_images(self, started: int) -> None:
+        """Remember the state of each newly decoded image file; one modified since the load ``started`` (ns) is
+        not kept: it may have been decoded half-written."""
+        from .watcher import stamp
+
+        for path in list(self._decoded):
+            if path not in self._image_stamps:
+                now = stamp(path)
+                if now is None or now[0] >= started:
+                    self._decoded.pop(path)
+                else:
+                    self._image_stamps[path] = now
 
     def watch_on_error(self) -> list[Path]:
         """What to watch after a failed load: the files read so far, and the scene's folder and the working

@@ -82,7 +82,8 @@ function show(s) {
 function showMetrics(s) {
   const m = s.metrics;
   $("compare").hidden = !(m || s.reference_error);
-  $("reference-name").textContent = s.reference_name || "";
+  $("reference-name").textContent = (s.reference_name || "").split("/").pop();
+  $("reference-name").title = s.reference_name || "";
   $("reference-error").hidden = !s.reference_error;
   $("reference-error").textContent = s.reference_error || "";
   const body = $("metrics").tBodies[0];
