@@ -161,3 +161,35 @@ def test_a_reload_decodes_only_the_images_that_changed(tmp_path: Path, monkeypat
     engine.load()
     up = next(f for f in engine.desc.background.faces if f.path.name == "up.png")
     assert reads == ["up.png"] and int(up.pixels[0, 0, 0]) == int(np.float32(0.9) * np.float32(255))
+
+
+def test_binary_reference_runs_sandboxed_and_trace_diff_names_a_term(tmp_path: Path, session) -> None:  # noqa: ANN001
+    """``--binary``: another a5 (here a5 with ``-fresnel schlick``, a Python script of this venv, allowed to read
+    its interpreter and a5mi's sources) renders the same scene and flags in the sandbox; the glass differs, so
+    the verdict is not ``match``, and a glass pixel's ``trace --diff`` names terms of the tree."""
+    import sys
+
+    from a5mi import PROJECT_ROOT, sandbox
+    from a5mi.difftest.runner import Binary, check_binary
+    from a5mi.view.engine import ViewEngine
+
+    if sandbox.sandbox_problem():
+        pytest.skip(f"--binary runs only sandboxed: {sandbox.sandbox_problem()}")
+    with time_limit(300):
+        (tmp_path / "bin").mkdir(mode=0o755)
+        exe = tmp_path / "bin" / "a5schlick"
+        exe.write_text(f"#!{sys.executable}\nimport sys\nfrom a5mi.cli import run\n"
+                       "sys.exit(run(sys.argv[1:] + ['-fresnel', 'schlick']))\n")
+        for p in (exe, exe.parent, tmp_path):  # the run's own user id reaches it
+            p.chmod(0o755)
+        binary = Binary(check_binary(exe), (sys.prefix, sys.base_prefix, str(PROJECT_ROOT)))
+        scene = write_scene(tmp_path / "s.txt")
+        engine = ViewEngine(str(scene), session, binary=binary)
+        frame = engine.render(OPTS)
+        assert frame.reference_error is None and frame.metrics is not None, frame.reference_error
+        assert frame.metrics["psnr"] is not None and frame.metrics["verdict"] != "match"
+        x0, y0, x1, y1 = frame.metrics["bbox"]
+        doc = engine.trace((x0 + x1) // 2, (y0 + y1) // 2)
+        assert doc["diff"] is not None and doc["diff"]["off_by"] >= 0
+        again = engine.render(OPTS)  # same scene and flags: the binary's image is reused, not run again
+        assert again.seconds["reference"] < 0.5 and again.reference_png == frame.reference_png
