@@ -127,6 +127,7 @@ class ViewEngine:
         self.frame: Frame | None = None
         self._versions = 0
         self._ref_image: np.ndarray | None = None
+        self._ref_png: tuple[np.ndarray, bytes] | None = None
         #: images decoded by earlier loads (resolved path -> converters.files.Image) and their files' stamps
         self._decoded: dict[Path, Any] = {}
         self._image_stamps: dict[Path, Any] = {}
@@ -283,7 +284,9 @@ class ViewEngine:
         if progress:
             progress("compare", 0, 1)
         frame.reference_levels = ref
-        frame.reference_png = png_bytes(ref.astype(np.uint8), self._scratch)
+        if self._ref_png is None or self._ref_png[0] is not ref:  # encoded once per reference image
+            self._ref_png = (ref, png_bytes(ref.astype(np.uint8), self._scratch))
+        frame.reference_png = self._ref_png[1]
         if ref.shape != ours.shape:
             frame.reference_error = (f"image sizes differ: the render is {ours.shape[1]}x{ours.shape[0]}, the "
                                      f"reference {ref.shape[1]}x{ref.shape[0]} (verdict: wrong size)")
