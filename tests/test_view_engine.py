@@ -193,3 +193,17 @@ def test_binary_reference_runs_sandboxed_and_trace_diff_names_a_term(tmp_path: P
         assert doc["diff"] is not None and doc["diff"]["off_by"] >= 0
         again = engine.render(OPTS)  # same scene and flags: the binary's image is reused, not run again
         assert again.seconds["reference"] < 0.5 and again.reference_png == frame.reference_png
+
+
+def test_an_integrator_without_a_ray_tree_says_so(tmp_path: Path, session) -> None:  # noqa: ANN001
+    """``-integrator path`` renders on the page; a click answers that it records no ray tree (one line, a user
+    error), instead of failing inside the record mode."""
+    from a5mi.trace.core import TraceError
+    from a5mi.view.engine import ViewEngine
+
+    with time_limit(300):
+        engine = ViewEngine(str(write_scene(tmp_path / "s.txt")), session)
+        frame = engine.render(RenderOptions(width=12, height=12, integrator="path", seed=1))
+        assert frame.size == (12, 12)
+        with pytest.raises(TraceError, match="-integrator path records no ray tree"):
+            engine.trace(5, 5)

@@ -85,6 +85,7 @@ def test_render_requests_are_checked_and_coalesce(served) -> None:  # noqa: ANN0
     server, _, jobs = served
     with time_limit(60):
         assert get(server, "/api/render", data=b'{"bounces": 2}')[0] == 202
+        assert get(server, "/api/render", data=b'{"integrator": "path", "rr_depth": 2, "indirect": 0}')[0] == 202
         assert get(server, "/api/render", data=b'{"bounces": 3, "shadows": true}')[0] == 202
         for bad, why in ((b'{"bounces": 99}', "outside 0..64"), (b'{"shadows": 1}', "true or false"),
                          (b'{"colour": 1}', "unknown control"), (b'{"fresnel": "x"}', "expected one of"),

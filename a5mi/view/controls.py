@@ -36,6 +36,8 @@ CONTROLS: dict[str, tuple[str, str, Any]] = {
     "phong": ("bool", "-phong", None),
     "bump": ("bool", "-bump", None),
     "spp": ("int", "-spp", (1, 65536)),
+    "indirect": ("int", "-indirect (whitted)", (0, 4096)),
+    "rr_depth": ("int", "-rr_depth (path)", (0, 1 << 16)),
 }
 
 

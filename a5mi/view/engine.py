@@ -314,6 +314,11 @@ class ViewEngine:
         if frame is None or self.desc is None:
             raise UserError("nothing rendered yet")
         tracer = session_tracer(self.desc, frame.options, self.session, frame.image)
+        if not _records(tracer.integrator):
+            from a5mi.trace.core import TraceError
+
+            raise TraceError(f"-integrator {frame.options.integrator} records no ray tree (the Whitted integrator's "
+                             "SPEC B.3 tree is what a5mi trace shows): set -integrator whitted to trace a pixel")
         (pt,) = tracer.pixels([(x, y)])
         shown = 4 if len(pt.block) > 1 else 0
         tree = pt.trees[shown]
@@ -343,6 +348,17 @@ class ViewEngine:
         return {"other_byte": [int(v) for v in other], "off_by": err, "noise": report.DIFF_NOISE,
                 "terms": [{"label": t.label, "kind": t.kind, "value": list(t.value), "sign": t.sign,
                            "node": t.node, "residual": r} for t, r in ranked[:5]]}
+
+
+def _records(integrator: Any) -> bool:
+    """Whether ``integrator.trace`` takes the ``record`` argument of the trace library's record mode."""
+    import inspect
+
+    trace = getattr(integrator, "trace", None)
+    try:
+        return trace is not None and "record" in inspect.signature(trace).parameters
+    except (TypeError, ValueError):
+        return False
 
 
 def session_tracer(desc: Any, options: RenderOptions, session: Any, image: np.ndarray) -> Any:
