@@ -160,3 +160,23 @@ def test_watcher_sees_edits_new_files_and_uses_the_baseline(tmp_path: Path) -> N
         before = {scene: (0, 0, 0)}  # a snapshot from before the read: the file has changed since
         w.watch([scene, mesh], before)
         assert w.poll() and len(seen) == 3
+
+
+def test_command_line_errors_are_one_line_before_anything_serves(tmp_path: Path, capsys) -> None:
+    """A port in use, an unreadable --reference, both --reference and --binary: exit 2, one line."""
+    from a5mi import cli
+
+    scene = tmp_path / "s.txt"
+    scene.write_text("")
+    (tmp_path / "not.png").write_text("not an image")
+    with time_limit(60), socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        for argv, message in (
+                (["--port", str(port)], f"a5mi view: error: cannot listen on 127.0.0.1:{port}: "),
+                (["--reference", str(tmp_path / "not.png")], "a5mi view: error: "),
+                (["--reference", "a.png", "--binary", "b"], "give --reference IMG or --binary PATH, not both")):
+            assert cli.run_a5mi(["view", str(scene), *argv]) == 2
+            err = capsys.readouterr().err.strip()
+            assert len(err.splitlines()) == 1 and message in err, err

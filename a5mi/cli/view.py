@@ -55,7 +55,6 @@ def run_view(args: Args, console: Console) -> int:
         allow = tuple(p for p in (args.allow_read or "").split(":") if p)
         binary = Binary(check_binary(args.binary), allow)
     options = render_options(args, normals=False, depth=None, count_rays=False)
-    activate_variant(args.variant)
     return _serve(args, console, options, binary)
 
 
@@ -67,14 +66,19 @@ def _serve(args: Args, console: Console, options: object, binary: object) -> int
     from a5mi.view.server import Hub, Jobs, Server
     from a5mi.view.watcher import Watcher
 
-    session = RenderSession(args.variant)
-    engine = ViewEngine(args.scene, session, reference=args.reference, binary=binary, timeout=args.timeout)
     hub, jobs = Hub(), Jobs()
-    try:
+    try:  # the port first: a port in use is one line before Mitsuba is loaded
         server = Server(secrets.token_urlsafe(24), hub, jobs, lambda values: controls.apply(options, values),
                         args.port)
     except OSError as exc:
         raise UsageError(f"cannot listen on 127.0.0.1:{args.port}: {exc.strerror or exc}") from None
+    try:
+        activate_variant(args.variant)
+        session = RenderSession(args.variant)
+    except BaseException:
+        server.httpd.server_close()
+        raise
+    engine = ViewEngine(args.scene, session, reference=args.reference, binary=binary, timeout=args.timeout)
     watcher = Watcher(lambda: jobs.render(reload=True))
     server.start()
     watcher.start()
