@@ -76,6 +76,9 @@ class RenderOptions:
     bump: bool = False
     #: ``-integrator``: a key of :data:`INTEGRATORS` (``whitted``: SPEC B.3)
     integrator: str = "whitted"
+    #: docs/EXTENSIONS.md E.8, E.9: 0 the course-era medium (light unattenuated on its way); N >= 1 shadow rays
+    #: carry the medium's transmittance and light scatters up to N times in it
+    media_bounces: int = 0
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -89,6 +92,8 @@ class RenderOptions:
             raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got '{self.integrator}'")
         if self.spp < 1:
             raise ValueError(f"spp must be >= 1, got {self.spp}")
+        if self.media_bounces < 0:
+            raise ValueError(f"media_bounces must be >= 0, got {self.media_bounces}")
         if self.tile_rays <= 0:
             raise ValueError(f"tile_rays must be positive, got {self.tile_rays}")
 
@@ -119,4 +124,6 @@ class RenderOptions:
                   "refraction": bool(self.refraction), "aovs": ",".join(self.aov_groups)}
         if self.bump:  # docs/EXTENSIONS.md E.7; absent otherwise, so course dicts and XML are unchanged
             params["bump"] = True
+        if self.media_bounces:  # docs/EXTENSIONS.md E.8, E.9; absent otherwise (dicts and XML unchanged)
+            params["medium_bounces"] = int(self.media_bounces)
         return params

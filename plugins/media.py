@@ -37,6 +37,7 @@ import mitsuba as mi
 
 from .kernel.intersect import visible
 from .kernel.lights import Lights
+from .media_light import box_span, shadow_transmittance
 from .planes import PlaneSet
 from .sampling import Stochastic, stratified_2d
 from .syntax import syntax
@@ -57,13 +58,17 @@ class MediumParams:
     placed on the box) and the box corners (opaque)."""
 
     def __init__(self, kind: str, density: float, albedo: list[float], steps: int,
-                 grid: mi.Volume | None = None) -> None:
+                 grid: mi.Volume | None = None, bounces: int = 0) -> None:
         self.kind = kind
         self.density_value, self.albedo_value, self.steps_value = float(density), list(albedo), int(steps)
         self.density = dr.opaque(mi.Float, self.density_value)
         self.albedo = dr.opaque(mi.Color3f, self.albedo_value)
         self.steps = dr.opaque(mi.UInt32, self.steps_value)
+        #: ``medium_bounces`` (``-media_bounces``): 0 the course-era E.8 (light unattenuated on its way), >= 1
+        #: shadow rays carry the medium's transmittance (plugins/media_light.py)
+        self.bounces = int(bounces)
         self.grid = grid
+        self.grid_max = dr.opaque(mi.Float, float(grid.max()) if grid is not None else 0.0)
         if grid is not None:
             box = grid.bbox()
             self.box_min = dr.opaque(mi.Point3f, [float(box.min[i]) for i in range(3)])
@@ -74,6 +79,9 @@ def params_from_props(props: mi.Properties) -> MediumParams | None:
     """``medium`` (``none`` | ``fog`` | ``volume``), ``medium_density`` (>= 0), ``medium_albedo`` (rgb),
     ``medium_steps`` (>= 1) and, for a volume, ``medium_grid`` (a ``gridvolume``); None for ``none``."""
     kind = props.get("medium", "none")
+    bounces = props.get("medium_bounces", 0)
+    if isinstance(bounces, bool) or not isinstance(bounces, int) or bounces < 0:
+        raise ValueError(f"a5_whitted: 'medium_bounces' must be an integer >= 0, got {bounces!r}")
     if kind == "none":
         return None
     if kind not in KINDS:
@@ -90,28 +98,16 @@ def params_from_props(props: mi.Properties) -> MediumParams | None:
         grid = props.get("medium_grid", None)
         if not isinstance(grid, mi.Volume):
             raise ValueError("a5_whitted: medium 'volume' needs a 'medium_grid' volume (gridvolume)")
-    return MediumParams(kind, float(density), [float(albedo[i]) for i in range(3)], steps, grid)
-
-
-def _box_span(med: MediumParams, o: mi.Point3f, d: mi.Vector3f, t0: mi.Float,
-              t1: mi.Float) -> tuple[mi.Float, mi.Float]:
-    """``[ta, tb]``: the part of ``[t0, t1]`` inside the volume's box (slab test; empty when ``tb <= ta``)."""
-    inv = dr.rcp(d)
-    lo = (med.box_min - o) * inv
-    hi = (med.box_max - o) * inv
-    near = dr.minimum(lo, hi)
-    far = dr.maximum(lo, hi)
-    ta = dr.maximum(dr.maximum(dr.maximum(near.x, near.y), near.z), t0)
-    tb = dr.minimum(dr.minimum(dr.minimum(far.x, far.y), far.z), t1)
-    return ta, tb
+    return MediumParams(kind, float(density), [float(albedo[i]) for i in range(3)], steps, grid, bounces)
 
 
 @syntax
 def _light_at(scene: mi.Scene, planes: PlaneSet, x: mi.Point3f, live: mi.Bool, lights: Lights, tmin: mi.Float,
               shadows: bool, rng: Stochastic, dim: mi.UInt32, index: mi.UInt32, count: mi.UInt32,
-              counter: mi.UInt32) -> tuple[mi.Color3f, mi.UInt32]:
+              counter: mi.UInt32, med: MediumParams, attenuate: bool) -> tuple[mi.Color3f, mi.UInt32]:
     """``L(x) = Σ_k V_k lightColor_k`` (module docstring): one sample of each light, sample ``index`` of
-    ``count`` of dimension ``dim + k``; returns ``(L, counter)``."""
+    ``count`` of dimension ``dim + k``; with ``attenuate`` (and ``shadows``) each times its shadow ray's
+    transmittance ``T_light`` (plugins/media_light.py); returns ``(L, counter)``."""
     width = dr.width(x)
     acc = dr.zeros(mi.Color3f, width)
     k = dr.zeros(mi.UInt32, width)
@@ -128,6 +124,9 @@ def _light_at(scene: mi.Scene, planes: PlaneSet, x: mi.Point3f, live: mi.Bool, l
             dist = dr.select(is_area, ds.dist * (1.0 - 1e-4), ds.dist)   # not the light's own shape
             far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0
             seen = visible(scene, planes, x, ds.d, tmin, dist, far, live)
+            if dr.hint(attenuate, mode="scalar"):
+                tr, counter = shadow_transmittance(med, x, ds.d, tmin, ds.dist, is_area, far, seen, rng, counter)
+                light_color = light_color * tr
         acc += dr.select(seen, mi.Color3f(light_color), 0.0)
         k += 1
     return acc, counter
@@ -136,7 +135,7 @@ def _light_at(scene: mi.Scene, planes: PlaneSet, x: mi.Point3f, live: mi.Bool, l
 def _span(med: MediumParams, o: mi.Point3f, d: mi.Vector3f, t0: mi.Float,
           t1: mi.Float) -> tuple[mi.Float, mi.Float]:
     """The part of ``[t0, t1]`` in the medium: all of it (fog) or the part inside the box (volume)."""
-    return (mi.Float(t0), mi.Float(t1)) if med.kind == "fog" else _box_span(med, o, d, t0, t1)
+    return (mi.Float(t0), mi.Float(t1)) if med.kind == "fog" else box_span(med.box_min, med.box_max, o, d, t0, t1)
 
 
 def _step(med: MediumParams, o: mi.Point3f, d: mi.Vector3f, ta: mi.Float, u: mi.Float, span: mi.Float,
@@ -176,7 +175,8 @@ def segment(scene: mi.Scene, data: SceneData, o: mi.Point3f, d: mi.Vector3f, t0:
         u = (mi.Float(i) + xi) / mi.Float(n)
         t, w, tau = _step(med, o, d, ta, u, span, frac, n, tau, live)
         arriving, counter = _light_at(scene, data.planes, o + t * d, live, data.lights, data.tmin, shadows, rng,
-                                      dim, rng.pass_index * n + i, rng.passes * n, counter)
+                                      dim, rng.pass_index * n + i, rng.passes * n, counter, med,
+                                      shadows and med.bounces > 0)
         light += w * arriving
         i += 1
     transmittance = _transmittance(med, tau_fog, tau)

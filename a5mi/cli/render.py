@@ -63,6 +63,9 @@ RENDER_FLAGS: tuple[Flag, ...] = (
     Flag(("-threads", "--threads"), "threads", "Dr.Jit worker threads", 1, integer(1, 1024), metavar="N"),
     Flag(("-bump", "--bump"), "bump", "bump and normal maps perturb the shading normal (docs/EXTENSIONS.md E.7; "
          "a5soln ignores 'bump')", default=False, show_default=False),
+    Flag(("-media_bounces", "--media-bounces"), "media_bounces", "Fog/Volume: 0 light arrives unattenuated (E.8); "
+         "N >= 1 shadow rays carry the medium's transmittance, up to N scatterings (docs/EXTENSIONS.md E.8)", 1,
+         integer(0, 64), 0, "N"),
     Flag(("-phong", "--phong"), "phong", "add the handout's Phong highlight (a5soln has none)", default=False,
          show_default=False),
     Flag(("-fresnel", "--fresnel"), "fresnel", "a5 (the binary's R0), schlick or exact", 1, choice(FRESNEL_MODES),
