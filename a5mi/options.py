@@ -27,6 +27,8 @@ AOV_GROUPS: tuple[str, ...] = ("normal", "depth", "class", "counts")
 #: ``glossy_samples``, ``glossy``, ``dispersion``: converters/to_mitsuba.py ``integrator_dict``) and the
 #: ``aovs`` groups it lists in ``aov_names()``.
 INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted"}
+#: ``-subsurface`` methods (docs/EXTENSIONS.md E.18; ``none``: the materials' ``subsurface`` blocks are ignored).
+SUBSURFACE_METHODS: tuple[str, ...] = ("none", "dipole", "walk")
 #: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
 TILE_RAYS: int = 1 << 20
 
@@ -79,6 +81,8 @@ class RenderOptions:
     #: docs/EXTENSIONS.md E.8, E.9: 0 the course-era medium (light unattenuated on its way); N >= 1 shadow rays
     #: carry the medium's transmittance and light scatters up to N times in it
     media_bounces: int = 0
+    #: docs/EXTENSIONS.md E.18: ``none`` (materials' ``subsurface`` blocks ignored), ``dipole`` or ``walk``
+    subsurface: str = "none"
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -92,6 +96,8 @@ class RenderOptions:
             raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got '{self.integrator}'")
         if self.spp < 1:
             raise ValueError(f"spp must be >= 1, got {self.spp}")
+        if self.subsurface not in SUBSURFACE_METHODS:
+            raise ValueError(f"subsurface must be one of {', '.join(SUBSURFACE_METHODS)}, got '{self.subsurface}'")
         if self.media_bounces < 0:
             raise ValueError(f"media_bounces must be >= 0, got {self.media_bounces}")
         if self.tile_rays <= 0:
@@ -126,4 +132,6 @@ class RenderOptions:
             params["bump"] = True
         if self.media_bounces:  # docs/EXTENSIONS.md E.8, E.9; absent otherwise (dicts and XML unchanged)
             params["medium_bounces"] = int(self.media_bounces)
+        if self.subsurface != "none":  # docs/EXTENSIONS.md E.18
+            params["subsurface"] = str(self.subsurface)
         return params

@@ -43,6 +43,7 @@ from .geometry import (
 )
 from .model import Camera, Fog, Light, Noise, Plane, Scene, Solid, Sphere, Triangle, TriangleMesh, Vec3, Volume
 from .obj import NormalMode, ObjMesh
+from .subsurface import Subsurface
 
 SceneWarning = tuple[FileLoc, str]
 
@@ -90,6 +91,8 @@ class MaterialDescription:
     bump: Image | None = None
     bump_scale: float = 1.0
     normal_map: Image | None = None
+    #: docs/EXTENSIONS.md E.18: the ``subsurface`` block (converters/subsurface.py), None without one
+    subsurface: Subsurface | None = None
 
     def kd_on(self, with_uv: bool) -> Noise | Solid | Image | None:
         """The kd source on a shape with (``with_uv``) or without texture coordinates."""
@@ -327,7 +330,7 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
                             mat.loc, float(mat.roughness), int(mat.glossy_samples),
                             None if mat.dispersion is None else float(mat.dispersion),
                             bump=maps.get((i, "bump")), bump_scale=float(mat.bump_scale),
-                            normal_map=maps.get((i, "normal_map")))
+                            normal_map=maps.get((i, "normal_map")), subsurface=mat.subsurface)
         for i, mat in enumerate(scene.materials))
     medium = describe_volume(scene, scene.medium) if isinstance(scene.medium, Volume) else scene.medium
     return SceneDescription(scene.path, scene.camera, scene.ambient, background, materials, tuple(shapes),

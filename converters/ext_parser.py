@@ -22,6 +22,7 @@ from .builders import MaterialBuilder, SolidBuilder
 from .errors import FileLoc
 from .lexer import Token
 from .model import AreaLight, Fog, Light, Medium, Solid, SphereLight, SpotLight, Vec3, Volume
+from .subsurface import parse_subsurface
 from .tokens import Rule, TokenStream, keyword_block, quoted_raw
 
 #: Upper bound of ``samples`` / ``glossySamples`` (one kernel loop bound / stack size, EXTENSIONS E.5).
@@ -280,10 +281,18 @@ def _glossy_samples(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
     m.glossy_samples = n
 
 
+def _subsurface(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    """E.18: ``subsurface { ... }`` (converters/subsurface.py), at most once."""
+    if m.subsurface is not None:
+        raise ts.semantic_error("a Material takes one subsurface block", tok.loc)
+    m.subsurface = parse_subsurface(ts, tok)
+
+
 #: The keywords this module adds to ``Material`` and their rules, in the order the parser's message lists them.
 MATERIAL_RULES: Final[dict[str, Rule[MaterialBuilder]]] = {
     "roughness": _roughness, "glossySamples": _glossy_samples, "Wood": _material_solid,
-    "Turbulence": _material_solid, "Veins": _material_solid, "bumpScale": _bump_scale, "normalMap": _normal_map}
+    "Turbulence": _material_solid, "Veins": _material_solid, "bumpScale": _bump_scale, "normalMap": _normal_map,
+    "subsurface": _subsurface}
 MATERIAL_KEYWORDS: Final = tuple(MATERIAL_RULES)
 
 
