@@ -21,10 +21,10 @@ unpolarised Fresnel reflectance of the index ``η``; ``S`` the shadow test with 
   ``s = −ln(1 − ξ)/σ_t,c``; weight ``f/⟨p⟩``: scatter ``σ_s e^{−σ_t s}/mean_c(σ_t,c e^{−σ_t,c s})``, boundary
   ``e^{−σ_t t_b}/mean_c(e^{−σ_t,c t_b})``); Henyey-Greenstein directions (``g``); at the boundary the walk adds
   the light that enters there, ``E_t(x_b)/η²`` (the boundary radiates the transmitted irradiance inward
-  diffusely: radiance ``E_t/π``, basic radiance ``L/η²`` ``E_t/(π η²)``, a5 scale ``E_t/η²``; the walk carries
-  basic radiance, which a smooth boundary transmits with ``F_t`` alone), plus with an environment the background seen through the
-  boundary ``F_t · background(refracted)``, and continues internally reflected with weight ``F_r``; Russian
-  roulette after 16 events (survival ``min(max w, 0.99)``), at most 1024 events.
+  diffusely: radiance ``E_t/π``, basic radiance ``L/η²`` ``E_t/(π η²)``, a5 scale ``E_t/η²``; the walk
+  carries basic radiance, which a smooth boundary transmits with ``F_t`` alone), plus with an environment the
+  background seen through the boundary ``F_t · background(refracted)``, and continues internally reflected
+  with weight ``F_r``; Russian roulette after 16 events (survival ``min(max w, 0.99)``), at most 1024 events.
 
 Random numbers: TEA hashes ``tea_float(pass_key, counter)`` of the lane's E.5 keys (plugins/sampling.py). The
 probe and the walk intersect with Mitsuba's own ``ray_intersect`` (not the binary's octree rules; planes are
