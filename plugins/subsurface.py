@@ -17,8 +17,8 @@ unpolarised Fresnel reflectance of the index ``η``; ``S`` the shadow test with 
   ``p_A = Σ_axes P_axis p(r_axis) |N_i · axis|``. The a5 ``π`` is absorbed as in the Lambert term, so a uniformly
   lit flat face shows ``F_t F_t R_d,total · E`` (a Lambert surface of albedo ``R_d,total``).
 * ``walk`` (exact for the boundary model): a volumetric random walk from ``x_o``: refracted in with weight
-  ``F_t(η, cos θ_o)``; free flights by spectral MIS over the channels (a hero channel draws
-  ``s = −ln(1 − ξ)/σ_t,c``; weight ``f/⟨p⟩``: scatter ``σ_s e^{−σ_t s}/mean_c(σ_t,c e^{−σ_t,c s})``, boundary
+  ``F_t(η, cos θ_o)``; free flights from the mixture of the channels' exponentials (each flight draws a
+  channel ``c`` uniformly, then ``s = −ln(1 − ξ)/σ_t,c``; weight ``f/⟨p⟩``: scatter ``σ_s e^{−σ_t s}/mean_c(σ_t,c e^{−σ_t,c s})``, boundary
   ``e^{−σ_t t_b}/mean_c(e^{−σ_t,c t_b})``); Henyey-Greenstein directions (``g``); at the boundary the walk adds
   the light that enters there, ``E_t(x_b)/η²`` (the boundary radiates the transmitted irradiance inward
   diffusely: radiance ``E_t/π``, basic radiance ``L/η²`` ``E_t/(π η²)``, a5 scale ``E_t/η²``; the walk
@@ -213,9 +213,6 @@ def walk_radiance(scene: mi.Scene, data: SceneData, f: Features, p: mi.Point3f, 
     total = dr.zeros(mi.Color3f, width)
     j = dr.zeros(mi.UInt32, width)
     while live & (j < samples):
-        uc, counter = _rand(rng, counter)
-        hero = mi.UInt32(dr.minimum(uc * 3.0, 2.0))
-        st_c = _channel(hero, sigma_t)
         x = mi.Point3f(p)
         wd = mi.Vector3f(t_in)
         w = mi.Color3f(1.0)
@@ -223,6 +220,8 @@ def walk_radiance(scene: mi.Scene, data: SceneData, f: Features, p: mi.Point3f, 
         events = dr.zeros(mi.UInt32, width)
         alive = mi.Bool(live)
         while alive & (events < MAX_EVENTS):
+            uc, counter = _rand(rng, counter)
+            st_c = _channel(mi.UInt32(dr.minimum(uc * 3.0, 2.0)), sigma_t)    # this flight's channel
             u, counter = _rand(rng, counter)
             s = -dr.log(1.0 - u) / dr.maximum(st_c, 1e-30)
             si = scene.ray_intersect(mi.Ray3f(x + data.tmin * wd, wd), alive)
