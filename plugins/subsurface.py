@@ -18,8 +18,9 @@ unpolarised Fresnel reflectance of the index ``η``; ``S`` the shadow test with 
   lit flat face shows ``F_t F_t R_d,total · E`` (a Lambert surface of albedo ``R_d,total``).
 * ``walk`` (exact for the boundary model): a volumetric random walk from ``x_o``: refracted in with weight
   ``F_t(η, cos θ_o)``; free flights from the mixture of the channels' exponentials (each flight draws a
-  channel ``c`` uniformly, then ``s = −ln(1 − ξ)/σ_t,c``; weight ``f/⟨p⟩``: scatter ``σ_s e^{−σ_t s}/mean_c(σ_t,c e^{−σ_t,c s})``, boundary
-  ``e^{−σ_t t_b}/mean_c(e^{−σ_t,c t_b})``); Henyey-Greenstein directions (``g``); at the boundary the walk adds
+  channel ``c`` uniformly, then ``s = −ln(1 − ξ)/σ_t,c``; weight ``f/⟨p⟩``: scatter
+  ``σ_s e^{−σ_t s}/mean_c(σ_t,c e^{−σ_t,c s})``, boundary ``e^{−σ_t t_b}/mean_c(e^{−σ_t,c t_b})``);
+  Henyey-Greenstein directions (``g``); at the boundary the walk adds
   the light that enters there, ``E_t(x_b)/η²`` (the boundary radiates the transmitted irradiance inward
   diffusely: radiance ``E_t/π``, basic radiance ``L/η²`` ``E_t/(π η²)``, a5 scale ``E_t/η²``; the walk
   carries basic radiance, which a smooth boundary transmits with ``F_t`` alone), plus with an environment the
