@@ -165,6 +165,8 @@ class VolumeDescription:
     color: Vec3
     steps: int
     loc: FileLoc
+    #: Henyey-Greenstein asymmetry (docs/EXTENSIONS.md E.8, E.9)
+    g: float = 0.0
 
 
 MediumDescription = Fog | VolumeDescription
@@ -186,7 +188,7 @@ def describe_volume(scene: Scene, vol: Volume) -> VolumeDescription:
     if not np.all(np.isfinite(grid)) or float(grid.min()) < 0.0:
         raise SceneSemanticError(f"Volume grid '{path}' holds negative or non-finite densities", vol.grid_loc)
     return VolumeDescription(grid, path.resolve(), vol.density, vol.box_min, vol.box_max, vol.color, vol.steps,
-                             vol.loc)
+                             vol.loc, vol.g)
 
 
 @dataclass(frozen=True, eq=False)

@@ -131,6 +131,8 @@ class Fog:
     density: float
     steps: int
     loc: FileLoc
+    #: Henyey-Greenstein asymmetry of the phase function (docs/EXTENSIONS.md E.8; 0: isotropic)
+    g: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -147,6 +149,8 @@ class Volume:
     steps: int
     loc: FileLoc
     grid_loc: FileLoc
+    #: Henyey-Greenstein asymmetry (docs/EXTENSIONS.md E.8, E.9; 0: isotropic)
+    g: float = 0.0
 
 
 Medium = Fog | Volume

@@ -35,18 +35,14 @@ from typing import TYPE_CHECKING
 import drjit as dr
 import mitsuba as mi
 
-from .kernel.intersect import visible
-from .kernel.lights import Lights
-from .media_light import box_span, shadow_transmittance
-from .planes import PlaneSet
+from .media_light import box_span
+from .media_walk import PHASE, light_at, scattered
 from .sampling import Stochastic, stratified_2d
 from .syntax import syntax
 
 if TYPE_CHECKING:
     from .kernel.features import SceneData
 
-#: ``π · 1/(4π)``: the isotropic phase function on the a5 lights' scale (module docstring).
-PHASE = 0.25
 #: Sampling dimensions of the medium: ``MEDIUM_DIM + node·256 + k`` for light k, ``+ 255`` for the jitter ξ.
 MEDIUM_DIM = 0x80000000
 KINDS = ("fog", "volume")
@@ -58,7 +54,7 @@ class MediumParams:
     placed on the box) and the box corners (opaque)."""
 
     def __init__(self, kind: str, density: float, albedo: list[float], steps: int,
-                 grid: mi.Volume | None = None, bounces: int = 0) -> None:
+                 grid: mi.Volume | None = None, bounces: int = 0, g: float = 0.0) -> None:
         self.kind = kind
         self.density_value, self.albedo_value, self.steps_value = float(density), list(albedo), int(steps)
         self.density = dr.opaque(mi.Float, self.density_value)
@@ -67,6 +63,10 @@ class MediumParams:
         #: ``medium_bounces`` (``-media_bounces``): 0 the course-era E.8 (light unattenuated on its way), >= 1
         #: shadow rays carry the medium's transmittance (plugins/media_light.py)
         self.bounces = int(bounces)
+        self.bounces_opaque = dr.opaque(mi.UInt32, self.bounces)
+        #: Henyey-Greenstein asymmetry (plugins/media_walk.py); 0: the isotropic phase of E.8, no phase factor
+        self.g_value = float(g)
+        self.g = dr.opaque(mi.Float, self.g_value)
         self.grid = grid
         self.grid_max = dr.opaque(mi.Float, float(grid.max()) if grid is not None else 0.0)
         if grid is not None:
@@ -98,38 +98,10 @@ def params_from_props(props: mi.Properties) -> MediumParams | None:
         grid = props.get("medium_grid", None)
         if not isinstance(grid, mi.Volume):
             raise ValueError("a5_whitted: medium 'volume' needs a 'medium_grid' volume (gridvolume)")
-    return MediumParams(kind, float(density), [float(albedo[i]) for i in range(3)], steps, grid, bounces)
-
-
-@syntax
-def _light_at(scene: mi.Scene, planes: PlaneSet, x: mi.Point3f, live: mi.Bool, lights: Lights, tmin: mi.Float,
-              shadows: bool, rng: Stochastic, dim: mi.UInt32, index: mi.UInt32, count: mi.UInt32,
-              counter: mi.UInt32, med: MediumParams, attenuate: bool) -> tuple[mi.Color3f, mi.UInt32]:
-    """``L(x) = Σ_k V_k lightColor_k`` (module docstring): one sample of each light, sample ``index`` of
-    ``count`` of dimension ``dim + k``; with ``attenuate`` (and ``shadows``) each times its shadow ray's
-    transmittance ``T_light`` (plugins/media_light.py); returns ``(L, counter)``."""
-    width = dr.width(x)
-    acc = dr.zeros(mi.Color3f, width)
-    k = dr.zeros(mi.UInt32, width)
-    while live & (k < lights.count):
-        emitter = dr.gather(mi.EmitterPtr, lights.emitters, k, live)
-        is_area = dr.gather(mi.UInt32, lights.area, k, live) > 0
-        u = stratified_2d(rng.pixel_key, rng.pass_key, dim + k, index, count, counter)
-        counter += 2
-        it = dr.zeros(mi.Interaction3f, width)
-        it.p = x
-        ds, light_color = emitter.sample_direction(it, u, live)
-        seen = mi.Bool(live)
-        if dr.hint(shadows, mode="scalar"):
-            dist = dr.select(is_area, ds.dist * (1.0 - 1e-4), ds.dist)   # not the light's own shape
-            far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0
-            seen = visible(scene, planes, x, ds.d, tmin, dist, far, live)
-            if dr.hint(attenuate, mode="scalar"):
-                tr, counter = shadow_transmittance(med, x, ds.d, tmin, ds.dist, is_area, far, seen, rng, counter)
-                light_color = light_color * tr
-        acc += dr.select(seen, mi.Color3f(light_color), 0.0)
-        k += 1
-    return acc, counter
+    g = props.get("medium_g", 0.0)
+    if isinstance(g, bool) or not isinstance(g, (int, float)) or not -1.0 < g < 1.0:
+        raise ValueError(f"a5_whitted: 'medium_g' must be a number in (-1, 1), got {g!r}")
+    return MediumParams(kind, float(density), [float(albedo[i]) for i in range(3)], steps, grid, bounces, float(g))
 
 
 def _span(med: MediumParams, o: mi.Point3f, d: mi.Vector3f, t0: mi.Float,
@@ -174,9 +146,12 @@ def segment(scene: mi.Scene, data: SceneData, o: mi.Point3f, d: mi.Vector3f, t0:
     while live & (i < n):
         u = (mi.Float(i) + xi) / mi.Float(n)
         t, w, tau = _step(med, o, d, ta, u, span, frac, n, tau, live)
-        arriving, counter = _light_at(scene, data.planes, o + t * d, live, data.lights, data.tmin, shadows, rng,
-                                      dim, rng.pass_index * n + i, rng.passes * n, counter, med,
-                                      shadows and med.bounces > 0)
+        arriving, counter = light_at(scene, data.planes, o + t * d, live, data.lights, data.tmin, shadows, rng,
+                                     dim, rng.pass_index * n + i, rng.passes * n, counter, med,
+                                     shadows and med.bounces > 0, d, med.g_value != 0.0)
+        if dr.hint(med.bounces > 1, mode="scalar"):       # -media_bounces N >= 2: light scattered more than once
+            more, counter = scattered(scene, data, o + t * d, d, live & (w > 0.0), shadows, rng, counter)
+            arriving += more
         light += w * arriving
         i += 1
     transmittance = _transmittance(med, tau_fog, tau)

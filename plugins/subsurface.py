@@ -42,6 +42,7 @@ import mitsuba as mi
 from .common import snell
 from .kernel import lights
 from .kernel.surfaces import background
+from .media_walk import hg_direction
 from .subsurface_dipole import dipole, profile
 from .syntax import syntax
 
@@ -185,17 +186,6 @@ def dipole_radiance(scene: mi.Scene, data: SceneData, f: Features, si: mi.Surfac
     return acc / mi.Float(dr.maximum(samples, 1)), counter
 
 
-def _hg(d: mi.Vector3f, g: mi.Float, u: mi.Point2f) -> mi.Vector3f:
-    """A Henyey-Greenstein direction about ``d``: ``cos θ = (1 + g² − ((1 − g²)/(1 − g + 2g ξ))²)/(2g)``
-    (``1 − 2ξ`` for ``|g| < 10⁻³``), ``φ = 2π ξ'``."""
-    sq = (1.0 - g * g) / (1.0 - g + 2.0 * g * u.x)
-    cos_t = dr.select(dr.abs(g) < 1e-3, 1.0 - 2.0 * u.x, (1.0 + g * g - sq * sq) / (2.0 * g))
-    cos_t = dr.clip(cos_t, -1.0, 1.0)
-    sin_t = dr.safe_sqrt(1.0 - cos_t * cos_t)
-    sn, cs = dr.sincos(2.0 * dr.pi * u.y)
-    return mi.Frame3f(d).to_world(mi.Vector3f(sin_t * cs, sin_t * sn, cos_t))
-
-
 def _channel(c: mi.UInt32, v: mi.Color3f) -> mi.Float:
     return dr.select(c == 0, v.x, dr.select(c == 1, v.y, v.z))
 
@@ -246,7 +236,7 @@ def walk_radiance(scene: mi.Scene, data: SceneData, f: Features, p: mi.Point3f, 
             acc += dr.select(at_wall, w * light, 0.0)
             u2, counter = _rand(rng, counter)
             u3, counter = _rand(rng, counter)
-            wd = dr.select(scatter, _hg(wd, g, mi.Point2f(u2, u3)), wd - 2.0 * dr.dot(wd, nb) * nb)
+            wd = dr.select(scatter, hg_direction(wd, g, mi.Point2f(u2, u3)), wd - 2.0 * dr.dot(wd, nb) * nb)
             w = dr.select(at_wall, w * fr, w)
             events += 1
             q = dr.minimum(dr.maximum(dr.maximum(w.x, w.y), w.z), 0.99)
