@@ -13,9 +13,11 @@ unpolarised Fresnel reflectance of the index ``η``; ``S`` the shadow test with 
   sampling): an axis (the normal with probability 1/2, each tangent 1/4), a radius from the mixture of six
   ``Gamma(2, λ)`` densities, ``λ`` each channel's ``σ_tr`` and ``σ_t'`` (disc density
   ``p(r) = (1/6) Σ λ² e^{−λ r}/(2π)``), a probe chord of half-length ``9.23/min λ`` along the axis; of its
-  hits on the same shape (at most 4) one is taken uniformly, weight ``N_hits / p_A(x_i)`` with
-  ``p_A = Σ_axes P_axis p(r_axis) |N_i · axis|``. The a5 ``π`` is absorbed as in the Lambert term, so a uniformly
-  lit flat face shows ``F_t F_t R_d,total · E`` (a Lambert surface of albedo ``R_d,total``).
+  hits on the same shape (at most 4) hit ``k`` is taken with probability ``w_k/W``, ``w = mean_c R_d(|x_k −
+  x_o|)``, ``W = Σ w`` (pbrt takes one uniformly, weight ``N``; this picks the near side of a thin part far
+  more often), weight ``(W/w_k) / p_A(x_k)`` with ``p_A = Σ_axes P_axis p(r_axis) |N_k · axis|``. The a5 ``π``
+  is absorbed as in the Lambert term, so a uniformly lit flat face shows ``F_t F_t R_d,total · E`` (a Lambert
+  surface of albedo ``R_d,total``).
 * ``walk`` (exact for the boundary model): a volumetric random walk from ``x_o``: refracted in with weight
   ``F_t(η, cos θ_o)``; free flights from the mixture of the channels' exponentials (each flight draws a
   channel ``c`` uniformly, then ``s = −ln(1 − ξ)/σ_t,c``; weight ``f/⟨p⟩``: scatter
@@ -43,7 +45,7 @@ from .common import snell
 from .kernel import lights
 from .kernel.surfaces import background
 from .media_walk import hg_direction
-from .subsurface_dipole import dipole, profile
+from .subsurface_dipole import Dipole, dipole, profile
 from .syntax import syntax
 
 if TYPE_CHECKING:
@@ -110,12 +112,14 @@ def _disc_pdf(lam: list[mi.Float], r: mi.Float) -> mi.Float:
 
 @syntax
 def _probe(scene: mi.Scene, shape: mi.ShapePtr, origin: mi.Point3f, axis: mi.Vector3f, length: mi.Float,
-           live: mi.Bool, rng: Stochastic,
-           counter: mi.UInt32) -> tuple[mi.Point3f, mi.Vector3f, mi.UInt32, mi.UInt32]:
-    """One of the hits on ``shape`` of the chord ``origin − t axis``, ``0 < t < length`` (uniformly, reservoir
-    of at most :data:`PROBE_HITS`): ``(point, geometric normal, hits found, counter)``."""
+           live: mi.Bool, dp: Dipole, p: mi.Point3f, rng: Stochastic,
+           counter: mi.UInt32) -> tuple[mi.Point3f, mi.Vector3f, mi.Float, mi.Float, mi.UInt32]:
+    """One of the hits on ``shape`` of the chord ``origin − t axis``, ``0 < t < length`` (at most
+    :data:`PROBE_HITS`), chosen with probability ``w_k / W``, ``w = mean_channels R_d(|x − p|)`` (a weighted
+    reservoir): ``(point, geometric normal, W, w of the chosen one, counter)``."""
     width = dr.width(origin)
-    found = dr.zeros(mi.UInt32, width)
+    total = dr.zeros(mi.Float, width)
+    chosen = dr.zeros(mi.Float, width)
     x = dr.zeros(mi.Point3f, width)
     nx = dr.zeros(mi.Vector3f, width)
     o = mi.Point3f(origin)
@@ -126,17 +130,20 @@ def _probe(scene: mi.Scene, shape: mi.ShapePtr, origin: mi.Point3f, axis: mi.Vec
         si = scene.ray_intersect(mi.Ray3f(o, -axis, rest), go)
         ok = go & si.is_valid()
         same = ok & (si.shape == shape)
-        found = dr.select(same, found + 1, found)
+        rd = profile(dp, dr.norm(si.p - p))
+        w = dr.select(same, (rd.x + rd.y + rd.z) / 3.0, 0.0)
+        total += w
         u, counter = _rand(rng, counter)
-        take = same & (u * mi.Float(found) < 1.0)
+        take = same & (w > 0.0) & (u * total < w)
         x = dr.select(take, si.p, x)
         nx = dr.select(take, mi.Vector3f(si.n), nx)
+        chosen = dr.select(take, w, chosen)
         step = si.t + 1e-4 * (1.0 + si.t)
         o = mi.Point3f(o - step * axis)
         rest = rest - step
         go = ok & (rest > 0.0)
         k += 1
-    return x, nx, found, counter
+    return x, nx, total, chosen, counter
 
 
 @syntax
@@ -169,9 +176,9 @@ def dipole_radiance(scene: mi.Scene, data: SceneData, f: Features, si: mi.Surfac
         r = -(dr.log(1.0 - u2) + dr.log(1.0 - u3)) / rate
         sn, cs = dr.sincos(2.0 * dr.pi * u4)
         centre = p + r * (cs * a1 + sn * a2)
-        x, nx, found, counter = _probe(scene, si.shape, centre + length * axis, axis, 2.0 * length, live, rng,
-                                       counter)
-        ok = live & (found > 0)
+        x, nx, total, chosen, counter = _probe(scene, si.shape, centre + length * axis, axis, 2.0 * length, live,
+                                               dp, p, rng, counter)
+        ok = live & (chosen > 0.0)
         delta = x - p
         pdf = dr.zeros(mi.Float, width)
         for ax, pa in zip((frame.n, frame.s, frame.t), AXIS_P, strict=True):
@@ -181,7 +188,7 @@ def dipole_radiance(scene: mi.Scene, data: SceneData, f: Features, si: mi.Surfac
         n_i = _facing(nx, -n_out)                                  # the probe point's outward side
         e_t, counter = irradiance(scene, data, f, x, n_i, eta, ok, rng, counter)
         rd = profile(dp, dr.norm(delta))
-        acc += dr.select(ok & (pdf > 0.0), rd * e_t * mi.Float(found) / pdf, 0.0)
+        acc += dr.select(ok & (pdf > 0.0), rd * e_t * (total / dr.maximum(chosen, 1e-30)) / pdf, 0.0)
         j += 1
     return acc / mi.Float(dr.maximum(samples, 1)), counter
 
