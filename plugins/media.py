@@ -4,7 +4,8 @@ Every ray segment of the Whitted tree that travels in air (medium index 1: camer
 outside glass; none inside glass) from ``t0 = tmin`` to its hit ``t1`` (``∞`` on a miss) is attenuated and
 gains in-scattered light (single scattering; the light arrives at a point of the medium as at a surface: the
 a5 light's colour, times its shadow test, unattenuated on its way, like the a5 lights have no inverse-square
-law)::
+law; with ``medium_bounces >= 1`` times its transmittance, plugins/media_light.py, and with ``>= 2`` plus the
+light scattered more than once, plugins/media_walk.py, which also holds the phase function of ``g``)::
 
     node contribution = T · (local or background) + S,    children's weights ⊙= T
     T = exp(−∫ σ_t(t) dt),    S = albedo ⊙ P ∫ σ_t(t) exp(−∫_t0^t σ_t) Σ_k V_k(x(t)) lightColor_k(x(t)) dt
@@ -23,9 +24,9 @@ jitter ``ξ`` per segment, stratified over the ``-spp`` passes by :func:`.sampli
   σ_t(x(t_i))`` held constant over step ``i``: ``T = exp(−Δ Σ_i σ_i)``, ``S = albedo ⊙ P Σ_i exp(−Δ Σ_{j<i} σ_j)
   (1 − exp(−σ_i Δ)) L(t_i)``: exact for a constant density and a constant ``L``.
 
-``L(x) = Σ_k V_k lightColor_k``: one sample per light per step (``sample_direction`` at ``x``; an area light's
-sample stratified over the steps and passes), shadow rays (``tmin`` to the light, planes included) when the
-integrator traces shadows.
+``L(x) = Σ_k V_k lightColor_k`` (:func:`.media_walk.light_at`): one sample per light per step
+(``sample_direction`` at ``x``; an area light's sample stratified over the steps and passes), shadow rays
+(``tmin`` to the light, planes included) when the integrator traces shadows.
 """
 
 from __future__ import annotations
