@@ -16,7 +16,8 @@ from typing import Any
 
 import numpy as np
 import pytest
-from test_media import _scene, _trace
+from conftest import positioned_error_test
+from test_media import WALL, _scene, _trace
 
 from a5mi.converters import volgrid
 from a5mi.converters.a5_parser import parse_text
@@ -28,6 +29,26 @@ Volume {{ grid one.vol density 1.5 min -1 -1 -1 max 1 1 1 color 0.8 0.8 0.8 step
 Materials {{ numMaterials 1 Material {{ diffuseColor 0 0 0 }} }}
 Group {{ numObjects 1 MaterialIndex 0 Plane {{ normal 0 1 0 offset -3 }} }}
 """
+
+
+test_phase_g_errors_are_positioned = positioned_error_test(
+    lambda block: WALL.format(light="0 0 -1", medium=block, wall="1 1 1", n=1, extra=""), [
+        ("Fog { color 1 1 1 density 0.5 ^g 1 }", "Fog g must be between -1 and 1"),
+        ("Fog { color 1 1 1 density 0.5 ^g -1.5 }", "Fog g must be between -1 and 1"),
+    ])
+
+
+def test_phase_g_reaches_both_conversions() -> None:
+    """``g`` becomes ``medium_g`` of ``a5_whitted`` and an ``hg`` phase of the stock medium; ``g 0`` adds
+    nothing to the a5 dict (course-era dicts unchanged) and keeps the stock ``isotropic``."""
+    from a5mi.converters.describe import describe
+    from a5mi.converters.ext_mitsuba import medium_params, stock_medium
+
+    for g, phase in ((0.4, {"type": "hg", "g": 0.4}), (0.0, {"type": "isotropic"})):
+        med = describe(parse_text(WALL.format(light="0 0 -1", wall="1 1 1", n=1, extra="",
+                                              medium=f"Fog {{ color 1 1 1 density 0.5 g {g} }}"))).medium
+        assert medium_params(med, None).get("medium_g") == (g or None)
+        assert stock_medium(med, None)["phase"] == phase
 
 
 def _volpath(mi: Any, text: str, path: str, bounces: int, o: np.ndarray, d: np.ndarray) -> np.ndarray:
