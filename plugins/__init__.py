@@ -23,6 +23,7 @@ PLUGIN_MODULES: tuple[str, ...] = (
     "camera",           # a5_camera sensor
     "a5_material",      # a5_material BSDF
     "whitted",          # a5_whitted integrator
+    "path",             # a5_path integrator (docs/EXTENSIONS.md E.13, E.14)
 )
 
 def register_all() -> None:
