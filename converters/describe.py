@@ -43,6 +43,7 @@ from .geometry import (
 )
 from .model import Camera, Fog, Light, Noise, Plane, Scene, Solid, Sphere, Triangle, TriangleMesh, Vec3, Volume
 from .obj import NormalMode, ObjMesh
+from .subsurface import Subsurface
 
 SceneWarning = tuple[FileLoc, str]
 
@@ -90,6 +91,8 @@ class MaterialDescription:
     bump: Image | None = None
     bump_scale: float = 1.0
     normal_map: Image | None = None
+    #: docs/EXTENSIONS.md E.18: the ``subsurface`` block (converters/subsurface.py), None without one
+    subsurface: Subsurface | None = None
 
     def kd_on(self, with_uv: bool) -> Noise | Solid | Image | None:
         """The kd source on a shape with (``with_uv``) or without texture coordinates."""
@@ -162,6 +165,8 @@ class VolumeDescription:
     color: Vec3
     steps: int
     loc: FileLoc
+    #: Henyey-Greenstein asymmetry (docs/EXTENSIONS.md E.8, E.9)
+    g: float = 0.0
 
 
 MediumDescription = Fog | VolumeDescription
@@ -183,7 +188,7 @@ def describe_volume(scene: Scene, vol: Volume) -> VolumeDescription:
     if not np.all(np.isfinite(grid)) or float(grid.min()) < 0.0:
         raise SceneSemanticError(f"Volume grid '{path}' holds negative or non-finite densities", vol.grid_loc)
     return VolumeDescription(grid, path.resolve(), vol.density, vol.box_min, vol.box_max, vol.color, vol.steps,
-                             vol.loc)
+                             vol.loc, vol.g)
 
 
 @dataclass(frozen=True, eq=False)
@@ -330,7 +335,7 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
                             mat.loc, float(mat.roughness), int(mat.glossy_samples),
                             None if mat.dispersion is None else float(mat.dispersion),
                             bump=maps.get((i, "bump")), bump_scale=float(mat.bump_scale),
-                            normal_map=maps.get((i, "normal_map")))
+                            normal_map=maps.get((i, "normal_map")), subsurface=mat.subsurface)
         for i, mat in enumerate(scene.materials))
     medium = describe_volume(scene, scene.medium) if isinstance(scene.medium, Volume) else scene.medium
     return SceneDescription(scene.path, scene.camera, scene.ambient, background, materials, tuple(shapes),

@@ -17,7 +17,7 @@ from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, size_flag, text
 from a5mi.errors import ExitStatus, UsageError
-from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, RenderOptions
+from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, SUBSURFACE_METHODS, RenderOptions
 from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR
 
 #: Render-buffer samples (3W x 3H with -jitter) accepted at most (~16 GB by a5mi.resources' model); below it
@@ -76,6 +76,11 @@ RENDER_FLAGS: tuple[Flag, ...] = (
     Flag(("-threads", "--threads"), "threads", "Dr.Jit worker threads", 1, integer(1, 1024), metavar="N"),
     Flag(("-bump", "--bump"), "bump", "bump and normal maps perturb the shading normal (docs/EXTENSIONS.md E.7; "
          "a5soln ignores 'bump')", default=False, show_default=False),
+    Flag(("-media_bounces", "--media-bounces"), "media_bounces", "Fog/Volume: 0 light arrives unattenuated (E.8); "
+         "N >= 1 shadow rays carry the medium's transmittance, up to N scatterings (docs/EXTENSIONS.md E.8)", 1,
+         integer(0, 64), 0, "N"),
+    Flag(("-subsurface", "--subsurface"), "subsurface", "materials' subsurface blocks: none, dipole (Jensen 2001) "
+         "or walk (volumetric random walk) (docs/EXTENSIONS.md E.18)", 1, choice(SUBSURFACE_METHODS), "none", "M"),
     Flag(("-phong", "--phong"), "phong", "add the handout's Phong highlight (a5soln has none)", default=False,
          show_default=False),
     Flag(("-fresnel", "--fresnel"), "fresnel", "a5 (the binary's R0), schlick or exact", 1, choice(FRESNEL_MODES),
