@@ -43,6 +43,9 @@ def test_loads_from_a_dict_and_registers(mi: Any) -> None:
     integ = mi.load_dict({"type": "a5_path", "max_depth": 7, "rr_depth": 2, "fresnel": "exact", "aovs": "depth"})
     assert "max_depth=7" in integ.to_string() and "rr_depth=2" in integ.to_string()
     assert integ.aov_names() == ["t"]
+    xml = mi.load_string('<integrator type="a5_path" version="3.0.0"><integer name="max_depth" value="3"/>'
+                         '<string name="fresnel" value="schlick"/></integrator>')
+    assert "max_depth=3" in xml.to_string() and "schlick" in xml.to_string()
     with pytest.raises(Exception, match="rr_depth"):
         mi.load_dict({"type": "a5_path", "rr_depth": -1})
     with pytest.raises(Exception, match="media"):
