@@ -23,10 +23,19 @@ from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTO
 #: Render-buffer samples (3W x 3H with -jitter) accepted at most (~16 GB by a5mi.resources' model); below it
 #: a render is refused when its estimated memory (a5mi.resources.render_bytes) exceeds what is available.
 MAX_SAMPLES = 1 << 28
+#: The largest finite float32 (SPEC B.6's depths are float32).
+FLOAT32_MAX = 3.4028234663852886e38
 
 
 def _depth(flag: str, values: list[str]) -> tuple[tuple[float, float], str]:
-    return (number(flag, values[0]), number(flag, values[1])), text(flag, values[2:])
+    """``-depth DMIN DMAX IMG`` (SPEC B.6): the bounds are compared with float32 depths, so each must be a
+    finite float32 (beyond 3.4e38 it is inf there and every pixel is 1, in a5soln too)."""
+    bounds = (number(flag, values[0]), number(flag, values[1]))
+    for value, raw in zip(bounds, values, strict=False):
+        if abs(value) > FLOAT32_MAX:
+            raise UsageError(f"{flag} expects depths within float32 (|d| <= 3.4e38, the sample solution's "
+                             f"precision), found '{raw}'")
+    return bounds, text(flag, values[2:])
 
 
 #: SPEC B.1 flags, then the extras; dests are RenderOptions fields (plus the output paths).
