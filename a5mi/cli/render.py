@@ -105,6 +105,11 @@ def render_options(args: Args, **overrides: Any) -> RenderOptions:
     return RenderOptions(**values)
 
 
+#: docs/EXTENSIONS.md E.15: most pending rays per camera ray ``(N + 1) · bounces`` that ``-indirect N`` may keep
+#: (the kernel's per-lane stack, plugins/kernel/pbr_gather.py ``stack_size``)
+MAX_PENDING = 256
+
+
 def check_render_args(args: Args) -> None:
     """Limits that depend on several flags (SPEC B.5): the sample budget and ``-filter``'s minimum size."""
     k = JITTER_FACTOR if args.jitter else 1
@@ -112,6 +117,13 @@ def check_render_args(args: Args) -> None:
     if samples > MAX_SAMPLES:
         raise UsageError(f"-size {args.width} {args.height}{' with -jitter' if args.jitter else ''} is {samples} "
                          f"samples; the limit is {MAX_SAMPLES}")
+    indirect = args.get("indirect") or 0
+    if indirect and args.get("integrator") not in (None, "whitted"):
+        raise UsageError(f"-indirect is a mode of the whitted integrator, not of -integrator {args.integrator}")
+    if indirect and (indirect + 1) * args.bounces > MAX_PENDING:
+        pending = (indirect + 1) * args.bounces
+        raise UsageError(f"-indirect {indirect} with -bounces {args.bounces} keeps up to {pending} pending rays per "
+                         f"camera ray; the limit is {MAX_PENDING} (fewer rays or bounces)")
     if args.filter and not args.jitter and (args.width < 3 or args.height < 3):
         raise UsageError(f"-filter without -jitter saves a W/3 x H/3 image; -size {args.width} {args.height} is "
                          "too small")
