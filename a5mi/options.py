@@ -30,6 +30,8 @@ INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted", "path": "a5_path", "phot
                                "ppm": "a5_ppm"}
 #: Radiance-estimate filters of ``-integrator photon`` / ``ppm`` (docs/EXTENSIONS.md E.16).
 PHOTON_FILTERS: tuple[str, ...] = ("none", "cone", "epanechnikov")
+#: ``-subsurface`` methods (docs/EXTENSIONS.md E.18; ``none``: the materials' ``subsurface`` blocks are ignored).
+SUBSURFACE_METHODS: tuple[str, ...] = ("none", "dipole", "walk")
 #: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
 TILE_RAYS: int = 1 << 20
 
@@ -93,6 +95,11 @@ class RenderOptions:
     final_gather: int = 0
     ppm_radius: float = 0.0
     ppm_alpha: float = 2.0 / 3.0
+    #: docs/EXTENSIONS.md E.8, E.9: 0 the course-era medium (light unattenuated on its way); N >= 1 shadow rays
+    #: carry the medium's transmittance and light scatters up to N times in it
+    media_bounces: int = 0
+    #: docs/EXTENSIONS.md E.18: ``none`` (materials' ``subsurface`` blocks ignored), ``dipole`` or ``walk``
+    subsurface: str = "none"
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -112,6 +119,10 @@ class RenderOptions:
             raise ValueError(f"photon_filter must be one of {', '.join(PHOTON_FILTERS)}, got '{self.photon_filter}'")
         if self.spp < 1:
             raise ValueError(f"spp must be >= 1, got {self.spp}")
+        if self.subsurface not in SUBSURFACE_METHODS:
+            raise ValueError(f"subsurface must be one of {', '.join(SUBSURFACE_METHODS)}, got '{self.subsurface}'")
+        if self.media_bounces < 0:
+            raise ValueError(f"media_bounces must be >= 0, got {self.media_bounces}")
         if self.tile_rays <= 0:
             raise ValueError(f"tile_rays must be positive, got {self.tile_rays}")
 
@@ -154,4 +165,8 @@ class RenderOptions:
                 params.update(k=int(self.photon_k), final_gather=int(self.final_gather))
             else:
                 params.update(radius=float(self.ppm_radius), alpha=float(self.ppm_alpha))
+        if self.media_bounces and self.plugin == "a5_whitted":  # E.8, E.9; absent at 0 (dicts, XML unchanged)
+            params["medium_bounces"] = int(self.media_bounces)
+        if self.subsurface != "none" and self.plugin == "a5_whitted":  # docs/EXTENSIONS.md E.18
+            params["subsurface"] = str(self.subsurface)
         return params

@@ -18,10 +18,14 @@ import stat
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import FileLoc, SceneSemanticError, shown
+
+if TYPE_CHECKING:
+    from .subsurface import Subsurface
 
 Vec3 = tuple[float, float, float]
 #: A 4x4 matrix as hashable row-major tuples (``m[row][col]``); :func:`.transforms.as_array` gives numpy.
@@ -127,6 +131,8 @@ class Fog:
     density: float
     steps: int
     loc: FileLoc
+    #: Henyey-Greenstein asymmetry of the phase function (docs/EXTENSIONS.md E.8; 0: isotropic)
+    g: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -143,6 +149,8 @@ class Volume:
     steps: int
     loc: FileLoc
     grid_loc: FileLoc
+    #: Henyey-Greenstein asymmetry (docs/EXTENSIONS.md E.8, E.9; 0: isotropic)
+    g: float = 0.0
 
 
 Medium = Fog | Volume
@@ -209,6 +217,8 @@ class Material:
     bump_scale: float = BUMP_SCALE
     normal_map: str | None = None
     normal_map_loc: FileLoc | None = None
+    #: docs/EXTENSIONS.md E.18 (used with -subsurface only): the ``subsurface`` block (converters/subsurface.py)
+    subsurface: Subsurface | None = None
 
 
 # ------------------------------------------------------------------------------------------------------ objects

@@ -38,10 +38,12 @@ from .kernel.lights import has_area_lights, lights_of
 from .kernel.pbr import lobes, power_heuristic, sample
 from .kernel.pbr_lights import PbrLights, direct, emission, environment, light_point
 from .kernel.pbr_lights import lights_of as pbr_lights_of
+from .kernel.pbr_record import PathRecorder, lobe_code
 from .kernel.surfaces import surface_at
 from .planes import plane_set, planes_from_props
 from .sampling import SamplePass, Stochastic, stochastic
 from .syntax import syntax
+from .whitted_record import shape_id
 
 #: AOV groups ``a5_path`` computes (``aovs`` parameter), as ``a5_whitted``'s: first-hit normal and distance.
 #: ``counts``: rays traced per camera ray: scattered to the side the ray came from (diffuse and mirror), through
@@ -137,18 +139,19 @@ class A5PathIntegrator(mi.SamplingIntegrator):
         self._rules = {id(scene): table} if table is not None else {}
         return table
 
-    def features(self, scene: mi.Scene, data: SceneData) -> Features:
+    def features(self, scene: mi.Scene, data: SceneData, record: bool = False) -> Features:
         """The kernel's compile-time blocks: the fresnel mode, lobes, E.7 bump, an environment, emitters on
-        shapes, the triangle rule."""
+        shapes, the triangle rule, record mode."""
         return Features(shadows=True, fresnel=self.fresnel, reflection=self.reflection,
                         refraction=self.refraction, area_lights=has_area_lights(scene), bump=self.bump,
-                        environment=scene.environment() is not None, triangle_rule=data.rules is not None)
+                        environment=scene.environment() is not None, triangle_rule=data.rules is not None,
+                        record=record)
 
     def trace(self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True,
               sampler: mi.Sampler | None = None, sample_pass: SamplePass | None = None,
-              ) -> PathResult:
+              record: PathRecorder | None = None) -> PathResult:
         """``(radiance, first-hit normal, first-hit t, n_reflection, n_refraction, n_shadow)`` of one path per
-        camera ray (module docstring)."""
+        camera ray (module docstring). ``record`` (``a5mi trace``): fill this recorder with every vertex."""
         data = SceneData(dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, 0.0),
                          dr.opaque(mi.Float, self.tmin), lights_of(scene), self._planes, self._rule_table(scene),
                          None)
@@ -157,7 +160,8 @@ class A5PathIntegrator(mi.SamplingIntegrator):
         d = mi.Vector3f(ray.d) + dr.zeros(mi.Vector3f, width)
         rng = stochastic(sample_pass, sampler, width, 1)
         return trace_paths(scene, o, d, dr.full(mi.Bool, True, width) & active, data, pbr_lights_of(scene), rng,
-                           self.features(scene, data), dr.opaque(mi.UInt32, self.rr_depth))
+                           self.features(scene, data, record is not None), dr.opaque(mi.UInt32, self.rr_depth),
+                           record)
 
     def sample(self, scene: mi.Scene, sampler: mi.Sampler | None, ray: mi.Ray3f, medium: mi.Medium | None = None,
                active: mi.Bool | bool = True, sample_pass: SamplePass | None = None,
@@ -183,10 +187,11 @@ class A5PathIntegrator(mi.SamplingIntegrator):
 @syntax
 def trace_paths(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: mi.Bool, data: SceneData,
                 lights: PbrLights, rng: Stochastic, f: Features,
-                rr_depth: mi.UInt32) -> PathResult:
+                rr_depth: mi.UInt32, rec: PathRecorder | None = None) -> PathResult:
     """The estimator of the module docstring for a batch of camera rays; returns ``(L, first-hit normal,
     first-hit t, n_reflection, n_refraction, n_shadow)``. ``f`` is baked into the kernel; ``data``, ``lights``,
-    ``rng`` and ``rr_depth`` are opaque."""
+    ``rng`` and ``rr_depth`` are opaque. ``rec`` (with ``f.record``, ``a5mi trace``): the
+    :class:`~.kernel.pbr_record.PathRecorder` each vertex is scattered into."""
     width = dr.width(ray_d)
     o, d = mi.Point3f(ray_o), mi.Vector3f(ray_d)
     beta = dr.full(mi.Color3f, 1.0, width)
@@ -209,14 +214,19 @@ def trace_paths(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
         si, t_hit, p, n, hit, on_plane, plane_idx, row, bsdf = intersect(scene, data.planes, data.rules, o, d,
                                                                          t_min, origin)
         # ---- the emission this ray finds, MIS-weighted against next-event estimation at the vertex it left
+        emitted = dr.zeros(mi.Color3f, width)
         if dr.hint(f.environment, mode="scalar"):
             le, pdf_l = environment(scene, d, alive & ~hit)
             w = dr.select(prev_delta, 1.0, power_heuristic(prev_pdf, pdf_l))
-            result += dr.select(alive & ~hit, beta * le * w, 0.0)
+            emitted += dr.select(alive & ~hit, beta * le * w, 0.0)
         if dr.hint(f.area_lights, mode="scalar"):
             le, pdf_l = emission(scene, si, alive & hit & ~on_plane, o, d, t_hit)
             w = dr.select(prev_delta, 1.0, power_heuristic(prev_pdf, pdf_l))
-            result += dr.select(alive & hit, beta * le * w, 0.0)
+            emitted += dr.select(alive & hit, beta * le * w, 0.0)
+        result += emitted
+        if dr.hint(f.record, mode="scalar"):
+            rec.vertex(depth, alive, valid=True, hit=hit, on_plane=on_plane, plane=plane_idx,
+                       shape=shape_id(si.shape), t=t_hit, p=p, beta=beta, emitted=emitted)
         first = alive & hit & (depth == 0)
         aov_n = dr.select(first, n, aov_n)
         aov_t = dr.select(first, t_hit, aov_t)
@@ -230,13 +240,17 @@ def trace_paths(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
         nee, counter, n_shadow = direct(scene, data.planes, lights, f.environment, data.tmin, si, p, b, alive,
                                         rng, depth * 256, counter, n_shadow)
         result += dr.select(alive, beta * nee, 0.0)
+        if dr.hint(f.record, mode="scalar"):
+            rec.vertex(depth, alive, nee=beta * nee)
         u_lobe = mi.sample_tea_float32(rng.pass_key, counter)
         u = light_point(rng, depth * 256 + BSDF_SLOT, counter + 1)
         counter += 3
         s = sample(b, n_medium, u_lobe, u, alive)
+        through = dr.dot(s.wo, b.n_face) < 0.0
+        if dr.hint(f.record, mode="scalar"):
+            rec.vertex(depth, alive, lobe=lobe_code(s.valid, s.delta, through, alive), pdf=s.pdf, weight=s.weight)
         beta = dr.select(alive, beta * s.weight, beta)
         alive &= s.valid
-        through = dr.dot(s.wo, b.n_face) < 0.0
         n_refl += dr.select(alive & ~through, 1.0, 0.0)
         n_refr += dr.select(alive & through, 1.0, 0.0)
         prev_pdf, prev_delta = s.pdf, s.delta
@@ -249,6 +263,8 @@ def trace_paths(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
         roulette = alive & (depth >= rr_depth)
         survive = mi.sample_tea_float32(rng.pass_key, counter) < q
         counter += 1
+        if dr.hint(f.record, mode="scalar"):
+            rec.vertex(depth - 1, alive, q=dr.select(roulette, q, 1.0), survived=~roulette | survive)
         beta = dr.select(roulette & survive, beta / q, beta)
         alive &= ~roulette | survive
         alive &= dr.max(beta) > 0.0

@@ -14,7 +14,7 @@ import mitsuba as mi
 
 from a5mi.spec import FRESNEL_MODES, TMIN
 
-from . import media, triangle_rule
+from . import media, subsurface, triangle_rule
 from .kernel.features import SceneData, build_features
 from .kernel.lights import lights_of
 from .kernel.raytree import TreeResult, trace_tree
@@ -54,6 +54,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     tmin             float   0.001   tmin of secondary and shadow rays (``a5mi.spec.TMIN``)
     glossy_samples   int     1       cap on the glossy children of a camera hit (docs/EXTENSIONS.md E.4)
     dispersion       bool    false   wavelength per camera ray, Cauchy n(λ) (docs/EXTENSIONS.md E.10)
+    subsurface       string  none    ``dipole`` / ``walk``: subsurface light of materials with ``sss_*``
+                                     (docs/EXTENSIONS.md E.18, plugins/subsurface.py)
     bump             bool    false   bump / normal-mapped shading normal (``-bump``, docs/EXTENSIONS.md E.7)
     glossy           bool    true    false: no material has roughness > 0 (the E.4 lobe sampling is
                                      left out of the kernel; the converter says so for its scenes)
@@ -147,6 +149,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             raise ValueError(f"a5_whitted: 'indirect' must be an integer >= 0, got {indirect!r}")
         self.indirect = indirect
         self._medium = media.params_from_props(props)   # docs/EXTENSIONS.md E.8, E.9 (None: no medium)
+        self.subsurface = subsurface.method_from_props(props)   # docs/EXTENSIONS.md E.18
         self._rules: dict[int, triangle_rule.RuleTable] = {}   # id(scene) -> its rule table (the last scene only)
 
     # ------------------------------------------------------------------ Mitsuba interface

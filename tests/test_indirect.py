@@ -14,6 +14,7 @@ import math
 from typing import Any
 
 import numpy as np
+import pytest
 from path_helpers import a5_passes, load
 
 SCENE = """
@@ -80,3 +81,21 @@ Group { numObjects 1 MaterialIndex 0 Plane { normal 0 1 0 offset 0 } }
     desc, scene, _ = load(mi, text, bounces=2, shadows=True, indirect=2)
     on, _ = a5_passes(mi, scene, scene.integrator(), desc.camera, 8, 8, 2, seed=5)
     np.testing.assert_allclose(on, off, rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["-indirect", "100", "-bounces", "10"], "the limit is 256"),
+    (["-indirect", "2", "-integrator", "path"], "mode of the whitted integrator"),
+])
+def test_cli_refuses_what_the_kernel_cannot_hold(tmp_path: Any, argv: list[str], message: str) -> None:
+    """A user error, one line, exit status 2, before anything is rendered."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    scene = tmp_path / "s.txt"
+    scene.write_text(SCENE)
+    a5 = str(Path(sys.executable).parent / "a5")
+    p = subprocess.run([a5, "-input", str(scene), "-output", str(tmp_path / "o.png"), "-size", "4", "4", *argv],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and message in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr

@@ -17,7 +17,7 @@ from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, size_flag, text
 from a5mi.errors import ExitStatus, UsageError
-from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, PHOTON_FILTERS, RenderOptions
+from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, PHOTON_FILTERS, SUBSURFACE_METHODS, RenderOptions
 from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR
 
 #: Render-buffer samples (3W x 3H with -jitter) accepted at most (~16 GB by a5mi.resources' model); below it
@@ -103,6 +103,11 @@ RENDER_FLAGS: tuple[Flag, ...] = (
     Flag(("-threads", "--threads"), "threads", "Dr.Jit worker threads", 1, integer(1, 1024), metavar="N"),
     Flag(("-bump", "--bump"), "bump", "bump and normal maps perturb the shading normal (docs/EXTENSIONS.md E.7; "
          "a5soln ignores 'bump')", default=False, show_default=False),
+    Flag(("-media_bounces", "--media-bounces"), "media_bounces", "Fog/Volume: 0 light arrives unattenuated (E.8); "
+         "N >= 1 shadow rays carry the medium's transmittance, up to N scatterings (docs/EXTENSIONS.md E.8)", 1,
+         integer(0, 64), 0, "N"),
+    Flag(("-subsurface", "--subsurface"), "subsurface", "materials' subsurface blocks: none, dipole (Jensen 2001) "
+         "or walk (volumetric random walk) (docs/EXTENSIONS.md E.18)", 1, choice(SUBSURFACE_METHODS), "none", "M"),
     Flag(("-phong", "--phong"), "phong", "add the handout's Phong highlight (a5soln has none)", default=False,
          show_default=False),
     Flag(("-fresnel", "--fresnel"), "fresnel", "a5 (the binary's R0), schlick or exact", 1, choice(FRESNEL_MODES),
@@ -127,6 +132,11 @@ def render_options(args: Args, **overrides: Any) -> RenderOptions:
     return RenderOptions(**values)
 
 
+#: docs/EXTENSIONS.md E.15: most pending rays per camera ray ``(N + 1) · bounces`` that ``-indirect N`` may keep
+#: (the kernel's per-lane stack, plugins/kernel/pbr_gather.py ``stack_size``)
+MAX_PENDING = 256
+
+
 def check_render_args(args: Args) -> None:
     """Limits that depend on several flags (SPEC B.5): the sample budget and ``-filter``'s minimum size."""
     k = JITTER_FACTOR if args.jitter else 1
@@ -134,6 +144,13 @@ def check_render_args(args: Args) -> None:
     if samples > MAX_SAMPLES:
         raise UsageError(f"-size {args.width} {args.height}{' with -jitter' if args.jitter else ''} is {samples} "
                          f"samples; the limit is {MAX_SAMPLES}")
+    indirect = args.get("indirect") or 0
+    if indirect and args.get("integrator") not in (None, "whitted"):
+        raise UsageError(f"-indirect is a mode of the whitted integrator, not of -integrator {args.integrator}")
+    if indirect and (indirect + 1) * args.bounces > MAX_PENDING:
+        pending = (indirect + 1) * args.bounces
+        raise UsageError(f"-indirect {indirect} with -bounces {args.bounces} keeps up to {pending} pending rays per "
+                         f"camera ray; the limit is {MAX_PENDING} (fewer rays or bounces)")
     if args.filter and not args.jitter and (args.width < 3 or args.height < 3):
         raise UsageError(f"-filter without -jitter saves a W/3 x H/3 image; -size {args.width} {args.height} is "
                          "too small")

@@ -73,6 +73,10 @@ def run_trace(args: Args, console: Console) -> int:
     activate_variant(args.variant)
     options = render_options(args, normals=False, depth=None, count_rays=False)
     tracer = Tracer(desc, options)
+    from a5mi.trace import paths
+
+    if paths.stochastic_mode(options) is not None:  # docs/EXTENSIONS.md E.14, E.15: samples and contributions
+        return _run_samples(args, console, tracer, options)
     if args.diff is not None:
         return _run_diff(args, console, tracer, desc)
     x, y = to_top_left(options, args.px, args.py, args.origin)
@@ -147,3 +151,16 @@ def _run_diff(args: Args, console: Console, tracer: Any, desc: Any) -> int:
 TRACE = Command("trace", "Print the SPEC B.3 ray tree of one pixel exactly as a5_whitted computes it, with every "
                 "term, checked against the real render; or (--diff) name the term a student image gets wrong.",
                 FLAGS, run_trace, required=("input",), check=check_trace_args, exit_ok="the trace printed")
+
+
+def _run_samples(args: Args, console: Console, tracer: Any, options: Any) -> int:
+    """``-integrator path`` / ``-indirect N``: the pixel's samples and what each contributes (a5mi/trace/paths.py)."""
+    from a5mi.trace import paths, report
+    from a5mi.trace.core import TraceError, to_top_left
+
+    if args.diff is not None or args.svg is not None:
+        raise TraceError("--diff and --svg trace Whitted ray trees; -integrator path and -indirect print samples")
+    x, y = to_top_left(options, args.px, args.py, args.origin)
+    pp = paths.trace_pixel(tracer, x, y)
+    console.result(report.dumps(pp.to_json()) if args.json else paths.format_pixel(pp))
+    return ExitStatus.OK

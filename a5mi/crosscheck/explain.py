@@ -13,6 +13,7 @@ import numpy.typing as npt
 
 from a5mi.crosscheck.core import (
     GLASS,
+    NO_RR_DEPTH,
     OPAQUE,
     CrosscheckOptions,
     _description,
@@ -43,7 +44,9 @@ def explain(desc_or_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]
     """Split ``stock path − exact Whitted`` into terms that add up exactly, each isolated by a render.
 
     With A = exact Whitted, B = A without ambient, C = B with light colours ÷ π, F = C without lamps,
-    D = ``path`` on the a5-plugin scene, E = D without lamps, G = ``path`` on the ``--stock`` conversion::
+    D = the physically based reading of the a5 scene (docs/EXTENSIONS.md E.13) rendered by ``a5_path``
+    (``-fresnel exact``, no Russian roulette; Mitsuba's ``path`` on the a5-plugin scene when the scene has a
+    medium, which E.13 does not read), E = D without lamps, G = ``path`` on the ``--stock`` conversion::
 
         G − A = (G − D) + (B − A) + (C − B) + (E − F) + ((D − C) − (E − F))
 
@@ -72,6 +75,20 @@ def explain(desc_or_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]
                              options.spp, options.path_max_depth, seed=options.seed + 1)
         return img.astype(np.float64) * 255
 
+    def reading(d: Mapping[str, Any]) -> npt.NDArray[np.float64]:
+        """E.13 by ``a5_path`` (the a5 dict's integrator entry carries the planes), through the pixel centres."""
+        from a5mi.driver import render_scene
+        from a5mi.options import RenderOptions
+
+        if str(d["integrator"].get("medium", "none")) != "none":
+            return path(d)
+        entry = {**d["integrator"], "type": "a5_path", "max_depth": options.bounces, "rr_depth": NO_RR_DEPTH,
+                 "fresnel": "exact", "aovs": ""}
+        ro = RenderOptions(width=options.width, height=options.height, bounces=options.bounces, spp=options.spp,
+                           seed=options.seed + 1, integrator="path", fresnel="exact", bump=options.bump)
+        scene = mi.load_dict({**d, "integrator": entry})
+        return render_scene(scene, cam, ro, integrator=scene.integrator()).image.astype(np.float64) * 255
+
     no_ambient = dict(integ, ambient={"type": "rgb", "value": [0.0, 0.0, 0.0]})
     # The lights' colours divided by pi (C), and no lights at all (E, F); the ambient term stays as described.
     dimmed = to_dict(dataclasses.replace(desc, lights=tuple(
@@ -79,7 +96,7 @@ def explain(desc_or_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]
     no_lamps = to_dict(dataclasses.replace(desc, lights=()), ro)
     a, b = whitted(a5d, integ), whitted(a5d, no_ambient)
     c, f = whitted(dimmed, no_ambient), whitted(no_lamps, no_ambient)
-    d, e, g = path(a5d), path(no_lamps), path(stock)
+    d, e, g = reading(a5d), reading(no_lamps), path(stock)
     classes = pixel_classes(mi.load_dict(a5d), cam, options.width, options.height, options.bounces,
                             tmin=float(integ.get("tmin", TMIN)), integrator=integ)
 
@@ -89,7 +106,7 @@ def explain(desc_or_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]
                            float(x[other].mean()) if other.any() else 0.0)
 
     return [
-        term("stock-conversion approximations", "stock path - path on the a5-plugin scene", g - d),
+        term("stock-conversion approximations", "stock path - E.13 reading (a5_path)", g - d),
         term("no ambient term in path", "Whitted with ambient 0", b - a),
         term("Lambert kd/pi against a5's kd", "Whitted with light colours / pi", c - b),
         term("environment light on diffuse surfaces", "path - Whitted, both without lamps", e - f),

@@ -39,7 +39,9 @@ class Features(NamedTuple):
     glossy         bool     E.4: sampled GGX facets of materials with roughness > 0
     bump           bool     E.7: the bump / normal-mapped shading normal
     media          bool     E.8, E.9: transmittance and in-scattering of segments in air
+    media_light    bool     E.8, E.9 with ``medium_bounces >= 1`` and shadows: shadow rays carry T_light
     dispersion     bool     E.10: a wavelength per lane, Cauchy n(λ), the w(λ) weight
+    subsurface     str      E.18: ``none`` | ``dipole`` | ``walk``: light under materials with ``sss_*``
     environment    bool     the scene has an environment emitter (else misses are black)
     triangle_rule  bool     some mesh carries the binary's triangle data (plugins/triangle_rule.py)
     record         bool     record mode: the ray tree's values are scattered into a recorder
@@ -57,7 +59,9 @@ class Features(NamedTuple):
     glossy: bool = False
     bump: bool = False
     media: bool = False
+    media_light: bool = False
     dispersion: bool = False
+    subsurface: str = "none"
     environment: bool = False
     triangle_rule: bool = False
     record: bool = False
@@ -114,7 +118,9 @@ def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, reco
     return Features(
         shadows=source.shadows, phong=source.phong, fresnel=source.fresnel, reflection=source.reflection,
         refraction=source.refraction, area_lights=has_area_lights(scene), glossy=source.glossy,
-        bump=source.bump, media=data.medium is not None, dispersion=source.dispersion,
+        bump=source.bump, media=data.medium is not None,
+        media_light=data.medium is not None and data.medium.bounces > 0 and source.shadows,
+        dispersion=source.dispersion, subsurface=getattr(source, "subsurface", "none"),
         environment=scene.environment() is not None, triangle_rule=data.rules is not None, record=record,
         stack_size=size, indirect=indirect,
     )

@@ -16,7 +16,7 @@ import mitsuba as mi
 
 from a5mi.spec import MIRROR_THRESHOLD
 
-from .. import media, spectral
+from .. import media, spectral, subsurface
 from ..common import fresnel_weight, reflect, snell
 from ..sampling import Stochastic
 from ..syntax import syntax
@@ -91,6 +91,8 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
 
         # ---- local shading: ambient ⊙ diffuseColor + Σ S clamp(L·N) lightColor ⊙ kd
         local = data.ambient * diffuse_color
+        if dr.hint(f.subsurface != "none", mode="scalar"):   # E.18: light under the surface replaces Lambert
+            kd, local, counter = subsurface.shade(scene, data, f, bsdf, si, p, d, n, hit, kd, local, rng, counter)
         local, counter, n_shadow = lights.direct(scene, data, f, si, p, hit, n, kd, specular, shininess, r_view,
                                                  local, rng, node, counter, n_shadow, rec, at)
         if dr.hint(f.area_lights, mode="scalar"):   # E.2: an area light seen directly
