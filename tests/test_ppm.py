@@ -14,6 +14,19 @@ from a5mi.options import RenderOptions
 SCENE = Path(__file__).resolve().parents[1] / "scenes" / "caustic_sphere.txt"
 
 
+@pytest.fixture(autouse=True)
+def _no_warm_scene_left():
+    """Drop the scene a5mi/photons/passes.py keeps per process after each test: a live ``a5_point`` (which has
+    no ``sample_wavelengths``) would be traced by the vcalls of a later stock ``ptracer`` render."""
+    yield
+    import gc
+
+    from a5mi.photons import passes
+
+    passes._WARM.clear()
+    gc.collect()
+
+
 def test_radius_schedule_is_the_papers_recursion(mi) -> None:
     from a5mi.plugins.ppm import radius_at
 

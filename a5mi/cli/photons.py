@@ -95,4 +95,4 @@ PHOTONS = Command("photons", "Trace the photon maps of a scene (docs/EXTENSIONS.
                   "image with the photon counts per surface; or, with --ppm, render progressive photon mapping "
                   "(E.17) here or on Dask workers.",
                   FLAGS, run_photons, (Positional("scene", "SCENE.txt", "scene file"),), check=check_photons_args,
-                  exit_ok="the picture (or the ppm image) written")
+                  exit_ok="the photon-map picture (or with --ppm the image) written")
