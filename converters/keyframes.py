@@ -49,7 +49,8 @@ CAMERA_FIELDS: Final = {"center": (3, "center"), "direction": (3, "direction"), 
 LIGHT_FIELDS: Final = {"position": (3, "position"), "direction": (3, "direction"), "color": (3, "color")}
 #: The light fields each kind of light can keyframe (area and sphere lights: the colour only).
 LIGHT_KINDS: Final = {"PointLight": ("position", "color"), "DirectionalLight": ("direction", "color"),
-                      "SpotLight": ("position", "direction", "color")}
+                      "SpotLight": ("position", "direction", "color"), "AreaLight": ("color",),
+                      "SphereLight": ("color",)}
 MATERIAL_FIELDS: Final = {"diffuseColor": (3, "diffuse_color"), "specularColor": (3, "specular_color")}
 #: Numbers of each Transform keyword (SPEC A.6).
 OP_ARITY: Final = {"Translate": 3, "Scale": 3, "UniformScale": 1, "XRotate": 1, "YRotate": 1, "ZRotate": 1,

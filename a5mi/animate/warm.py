@@ -8,6 +8,7 @@ changes enters the kernel as an opaque variable or a device array):
 * camera: the a5 camera is not a Mitsuba sensor; the driver takes the camera of the frame (its basis, focal
   factor, lens radius and focus distance are opaque, :mod:`a5mi.plugins.camera`, :mod:`a5mi.passes`);
 * ``PointLight`` / ``SpotLight``: ``position``, ``color`` and the spot's unit ``axis = d/|d|``;
+  ``AreaLight`` / ``SphereLight``: the ``color`` of the ``a5_area`` emitter on the light's shape (opaque);
   ``DirectionalLight``: ``irradiance.value`` and the ``to_world`` Mitsuba's ``directional`` builds from
   ``direction`` (copied from a stand-alone one, so it is the same to the bit);
 * materials: ``diffuse_color``, ``specular_color`` of each ``a5_material`` of the material (and its uniform
@@ -37,6 +38,7 @@ from a5mi.converters.describe import describe
 from a5mi.converters.errors import SceneSemanticError
 from a5mi.converters.geometry import mesh_from_obj, mesh_from_triangle, world_plane
 from a5mi.converters.model import (
+    AreaLight,
     DirectionalLight,
     Group,
     Node,
@@ -44,6 +46,7 @@ from a5mi.converters.model import (
     PointLight,
     Scene,
     Sphere,
+    SphereLight,
     SpotLight,
     Transform,
     Triangle,
@@ -125,6 +128,7 @@ class WarmScene:
     # ----------------------------------------------------------------------------------------------- update
     def update(self, t: float) -> Any:
         """Write the scene at time ``t`` into the loaded scene (module docstring); returns its camera."""
+        import drjit as dr
         import mitsuba as mi
 
         model_t = keyframes.scene_at(self.model, t)
@@ -142,6 +146,8 @@ class WarmScene:
                 # the matrix Mitsuba's directional builds from a direction, taken from one it builds
                 probe = mi.load_dict({"type": "directional", "direction": list(light.direction)})
                 p[f"{key}.to_world"] = mi.traverse(probe)["to_world"]
+            elif isinstance(light, AreaLight | SphereLight):  # the a5_area emitter of the light's shape (E.2)
+                p[f"{key}.emitter.color"] = dr.opaque(mi.Color3f, list(light.color))
         for m in self.materials:
             mat = model_t.materials[m]
             for obj in self.bsdfs.get(m, ()):
