@@ -31,6 +31,7 @@ SUBCOMMANDS: dict[str, str] = {
     "difftest": "random scenes rendered by a5mi and another a5 binary, compared",
     "trace": "the ray tree of one pixel with every term, checked against the render",
     "animate": "render an Animation block's frames (here or on Dask) + a video",
+    "simulate": "simulate rising smoke (stable fluids) into .vol grid frames",
 }
 
 A5MI_USAGE = """\
