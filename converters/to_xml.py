@@ -63,7 +63,7 @@ PLUGIN_TAGS: dict[str, str] = {
                      "a5_area", "area"), "emitter"),
     **dict.fromkeys(("a5_material", "diffuse", "conductor", "dielectric", "blendbsdf", "roughconductor",
                      "roughdielectric", "bumpmap", "normalmap"), "bsdf"),
-    **dict.fromkeys(("a5_marble", "a5_solid", "a5_bitmap", "bitmap", "srgb"), "texture"),
+    **dict.fromkeys(("a5_marble", "a5_solid", "a5_bitmap", "bitmap", "srgb", "volume"), "texture"),
     **dict.fromkeys(("sphere", "rectangle", "instance", "shapegroup", "ply"), "shape"),
     **dict.fromkeys(("homogeneous", "heterogeneous"), "medium"),
     "isotropic": "phase",
@@ -108,6 +108,8 @@ class _XmlBackend(Backend):
         key = f"mat_{material:03d}" + ("_nouv" if materials.without_texture(mat, with_uv) else "")
         if key not in entries:
             entries[key] = materials.bsdf(mat, with_uv, stock=self.stock, image=self.texture)
+            if self.stock:
+                entries[key] = self.stock_solids(entries[key], material)
         return {"type": "ref", "id": key}
 
     def mesh(self, key: str, shape: MeshShape, bsdf: Any) -> Any:
@@ -144,6 +146,17 @@ class _XmlBackend(Backend):
         target = self.xml_path.parent / rel
         target.parent.mkdir(parents=True, exist_ok=True)
         write_vol(target, vol.grid)
+        return {"filename": rel}
+
+
+    def solid_grid(self, grid: np.ndarray, material: int) -> dict[str, Any]:
+        """``{'filename': '{stem}_images/solid_NNN.vol'}``: a baked solid's RGB grid (E.6, ``--stock``)."""
+        from .volgrid import write_vol
+
+        rel = f"{self.image_dir.name}/solid_{material:03d}.vol"
+        target = self.xml_path.parent / rel
+        target.parent.mkdir(parents=True, exist_ok=True)
+        write_vol(target, grid)
         return {"filename": rel}
 
 
