@@ -99,7 +99,7 @@ def test_cli_writes_vol_frames(tmp_path: Path, capsys: pytest.CaptureFixture[str
     from a5mi.cli import run_a5mi
     from a5mi.converters.volgrid import read_vol
 
-    assert run_a5mi(["simulate", "smoke", "-o", str(tmp_path / "f"), "--frames", "3", "--size", "12",
+    assert run_a5mi(["simulate", "smoke", "-o", str(tmp_path / "f"), "--frames", "3", "--grid", "12",
                      "--seed", "1"]) == 0
     names = sorted(p.name for p in (tmp_path / "f").iterdir())
     assert names == ["smoke_000.vol", "smoke_001.vol", "smoke_002.vol"]
@@ -108,4 +108,4 @@ def test_cli_writes_vol_frames(tmp_path: Path, capsys: pytest.CaptureFixture[str
         assert np.array_equal(read_vol(tmp_path / "f" / names[f])[..., 0], want)
     assert run_a5mi(["simulate", "fire", "-o", str(tmp_path / "g"), "--frames", "1"]) == 2
     assert "unknown simulation 'fire'" in capsys.readouterr().err
-    assert run_a5mi(["simulate", "smoke", "-o", str(tmp_path / "g"), "--frames", "1", "--size", "4"]) == 2
+    assert run_a5mi(["simulate", "smoke", "-o", str(tmp_path / "g"), "--frames", "1", "--grid", "4"]) == 2

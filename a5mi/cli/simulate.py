@@ -1,4 +1,4 @@
-"""``a5mi simulate smoke -o DIR --frames N [--size N] [--seed S]``: a simulation's frames as ``.vol`` grids.
+"""``a5mi simulate smoke -o DIR --frames N [--grid N] [--seed S]``: a simulation's frames as ``.vol`` grids.
 
 The library is :mod:`a5mi.simulate` (stable fluids: docs/EXTENSIONS.md E.13). ``smoke`` writes the smoke
 density after each of ``N`` steps of ``1/24`` s as ``DIR/smoke_000.vol`` ... (one channel, the format of
@@ -20,7 +20,7 @@ FLAGS: tuple[Flag, ...] = (
          metavar="DIR"),
     Flag(("--frames",), "frames", "number of frames (one step of 1/24 s each)", 1, integer(1, 100_000),
          metavar="N"),
-    Flag(("--size",), "size", "grid cells along each axis (N³ grid)", 1, integer(8, 256), default=48,
+    Flag(("--grid",), "grid", "grid cells along each axis (an N³ grid)", 1, integer(8, 256), default=48,
          metavar="N"),
     Flag(("--seed",), "seed", "seed of the source's random perturbation (same seed, same frames)", 1,
          integer(0, 2**63 - 1), default=0, metavar="S"),
@@ -39,10 +39,10 @@ def run_simulate(args: Args, console: Console) -> int:
         raise UserError(f"-o '{out}' is not a folder")
     if not out.parent.is_dir():
         raise UserError(f"-o '{out}': folder '{out.parent}' does not exist")
-    params = smoke.SmokeParams(size=args.size, seed=args.seed)
+    params = smoke.SmokeParams(size=args.grid, seed=args.seed)
     t0 = time.perf_counter()
     paths = smoke.write_frames(out, params, args.frames)
-    console.note(f"a5mi simulate: {len(paths)} smoke frames ({args.size}³ cells) in {out} "
+    console.note(f"a5mi simulate: {len(paths)} smoke frames ({args.grid}³ cells) in {out} "
                  f"({time.perf_counter() - t0:.1f} s)")
     return ExitStatus.OK
 
