@@ -1,4 +1,4 @@
-"""Simulations whose frames a scene can play back (docs/EXTENSIONS.md E.13, E.14).
+"""Simulations whose frames a scene can play back (docs/EXTENSIONS.md E.13).
 
 * :mod:`.smoke`: stable fluids (Stam 1999) on a periodic ``N³`` grid, numpy only: semi-Lagrangian advection,
   buoyancy, vorticity confinement and an exact FFT projection; each frame's smoke density is written as a
