@@ -175,7 +175,7 @@ MediumDescription = Fog | VolumeDescription
 def describe_volume(scene: Scene, vol: Volume) -> VolumeDescription:
     """Resolve and read the ``.vol`` grid of ``vol`` (E.9); a missing, unreadable, malformed or multi-channel
     file is a :class:`SceneSemanticError` at its name."""
-    path = scene.resolve(vol.grid, vol.grid_loc, "Volume grid")
+    path = scene.resolve(volgrid.frame_name(vol.grid, 0), vol.grid_loc, "Volume grid")  # E.11: frame 0's grid
     try:
         grid = volgrid.read_vol(path)
     except OSError as exc:
@@ -273,6 +273,10 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
             if stock and mat.noise is not None:
                 warnings.append((mat.noise.loc or mat.loc,  # type: ignore[arg-type]
                                  "stock conversion: Noise (marble) replaced by its mean colour"))
+            if stock and mat.solid is not None:  # docs/EXTENSIONS.md E.6, stock mapping
+                warnings.append((mat.solid.loc or mat.loc,  # type: ignore[arg-type]
+                                 f"stock conversion: {mat.solid.kind.capitalize()} baked into an RGB grid over "
+                                 "its shapes' box (stock 'volume' texture, trilinear)"))
             if stock and mat.dispersion is not None:  # docs/EXTENSIONS.md E.10
                 n_c = mat.refraction_index + mat.dispersion / (CENTRE_WAVELENGTH_NM * 1e-3) ** 2
                 warnings.append((mat.loc,  # type: ignore[arg-type]
@@ -283,6 +287,11 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
                 maps[(index, which)], warning = files.map_image(scene, mat, which, decoded)
                 if warning is not None:
                     warnings.append((mat.bump_loc or mat.loc, warning))  # type: ignore[arg-type]
+        if bump and not with_uv:  # E.7: like a texture, a map cannot show without uv
+            for which, name in (("bump", mat.bump), ("normalMap", mat.normal_map)):
+                if name is not None:
+                    warnings.append((shape.loc, f"{which} '{name}' cannot show on this "  # type: ignore[attr-defined]
+                                     f"{type(shape).__name__}: it has no texture coordinates (EXTENSIONS E.7)"))
         if mat.texture is None:
             return
         # A referenced file is checked wherever it is used, even where Noise hides it (SPEC B.3 kd order).

@@ -23,8 +23,9 @@ Stock (:func:`stock_bsdf`, for use outside a5mi; none is needed for a5 renders):
   Mitsuba's own OBJ loader flips v to compensate, which these meshes built from the OBJ's numbers do not): it
   has Mitsuba's half-texel offset, unlike A.4; Noise (3D marble): the mean colour ``(color1 + color2)/2`` (the
   mean of ``t`` over a period of the sine; :func:`.describe.describe` warns with ``stock=True``);
-  procedural solids (docs/EXTENSIONS.md E.6): the same ``a5_solid`` texture as the reflectance of the stock
-  BSDF (so the a5mi plugins must be registered to load it), unscaled like a bitmap texture;
+  procedural solids (docs/EXTENSIONS.md E.6): the ``a5_solid`` texture as the reflectance of the stock BSDF,
+  unscaled like a bitmap texture, which the back end then bakes into the stock ``volume`` texture of an RGB grid
+  (:meth:`.to_mitsuba.Backend.stock_solids`), so the stock scene needs no a5mi plugin;
 * bump and normal maps (E.7, with ``-bump``, on shapes with uv): the BSDF wrapped in stock ``bumpmap``
   (``scale = bumpScale``, the height field as a grey ``bitmap``, ``raw``) / ``normalmap`` (the map as a raw
   ``bitmap``); both use Mitsuba's bilinear lookup with its half-texel offset and ``2c − 1`` decoding.
