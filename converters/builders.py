@@ -28,6 +28,7 @@ from .model import (
     Track,
     Vec3,
 )
+from .surface_ext import Btf, Milled
 
 _ZERO: Vec3 = (0.0, 0.0, 0.0)
 
@@ -114,6 +115,8 @@ class MaterialBuilder:
     solid: Solid | None = None
     roughness: float = 0.0
     glossy_samples: int = 1
+    btf: Btf | None = None          # E.19
+    milled: Milled | None = None    # E.20
 
     def build(self) -> Material:
         return Material(diffuse_color=self.diffuse_color, specular_color=self.specular_color,
@@ -121,7 +124,8 @@ class MaterialBuilder:
                         texture_loc=self.texture_loc, bump=self.bump, noise=self.noise, loc=self.loc,
                         roughness=self.roughness, glossy_samples=self.glossy_samples, dispersion=self.dispersion,
                         solid=self.solid, bump_loc=self.bump_loc, bump_scale=self.bump_scale,
-                        normal_map=self.normal_map, normal_map_loc=self.normal_map_loc)
+                        normal_map=self.normal_map, normal_map_loc=self.normal_map_loc,
+                        btf=self.btf, milled=self.milled)
 
 
 @dataclass

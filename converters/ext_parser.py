@@ -22,6 +22,7 @@ from .builders import MaterialBuilder, SolidBuilder
 from .errors import FileLoc
 from .lexer import Token
 from .model import AreaLight, Fog, Light, Medium, Solid, SphereLight, SpotLight, Vec3, Volume
+from .surface_ext import MATERIAL_RULES as SURFACE_RULES
 from .tokens import Rule, TokenStream, keyword_block, quoted_raw
 
 #: Upper bound of ``samples`` / ``glossySamples`` (one kernel loop bound / stack size, EXTENSIONS E.5).
@@ -283,7 +284,8 @@ def _glossy_samples(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
 #: The keywords this module adds to ``Material`` and their rules, in the order the parser's message lists them.
 MATERIAL_RULES: Final[dict[str, Rule[MaterialBuilder]]] = {
     "roughness": _roughness, "glossySamples": _glossy_samples, "Wood": _material_solid,
-    "Turbulence": _material_solid, "Veins": _material_solid, "bumpScale": _bump_scale, "normalMap": _normal_map}
+    "Turbulence": _material_solid, "Veins": _material_solid, "bumpScale": _bump_scale, "normalMap": _normal_map,
+    **SURFACE_RULES}  # E.19 btf, E.20 milled
 MATERIAL_KEYWORDS: Final = tuple(MATERIAL_RULES)
 
 

@@ -18,10 +18,14 @@ import stat
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import FileLoc, SceneSemanticError, shown
+
+if TYPE_CHECKING:
+    from .surface_ext import Btf, Milled
 
 Vec3 = tuple[float, float, float]
 #: A 4x4 matrix as hashable row-major tuples (``m[row][col]``); :func:`.transforms.as_array` gives numpy.
@@ -209,6 +213,9 @@ class Material:
     bump_scale: float = BUMP_SCALE
     normal_map: str | None = None
     normal_map_loc: FileLoc | None = None
+    #: docs/EXTENSIONS.md E.19, E.20: view-dependent images (the uv colour source) and the milled lobe
+    btf: Btf | None = None
+    milled: Milled | None = None
 
 
 # ------------------------------------------------------------------------------------------------------ objects

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import mitsuba as mi
 
+from ..milled import uses_milled
 from .lights import Lights, has_area_lights
 
 if TYPE_CHECKING:
@@ -39,6 +40,7 @@ class Features(NamedTuple):
     bump           bool     E.7: the bump / normal-mapped shading normal
     media          bool     E.8, E.9: transmittance and in-scattering of segments in air
     dispersion     bool     E.10: a wavelength per lane, Cauchy n(λ), the w(λ) weight
+    milled         bool     E.20: the Ward lobe of ``a5_milled`` BSDFs in the light loop
     environment    bool     the scene has an environment emitter (else misses are black)
     triangle_rule  bool     some mesh carries the binary's triangle data (plugins/triangle_rule.py)
     record         bool     record mode: the ray tree's values are scattered into a recorder
@@ -56,6 +58,7 @@ class Features(NamedTuple):
     bump: bool = False
     media: bool = False
     dispersion: bool = False
+    milled: bool = False
     environment: bool = False
     triangle_rule: bool = False
     record: bool = False
@@ -107,6 +110,7 @@ def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, reco
         shadows=source.shadows, phong=source.phong, fresnel=source.fresnel, reflection=source.reflection,
         refraction=source.refraction, area_lights=has_area_lights(scene), glossy=source.glossy,
         bump=source.bump, media=data.medium is not None, dispersion=source.dispersion,
+        milled=uses_milled(scene, [p[3] for p in getattr(source, "planes", ())]),
         environment=scene.environment() is not None, triangle_rule=data.rules is not None, record=record,
         stack_size=stack_size(source.max_depth, source.glossy_samples),
     )

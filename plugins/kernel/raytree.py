@@ -89,7 +89,7 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
         # ---- local shading: ambient ⊙ diffuseColor + Σ S clamp(L·N) lightColor ⊙ kd
         local = data.ambient * diffuse_color
         local, counter, n_shadow = lights.direct(scene, data, f, si, p, hit, n, kd, specular, shininess, r_view,
-                                                 local, rng, node, counter, n_shadow, rec, at)
+                                                 local, rng, node, counter, n_shadow, rec, at, bsdf)
         if dr.hint(f.area_lights, mode="scalar"):   # E.2: an area light seen directly
             local = lights.emission(scene, si, hit & ~on_plane, local)
 
