@@ -133,8 +133,9 @@ def _milled(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
             raise ts.syntax_error(f"milled gives '{key.text}' twice", key)
         kind = _MILLED_KINDS[key.text]
         locs[key.text] = key.loc
-        if kind == "number":
-            values[key.text] = ts.number(key.text)
+        if kind == "number":   # a range error sits at the number
+            values[key.text], num = ts.number_at(key.text)
+            locs[key.text] = num.loc
         elif kind == "vec3":
             values[key.text] = ts.vec3(key.text)
         else:
