@@ -3,7 +3,7 @@
     python scenes/rainbow.py [--size 1000] [--spp 6] [--droplets 1000]    # docs/rainbow.png, prints the angles
     python scenes/rainbow.py --write scenes/rainbow.txt --droplets 2000     # the scene text for `a5`
 
-The picture is the render box-averaged 4 x 4 (``--size`` a multiple of 4); the float render is kept beside it
+The picture is the render box-averaged 5 x 5 (``--size`` a multiple of 5); the float render is kept beside it
 (``.npy``, not committed). The scene: the camera at the origin looks at the antisolar point (−z); the sun is a
 SphereLight 10⁴ units behind it (+z) of angular radius ``SUN_RADIUS_DEG`` (a Whitted tracer sees a light through
 a droplet only if the refracted ray can hit it: a DirectionalLight, a delta, cannot be hit); the droplets are
@@ -125,16 +125,50 @@ def profile(img: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]
         return edges + BIN_DEG / 2, hits / count
 
 
-def measure(img: np.ndarray, theta: np.ndarray) -> tuple[float, float]:
-    """(primary, secondary) bow angles in degrees (module docstring): the steepest fall of the 3-bin smoothed
-    hit-rate profile in 30°-47° and its steepest rise in 47°-60°, at the midpoint between two bins."""
-    centres, prof = profile(img, theta)
+def edges(centres: np.ndarray, prof: np.ndarray) -> tuple[float, float]:
+    """(primary, secondary) of a ring profile: the steepest fall of its 3-bin running mean in 30°-47° and its
+    steepest rise in 47°-60°, at the midpoint between two bins."""
     prof = np.convolve(np.nan_to_num(prof), np.ones(3) / 3, mode="same")
     slope = np.diff(prof)
     mids = (centres[:-1] + centres[1:]) / 2
     first = (mids > 30.0) & (mids < 47.0)
     second = (mids > 47.0) & (mids < 60.0)
     return float(mids[first][np.argmin(slope[first])]), float(mids[second][np.argmax(slope[second])])
+
+
+def measure(img: np.ndarray, theta: np.ndarray) -> tuple[float, float]:
+    """(primary, secondary) bow angles in degrees (module docstring): :func:`edges` of the :func:`profile`."""
+    return edges(*profile(img, theta))
+
+
+def sectors(img: np.ndarray, theta: np.ndarray, n: int = 4) -> list[tuple[float, float]]:
+    """:func:`measure` on ``n`` azimuthal sectors of the image apart (their spread: the measurement's noise)."""
+    h, w = theta.shape
+    az = np.arctan2(np.arange(h)[:, None] - (h - 1) / 2, np.arange(w)[None, :] - (w - 1) / 2)
+    k = ((az + np.pi) / (2 * np.pi) * n).astype(int) % n
+    return [measure(np.where((k == s)[..., None], img, np.nan), theta) for s in range(n)]
+
+
+def model_profile(samples: int = 4_000_000, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """The hit-rate profile geometric optics predicts for :func:`profile` (up to scale, without the light
+    scattered by several droplets): rays uniform over a droplet's disc (``b² ~ U(0, 1)``), ``λ ~ U(400, 700)``
+    nm, each leaving after one and after two internal reflections at ``θ1 = 4r − 2i``, ``θ2 = 180° + 2i − 6r``
+    from the antisolar point; a pixel at ``θ`` sees the sun if the ray's direction lies within the sun's disc:
+    each is moved by a uniform point of a disc of radius SUN_RADIUS_DEG (small-angle, in the plane of the sky),
+    and the counts per ring are divided by the ring's solid angle."""
+    rng = np.random.default_rng(seed)
+    b = np.sqrt(rng.uniform(0.0, 1.0, samples))
+    lam = rng.uniform(0.4, 0.7, samples)
+    n = WATER[0] + WATER[1] / lam ** 2
+    i, r = np.arcsin(b), np.arcsin(b / n)
+    theta = np.concatenate([np.degrees(4 * r - 2 * i), 180.0 + np.degrees(2 * i - 6 * r)])
+    rho = SUN_RADIUS_DEG * np.sqrt(rng.uniform(0.0, 1.0, theta.size))
+    psi = rng.uniform(0.0, 2 * np.pi, theta.size)
+    seen = np.hypot(theta + rho * np.cos(psi), rho * np.sin(psi))
+    bins = np.arange(0.0, 90.0 + BIN_DEG, BIN_DEG)
+    counts, _ = np.histogram(seen, bins)
+    solid = np.cos(np.radians(bins[:-1])) - np.cos(np.radians(bins[1:]))
+    return bins[:-1] + BIN_DEG / 2, counts / solid
 
 
 def write_png(img: np.ndarray, path: Path, exposure: float) -> None:
@@ -163,13 +197,17 @@ def main() -> None:
     i1, i2 = math.acos(math.sqrt((n * n - 1) / 3)), math.acos(math.sqrt((n * n - 1) / 8))
     d1 = math.degrees(4 * math.asin(math.sin(i1) / n) - 2 * i1)
     d2 = 180 + math.degrees(2 * i2 - 6 * math.asin(math.sin(i2) / n))
-    print(f"measured primary {primary:.2f} deg, secondary {secondary:.2f} deg; Descartes at 550 nm "
-          f"{d1:.2f}, {d2:.2f} (sun radius {SUN_RADIUS_DEG} deg, bins {BIN_DEG} deg)")
+    m1, m2 = edges(*model_profile())
+    spread = np.array(sectors(img, theta))
+    print(f"measured primary {primary:.2f} deg, secondary {secondary:.2f} deg (four quadrants: primary "
+          f"{spread[:, 0].min():.2f}-{spread[:, 0].max():.2f}, secondary {spread[:, 1].min():.2f}-"
+          f"{spread[:, 1].max():.2f}); the same edges of the geometric-optics model {m1:.2f}, {m2:.2f}; "
+          f"Descartes at 550 nm {d1:.2f}, {d2:.2f} (sun radius {SUN_RADIUS_DEG} deg, bins {BIN_DEG} deg)")
     np.save(args.out.with_suffix(".npy"), img.astype(np.float32))
     print(f"{int((~np.isfinite(img).all(axis=2)).sum())} non-finite pixels (left out of the profile)")
-    small = np.nan_to_num(img).reshape(args.size // 4, 4, args.size // 4, 4, 3).mean(axis=(1, 3))
+    small = np.nan_to_num(img).reshape(args.size // 5, 5, args.size // 5, 5, 3).mean(axis=(1, 3))
     lum = small.mean(axis=2)
-    write_png(small, args.out, 1.0 / np.percentile(lum[lum > 0], 99))
+    write_png(small, args.out, 1.0 / np.percentile(lum[lum > 0], 97))
 
 
 if __name__ == "__main__":

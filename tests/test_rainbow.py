@@ -104,3 +104,30 @@ def test_measurement_finds_the_edges_of_a_synthetic_profile() -> None:
     img[rng.uniform(size=theta.shape) < 1e-4] = np.nan
     primary, secondary = rainbow.measure(img, theta)
     assert abs(primary - 42.0) <= rainbow.BIN_DEG and abs(secondary - 51.0) <= rainbow.BIN_DEG, (primary, secondary)
+
+
+def test_rays_that_hit_a_sphere_light_stay_finite(mi: Any) -> None:
+    """Rays leaving the droplet towards the sun hit the SphereLight's sphere (E.2: they see its colour); the light
+    loop at that hit samples the same light from its own surface, where the sampled point can be the hit point
+    itself (distance 0): the term is 0 there, not 0/0 (before: 41 NaN colours in 2·10⁵ rays, seeded)."""
+    from a5mi.converters.describe import describe
+    from a5mi.options import RenderOptions
+    from a5mi.plugins.sampling import SamplePass
+    from a5mi.session import build_scene
+
+    text = f"""PerspectiveCamera {{ center 0 0 5 direction 0 0 -1 up 0 1 0 angle 30 }}
+Lights {{ numLights 1 SphereLight {{ center 0 0 10000 radius 524 color 3000 3000 3000 samples 1 }} }}
+Background {{ color 0 0 0 }}
+Materials {{ numMaterials 1 Material {{ diffuseColor 0 0 0 specularColor 1 1 1 refractionIndex dispersion {A} {B} }} }}
+Group {{ numObjects 1 MaterialIndex 0 Sphere {{ center 0 0 0 radius 1 }} }}
+"""
+    scene = build_scene(describe(parse_text(text)), RenderOptions(bounces=4))
+    n = 200000
+    rng = np.random.default_rng(0)
+    b, ph = np.sqrt(rng.uniform(0, 1, n)), rng.uniform(0, 2 * np.pi, n)
+    xy = (b * np.cos(ph)).astype(np.float32), (b * np.sin(ph)).astype(np.float32)
+    o = mi.Point3f(*xy, np.full(n, 5.0, np.float32))
+    color = np.asarray(scene.integrator().trace(scene, mi.Ray3f(o, mi.Vector3f(0.0, 0.0, -1.0)),
+                                                sample_pass=SamplePass(0, 0, 4, 3))[0])
+    assert np.isfinite(color).all()
+    assert (np.abs(color).max(axis=0) > 0.0).sum() > 300    # rays that reach the sun through the droplet see it
