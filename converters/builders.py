@@ -28,7 +28,7 @@ from .model import (
     Track,
     Vec3,
 )
-from .surface_ext import Btf, Milled
+from .surface_model import Btf, Milled
 
 _ZERO: Vec3 = (0.0, 0.0, 0.0)
 

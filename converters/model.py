@@ -25,7 +25,7 @@ import numpy as np
 from .errors import FileLoc, SceneSemanticError, shown
 
 if TYPE_CHECKING:
-    from .surface_ext import Btf, Milled
+    from .surface_model import Btf, Milled
 
 Vec3 = tuple[float, float, float]
 #: A 4x4 matrix as hashable row-major tuples (``m[row][col]``); :func:`.transforms.as_array` gives numpy.

@@ -10,9 +10,9 @@ is the file ``NAME % (i, j)``, seen from elevation number ``i`` and azimuth numb
 the polar angles of the view direction from the normal in degrees, strictly increasing in [0, 90]; azimuths are
 angles from the tangent ``T`` towards ``B`` (E.7's frame), strictly increasing in [0, 360). ``btf`` is the
 material's colour source on shapes with uv (like ``texture``), so a Material with ``btf`` takes no ``texture``,
-``Noise`` or solid block. Here: the model (:class:`Btf`, :class:`Milled`), the rules, the description step
-(:func:`describe_btf`: each image read once, errors at the pattern) and the BSDF dicts (:func:`btf_texture`,
-:func:`milled_bsdf`, :func:`stock_milled`). Pure Python: no Mitsuba import.
+``Noise`` or solid block. Here: the rules, the description step (:func:`describe_btf`: each image read once,
+errors at the pattern) and the BSDF dicts (:func:`btf_texture`, :func:`milled_bsdf`, :func:`stock_milled`); the
+model (:class:`.surface_model.Btf`, :class:`.surface_model.Milled`) lives apart. Pure Python: no Mitsuba import.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Final
 
 from .errors import FileLoc, SceneSemanticError
+from .surface_model import PATTERNS, Btf, Milled
 from .tokens import FLOAT_RE, Rule, TokenStream, quoted_raw
 
 if TYPE_CHECKING:
@@ -31,38 +32,8 @@ if TYPE_CHECKING:
     from .lexer import Token
     from .model import Material, Scene
 
-Vec3 = tuple[float, float, float]
 #: ``%d`` / ``%02d`` conversions (and ``%%``) of an ``images`` pattern.
 _CONVERSION: Final = re.compile(r"%(?:%|0?[0-9]*d)")
-PATTERNS: Final = ("straight", "circular")
-
-
-@dataclass(frozen=True)
-class Btf:
-    """``btf { images NAME elevations F+ azimuths F+ }`` (E.19): the image of ``(i, j)`` is ``images % (i, j)``."""
-
-    images: str
-    images_loc: FileLoc
-    elevations: tuple[float, ...]
-    azimuths: tuple[float, ...]
-    loc: FileLoc
-
-    def file_name(self, i: int, j: int) -> str:
-        return self.images % (i, j)
-
-
-@dataclass(frozen=True)
-class Milled:
-    """``milled { alphaU F alphaV F [color V3] pattern P axis V3 [center V3] }`` (E.20): Ward's anisotropic lobe
-    of reflectance ``color`` on the tangent field ``pattern``."""
-
-    alpha_u: float
-    alpha_v: float
-    color: Vec3
-    pattern: str
-    axis: Vec3
-    center: Vec3
-    loc: FileLoc
 
 
 @dataclass(frozen=True, eq=False)
