@@ -26,7 +26,9 @@ AOV_GROUPS: tuple[str, ...] = ("normal", "depth", "class", "counts")
 #: accepts the scene part of ``a5_whitted``'s parameters (``ambient``, ``plane_<id>_*``, ``medium*``,
 #: ``glossy_samples``, ``glossy``, ``dispersion``: converters/to_mitsuba.py ``integrator_dict``) and the
 #: ``aovs`` groups it lists in ``aov_names()``.
-INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted"}
+INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted", "path": "a5_path"}
+#: ``-subsurface`` methods (docs/EXTENSIONS.md E.18; ``none``: the materials' ``subsurface`` blocks are ignored).
+SUBSURFACE_METHODS: tuple[str, ...] = ("none", "dipole", "walk")
 #: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
 TILE_RAYS: int = 1 << 20
 
@@ -76,6 +78,15 @@ class RenderOptions:
     bump: bool = False
     #: ``-integrator``: a key of :data:`INTEGRATORS` (``whitted``: SPEC B.3)
     integrator: str = "whitted"
+    #: docs/EXTENSIONS.md E.14: ``-integrator path`` plays Russian roulette from this many scatterings on
+    rr_depth: int = 5
+    #: docs/EXTENSIONS.md E.15: ``a5_whitted`` gathers indirect light with N cosine-weighted rays per diffuse hit
+    indirect: int = 0
+    #: docs/EXTENSIONS.md E.8, E.9: 0 the course-era medium (light unattenuated on its way); N >= 1 shadow rays
+    #: carry the medium's transmittance and light scatters up to N times in it
+    media_bounces: int = 0
+    #: docs/EXTENSIONS.md E.18: ``none`` (materials' ``subsurface`` blocks ignored), ``dipole`` or ``walk``
+    subsurface: str = "none"
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -87,8 +98,16 @@ class RenderOptions:
             raise ValueError(f"aov_mode must be one of {', '.join(AOV_MODES)}, got '{self.aov_mode}'")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got '{self.integrator}'")
+        if self.indirect < 0:
+            raise ValueError(f"indirect must be >= 0, got {self.indirect}")
+        if self.rr_depth < 0:
+            raise ValueError(f"rr_depth must be >= 0, got {self.rr_depth}")
         if self.spp < 1:
             raise ValueError(f"spp must be >= 1, got {self.spp}")
+        if self.subsurface not in SUBSURFACE_METHODS:
+            raise ValueError(f"subsurface must be one of {', '.join(SUBSURFACE_METHODS)}, got '{self.subsurface}'")
+        if self.media_bounces < 0:
+            raise ValueError(f"media_bounces must be >= 0, got {self.media_bounces}")
         if self.tile_rays <= 0:
             raise ValueError(f"tile_rays must be positive, got {self.tile_rays}")
 
@@ -119,4 +138,12 @@ class RenderOptions:
                   "refraction": bool(self.refraction), "aovs": ",".join(self.aov_groups)}
         if self.bump:  # docs/EXTENSIONS.md E.7; absent otherwise, so course dicts and XML are unchanged
             params["bump"] = True
+        if self.indirect > 0 and self.plugin == "a5_whitted":  # E.15; absent at 0: course dicts unchanged
+            params["indirect"] = int(self.indirect)
+        if self.plugin == "a5_path":  # docs/EXTENSIONS.md E.14
+            params["rr_depth"] = int(self.rr_depth)
+        if self.media_bounces and self.plugin == "a5_whitted":  # E.8, E.9; absent at 0 (dicts, XML unchanged)
+            params["medium_bounces"] = int(self.media_bounces)
+        if self.subsurface != "none" and self.plugin == "a5_whitted":  # docs/EXTENSIONS.md E.18
+            params["subsurface"] = str(self.subsurface)
         return params

@@ -79,6 +79,11 @@ def parse_camera(ts: TokenStream, start: Token) -> Camera:
     if not (0.0 < angle < 180.0 and abs(np.float32(angle)) >= tiny and float(rad) >= tiny and np.isfinite(focal)):
         raise ts.semantic_error(f"camera angle must be between 0 and 180 degrees (in float32), found {angle:g}",
                                 angle_tok.loc)
+    with np.errstate(over="ignore"):
+        focal_sq = focal * focal  # the camera ray's |d|² before normalising (B.2), in float32
+    if not np.isfinite(focal_sq):  # below ~6.2e-18 degrees every ray direction is inf/NaN, in a5soln too
+        raise ts.semantic_error(f"camera angle {angle:g} is too small: the camera ray's length overflows float32 "
+                                "(the sample solution's precision)", angle_tok.loc)
     w = np.asarray(fields["direction"])
     if np.linalg.norm(np.cross(w, np.asarray(fields["up"]))) == 0.0:
         raise ts.semantic_error("camera up must not be parallel to direction", tok.loc)
@@ -220,6 +225,9 @@ def _refraction_index(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
     n = ts.number(tok.text)
     if n < 0.0:
         raise ts.semantic_error(f"refractionIndex must not be negative, found {n:g}", tok.loc)
+    if n * n > float(np.finfo(np.float32).max):  # Snell's (n/nt)² (1 - c²) = inf x 0 = NaN leaving it, a5soln too
+        raise ts.semantic_error(f"refractionIndex {n:g} is too large: its square overflows float32 (the sample "
+                                "solution's precision; at most 1.8e19)", tok.loc)
     m.refraction_index = n
 
 

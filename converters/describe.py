@@ -43,6 +43,7 @@ from .geometry import (
 )
 from .model import Camera, Fog, Light, Noise, Plane, Scene, Solid, Sphere, Triangle, TriangleMesh, Vec3, Volume
 from .obj import NormalMode, ObjMesh
+from .subsurface import Subsurface
 from .surface_ext import STOCK_BTF_WARNING, STOCK_WARNING, BtfImages, Milled, describe_btf
 
 SceneWarning = tuple[FileLoc, str]
@@ -91,6 +92,8 @@ class MaterialDescription:
     bump: Image | None = None
     bump_scale: float = 1.0
     normal_map: Image | None = None
+    #: docs/EXTENSIONS.md E.18: the ``subsurface`` block (converters/subsurface.py), None without one
+    subsurface: Subsurface | None = None
     #: docs/EXTENSIONS.md E.20: Ward's anisotropic lobe on a milling tangent field
     milled: Milled | None = None
 
@@ -166,6 +169,8 @@ class VolumeDescription:
     color: Vec3
     steps: int
     loc: FileLoc
+    #: Henyey-Greenstein asymmetry (docs/EXTENSIONS.md E.8, E.9)
+    g: float = 0.0
 
 
 MediumDescription = Fog | VolumeDescription
@@ -187,7 +192,7 @@ def describe_volume(scene: Scene, vol: Volume) -> VolumeDescription:
     if not np.all(np.isfinite(grid)) or float(grid.min()) < 0.0:
         raise SceneSemanticError(f"Volume grid '{path}' holds negative or non-finite densities", vol.grid_loc)
     return VolumeDescription(grid, path.resolve(), vol.density, vol.box_min, vol.box_max, vol.color, vol.steps,
-                             vol.loc)
+                             vol.loc, vol.g)
 
 
 @dataclass(frozen=True, eq=False)
@@ -213,20 +218,23 @@ class SceneDescription:
     medium: MediumDescription | None = None
 
 
-def describe(scene: Scene, *, stock: bool = False, normals: NormalMode = "auto", bump: bool = False
-             ) -> SceneDescription:
+def describe(scene: Scene, *, stock: bool = False, normals: NormalMode = "auto", bump: bool = False,
+             decoded: files.Decoded | None = None) -> SceneDescription:
     """The :class:`SceneDescription` of ``scene``: every file read once, geometry in world space.
 
     Raises :class:`SceneSemanticError` for missing or unreadable meshes, textures or cube-map faces, at the
     keyword that named them (or at the OBJ line at fault), and for geometry that nested ``Transform`` s push
     out of float32 range or make singular, at the primitive. ``stock=True`` adds the warnings of the stock
     conversion's approximations (:mod:`.to_mitsuba`). ``normals``: :func:`.obj.vertex_normals`' rule. numpy's
-    floating-point warnings are silenced here: such overflows are checked and reported as errors instead."""
+    floating-point warnings are silenced here: such overflows are checked and reported as errors instead.
+    ``decoded``: images already decoded by the caller, by resolved path (a caller that re-describes an edited
+    scene, ``a5mi view``, keeps the decoded images whose files did not change); new decodes are added to it."""
     with np.errstate(all="ignore"):
-        return _describe(scene, stock=stock, normals=normals, bump=bump)
+        return _describe(scene, stock=stock, normals=normals, bump=bump, decoded=decoded)
 
 
-def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = False) -> SceneDescription:
+def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = False,
+              decoded: files.Decoded | None = None) -> SceneDescription:
     warnings: list[SceneWarning] = []
     if stock and any(scene.ambient):
         warnings.append((scene.background.loc or scene.camera.loc,  # type: ignore[arg-type]
@@ -248,7 +256,7 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
                 meshes[prim.obj_file].vertices, meshes[prim.obj_file].faces, warnings=warnings, loc=prim.obj_file_loc)
     centre = geometry_centre(placed, meshes)
 
-    decoded: files.Decoded = {}  # each image file decoded once, even when several materials name it
+    decoded = {} if decoded is None else decoded  # each image file decoded once, even when several materials name it
     bg = scene.background
     background: Background
     if bg.cube_map is not None:
@@ -341,7 +349,8 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
                             mat.loc, float(mat.roughness), int(mat.glossy_samples),
                             None if mat.dispersion is None else float(mat.dispersion),
                             bump=maps.get((i, "bump")), bump_scale=float(mat.bump_scale),
-                            normal_map=maps.get((i, "normal_map")), milled=mat.milled)
+                            normal_map=maps.get((i, "normal_map")), subsurface=mat.subsurface,
+                            milled=mat.milled)
         for i, mat in enumerate(scene.materials))
     medium = describe_volume(scene, scene.medium) if isinstance(scene.medium, Volume) else scene.medium
     return SceneDescription(scene.path, scene.camera, scene.ambient, background, materials, tuple(shapes),

@@ -166,13 +166,17 @@ def medium_params(medium: Any, grid: dict[str, Any] | None) -> dict[str, Any]:
                            "medium_steps": int(medium.steps)}
     if grid is not None:
         out["medium_grid"] = grid
+    if medium.g != 0.0:  # docs/EXTENSIONS.md E.8: Henyey-Greenstein (absent for 0: dicts and XML unchanged)
+        out["medium_g"] = float(medium.g)
     return out
 
 
 def stock_medium(medium: Any, grid: dict[str, Any] | None) -> dict[str, Any]:
-    """The stock medium of the sensor: ``homogeneous`` (Fog) or ``heterogeneous`` (Volume), isotropic."""
+    """The stock medium of the sensor: ``homogeneous`` (Fog) or ``heterogeneous`` (Volume), ``isotropic``
+    (``hg`` with the block's ``g`` when it is not 0)."""
+    phase = {"type": "isotropic"} if medium.g == 0.0 else {"type": "hg", "g": float(medium.g)}
     if isinstance(medium, Fog):
         return {"type": "homogeneous", "sigma_t": float(medium.density), "albedo": _rgb(medium.color),
-                "phase": {"type": "isotropic"}}
+                "phase": phase}
     return {"type": "heterogeneous", "sigma_t": grid, "scale": float(medium.density), "albedo": _rgb(medium.color),
-            "phase": {"type": "isotropic"}}
+            "phase": phase}

@@ -22,6 +22,7 @@ from .builders import MaterialBuilder, SolidBuilder
 from .errors import FileLoc
 from .lexer import Token
 from .model import AreaLight, Fog, Light, Medium, Solid, SphereLight, SpotLight, Vec3, Volume
+from .subsurface import parse_subsurface
 from .surface_ext import MATERIAL_RULES as SURFACE_RULES
 from .tokens import Rule, TokenStream, keyword_block, quoted_raw
 
@@ -281,11 +282,18 @@ def _glossy_samples(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
     m.glossy_samples = n
 
 
+def _subsurface(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
+    """E.18: ``subsurface { ... }`` (converters/subsurface.py), at most once."""
+    if m.subsurface is not None:
+        raise ts.semantic_error("a Material takes one subsurface block", tok.loc)
+    m.subsurface = parse_subsurface(ts, tok)
+
+
 #: The keywords this module adds to ``Material`` and their rules, in the order the parser's message lists them.
 MATERIAL_RULES: Final[dict[str, Rule[MaterialBuilder]]] = {
     "roughness": _roughness, "glossySamples": _glossy_samples, "Wood": _material_solid,
     "Turbulence": _material_solid, "Veins": _material_solid, "bumpScale": _bump_scale, "normalMap": _normal_map,
-    **SURFACE_RULES}  # E.19 btf, E.20 milled
+    "subsurface": _subsurface, **SURFACE_RULES}  # E.19 btf, E.20 milled
 MATERIAL_KEYWORDS: Final = tuple(MATERIAL_RULES)
 
 
@@ -315,6 +323,13 @@ def parse_dispersion(ts: TokenStream, tok: Token, m: MaterialBuilder) -> bool:
 
 
 # ------------------------------------------------------------------------------------------- E.8, E.9 media
+def _phase_g(ts: TokenStream, block: str, f: Fields) -> float:
+    """E.8: ``g`` in (−1, 1), the Henyey-Greenstein asymmetry (default 0: isotropic)."""
+    g = f.nums.get("g", 0.0)
+    f.check(ts, -1.0 < g < 1.0, "g", f"{block} g must be between -1 and 1 (exclusive), found {g:g}")
+    return g
+
+
 def _medium_common(ts: TokenStream, block: str, f: Fields, default_steps: int) -> tuple[float, Vec3, int]:
     density = f.nums["density"]
     f.check(ts, density >= 0.0, "density", f"{block} density must not be negative, found {density:g}")
@@ -329,11 +344,11 @@ def _medium_common(ts: TokenStream, block: str, f: Fields, default_steps: int) -
 
 
 def parse_fog(ts: TokenStream, start: Token) -> Fog:
-    """``Fog { color V3 density F [steps I] }`` (E.8): any order; ``density >= 0`` (extinction per unit
+    """``Fog { color V3 density F [steps I] [g F] }`` (E.8): any order; ``density >= 0`` (extinction per unit
     length), ``color`` in [0, 1]³ (the albedo), ``1 <= steps <= 1024`` (default 16)."""
-    f = _fields(ts, start, "Fog", {"color": _V3, "density": _F, "steps": _I}, ("color", "density"))
+    f = _fields(ts, start, "Fog", {"color": _V3, "density": _F, "steps": _I, "g": _F}, ("color", "density"))
     density, color, steps = _medium_common(ts, "Fog", f, 16)
-    return Fog(color, density, steps, start.loc)
+    return Fog(color, density, steps, start.loc, _phase_g(ts, "Fog", f))
 
 
 def parse_volume(ts: TokenStream, start: Token) -> Volume:
@@ -341,13 +356,13 @@ def parse_volume(ts: TokenStream, start: Token) -> Volume:
     in every coordinate, ``density >= 0`` (scales the grid's values), ``color`` the albedo (default 1 1 1),
     ``steps`` the marching steps across the box (default 64)."""
     f = _fields(ts, start, "Volume", {"grid": _N, "density": _F, "min": _V3, "max": _V3, "color": _V3,
-                                      "steps": _I}, ("grid", "density", "min", "max"))
+                                      "steps": _I, "g": _F}, ("grid", "density", "min", "max"))
     lo, hi = f.vecs["min"], f.vecs["max"]
     f.check(ts, all(a < b for a, b in zip(lo, hi, strict=True)), "max",
             "Volume max must exceed min in every coordinate")
     density, color, steps = _medium_common(ts, "Volume", f, 64)
     grid = f.names["grid"]
-    return Volume(grid.text, density, lo, hi, color, steps, start.loc, grid.loc)
+    return Volume(grid.text, density, lo, hi, color, steps, start.loc, grid.loc, _phase_g(ts, "Volume", f))
 
 
 #: Top-level blocks (name -> parse function); each sets the scene's ``medium``.

@@ -134,6 +134,10 @@ def a5_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_p
         d["glossy_samples"] = int(mat.glossy_samples)
     if mat.dispersion is not None:  # docs/EXTENSIONS.md E.10: refraction_index is Cauchy's A
         d["cauchy_b"] = float(mat.dispersion)
+    if mat.subsurface is not None:  # docs/EXTENSIONS.md E.18 (read by a5_whitted with -subsurface only)
+        sss = mat.subsurface
+        d.update({"sss_sigma_a": rgb(sss.sigma_a), "sss_sigma_s": rgb(sss.sigma_s), "sss_eta": float(sss.eta),
+                  "sss_g": float(sss.g), "sss_samples": int(sss.samples)})
     kd = mat.kd_on(with_uv)
     if isinstance(kd, Noise):
         d["kd"] = {"type": "a5_marble", "color1": rgb(kd.color1), "color2": rgb(kd.color2),

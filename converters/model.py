@@ -25,6 +25,7 @@ import numpy as np
 from .errors import FileLoc, SceneSemanticError, shown
 
 if TYPE_CHECKING:
+    from .subsurface import Subsurface
     from .surface_model import Btf, Milled
 
 Vec3 = tuple[float, float, float]
@@ -131,6 +132,8 @@ class Fog:
     density: float
     steps: int
     loc: FileLoc
+    #: Henyey-Greenstein asymmetry of the phase function (docs/EXTENSIONS.md E.8; 0: isotropic)
+    g: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -147,6 +150,8 @@ class Volume:
     steps: int
     loc: FileLoc
     grid_loc: FileLoc
+    #: Henyey-Greenstein asymmetry (docs/EXTENSIONS.md E.8, E.9; 0: isotropic)
+    g: float = 0.0
 
 
 Medium = Fog | Volume
@@ -216,6 +221,8 @@ class Material:
     #: docs/EXTENSIONS.md E.19, E.20: view-dependent images (the uv colour source) and the milled lobe
     btf: Btf | None = None
     milled: Milled | None = None
+    #: docs/EXTENSIONS.md E.18 (used with -subsurface only): the ``subsurface`` block (converters/subsurface.py)
+    subsurface: Subsurface | None = None
 
 
 # ------------------------------------------------------------------------------------------------------ objects

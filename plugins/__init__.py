@@ -25,6 +25,7 @@ PLUGIN_MODULES: tuple[str, ...] = (
     "a5_material",      # a5_material BSDF
     "milled",           # a5_milled BSDF: Ward on a milling tangent field (docs/EXTENSIONS.md E.20)
     "whitted",          # a5_whitted integrator
+    "path",             # a5_path integrator (docs/EXTENSIONS.md E.13, E.14)
 )
 
 def register_all() -> None:

@@ -66,7 +66,10 @@ from .bump import perturb
 
 #: Attributes served through ``eval_attribute_3`` / ``eval_attribute_1`` (and ``has_attribute``).
 COLOR_ATTRIBUTES: tuple[str, ...] = ("diffuse_color", "specular_color", "shading_normal")
-FLOAT_ATTRIBUTES: tuple[str, ...] = ("shininess", "refraction_index", "roughness", "glossy_samples", "cauchy_b")
+FLOAT_ATTRIBUTES: tuple[str, ...] = ("shininess", "refraction_index", "roughness", "glossy_samples", "cauchy_b",
+                                     "sss_eta", "sss_g", "sss_samples")
+#: docs/EXTENSIONS.md E.18: the subsurface medium's coefficients (per scene unit), served as colours.
+SSS_ATTRIBUTES: tuple[str, ...] = ("sss_sigma_a", "sss_sigma_s")
 
 
 def _rgb(props: mi.Properties, name: str, default: Sequence[float]) -> list[float]:
@@ -119,6 +122,12 @@ class A5Material(mi.BSDF):
         self.bump = self._map(props, "bump")
         self.normal_map = self._map(props, "normal_map")
         self.bump_scale = mi.Float(float(props.get("bump_scale", 1.0)))
+        # docs/EXTENSIONS.md E.18: the subsurface medium (sss_eta = 0: none), read by a5_whitted's -subsurface
+        self.sss = {name: mi.Color3f(*_rgb(props, name, (0.0, 0.0, 0.0))) for name in SSS_ATTRIBUTES}
+        self.sss_scalars = {name: mi.Float(float(props.get(name, 0.0))) for name in ("sss_eta", "sss_g",
+                                                                                    "sss_samples")}
+        for value in (*self.sss.values(), *self.sss_scalars.values()):
+            dr.make_opaque(value)
         self._make_opaque()
 
         spec_len = sum(c * c for c in specular) ** 0.5
@@ -158,7 +167,7 @@ class A5Material(mi.BSDF):
 
     def has_attribute(self, name: str, active: mi.Bool = True) -> mi.Bool:
         """True for ``diffuse_color``, ``specular_color``, ``shininess``, ``refraction_index``."""
-        return mi.Bool(name in COLOR_ATTRIBUTES or name in FLOAT_ATTRIBUTES)
+        return mi.Bool(name in COLOR_ATTRIBUTES or name in FLOAT_ATTRIBUTES or name in SSS_ATTRIBUTES)
 
     def eval_attribute_3(self, name: str, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
         """``diffuse_color`` or ``specular_color`` (raw, untextured), ``shading_normal`` (E.7); zero for any
@@ -168,14 +177,14 @@ class A5Material(mi.BSDF):
                 return mi.Color3f(si.sh_frame.n)
             return mi.Color3f(perturb(si, None if self.bump is None else self.bump.atlas, self.bump_scale,
                                       None if self.normal_map is None else self.normal_map.atlas, active))
-        value = {"diffuse_color": self.diffuse_color, "specular_color": self.specular_color}.get(name)
+        value = {"diffuse_color": self.diffuse_color, "specular_color": self.specular_color, **self.sss}.get(name)
         return mi.Color3f(0.0) if value is None else mi.Color3f(value)
 
     def eval_attribute_1(self, name: str, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Float:
         """``refraction_index`` or ``shininess``; zero for any other name."""
         value = {"refraction_index": self.refraction_index, "shininess": self.shininess,
                  "roughness": self.roughness, "glossy_samples": self.glossy_samples,
-                 "cauchy_b": self.cauchy_b}.get(name)
+                 "cauchy_b": self.cauchy_b, **self.sss_scalars}.get(name)
         return mi.Float(0.0) if value is None else mi.Float(value)
 
     def eval_diffuse_reflectance(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:

@@ -4,7 +4,8 @@ Every ray segment of the Whitted tree that travels in air (medium index 1: camer
 outside glass; none inside glass) from ``t0 = tmin`` to its hit ``t1`` (``∞`` on a miss) is attenuated and
 gains in-scattered light (single scattering; the light arrives at a point of the medium as at a surface: the
 a5 light's colour, times its shadow test, unattenuated on its way, like the a5 lights have no inverse-square
-law)::
+law; with ``medium_bounces >= 1`` times its transmittance, plugins/media_light.py, and with ``>= 2`` plus the
+light scattered more than once, plugins/media_walk.py, which also holds the phase function of ``g``)::
 
     node contribution = T · (local or background) + S,    children's weights ⊙= T
     T = exp(−∫ σ_t(t) dt),    S = albedo ⊙ P ∫ σ_t(t) exp(−∫_t0^t σ_t) Σ_k V_k(x(t)) lightColor_k(x(t)) dt
@@ -23,9 +24,9 @@ jitter ``ξ`` per segment, stratified over the ``-spp`` passes by :func:`.sampli
   σ_t(x(t_i))`` held constant over step ``i``: ``T = exp(−Δ Σ_i σ_i)``, ``S = albedo ⊙ P Σ_i exp(−Δ Σ_{j<i} σ_j)
   (1 − exp(−σ_i Δ)) L(t_i)``: exact for a constant density and a constant ``L``.
 
-``L(x) = Σ_k V_k lightColor_k``: one sample per light per step (``sample_direction`` at ``x``; an area light's
-sample stratified over the steps and passes), shadow rays (``tmin`` to the light, planes included) when the
-integrator traces shadows.
+``L(x) = Σ_k V_k lightColor_k`` (:func:`.media_walk.light_at`): one sample per light per step
+(``sample_direction`` at ``x``; an area light's sample stratified over the steps and passes), shadow rays
+(``tmin`` to the light, planes included) when the integrator traces shadows.
 """
 
 from __future__ import annotations
@@ -35,17 +36,14 @@ from typing import TYPE_CHECKING
 import drjit as dr
 import mitsuba as mi
 
-from .kernel.intersect import visible
-from .kernel.lights import Lights
-from .planes import PlaneSet
+from .media_light import box_span
+from .media_walk import PHASE, light_at, scattered
 from .sampling import Stochastic, stratified_2d
 from .syntax import syntax
 
 if TYPE_CHECKING:
     from .kernel.features import SceneData
 
-#: ``π · 1/(4π)``: the isotropic phase function on the a5 lights' scale (module docstring).
-PHASE = 0.25
 #: Sampling dimensions of the medium: ``MEDIUM_DIM + node·256 + k`` for light k, ``+ 255`` for the jitter ξ.
 MEDIUM_DIM = 0x80000000
 KINDS = ("fog", "volume")
@@ -57,13 +55,21 @@ class MediumParams:
     placed on the box) and the box corners (opaque)."""
 
     def __init__(self, kind: str, density: float, albedo: list[float], steps: int,
-                 grid: mi.Volume | None = None) -> None:
+                 grid: mi.Volume | None = None, bounces: int = 0, g: float = 0.0) -> None:
         self.kind = kind
         self.density_value, self.albedo_value, self.steps_value = float(density), list(albedo), int(steps)
         self.density = dr.opaque(mi.Float, self.density_value)
         self.albedo = dr.opaque(mi.Color3f, self.albedo_value)
         self.steps = dr.opaque(mi.UInt32, self.steps_value)
+        #: ``medium_bounces`` (``-media_bounces``): 0 the course-era E.8 (light unattenuated on its way), >= 1
+        #: shadow rays carry the medium's transmittance (plugins/media_light.py)
+        self.bounces = int(bounces)
+        self.bounces_opaque = dr.opaque(mi.UInt32, self.bounces)
+        #: Henyey-Greenstein asymmetry (plugins/media_walk.py); 0: the isotropic phase of E.8, no phase factor
+        self.g_value = float(g)
+        self.g = dr.opaque(mi.Float, self.g_value)
         self.grid = grid
+        self.grid_max = dr.opaque(mi.Float, float(grid.max()) if grid is not None else 0.0)
         if grid is not None:
             box = grid.bbox()
             self.box_min = dr.opaque(mi.Point3f, [float(box.min[i]) for i in range(3)])
@@ -74,6 +80,9 @@ def params_from_props(props: mi.Properties) -> MediumParams | None:
     """``medium`` (``none`` | ``fog`` | ``volume``), ``medium_density`` (>= 0), ``medium_albedo`` (rgb),
     ``medium_steps`` (>= 1) and, for a volume, ``medium_grid`` (a ``gridvolume``); None for ``none``."""
     kind = props.get("medium", "none")
+    bounces = props.get("medium_bounces", 0)
+    if isinstance(bounces, bool) or not isinstance(bounces, int) or bounces < 0:
+        raise ValueError(f"a5_whitted: 'medium_bounces' must be an integer >= 0, got {bounces!r}")
     if kind == "none":
         return None
     if kind not in KINDS:
@@ -90,53 +99,16 @@ def params_from_props(props: mi.Properties) -> MediumParams | None:
         grid = props.get("medium_grid", None)
         if not isinstance(grid, mi.Volume):
             raise ValueError("a5_whitted: medium 'volume' needs a 'medium_grid' volume (gridvolume)")
-    return MediumParams(kind, float(density), [float(albedo[i]) for i in range(3)], steps, grid)
-
-
-def _box_span(med: MediumParams, o: mi.Point3f, d: mi.Vector3f, t0: mi.Float,
-              t1: mi.Float) -> tuple[mi.Float, mi.Float]:
-    """``[ta, tb]``: the part of ``[t0, t1]`` inside the volume's box (slab test; empty when ``tb <= ta``)."""
-    inv = dr.rcp(d)
-    lo = (med.box_min - o) * inv
-    hi = (med.box_max - o) * inv
-    near = dr.minimum(lo, hi)
-    far = dr.maximum(lo, hi)
-    ta = dr.maximum(dr.maximum(dr.maximum(near.x, near.y), near.z), t0)
-    tb = dr.minimum(dr.minimum(dr.minimum(far.x, far.y), far.z), t1)
-    return ta, tb
-
-
-@syntax
-def _light_at(scene: mi.Scene, planes: PlaneSet, x: mi.Point3f, live: mi.Bool, lights: Lights, tmin: mi.Float,
-              shadows: bool, rng: Stochastic, dim: mi.UInt32, index: mi.UInt32, count: mi.UInt32,
-              counter: mi.UInt32) -> tuple[mi.Color3f, mi.UInt32]:
-    """``L(x) = Σ_k V_k lightColor_k`` (module docstring): one sample of each light, sample ``index`` of
-    ``count`` of dimension ``dim + k``; returns ``(L, counter)``."""
-    width = dr.width(x)
-    acc = dr.zeros(mi.Color3f, width)
-    k = dr.zeros(mi.UInt32, width)
-    while live & (k < lights.count):
-        emitter = dr.gather(mi.EmitterPtr, lights.emitters, k, live)
-        is_area = dr.gather(mi.UInt32, lights.area, k, live) > 0
-        u = stratified_2d(rng.pixel_key, rng.pass_key, dim + k, index, count, counter)
-        counter += 2
-        it = dr.zeros(mi.Interaction3f, width)
-        it.p = x
-        ds, light_color = emitter.sample_direction(it, u, live)
-        seen = mi.Bool(live)
-        if dr.hint(shadows, mode="scalar"):
-            dist = dr.select(is_area, ds.dist * (1.0 - 1e-4), ds.dist)   # not the light's own shape
-            far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0
-            seen = visible(scene, planes, x, ds.d, tmin, dist, far, live)
-        acc += dr.select(seen, mi.Color3f(light_color), 0.0)
-        k += 1
-    return acc, counter
+    g = props.get("medium_g", 0.0)
+    if isinstance(g, bool) or not isinstance(g, (int, float)) or not -1.0 < g < 1.0:
+        raise ValueError(f"a5_whitted: 'medium_g' must be a number in (-1, 1), got {g!r}")
+    return MediumParams(kind, float(density), [float(albedo[i]) for i in range(3)], steps, grid, bounces, float(g))
 
 
 def _span(med: MediumParams, o: mi.Point3f, d: mi.Vector3f, t0: mi.Float,
           t1: mi.Float) -> tuple[mi.Float, mi.Float]:
     """The part of ``[t0, t1]`` in the medium: all of it (fog) or the part inside the box (volume)."""
-    return (mi.Float(t0), mi.Float(t1)) if med.kind == "fog" else _box_span(med, o, d, t0, t1)
+    return (mi.Float(t0), mi.Float(t1)) if med.kind == "fog" else box_span(med.box_min, med.box_max, o, d, t0, t1)
 
 
 def _step(med: MediumParams, o: mi.Point3f, d: mi.Vector3f, ta: mi.Float, u: mi.Float, span: mi.Float,
@@ -175,8 +147,12 @@ def segment(scene: mi.Scene, data: SceneData, o: mi.Point3f, d: mi.Vector3f, t0:
     while live & (i < n):
         u = (mi.Float(i) + xi) / mi.Float(n)
         t, w, tau = _step(med, o, d, ta, u, span, frac, n, tau, live)
-        arriving, counter = _light_at(scene, data.planes, o + t * d, live, data.lights, data.tmin, shadows, rng,
-                                      dim, rng.pass_index * n + i, rng.passes * n, counter)
+        arriving, counter = light_at(scene, data.planes, o + t * d, live, data.lights, data.tmin, shadows, rng,
+                                     dim, rng.pass_index * n + i, rng.passes * n, counter, med,
+                                     shadows and med.bounces > 0, d, med.g_value != 0.0)
+        if dr.hint(med.bounces > 1, mode="scalar"):       # -media_bounces N >= 2: light scattered more than once
+            more, counter = scattered(scene, data, o + t * d, d, live & (w > 0.0), shadows, rng, counter)
+            arriving += more
         light += w * arriving
         i += 1
     transmittance = _transmittance(med, tau_fog, tau)

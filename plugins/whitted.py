@@ -14,7 +14,7 @@ import mitsuba as mi
 
 from a5mi.spec import FRESNEL_MODES, TMIN
 
-from . import media, triangle_rule
+from . import media, subsurface, triangle_rule
 from .kernel.features import SceneData, build_features
 from .kernel.lights import lights_of
 from .kernel.raytree import TreeResult, trace_tree
@@ -54,12 +54,15 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     tmin             float   0.001   tmin of secondary and shadow rays (``a5mi.spec.TMIN``)
     glossy_samples   int     1       cap on the glossy children of a camera hit (docs/EXTENSIONS.md E.4)
     dispersion       bool    false   wavelength per camera ray, Cauchy n(λ) (docs/EXTENSIONS.md E.10)
+    subsurface       string  none    ``dipole`` / ``walk``: subsurface light of materials with ``sss_*``
+                                     (docs/EXTENSIONS.md E.18, plugins/subsurface.py)
     bump             bool    false   bump / normal-mapped shading normal (``-bump``, docs/EXTENSIONS.md E.7)
     glossy           bool    true    false: no material has roughness > 0 (the E.4 lobe sampling is
                                      left out of the kernel; the converter says so for its scenes)
     aovs             string  ""      comma-separated AOV groups: ``normal`` (nx, ny, nz), ``depth``
                                      (t), ``class`` (class), ``counts`` (n_reflection, n_refraction,
                                      n_shadow)
+    indirect         int     0       rays gathered at each diffuse hit (``-indirect``, EXTENSIONS E.15)
     medium           string  none    ``fog`` / ``volume``: a participating medium (EXTENSIONS E.8,
                                      E.9; ``medium_*`` parameters, plugins/media.py)
     plane_<id>_*     ...             an exact infinite plane: ``_normal`` vector, ``_offset`` float,
@@ -141,7 +144,12 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         if isinstance(glossy_samples, bool) or not isinstance(glossy_samples, int) or glossy_samples < 1:
             raise ValueError(f"a5_whitted: 'glossy_samples' must be an integer >= 1, got {glossy_samples!r}")
         self.glossy_samples = glossy_samples
+        indirect = props.get("indirect", 0)   # docs/EXTENSIONS.md E.15: gathered rays per diffuse hit
+        if isinstance(indirect, bool) or not isinstance(indirect, int) or indirect < 0:
+            raise ValueError(f"a5_whitted: 'indirect' must be an integer >= 0, got {indirect!r}")
+        self.indirect = indirect
         self._medium = media.params_from_props(props)   # docs/EXTENSIONS.md E.8, E.9 (None: no medium)
+        self.subsurface = subsurface.method_from_props(props)   # docs/EXTENSIONS.md E.18
         self._rules: dict[int, triangle_rule.RuleTable] = {}   # id(scene) -> its rule table (the last scene only)
 
     # ------------------------------------------------------------------ Mitsuba interface
@@ -206,6 +214,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         callback.put("dispersion", self.dispersion, flags)
         callback.put("bump", self.bump, flags)
         callback.put("glossy", self.glossy, flags)
+        callback.put("indirect", self.indirect, flags)
 
     def to_string(self) -> str:
         return (

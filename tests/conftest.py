@@ -139,7 +139,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 #: test_grade_sandbox and test_hostile_class check that no process of that range is left after a run, which
 #: another file's run in progress would break.
 XDIST_GROUPS = {name: "sandbox" for name in ("test_grade_sandbox.py", "test_grade_class.py", "test_hostile_class.py",
-                                              "test_difftest.py")}
+                                              "test_difftest.py", "test_view_engine.py")}
 
 if importlib.util.find_spec("xdist") is not None:
     def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:

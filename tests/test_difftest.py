@@ -193,3 +193,22 @@ def test_the_binary_runs_sandboxed_with_a_time_limit(tmp_path: Path) -> None:
     assert (img, status) == (None, "binary failed: exit 3")
     assert not escape.exists() and not (Path.cwd() / "escaped").exists()
     assert run_binary(binary, folder, ["sleep"], timeout=1) == (None, "timeout")
+
+
+def test_no_sandbox_reaches_the_runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--no-sandbox`` (``Binary.require_sandbox`` off) lets a binary run without bubblewrap; with it on, the
+    runner refuses (A5MI_NO_BWRAP=1 stands in for a machine without bubblewrap)."""
+    from a5mi.sandbox import SandboxUnavailable
+
+    monkeypatch.setenv("A5MI_NO_BWRAP", "1")
+    script = tmp_path / "bin" / "a5"
+    script.parent.mkdir()
+    script.write_text("#!/bin/sh\nexit 3\n")
+    script.chmod(0o755)
+    folder = tmp_path / "run"
+    folder.mkdir()
+    (folder / "scene.txt").write_text("")
+    with pytest.raises(SandboxUnavailable):
+        run_binary(Binary(script, (), True), folder, [], timeout=10)
+    levels, why = run_binary(Binary(script, (), False), folder, [], timeout=10)
+    assert levels is None and "3" in why, why

@@ -124,6 +124,7 @@ def _internal_cases(tmp: Path, scene: str) -> dict[str, tuple[list[str], str]]:
         "difftest": (["--binary", str(tmp / "a5")], "a5mi.difftest.runner.check_binary"),
         "trace": (["-input", scene, "-size", "4", "4", "-pixel", "0", "0"], "a5mi.cli.trace.load_scene"),
         "animate": ([scene, "-o", str(tmp / "frames")], "a5mi.cli.app.load_scene"),
+        "view": ([scene, "-size", "4", "4"], "a5mi.cli.view.activate_variant"),
     }
 
 

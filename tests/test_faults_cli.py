@@ -306,6 +306,16 @@ def test_render_xml_plugin_errors_are_one_positioned_line(textured_xml: Path, ca
     assert "Traceback" not in line and "File " not in line
 
 
+def test_render_xml_names_an_unused_define(textured_xml: Path, capsys) -> None:
+    """Mitsuba's two-line "Found unused parameters:" error keeps the parameter it names in its one line."""
+    capsys.readouterr()
+    assert cli.run_a5mi(["render-xml", str(textured_xml), "-o", str(textured_xml.parent / "o.png"), "-D",
+                         "nosuch=1"]) == 2
+    line = _one_line(capsys)
+    assert line.endswith("Found unused parameters: $nosuch=1"), line
+    assert not (textured_xml.parent / "o.png").exists()
+
+
 def test_render_xml_refuses_a_film_beyond_memory(textured_xml: Path, capsys) -> None:
     capsys.readouterr()
     assert cli.run_a5mi(["render-xml", str(textured_xml), "-o", str(textured_xml.parent / "o.png"), "-D",
@@ -448,3 +458,45 @@ def test_grade_mistakes_fail_fast_and_leave_nothing(tmp_path: Path, monkeypatch,
     assert time.perf_counter() - t0 < 10
     assert _one_line(capsys).startswith(match)
     assert _files(tmp_path) == before
+
+
+# ------------------------------------------------------------------- float32 limits that would give NaN pixels
+def test_refraction_index_whose_square_overflows_float32_is_refused(tmp_path: Path, capsys) -> None:
+    """refractionIndex 1e20: leaving the sphere, Snell's (n/nt)²(1 - c²) is inf x 0 = NaN (10 NaN pixels saved
+    as black before); refused at its position. 1.8e19 still renders, every pixel finite."""
+    scene = tmp_path / "s.txt"
+    scene.write_text(_scene("diffuseColor 0.5 0.5 0.5 specularColor 0.5 0.5 0.5 refractionIndex 1e20"))
+    capsys.readouterr()
+    assert cli.run(["-input", str(scene), "-output", str(tmp_path / "o.exr"), "-size", "50", "50"]) == 2
+    line = _one_line(capsys)
+    assert re.fullmatch(rf"{re.escape(str(scene))}:4:\d+: error: refractionIndex 1e\+20 is too large: .*", line), line
+    assert not (tmp_path / "o.exr").exists()
+    scene.write_text(_scene("diffuseColor 0.5 0.5 0.5 specularColor 0.5 0.5 0.5 refractionIndex 1.8e19"))
+    assert cli.run(["-input", str(scene), "-output", str(tmp_path / "o.exr"), "-size", "50", "50"]) == 0
+    assert np.isfinite(imageio.read_image(tmp_path / "o.exr")).all()
+
+
+def test_camera_angle_whose_ray_length_overflows_float32_is_refused(tmp_path: Path, capsys) -> None:
+    """angle 5e-18: 1/tan(angle/2) squared overflows float32, every ray direction is inf/NaN (a5soln draws white,
+    a5mi drew the background); refused. 1e-17 renders the centre's colour everywhere, as a5soln does."""
+    scene = tmp_path / "s.txt"
+    text = _scene("diffuseColor 0.5 0.5 0.5")
+    scene.write_text(text.replace("angle 20", "angle 5e-18"))
+    capsys.readouterr()
+    assert cli.run(["-input", str(scene), "-output", str(tmp_path / "o.png"), "-size", "8", "8"]) == 2
+    assert "camera angle 5e-18 is too small" in _one_line(capsys)
+    scene.write_text(text.replace("angle 20", "angle 1e-17"))
+    assert cli.run(["-input", str(scene), "-output", str(tmp_path / "o.png"), "-size", "8", "8"]) == 0
+    img = imageio.read_uint8(tmp_path / "o.png")
+    assert (img == img[4, 4]).all() and not (img[4, 4] == [51, 0, 153]).all()
+
+
+def test_depth_bounds_beyond_float32_are_refused(tmp_path: Path, capsys) -> None:
+    scene = tmp_path / "s.txt"
+    scene.write_text(_scene("diffuseColor 0.5 0.5 0.5"))
+    capsys.readouterr()
+    assert cli.run(["-input", str(scene), "-output", str(tmp_path / "o.png"), "-size", "8", "8",
+                    "-depth", "1e39", "1e40", str(tmp_path / "d.png")]) == 2
+    assert _one_line(capsys) == ("a5: error: -depth expects depths within float32 (|d| <= 3.4e38, the sample "
+                                 "solution's precision), found '1e39'")
+    assert not (tmp_path / "o.png").exists() and not (tmp_path / "d.png").exists()

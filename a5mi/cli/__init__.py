@@ -31,6 +31,7 @@ SUBCOMMANDS: dict[str, str] = {
     "difftest": "random scenes rendered by a5mi and another a5 binary, compared",
     "trace": "the ray tree of one pixel with every term, checked against the render",
     "animate": "render an Animation block's frames (here or on Dask) + a video",
+    "view": "live page on 127.0.0.1: render, reference, heatmap, controls, reload on save, ray tree of a pixel",
 }
 
 A5MI_USAGE = """\

@@ -19,7 +19,8 @@ from a5mi.cli.flags import Args, Flag, Positional, integer, text
 from a5mi.cli.render import RENDER_FLAGS, render_options
 from a5mi.errors import ExitStatus, UsageError
 
-_SHARED = ("width", "bounces", "shadows", "phong", "fresnel", "reflection", "refraction", "bump")
+_SHARED = ("width", "bounces", "shadows", "phong", "fresnel", "reflection", "refraction", "bump", "media_bounces",
+           "subsurface")
 FLAGS: tuple[Flag, ...] = (
     Flag(("-o", "--output", "-output"), "output", "the XML file to write (meshes go to OUT_meshes/, images to "
          "OUT_images/ beside it)", 1, text, metavar="OUT.xml"),

@@ -25,6 +25,9 @@ FLAGS: tuple[Flag, ...] = (
          integer(0, 64), 4, "N"),
     Flag(("--bump", "-bump"), "bump", "bump and normal maps on both sides (docs/EXTENSIONS.md E.7)", default=False,
          show_default=False),
+    Flag(("--media-bounces", "-media_bounces"), "media_bounces", "the a5 side's -media_bounces (1: light "
+         "attenuated through Fog/Volume as in volpath; 0: the course-era medium, docs/EXTENSIONS.md E.8)", 1,
+         integer(0, 64), 1, "N"),
     json_flag("the table"),
     Flag(("--explain",), "explain", "also split (stock path - exact Whitted) into terms, each isolated by a render "
          "(slow: three more path renders)", default=False, show_default=False),
@@ -56,7 +59,7 @@ def run_crosscheck(args: Args, console: Console) -> int:
     clobber.check_outputs([("-o", out)], inputs)
     activate_variant(None)
     options = xc.CrosscheckOptions(width=args.width, height=args.height, bounces=args.bounces, spp=args.spp,
-                                   bump=bool(args.bump))
+                                   bump=bool(args.bump), media_bounces=args.media_bounces)
     result = xc.crosscheck(desc, options)
     xc.write_montage(result, out)
     console.result(xc.to_json(result) if args.json else f"{args.scene}\n{xc.table(result)}\nmontage: {out}")

@@ -17,16 +17,25 @@ from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, size_flag, text
 from a5mi.errors import ExitStatus, UsageError
-from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, RenderOptions
+from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, SUBSURFACE_METHODS, RenderOptions
 from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR
 
 #: Render-buffer samples (3W x 3H with -jitter) accepted at most (~16 GB by a5mi.resources' model); below it
 #: a render is refused when its estimated memory (a5mi.resources.render_bytes) exceeds what is available.
 MAX_SAMPLES = 1 << 28
+#: The largest finite float32 (SPEC B.6's depths are float32).
+FLOAT32_MAX = 3.4028234663852886e38
 
 
 def _depth(flag: str, values: list[str]) -> tuple[tuple[float, float], str]:
-    return (number(flag, values[0]), number(flag, values[1])), text(flag, values[2:])
+    """``-depth DMIN DMAX IMG`` (SPEC B.6): the bounds are compared with float32 depths, so each must be a
+    finite float32 (beyond 3.4e38 it is inf there and every pixel is 1, in a5soln too)."""
+    bounds = (number(flag, values[0]), number(flag, values[1]))
+    for value, raw in zip(bounds, values, strict=False):
+        if abs(value) > FLOAT32_MAX:
+            raise UsageError(f"{flag} expects depths within float32 (|d| <= 3.4e38, the sample solution's "
+                             f"precision), found '{raw}'")
+    return bounds, text(flag, values[2:])
 
 
 #: SPEC B.1 flags, then the extras; dests are RenderOptions fields (plus the output paths).
@@ -58,11 +67,20 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          1, integer(1, 65536), 1, "N"),
     Flag(("-integrator", "--integrator"), "integrator", "whitted (the sample solution's, SPEC B.3) or a physically "
          "based mode of docs/EXTENSIONS.md", 1, choice(tuple(INTEGRATORS)), "whitted", "NAME"),
+    Flag(("-rr_depth", "--rr-depth"), "rr_depth", "-integrator path: Russian roulette from N scatterings on "
+         "(docs/EXTENSIONS.md E.14)", 1, integer(0, 1 << 16), 5, "N"),
+    Flag(("-indirect", "--indirect"), "indirect", "whitted: N cosine-weighted rays gather indirect light at each "
+         "diffuse hit (docs/EXTENSIONS.md E.15)", 1, integer(0, 4096), 0, "N"),
     Flag(("-variant", "--variant"), "variant", "llvm (default; or $A5MI_VARIANT), cuda or auto", 1,
          choice(("llvm", "cuda", "auto")), metavar="V"),
     Flag(("-threads", "--threads"), "threads", "Dr.Jit worker threads", 1, integer(1, 1024), metavar="N"),
     Flag(("-bump", "--bump"), "bump", "bump and normal maps perturb the shading normal (docs/EXTENSIONS.md E.7; "
          "a5soln ignores 'bump')", default=False, show_default=False),
+    Flag(("-media_bounces", "--media-bounces"), "media_bounces", "Fog/Volume: 0 light arrives unattenuated (E.8); "
+         "N >= 1 shadow rays carry the medium's transmittance, up to N scatterings (docs/EXTENSIONS.md E.8)", 1,
+         integer(0, 64), 0, "N"),
+    Flag(("-subsurface", "--subsurface"), "subsurface", "materials' subsurface blocks: none, dipole (Jensen 2001) "
+         "or walk (volumetric random walk) (docs/EXTENSIONS.md E.18)", 1, choice(SUBSURFACE_METHODS), "none", "M"),
     Flag(("-phong", "--phong"), "phong", "add the handout's Phong highlight (a5soln has none)", default=False,
          show_default=False),
     Flag(("-fresnel", "--fresnel"), "fresnel", "a5 (the binary's R0), schlick or exact", 1, choice(FRESNEL_MODES),

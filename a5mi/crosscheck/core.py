@@ -44,6 +44,9 @@ class CrosscheckOptions:
     shadows: bool = True
     #: docs/EXTENSIONS.md E.7: bump and normal maps on both sides (a5_whitted's bump; stock bumpmap/normalmap)
     bump: bool = False
+    #: docs/EXTENSIONS.md E.8, E.9: the a5 side's ``-media_bounces`` (1: shadow rays carry the medium's
+    #: transmittance, as volpath's do; 0: the course-era medium)
+    media_bounces: int = 1
 
     def __post_init__(self) -> None:
         from a5mi.options import check_size_and_bounces
@@ -302,7 +305,7 @@ def _render_options(options: CrosscheckOptions) -> Any:
     from a5mi.options import RenderOptions
 
     return RenderOptions(width=options.width, height=options.height, bounces=options.bounces,
-                         shadows=options.shadows, bump=options.bump)
+                         shadows=options.shadows, bump=options.bump, media_bounces=options.media_bounces)
 
 
 def _description(desc_or_model: Any, bump: bool = False) -> Any:

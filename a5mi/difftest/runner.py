@@ -103,7 +103,7 @@ def run_binary(binary: Path | Binary, folder: Path, argv: list[str], timeout: fl
     ``read_only`` paths visible besides the binary's folder); ``(levels, "ok")`` or ``(None, why)``. An image of
     more than ``max_pixels`` pixels is not decoded."""
     b = _as_binary(binary)
-    limits = Limits(timeout=timeout)
+    limits = Limits(timeout=timeout, require_sandbox=b.require_sandbox)
     run = run_sandboxed([str(b.path), "-input", "scene.txt", "-output", "out.bmp", *argv], folder, limits,
                         read_only=(str(b.path.parent), *read_only, *b.read_only))
     if run.timed_out:

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol
 import mitsuba as mi
 
 from ..milled import uses_milled
+from . import pbr_gather
 from .lights import Lights, has_area_lights
 
 if TYPE_CHECKING:
@@ -39,11 +40,14 @@ class Features(NamedTuple):
     glossy         bool     E.4: sampled GGX facets of materials with roughness > 0
     bump           bool     E.7: the bump / normal-mapped shading normal
     media          bool     E.8, E.9: transmittance and in-scattering of segments in air
+    media_light    bool     E.8, E.9 with ``medium_bounces >= 1`` and shadows: shadow rays carry T_light
     dispersion     bool     E.10: a wavelength per lane, Cauchy n(λ), the w(λ) weight
+    subsurface     str      E.18: ``none`` | ``dipole`` | ``walk``: light under materials with ``sss_*``
     milled         bool     E.20: the Ward lobe of ``a5_milled`` BSDFs in the light loop
     environment    bool     the scene has an environment emitter (else misses are black)
     triangle_rule  bool     some mesh carries the binary's triangle data (plugins/triangle_rule.py)
     record         bool     record mode: the ray tree's values are scattered into a recorder
+    indirect       int      E.15: cosine-weighted rays gathered at each diffuse hit (0: none)
     stack_size     int      entries of the pending-ray stack (:func:`stack_size`)
     ============== ======== ===================================================================
     """
@@ -57,12 +61,15 @@ class Features(NamedTuple):
     glossy: bool = False
     bump: bool = False
     media: bool = False
+    media_light: bool = False
     dispersion: bool = False
+    subsurface: str = "none"
     milled: bool = False
     environment: bool = False
     triangle_rule: bool = False
     record: bool = False
     stack_size: int = 8
+    indirect: int = 0
 
 
 class SceneData(NamedTuple):
@@ -105,12 +112,19 @@ def stack_size(max_depth: int, glossy_samples: int = 1) -> int:
 
 def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, record: bool = False) -> Features:
     """The :class:`Features` of a kernel call: the integrator's flags, what ``scene`` holds (area lights, an
-    environment) and what ``data`` carries (a triangle-rule table, a medium)."""
+    environment) and what ``data`` carries (a triangle-rule table, a medium); ``indirect`` (E.15) is read where
+    the integrator has it."""
+    indirect = int(getattr(source, "indirect", 0))
+    size = stack_size(source.max_depth, source.glossy_samples)
+    if indirect > 0:
+        size = pbr_gather.stack_size(source.max_depth, source.glossy_samples, indirect)
     return Features(
         shadows=source.shadows, phong=source.phong, fresnel=source.fresnel, reflection=source.reflection,
         refraction=source.refraction, area_lights=has_area_lights(scene), glossy=source.glossy,
-        bump=source.bump, media=data.medium is not None, dispersion=source.dispersion,
+        bump=source.bump, media=data.medium is not None,
+        media_light=data.medium is not None and data.medium.bounces > 0 and source.shadows,
+        dispersion=source.dispersion, subsurface=getattr(source, "subsurface", "none"),
         milled=uses_milled(scene, [p[3] for p in getattr(source, "planes", ())]),
         environment=scene.environment() is not None, triangle_rule=data.rules is not None, record=record,
-        stack_size=stack_size(source.max_depth, source.glossy_samples),
+        stack_size=size, indirect=indirect,
     )

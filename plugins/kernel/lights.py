@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from .. import milled
+from .. import media_light, milled
 from ..sampling import Stochastic, stratified_2d
 from ..syntax import syntax
 from .intersect import visible
@@ -144,7 +144,12 @@ def direct(scene: mi.Scene, data: SceneData, f: Features, si: mi.SurfaceInteract
             ls = sample(scene, data, f, emitter, is_area, si, p, hit, n, kd, specular, shininess, r_view, u, bsdf)
             if dr.hint(f.shadows, mode="scalar"):
                 n_shadow += dr.select(hit, 1.0, 0.0)
-            acc += dr.select(ls.seen, ls.term, 0.0)
+            term = ls.term
+            if dr.hint(f.media_light, mode="scalar"):   # E.8, E.9: the light attenuated on its way
+                tr, counter = media_light.shadow_transmittance(data.medium, p, ls.d_light, data.tmin, ls.dist,
+                                                               is_area, ls.far, ls.seen, rng, counter)
+                term = term * tr
+            acc += dr.select(ls.seen, term, 0.0)
             if dr.hint(f.record, mode="scalar"):
                 record(rec, scene, data, f, at, k, p, hit, n, ls, is_area, n_samples)
             j += 1

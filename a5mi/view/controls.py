@@ -1,0 +1,99 @@
+"""The flag controls of the live page: which :class:`~a5mi.options.RenderOptions` fields the page may set, and
+the check of what it sends (SPEC B.1 flags, and the extension modes of docs/EXTENSIONS.md).
+
+Each control is ``(field, kind, label, choices)``: ``int`` (with its bounds), ``bool`` or ``choice``. The page
+posts ``{field: value}``; :func:`apply` checks every value as the command line's flag table would (an unknown
+field, a value of the wrong type or out of range, a render too large for the memory: :class:`ControlError`)
+and returns the options with those fields replaced.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+from a5mi.errors import UsageError
+from a5mi.options import INTEGRATORS, RenderOptions
+from a5mi.spec import FRESNEL_MODES, JITTER_FACTOR, MAX_SIZE
+
+
+class ControlError(UsageError):
+    """A control value the page sent that the flags would refuse (one line)."""
+
+
+#: field -> (kind, label, bounds or choices): the page's controls, in the page's order.
+CONTROLS: dict[str, tuple[str, str, Any]] = {
+    "width": ("int", "width (-size W)", (1, MAX_SIZE)),
+    "height": ("int", "height (-size H)", (1, MAX_SIZE)),
+    "bounces": ("int", "-bounces", (0, 64)),
+    "shadows": ("bool", "-shadows", None),
+    "jitter": ("bool", "-jitter", None),
+    "filter": ("bool", "-filter", None),
+    "reflection": ("bool", "reflection (off: -reflection_off)", None),
+    "refraction": ("bool", "refraction (off: -refraction_off)", None),
+    "integrator": ("choice", "-integrator", tuple(INTEGRATORS)),
+    "fresnel": ("choice", "-fresnel", FRESNEL_MODES),
+    "phong": ("bool", "-phong", None),
+    "bump": ("bool", "-bump", None),
+    "spp": ("int", "-spp", (1, 65536)),
+    "indirect": ("int", "-indirect (whitted)", (0, 4096)),
+    "rr_depth": ("int", "-rr_depth (path)", (0, 1 << 16)),
+}
+
+
+def describe_controls(options: RenderOptions) -> list[dict[str, Any]]:
+    """The controls as JSON for the page, each with the value of ``options``."""
+    out = []
+    for name, (kind, label, extra) in CONTROLS.items():
+        item: dict[str, Any] = {"name": name, "kind": kind, "label": label, "value": getattr(options, name)}
+        if kind == "int":
+            item["min"], item["max"] = extra
+        elif kind == "choice":
+            item["choices"] = list(extra)
+        out.append(item)
+    return out
+
+
+def _value(name: str, value: Any) -> Any:
+    kind, _, extra = CONTROLS[name]
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise ControlError(f"{name}: expected true or false, found {value!r:.40}")
+        return value
+    if kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ControlError(f"{name}: expected an integer, found {value!r:.40}")
+        lo, hi = extra
+        if not lo <= value <= hi:
+            raise ControlError(f"{name}: {value} is outside {lo}..{hi}")
+        return value
+    if value not in extra:
+        raise ControlError(f"{name}: expected one of {', '.join(extra)}, found {value!r:.40}")
+    return value
+
+
+def apply(options: RenderOptions, values: Any) -> RenderOptions:
+    """``options`` with the page's ``values`` (a JSON object) applied, checked (module docstring)."""
+    from a5mi import resources
+    from a5mi.options import TILE_RAYS
+
+    if not isinstance(values, dict):
+        raise ControlError("expected a JSON object of control values")
+    unknown = sorted(set(values) - set(CONTROLS))
+    if unknown:
+        raise ControlError(f"unknown control '{unknown[0][:40]}'")
+    new = dataclasses.replace(options, **{k: _value(k, v) for k, v in values.items()})
+    if new.filter and not new.jitter and (new.width < 3 or new.height < 3):
+        raise ControlError(f"-filter without -jitter saves a W/3 x H/3 image; -size {new.width} {new.height} is "
+                           "too small")
+    k = JITTER_FACTOR if new.jitter else 1
+    need = resources.render_bytes(new.width * k, new.height * k, width=new.width, height=new.height, aovs=False,
+                                  jitter=new.jitter, filtered=new.filter, tile_rays=TILE_RAYS)
+    enough, have = resources.fits(need)
+    if not enough:
+        raise ControlError(f"-size {new.width} {new.height} needs about {resources.gb(need)} of memory; "
+                           f"{resources.gb(have or 0)} is available")
+    return new
+
+
+__all__ = ["CONTROLS", "ControlError", "apply", "describe_controls"]

@@ -1,0 +1,385 @@
+"""What the live page shows, computed on the one thread that owns Mitsuba (docs/VIEW.md).
+
+:class:`ViewEngine` holds a warm :class:`a5mi.session.RenderSession` and the scene file. :meth:`~ViewEngine.load`
+parses and describes the scene (SPEC A; every mesh, texture and cube-map face read once) and lists the files it
+read for :mod:`a5mi.view.watcher`; :meth:`~ViewEngine.render` renders it with a :class:`~a5mi.options.RenderOptions`
+(SPEC B.1-B.5) and returns a :class:`Frame`:
+
+* ``render_png``: the PNG file ``a5 -output X.png`` writes for the same flags (:func:`a5mi.imageio.write_image`
+  of the saved image: SPEC B.1 quantisation ``clamp(int(255 c), 0, 255)``, float32 product truncated), byte for byte;
+* the reference: ``--reference IMG`` (read once), or ``--binary PATH``'s render of the same scene with the same
+  SPEC B.1 flags, run sandboxed as ``a5mi difftest`` runs it (:func:`a5mi.difftest.runner.run_binary`);
+* ``compare``'s metrics of the pair (:func:`a5mi.compare.compare_arrays`: PSNR ``10 log10(255² / MSE)``, mean
+  error, share of pixels > 2/255, max), its grading verdict (:func:`a5mi.grade.verdict.judge` of the share of
+  pixels beyond 1/255) and the heatmap of the largest channel error (:func:`a5mi.compare.heatmap`, full scale
+  :data:`a5mi.compare.DEFAULT_SCALE` levels).
+
+:meth:`~ViewEngine.trace` is ``a5mi trace`` of one pixel (:mod:`a5mi.trace`): the ray tree recorded by the render
+kernel, every term and the sum, with each hit point projected into the image (SPEC B.2 inverted:
+``x = f (q·u)/(q·w)``, ``y = f (q·v)/(q·w)`` for ``q = p - eye``) and, with a reference, ``trace --diff``'s ranked
+terms (:func:`a5mi.trace.report.explain`). Nothing here prints; failures are exceptions.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from a5mi.errors import UserError
+from a5mi.options import RenderOptions
+
+#: Largest render buffer (samples) rendered without per-tile progress: each progress step re-traces the
+#: integrator (about 50 ms), so small renders report their stages only.
+QUIET_SAMPLES = 1 << 20
+
+
+@dataclass
+class Frame:
+    """One rendered state of the page: ``version`` counts renders; PNG bytes of the render, the reference and
+    the heatmap (None without a reference); ``metrics`` (compare's figures and the verdict) or
+    ``reference_error`` (why there is no comparison); ``seconds`` per stage."""
+
+    version: int
+    options: RenderOptions
+    image: np.ndarray
+    render_png: bytes
+    size: tuple[int, int]
+    reference_png: bytes | None = None
+    diff_png: bytes | None = None
+    metrics: dict[str, Any] | None = None
+    reference_error: str | None = None
+    reference_levels: np.ndarray | None = None
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+def png_bytes(img: np.ndarray, folder: str) -> bytes:
+    """The bytes of ``img`` written as a PNG file by :func:`a5mi.imageio.write_image` (what ``a5`` writes)."""
+    from a5mi.imageio import write_image
+
+    path = os.path.join(folder, "frame.png")
+    write_image(path, img)
+    data = Path(path).read_bytes()
+    os.unlink(path)
+    return data
+
+
+def scene_inputs(desc: Any, model: Any) -> list[Path]:
+    """Every file the description read or names (:func:`a5mi.clobber.input_files`), and the texture names of
+    the model resolved both ways (scene folder first, then the working directory), absolute."""
+    from a5mi.clobber import input_files
+
+    out = [Path(p).absolute() for p in input_files(desc)]
+    for mat in getattr(model, "materials", None) or ():
+        tex = getattr(mat, "texture", None)
+        if tex:
+            out += [(Path(model.base_dir) / tex).absolute(), (Path.cwd() / tex).absolute()]
+    return list(dict.fromkeys(out))
+
+
+def binary_argv(options: RenderOptions) -> list[str]:
+    """The SPEC B.1 flags of ``options`` for another a5 binary (the extensions are a5mi's own)."""
+    argv = ["-size", str(options.width), str(options.height), "-bounces", str(options.bounces)]
+    argv += ["-shadows"] * options.shadows + ["-jitter"] * options.jitter + ["-filter"] * options.filter
+    argv += ["-reflection_off"] * (not options.reflection) + ["-refraction_off"] * (not options.refraction)
+    return argv
+
+
+def project(camera: Any, options: RenderOptions, image_size: tuple[int, int], p: Any) -> list[float] | None:
+    """Where the world point ``p`` lies in the saved image (x right, y down, pixel centres at integers), by
+    inverting SPEC B.2's camera ray ``d = f w + x u + y v`` (module docstring); None behind the eye."""
+    from a5mi.plugins.camera import camera_basis, focal_factor
+
+    w, u, v = (np.asarray(a, np.float64) for a in camera_basis(camera.direction, camera.up))
+    q = np.asarray(p, np.float64) - np.asarray(camera.center, np.float64)
+    depth = float(q @ w)
+    if not depth > 1e-9:
+        return None
+    f = float(focal_factor(camera.angle))
+    x, y = f * float(q @ u) / depth, f * float(q @ v) / depth
+    rw, rh = options.render_size
+    i, j = (x + 1.0) * 0.5 * (rw - 1), (y + 1.0) * 0.5 * (rh - 1)
+    sx, sy = image_size[0] / rw, image_size[1] / rh
+    return [(i + 0.5) * sx - 0.5, (rh - 1 - j + 0.5) * sy - 0.5]
+
+
+class ViewEngine:
+    """The scene file, its description and the warm session (module docstring). ``reference``: an image
+    path; ``binary``: a :class:`a5mi.difftest.runner.Binary`; ``timeout``: seconds a binary run may take."""
+
+    def __init__(self, scene: str, session: Any, *, reference: str | None = None, binary: Any = None,
+                 timeout: float = 60.0) -> None:
+        self.scene = scene
+        self.session = session
+        self.reference, self.binary, self.timeout = reference, binary, timeout
+        self.desc: Any = None
+        self.bump = False
+        self.warnings: list[str] = []
+        self.inputs: list[Path] = [Path(scene).absolute()]
+        self.loaded_at = 0
+        self.frame: Frame | None = None
+        self._versions = 0
+        self._ref_image: np.ndarray | None = None
+        self._ref_png: tuple[np.ndarray, bytes] | None = None
+        #: images decoded by earlier loads (resolved path -> converters.files.Image) and their files' stamps
+        self._decoded: dict[Path, Any] = {}
+        self._image_stamps: dict[Path, Any] = {}
+        self._binary_cache: dict[tuple[int, tuple[str, ...]], np.ndarray] = {}
+        self._scratch = tempfile.mkdtemp(prefix="a5mi-view-")
+
+    def close(self) -> None:
+        """Remove the scratch folder of the PNG encodings."""
+        import shutil
+
+        shutil.rmtree(self._scratch, ignore_errors=True)
+
+    # ------------------------------------------------------------------------------------------ the scene
+    def load(self, bump: bool | None = None) -> None:
+        """Parse and describe the scene file (SPEC A; ``bump``: with its bump and normal maps, EXTENSIONS E.7;
+        None: as last time); raises the positioned :class:`~a5mi.converters.errors.SceneError` and keeps the
+        last good description. The watched files grow by what this description read (a missing mesh stays
+        watched, so creating it reloads)."""
+        from a5mi.converters.a5_parser import parse_file
+        from a5mi.converters.describe import describe
+
+        started = time.time_ns()
+        self._keep_unchanged_images()
+        try:
+            model = parse_file(self.scene)
+        except OSError as exc:
+            raise UserError(f"cannot read '{self.scene}': {exc.strerror or exc}") from None
+        bump = self.bump if bump is None else bump
+        try:
+            desc = describe(model, bump=bump, decoded=self._decoded)
+        finally:
+            self._stamp_images(started)
+        self.inputs = list(dict.fromkeys([*self.inputs, *scene_inputs(desc, model)]))
+        if self.desc is not None:
+            self.session.forget(self.desc)
+        self.desc, self.bump = desc, bump
+        self.warnings = [f"{loc}: warning: {msg}" for loc, msg in [*model.warnings, *desc.warnings]]
+        self.loaded_at += 1
+
+    def _keep_unchanged_images(self) -> None:
+        """Drop the decoded images whose file changed (or vanished) since it was decoded."""
+        from .watcher import stamp
+
+        for path, was in list(self._image_stamps.items()):
+            if stamp(path) != was:
+                self._decoded.pop(path, None)
+                del self._image_stamps[path]
+
+    def _stamp_images(self, started: int) -> None:
+        """Remember the state of each newly decoded image file; one modified since the load ``started`` (ns) is
+        not kept: it may have been decoded half-written."""
+        from .watcher import stamp
+
+        for path in list(self._decoded):
+            if path not in self._image_stamps:
+                now = stamp(path)
+                if now is None or now[0] >= started:
+                    self._decoded.pop(path)
+                else:
+                    self._image_stamps[path] = now
+
+    def watch_on_error(self) -> list[Path]:
+        """What to watch after a failed load: the files read so far, and the scene's folder and the working
+        directory (their mtime changes when a missing mesh or texture is created there)."""
+        return list(dict.fromkeys([*self.inputs, Path(self.scene).absolute().parent, Path.cwd()]))
+
+    # ------------------------------------------------------------------------------------------ rendering
+    def render(self, options: RenderOptions, progress: Callable[[str, int, int], None] | None = None) -> Frame:
+        """Render the loaded description with ``options`` and compare it with the reference (module docstring).
+        ``progress(stage, done, total)``: stage ``render`` per tile for large renders, then ``reference``,
+        ``compare``."""
+        from a5mi.imageio import quantize
+
+        if self.desc is None or options.bump != self.bump:
+            self.load(options.bump)
+        opts = options
+        seconds: dict[str, float] = {}
+        t0 = time.perf_counter()
+        rw, rh = opts.render_size
+        tiles = (lambda d, t: progress("render", d, t)) if progress and rw * rh > QUIET_SAMPLES else None
+        if progress:
+            progress("render", 0, rw * rh)
+        result = self.session.render(self.desc, opts, progress=tiles)
+        seconds["render"] = time.perf_counter() - t0
+        image = result.image
+        h, w = image.shape[:2]
+        t0 = time.perf_counter()
+        self._versions += 1
+        frame = Frame(self._versions, opts, image, png_bytes(image, self._scratch), (w, h))
+        seconds["png"] = time.perf_counter() - t0
+        if self.reference is not None or self.binary is not None:
+            self._compare(frame, quantize(image)[..., :3].astype(np.float64), progress, seconds)
+        frame.seconds = seconds
+        self.frame = frame
+        return frame
+
+    def _reference_levels(self, options: RenderOptions) -> np.ndarray:
+        from a5mi.imageio import read_levels
+
+        if self.reference is not None:
+            if self._ref_image is None:
+                self._ref_image = read_levels(self.reference)
+            return self._ref_image
+        argv = binary_argv(options)
+        key = (self.loaded_at, tuple(argv))
+        if key not in self._binary_cache:
+            self._binary_cache.clear()
+            self._binary_cache[key] = self._run_binary(argv)
+        return self._binary_cache[key]
+
+    def _run_binary(self, argv: list[str]) -> np.ndarray:
+        """``binary -input scene.txt -output out.bmp ARGV`` in a fresh folder holding the scene's text and links
+        to the files it names (relative to the scene's folder or the working directory), sandboxed."""
+        from a5mi.difftest.runner import run_binary
+
+        scene = Path(self.scene).absolute()
+        roots = [scene.parent, Path.cwd()]
+        with tempfile.TemporaryDirectory(prefix="a5mi-view-run-") as tmp:
+            os.chmod(tmp, 0o755)
+            folder = Path(tmp) / "run"
+            folder.mkdir()
+            (folder / "scene.txt").write_bytes(scene.read_bytes())
+            for path in self.inputs[1:]:
+                for root in roots:
+                    try:
+                        top = path.relative_to(root).parts[0]
+                    except ValueError:
+                        continue
+                    if not (folder / top).exists() and (root / top).exists():
+                        os.symlink(root / top, folder / top)
+                    break
+            levels, status = run_binary(self.binary, folder, argv, self.timeout,
+                                        read_only=tuple(dict.fromkeys(str(r) for r in roots)))
+        if levels is None:
+            raise UserError(f"--binary {self.binary.path}: {status}")
+        return levels
+
+    def _compare(self, frame: Frame, ours: np.ndarray, progress: Callable[[str, int, int], None] | None,
+                 seconds: dict[str, float]) -> None:
+        from a5mi import compare
+        from a5mi.grade import verdict
+
+        t0 = time.perf_counter()
+        if progress:
+            progress("reference", 0, 1)
+        try:
+            ref = self._reference_levels(frame.options)
+        except UserError as exc:
+            frame.reference_error = str(exc)
+            return
+        finally:
+            seconds["reference"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        if progress:
+            progress("compare", 0, 1)
+        frame.reference_levels = ref
+        if self._ref_png is None or self._ref_png[0] is not ref:  # encoded once per reference image
+            self._ref_png = (ref, png_bytes(ref.astype(np.uint8), self._scratch))
+        frame.reference_png = self._ref_png[1]
+        if ref.shape != ours.shape:
+            frame.reference_error = (f"image sizes differ: the render is {ours.shape[1]}x{ours.shape[0]}, the "
+                                     f"reference {ref.shape[1]}x{ref.shape[0]} (verdict: wrong size)")
+            return
+        m = compare.compare_arrays(ours, ref)
+        graded, _ = verdict.measure(ref, ours, None, flip=False)
+        heat = np.rint(compare.heatmap(ours, ref, compare.DEFAULT_SCALE)).clip(0, 255).astype(np.uint8)
+        frame.diff_png = png_bytes(heat, self._scratch)
+        frame.metrics = {"psnr": m.psnr if np.isfinite(m.psnr) else None, "mean_error": m.mean_error,
+                         "share_over": m.share_over, "max_error": m.max_error, "threshold": m.threshold,
+                         "bbox": m.bbox, "summary": m.summary(), "verdict": verdict.judge(graded),
+                         "beyond_noise": graded.beyond_noise, "noise_floor": verdict.NOISE_FLOOR,
+                         "scale": compare.DEFAULT_SCALE,
+                         "stops": [[int(255 * c) for c in s] for s in compare.STOPS]}
+        seconds["compare"] = time.perf_counter() - t0
+
+    # ------------------------------------------------------------------------------------------ tracing
+    def trace(self, x: int, y: int) -> dict[str, Any]:
+        """``a5mi trace`` of pixel ``(x, y)`` (top-left, of :func:`a5mi.trace.core.pixel_grid`) of the current
+        frame: the whole trace JSON (:func:`a5mi.trace.report.trace_json`), the shown tree's text lines and
+        hit points in image coordinates, and with a reference the ranked ``trace --diff`` terms."""
+        from a5mi.trace import report
+
+        frame = self.frame
+        if frame is None or self.desc is None:
+            raise UserError("nothing rendered yet")
+        tracer = session_tracer(self.desc, frame.options, self.session, frame.image)
+        if not _records(tracer.integrator):
+            from a5mi.trace.core import TraceError
+
+            raise TraceError(f"-integrator {frame.options.integrator} records no ray tree (the Whitted integrator's "
+                             "SPEC B.3 tree is what a5mi trace shows): set -integrator whitted to trace a pixel")
+        (pt,) = tracer.pixels([(x, y)])
+        shown = 4 if len(pt.block) > 1 else 0
+        tree = pt.trees[shown]
+        doc = report.trace_json(pt)
+        from a5mi.imageio import quantize
+
+        for sample in doc["samples"]:  # each tree's sum as the 8-bit level a5 would save (SPEC B.1)
+            sample["sum_byte"] = [int(b) for b in quantize(np.array(sample["sum"], np.float32)).ravel()[:3]]
+        doc["shown"] = shown
+        doc["lines"] = report.tree_lines(tree, frame.options.fresnel, self.desc.ambient)
+        doc["text"] = report.format_trace(pt, self.desc.ambient)
+        doc["marks"] = [project(self.desc.camera, frame.options, frame.size, n.p) if n.is_hit else None
+                        for n in tree.nodes]
+        doc["value_byte"] = list(pt.value_byte)
+        doc["diff"] = self._explain(pt, frame) if frame.reference_levels is not None else None
+        return doc
+
+    def _explain(self, pt: Any, frame: Frame) -> dict[str, Any] | None:
+        from a5mi.trace import report
+
+        ref = frame.reference_levels
+        if ref is None or ref.shape[:2] != (frame.size[1], frame.size[0]) or frame.size != pt.grid:
+            return None
+        other = ref[pt.y, pt.x]
+        err = float(np.max(np.abs(other - np.array(pt.image_byte, np.float64))))
+        ranked = report.explain(pt, other / 255.0) if report.differs(err) else []
+        return {"other_byte": [int(v) for v in other], "off_by": err, "noise": report.DIFF_NOISE,
+                "terms": [{"label": t.label, "kind": t.kind, "value": list(t.value), "sign": t.sign,
+                           "node": t.node, "residual": r} for t, r in ranked[:5]]}
+
+
+def _records(integrator: Any) -> bool:
+    """Whether ``integrator.trace`` takes the ``record`` argument of the trace library's record mode."""
+    import inspect
+
+    trace = getattr(integrator, "trace", None)
+    try:
+        return trace is not None and "record" in inspect.signature(trace).parameters
+    except (TypeError, ValueError):
+        return False
+
+
+def session_tracer(desc: Any, options: RenderOptions, session: Any, image: np.ndarray) -> Any:
+    """An :class:`a5mi.trace.core.Tracer` on the session's built scene and integrator and the frame's saved
+    ``image``: no second build, and no second render unless ``-filter`` needs the unfiltered buffer."""
+    from a5mi.trace.core import Tracer
+
+    class SessionTracer(Tracer):
+        def __init__(self) -> None:
+            self.desc = desc
+            self.options = dataclasses.replace(options, normals=False, depth=None, classes=False, count_rays=False)
+            self.scene, self.integrator, _ = session.integrator(desc, self.options)
+            self._image = image
+            self._raw = None if self.options.filter else image
+
+        def raw(self) -> np.ndarray:
+            if self._raw is None:
+                self._raw = session.render(desc, dataclasses.replace(self.options, filter=False)).image
+            return self._raw
+
+    return SessionTracer()
+
+
+__all__ = ["Frame", "ViewEngine", "binary_argv", "png_bytes", "project", "scene_inputs", "session_tracer"]

@@ -1,0 +1,128 @@
+"""The engine's loop: take jobs, render or trace, publish the state (docs/VIEW.md).
+
+:func:`run_engine` runs on the thread that owns Mitsuba until ``stop`` is set or a signal's
+:class:`~a5mi.interrupts.Interrupted` ends it (it waits for jobs in steps of :data:`WAIT_SECONDS` and calls
+:func:`a5mi.interrupts.check` between them). A render job reloads the scene when a watched file changed
+(:mod:`a5mi.view.watcher`), renders, compares and publishes the new state and images. A scene error (the
+positioned one-line ``FILE:LINE:COL: error: ...``) or another user error is published as ``error`` and the last
+good images stay; an unexpected exception is published as an internal error and the loop goes on.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+from a5mi.errors import UserError
+
+from .controls import describe_controls
+from .watcher import snapshot
+
+#: Seconds between two checks for a signal while no job waits.
+WAIT_SECONDS = 0.25
+
+
+def error_line(exc: BaseException) -> str:
+    """The one line of a user error as the command line prints it."""
+    from a5mi.converters.errors import SceneError
+
+    if isinstance(exc, SceneError):
+        return str(exc) if exc.loc is not None else f"a5mi view: error: {exc.msg}"
+    return f"a5mi view: error: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
+
+
+def frame_state(engine: Any, frame: Any) -> dict[str, Any]:
+    """The part of the page's state a rendered frame gives."""
+    from a5mi.trace.core import pixel_grid
+
+    return {"frame": frame.version, "size": list(frame.size), "grid": list(pixel_grid(frame.options)),
+            "render_size": list(frame.options.render_size), "metrics": frame.metrics,
+            "reference_error": frame.reference_error, "has_reference": frame.reference_png is not None,
+            "has_diff": frame.diff_png is not None, "seconds": frame.seconds,
+            "controls": describe_controls(frame.options)}
+
+
+def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
+               stop: threading.Event | None = None, log: Callable[[str], None] | None = None) -> None:
+    """Serve jobs (module docstring) starting with a render of ``options``."""
+    from a5mi import interrupts
+
+    stop = stop or threading.Event()
+    current = options
+    changes = 0
+    hub.update(scene=engine.scene, controls=describe_controls(options), busy=True,
+               reference=("image" if engine.reference else "binary" if engine.binary else None),
+               reference_name=engine.reference or (str(engine.binary.path) if engine.binary else None))
+    jobs.render(options, reload=True)
+    while not stop.is_set():
+        job = jobs.next(WAIT_SECONDS)
+        interrupts.check()
+        if job is None:
+            continue
+        kind, arg = job
+        if kind == "trace":
+            x, y, fut = arg
+            if fut.set_running_or_notify_cancel():
+                try:
+                    fut.set_result(_trace(engine, x, y))
+                except Exception as exc:  # noqa: BLE001 - handed to the request, reported on the page
+                    fut.set_exception(exc)
+            continue
+        reload, wanted = arg
+        current = wanted or current
+        changes += reload
+        hub.update(busy=True)
+        t0 = time.monotonic()
+        state: dict[str, Any] = {"busy": False, "error": None, "changes": changes}
+        images: dict[str, bytes | None] = {}
+        try:
+            if reload or engine.desc is None:
+                before = snapshot(engine.inputs)
+                hub.progress("parse", 0, 1)
+                try:
+                    engine.load(current.bump)
+                    watcher.watch(engine.inputs, before)
+                except BaseException:
+                    watcher.watch(engine.watch_on_error(), before)
+                    raise
+            frame = engine.render(current, progress=hub.progress)
+            images = {"render": frame.render_png, "reference": frame.reference_png, "diff": frame.diff_png}
+            state.update(frame_state(engine, frame), warnings=engine.warnings, options_ok=True)
+            state["seconds"] = {**frame.seconds, "total": time.monotonic() - t0}
+        except UserError as exc:  # SceneError is a ValueError too: caught below
+            state["error"] = error_line(exc)
+        except ValueError as exc:
+            from a5mi.converters.errors import SceneError
+
+            if not isinstance(exc, SceneError):
+                raise
+            state["error"] = error_line(exc)
+        except Exception as exc:  # noqa: BLE001 - the server goes on; the page shows the one line
+            state["error"] = f"a5mi view: internal error: {type(exc).__name__}: {(str(exc).splitlines() or [''])[0]}"
+        if state["error"] and log:
+            log(state["error"])
+        state["version"] = hub.state().get("version", 0) + 1
+        state["watching"] = [str(p) for p in watcher.paths]
+        hub.update(images, **state)
+
+
+def _trace(engine: Any, x: int, y: int) -> dict[str, Any]:
+    """The trace of the image pixel ``(x, y)``: mapped to the pixel grid ``a5mi trace`` addresses (``-jitter``
+    alone saves the 3W x 3H buffer: its pixel ``(x, y)`` belongs to grid pixel ``(x // 3, y // 3)``)."""
+    from a5mi.trace.core import TraceError, pixel_grid
+
+    frame = engine.frame
+    if frame is None:
+        raise UserError("nothing rendered yet")
+    w, h = frame.size
+    if not (0 <= x < w and 0 <= y < h):
+        raise TraceError(f"pixel ({x}, {y}) is outside the {w}x{h} image")
+    gw, gh = pixel_grid(frame.options)
+    doc = engine.trace(x * gw // w, y * gh // h)
+    doc["clicked"] = [x, y]
+    return doc
+
+
+__all__ = ["WAIT_SECONDS", "error_line", "frame_state", "run_engine"]

@@ -1,0 +1,210 @@
+// a5mi view: the live page (docs/VIEW.md). Plain JS, no library; every request carries the token.
+"use strict";
+const TOKEN = new URLSearchParams(location.search).get("token") || "";
+const api = (path, extra) => path + "?token=" + encodeURIComponent(TOKEN) + (extra || "");
+const $ = (id) => document.getElementById(id);
+let state = {};
+let shownFrame = 0;
+let lastTrace = null;
+
+function el(tag, attrs, ...kids) {
+  const e = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs || {})) {
+    if (k === "text") e.textContent = v; else e.setAttribute(k, v);
+  }
+  for (const k of kids) e.append(k);
+  return e;
+}
+const v3 = (v, d) => "(" + v.map((x) => (x === null ? "nan" : Number(x).toPrecision(d || 6).replace(/\.?0+$/, ""))).join(", ") + ")";
+
+// ---------------------------------------------------------------- controls
+function buildControls(controls) {
+  const form = $("controls");
+  if (form.childElementCount) return;
+  for (const c of controls) {
+    let input;
+    if (c.kind === "bool") input = el("input", { type: "checkbox" });
+    else if (c.kind === "int") input = el("input", { type: "number", min: c.min, max: c.max, step: 1 });
+    else { input = el("select"); for (const ch of c.choices) input.append(el("option", { value: ch, text: ch })); }
+    input.name = c.name;
+    input.addEventListener("change", sendControls);
+    form.append(el("label", {}, input, " " + c.label));
+  }
+}
+function setControls(controls) {
+  for (const c of controls || []) {
+    const input = $("controls").elements[c.name];
+    if (!input || input === document.activeElement) continue;
+    if (c.kind === "bool") input.checked = c.value; else input.value = c.value;
+  }
+}
+async function sendControls() {
+  const values = {};
+  for (const input of $("controls").elements) {
+    if (input.type === "checkbox") values[input.name] = input.checked;
+    else if (input.type === "number") values[input.name] = Number(input.value);
+    else values[input.name] = input.value;
+  }
+  const r = await fetch(api("/api/render"), { method: "POST", headers: { "Content-Type": "application/json" },
+                                              body: JSON.stringify(values) });
+  const doc = await r.json();
+  $("control-error").hidden = r.ok;
+  $("control-error").textContent = r.ok ? "" : doc.error;
+}
+
+// ---------------------------------------------------------------- state
+function show(s) {
+  state = s;
+  $("scene").textContent = s.scene || "";
+  $("status").textContent = s.busy ? "rendering..." : (s.seconds ? "rendered in " + s.seconds.total.toFixed(3) + " s" : "");
+  if (!s.busy) $("progress").value = 1;
+  $("error").hidden = !s.error;
+  $("error").textContent = s.error || "";
+  if (s.controls) { buildControls(s.controls); setControls(s.controls); }
+  $("warnings").textContent = (s.warnings || []).join("\n");
+  if (s.frame && s.frame !== shownFrame) {
+    shownFrame = s.frame;
+    const scale = Math.max(1, Math.floor(384 / Math.max(s.size[0], s.size[1])));
+    for (const name of ["render", "reference", "diff"]) {
+      const img = $(name);
+      img.style.width = s.size[0] * scale + "px";
+      if (name === "render" || (name === "reference" && s.has_reference) || (name === "diff" && s.has_diff)) {
+        img.dataset.pending = s.frame;
+        img.src = api("/api/image/" + name + ".png", "&v=" + s.frame);
+      }
+    }
+    $("render-info").textContent = s.size[0] + "x" + s.size[1];
+    $("reference-panel").hidden = !s.has_reference;
+    $("diff-panel").hidden = !s.has_diff;
+    showMetrics(s);
+  }
+}
+function showMetrics(s) {
+  const m = s.metrics;
+  $("compare").hidden = !(m || s.reference_error);
+  $("reference-name").textContent = (s.reference_name || "").split("/").pop();
+  $("reference-name").title = s.reference_name || "";
+  $("reference-error").hidden = !s.reference_error;
+  $("reference-error").textContent = s.reference_error || "";
+  const body = $("metrics").tBodies[0];
+  body.replaceChildren();
+  $("verdict").textContent = m ? m.verdict : "";
+  $("verdict").className = m ? m.verdict : "";
+  if (!m) return;
+  const rows = [["PSNR", m.psnr === null ? "inf dB (identical)" : m.psnr.toFixed(2) + " dB"],
+                ["mean error", m.mean_error.toFixed(3) + "/255"],
+                ["pixels > " + m.threshold + "/255", (100 * m.share_over).toFixed(3) + "%"],
+                ["max error", m.max_error + "/255"],
+                ["beyond " + m.noise_floor + "/255 (verdict)", (100 * m.beyond_noise).toFixed(3) + "%"]];
+  if (m.bbox) rows.push(["over the threshold in", "x " + m.bbox[0] + ".." + m.bbox[2] + ", y " + m.bbox[1] + ".." + m.bbox[3]]);
+  for (const [k, v] of rows) body.append(el("tr", {}, el("td", { text: k }), el("td", { text: v })));
+  const stops = m.stops.map((c, i) => `rgb(${c.join(",")}) ${(100 * i) / (m.stops.length - 1)}%`);
+  $("colorbar").style.background = "linear-gradient(to right, " + stops.join(", ") + ")";
+  $("bar-mid").textContent = m.scale / 2;
+  $("bar-max").textContent = m.scale + "/255";
+}
+for (const name of ["render", "reference", "diff"]) {
+  $(name).addEventListener("load", () => {
+    const img = $(name);
+    img.dataset.frame = img.dataset.pending;
+    img.dataset.loadedAt = Date.now();
+    if (name === "render") { sizeOverlay(); drawMarks(null); }
+  });
+}
+
+// ---------------------------------------------------------------- events
+const events = new EventSource(api("/api/events"));
+events.addEventListener("state", (e) => show(JSON.parse(e.data)));
+events.addEventListener("progress", (e) => {
+  const p = JSON.parse(e.data);
+  $("progress").value = p.total ? p.done / p.total : 0;
+  $("status").textContent = p.stage + (p.total > 1 ? " " + Math.round((100 * p.done) / p.total) + "%" : "") + "...";
+});
+events.addEventListener("error", () => { if (events.readyState !== EventSource.OPEN) $("status").textContent = "reconnecting"; });
+
+// ---------------------------------------------------------------- trace
+function sizeOverlay() {
+  const img = $("render"), c = $("overlay");
+  c.width = img.clientWidth; c.height = img.clientHeight;
+}
+function drawMarks(hot) {
+  const img = $("render"), c = $("overlay"), g = c.getContext("2d");
+  g.clearRect(0, 0, c.width, c.height);
+  if (!lastTrace || !img.naturalWidth) return;
+  const s = c.width / img.naturalWidth;
+  const [cx, cy] = lastTrace.clicked;
+  g.strokeStyle = "#fff"; g.lineWidth = 1;
+  g.strokeRect(cx * s, cy * s, Math.max(s, 1), Math.max(s, 1));
+  if (hot === null) return;
+  const m = lastTrace.marks[hot];
+  if (!m) return;
+  g.strokeStyle = "#fd6"; g.lineWidth = 2;
+  g.beginPath(); g.arc((m[0] + 0.5) * s, (m[1] + 0.5) * s, 7, 0, 2 * Math.PI); g.stroke();
+  g.beginPath(); g.moveTo((m[0] + 0.5) * s - 11, (m[1] + 0.5) * s); g.lineTo((m[0] + 0.5) * s + 11, (m[1] + 0.5) * s);
+  g.moveTo((m[0] + 0.5) * s, (m[1] + 0.5) * s - 11); g.lineTo((m[0] + 0.5) * s, (m[1] + 0.5) * s + 11); g.stroke();
+}
+$("render").addEventListener("click", async (e) => {
+  const img = e.currentTarget;
+  const x = Math.floor((e.offsetX * img.naturalWidth) / img.clientWidth);
+  const y = Math.floor((e.offsetY * img.naturalHeight) / img.clientHeight);
+  $("trace").replaceChildren(el("p", { text: "tracing pixel (" + x + ", " + y + ")..." }));
+  const r = await fetch(api("/api/trace", "&x=" + x + "&y=" + y));
+  const doc = await r.json();
+  if (!r.ok) { $("trace").replaceChildren(el("p", { class: "error", text: doc.error })); return; }
+  lastTrace = doc;
+  showTrace(doc);
+  drawMarks(null);
+});
+function nodeView(n, i) {
+  const head = "#" + n.index + " " + n.kind + " ray, weight " + v3(n.weight, 4);
+  const lines = [];
+  if (n.hit > 0.5) {
+    const obj = n.object ? n.object.kind + " at line " + n.object.line : "an object";
+    lines.push("hit " + obj + " at t " + Number(n.t).toPrecision(6) + ", p " + v3(n.p, 4) + (n.inside ? ", inside" : ""));
+    lines.push("ambient term " + v3(n.ambient_term, 4));
+    for (const l of n.lights) {
+      const how = !l.tested ? "" : l.visible ? " lit" : " blocked" + (l.occluder ? " by " + l.occluder.kind + " at line " + l.occluder.line : "");
+      lines.push("light " + l.index + " (" + l.name + "):" + how + " N·L " + Number(l.n_dot_l).toPrecision(4) + " term " + v3(l.term, 4) + (l.visible ? "" : " (not added)"));
+    }
+    lines.push("local " + v3(n.local, 4));
+  } else {
+    lines.push("miss: background " + v3(n.background, 4));
+  }
+  lines.push("contribution = weight ⊙ local = " + v3(n.contribution, 6));
+  const div = el("div", { class: "node", "data-index": i, style: "margin-left:" + 1.2 * n.depth + "em" },
+                 el("div", { text: head }), el("div", { class: "terms", text: lines.join("\n") }));
+  div.style.whiteSpace = "pre-wrap";
+  div.addEventListener("mouseenter", () => { div.classList.add("hot"); drawMarks(i); });
+  div.addEventListener("mouseleave", () => { div.classList.remove("hot"); drawMarks(null); });
+  return div;
+}
+function showTrace(doc) {
+  const out = [];
+  const k = doc.shown, sample = doc.samples[k];
+  out.push(el("p", { text: "pixel (" + doc.clicked[0] + ", " + doc.clicked[1] + ") of the image; a5mi trace -pixel "
+    + doc.pixel[0] + " " + doc.pixel[1] + " (grid " + doc.grid[0] + "x" + doc.grid[1] + ")"
+    + (doc.samples.length > 1 ? "; tree of sample " + k + " of " + doc.samples.length : "") }));
+  sample.nodes.forEach((n, i) => out.push(nodeView(n, i)));
+  const sumByte = sample.sum_byte;
+  const pix = doc.image_byte;
+  const single = doc.samples.length === 1;
+  const agree = single ? sumByte.join() === pix.join() : doc.value_byte.join() === pix.join();
+  out.push(el("p", { class: "sum", id: "trace-sum", "data-byte": sumByte.join(","), "data-value-byte": doc.value_byte.join(","),
+                     "data-pixel": pix.join(","),
+                     text: "Σ contributions = " + v3(sample.sum, 9) + " → 8-bit (" + sumByte.join(", ") + ")"
+                       + (single ? "" : "; pixel value from all samples (" + doc.value_byte.join(", ") + ")")
+                       + "; image pixel (" + pix.join(", ") + ")" }));
+  out.push(el("p", { class: agree ? "ok" : "bad", id: "trace-check", text: agree ? "the tree sums to the pixel" : "the tree does NOT sum to the pixel" }));
+  if (doc.diff) {
+    const d = doc.diff;
+    const list = el("ul", { id: "diff-explain" });
+    for (const t of d.terms) list.append(el("li", { text: (t.sign > 0 ? "the reference adds " : "the reference lacks ") + t.label + ": " + v3(t.value, 4) + " (leaves " + (255 * t.residual).toFixed(1) + "/255)" }));
+    const say = d.off_by <= d.noise ? "within " + d.noise + "/255: nothing differs" :
+      d.terms.length ? "look at:" : "no single term of the tree accounts for the difference";
+    out.push(el("div", {}, el("h2", { text: "trace --diff: reference pixel (" + d.other_byte.join(", ") + "), off by " + d.off_by + "/255" }),
+                el("p", { text: say }), list));
+  }
+  out.push(el("details", {}, el("summary", { text: "a5mi trace text" }), el("pre", { text: doc.text })));
+  $("trace").replaceChildren(...out);
+}
+window.addEventListener("resize", () => { sizeOverlay(); drawMarks(null); });

@@ -1,0 +1,116 @@
+"""The ``subsurface`` block of a ``Material`` (docs/EXTENSIONS.md E.18): grammar, presets, the model value.
+
+::
+
+    subsurface { [preset NAME] [sigma_a V3] [sigma_s V3] [eta F] [g F] [scale F] [samples I] }
+
+Any order, each keyword at most once; either ``preset`` or both ``sigma_a`` and ``sigma_s`` (a preset's values
+may be overridden one by one). ``sigma_a``, ``sigma_s`` >= 0 are the absorption and scattering coefficients
+per millimetre; ``scale`` (> 0, default 1) is the millimetres per scene unit, so the coefficients the renderer
+uses are ``σ · scale`` per scene unit. ``eta`` (> 0, default 1.3) the relative index of refraction of the
+boundary, ``g`` in (−1, 1) (default 0) the Henyey-Greenstein asymmetry inside, ``samples`` (1..256, default 8)
+the probe points (dipole) or walks (random walk) per hit and pass.
+
+Presets (:data:`PRESETS`): Jensen, Marschner, Levoy, Hanrahan 2001, "A Practical Model for Subsurface Light
+Transport", Figure 5: the reduced scattering ``σ_s'`` and ``σ_a`` in mm⁻¹ (R, G, B), measured with ``η = 1.3``;
+a preset sets ``sigma_s = σ_s'`` with ``g = 0`` (the reduced coefficients of an isotropic medium).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Final
+
+from .errors import FileLoc
+from .lexer import Token
+from .tokens import TokenStream, quoted_raw
+
+Vec3 = tuple[float, float, float]
+
+#: name -> (σ_s' mm⁻¹, σ_a mm⁻¹), Jensen et al. 2001, Figure 5.
+PRESETS: Final[dict[str, tuple[Vec3, Vec3]]] = {
+    "apple": ((2.29, 2.39, 1.97), (0.0030, 0.0034, 0.046)),
+    "chicken1": ((0.15, 0.21, 0.38), (0.015, 0.077, 0.19)),
+    "chicken2": ((0.19, 0.25, 0.32), (0.018, 0.088, 0.20)),
+    "cream": ((7.38, 5.47, 3.15), (0.0002, 0.0028, 0.0163)),
+    "ketchup": ((0.18, 0.07, 0.03), (0.061, 0.97, 1.45)),
+    "marble": ((2.19, 2.62, 3.00), (0.0021, 0.0041, 0.0071)),
+    "potato": ((0.68, 0.70, 0.55), (0.0024, 0.0090, 0.12)),
+    "skimmilk": ((0.70, 1.22, 1.90), (0.0014, 0.0025, 0.0142)),
+    "skin1": ((0.74, 0.88, 1.01), (0.032, 0.17, 0.48)),
+    "skin2": ((1.09, 1.59, 1.79), (0.013, 0.070, 0.145)),
+    "spectralon": ((11.6, 20.4, 14.9), (0.0, 0.0, 0.0)),
+    "wholemilk": ((2.55, 3.21, 3.77), (0.0011, 0.0024, 0.014)),
+}
+#: Jensen et al. 2001's index of refraction of every preset.
+PRESET_ETA: Final = 1.3
+MAX_SAMPLES: Final = 256
+
+
+@dataclass(frozen=True)
+class Subsurface:
+    """A material's subsurface medium in scene units: ``sigma_a``, ``sigma_s`` (per scene unit, ``scale``
+    applied), ``eta``, ``g``, ``samples``; ``loc`` where ``subsurface`` was written."""
+
+    sigma_a: Vec3
+    sigma_s: Vec3
+    eta: float = PRESET_ETA
+    g: float = 0.0
+    samples: int = 8
+    loc: FileLoc | None = None
+
+
+def parse_subsurface(ts: TokenStream, start: Token) -> Subsurface:
+    """The ``subsurface { ... }`` block after the keyword ``start`` (module docstring); range errors at the
+    offending keyword's value."""
+    ts.expect("{", "after 'subsurface'")
+    seen: dict[str, Token] = {}
+    vecs: dict[str, Vec3] = {}
+    nums: dict[str, float] = {}
+    preset: str | None = None
+    samples = 8
+    keys = ("preset", "sigma_a", "sigma_s", "eta", "g", "scale", "samples")
+    while True:
+        tok = ts.next()
+        if tok is not None and tok.text == "}":
+            break
+        if tok is None or tok.text not in keys:
+            raise ts.syntax_error(f"expected {', '.join(keys)} or '}}' in subsurface, found {quoted_raw(tok)}", tok)
+        if tok.text in seen:
+            raise ts.syntax_error(f"subsurface gives '{tok.text}' twice", tok)
+        seen[tok.text] = tok
+        if tok.text == "preset":
+            name = ts.name("preset")
+            if name.text.lower() not in PRESETS:
+                raise ts.semantic_error(f"unknown subsurface preset '{name.text}' (one of {', '.join(PRESETS)})",
+                                        name.loc)
+            preset = name.text.lower()
+        elif tok.text in ("sigma_a", "sigma_s"):
+            v = ts.vec3(tok.text)
+            if min(v) < 0.0:
+                raise ts.semantic_error(f"subsurface {tok.text} must not be negative", tok.loc)
+            vecs[tok.text] = v
+        elif tok.text == "samples":
+            samples, n_tok = ts.integer("samples")
+            if not 1 <= samples <= MAX_SAMPLES:
+                raise ts.semantic_error(f"subsurface samples must be between 1 and {MAX_SAMPLES}, found {samples}",
+                                        n_tok.loc)
+        else:
+            nums[tok.text] = ts.number(tok.text)
+    if preset is not None:
+        sigma_s, sigma_a = PRESETS[preset]
+        vecs.setdefault("sigma_s", sigma_s)
+        vecs.setdefault("sigma_a", sigma_a)
+    for key in ("sigma_a", "sigma_s"):
+        if key not in vecs:
+            raise ts.semantic_error(f"subsurface needs a preset or '{key}'", start.loc)
+    checks = (("eta", lambda v: v > 0.0, "must be positive"), ("g", lambda v: -1.0 < v < 1.0,
+              "must be between -1 and 1 (exclusive)"), ("scale", lambda v: v > 0.0, "must be positive"))
+    for key, ok, msg in checks:
+        if key in nums and not ok(nums[key]):
+            raise ts.semantic_error(f"subsurface {key} {msg}, found {nums[key]:g}", seen[key].loc)
+    scale = nums.get("scale", 1.0)
+    sa = tuple(c * scale for c in vecs["sigma_a"])
+    ss = tuple(c * scale for c in vecs["sigma_s"])
+    return Subsurface(sa, ss, nums.get("eta", PRESET_ETA), nums.get("g", 0.0), samples,  # type: ignore[arg-type]
+                      start.loc)

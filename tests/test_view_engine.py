@@ -1,0 +1,209 @@
+"""``a5mi view``'s engine and loop in this process (no browser): the frame's PNG is ``a5``'s file byte for byte,
+the reference comparison is ``compare``'s, a clicked pixel's tree sums to the pixel and its hit point projects
+onto it, a scene error is one positioned line and keeps the last good image, a save re-renders."""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from view_scenes import a5_png, time_limit, write_scene
+
+from a5mi.options import RenderOptions
+
+OPTS = RenderOptions(width=40, height=40, shadows=True)
+
+
+@pytest.fixture(scope="module")
+def session(variant):  # noqa: ANN001, ANN201 - fixtures
+    from a5mi.session import RenderSession
+
+    return RenderSession()
+
+
+def test_frame_png_is_a5s_file_and_the_reference_comparison_is_compares(tmp_path: Path, session) -> None:  # noqa: ANN001
+    from a5mi import compare
+    from a5mi.imageio import read_levels
+    from a5mi.view.engine import ViewEngine
+
+    with time_limit(120):
+        scene = write_scene(tmp_path / "s.txt")
+        ref_scene = write_scene(tmp_path / "r.txt", "0.1 1 0.1")
+        ref = tmp_path / "ref.png"
+        a5_png(ref_scene, ref, "-size", "40", "40", "-shadows")
+        engine = ViewEngine(str(scene), session, reference=str(ref))
+        frame = engine.render(OPTS)
+        assert frame.render_png == a5_png(scene, tmp_path / "a5.png", "-size", "40", "40", "-shadows")
+        want = compare.compare_arrays(read_levels(tmp_path / "a5.png"), read_levels(ref))
+        assert frame.metrics is not None and frame.metrics["psnr"] == pytest.approx(want.psnr)
+        assert frame.metrics["share_over"] == want.share_over and frame.metrics["verdict"] == "wrong"
+        assert frame.diff_png is not None and frame.reference_png is not None
+        # -jitter -filter through the same session: still a5's bytes
+        jf = dataclasses.replace(OPTS, jitter=True, filter=True)
+        assert engine.render(jf).render_png == a5_png(scene, tmp_path / "jf.png", "-size", "40", "40", "-shadows",
+                                                       "-jitter", "-filter")
+
+
+@pytest.mark.parametrize("flags", [{}, {"jitter": True, "filter": True}])
+def test_trace_sums_to_the_pixel_and_projects_the_camera_hit_onto_it(tmp_path: Path, session, flags) -> None:  # noqa: ANN001
+    from a5mi.imageio import quantize
+    from a5mi.view.engine import ViewEngine
+
+    with time_limit(120):
+        engine = ViewEngine(str(write_scene(tmp_path / "s.txt")), session,
+                            reference=None)
+        frame = engine.render(dataclasses.replace(OPTS, **flags))
+        for x, y in ((20, 22), (8, 30), (35, 5)):
+            doc = engine.trace(x, y)
+            pixel = tuple(int(v) for v in quantize(frame.image[y, x])[:3])
+            assert tuple(doc["image_byte"]) == pixel and tuple(doc["value_byte"]) == pixel
+            if not flags:
+                total = np.array(doc["samples"][0]["sum"], np.float32)
+                assert np.array_equal(total, frame.image[y, x, :3])
+                assert doc["marks"][0] == pytest.approx([x, y], abs=1e-3)  # the camera ray's hit is this pixel
+            assert len(doc["lines"]) >= 3 and doc["diff"] is None
+
+
+def test_scene_error_keeps_the_last_good_image_and_a_save_re_renders(tmp_path: Path, session) -> None:  # noqa: ANN001
+    from a5mi.view.engine import ViewEngine
+    from a5mi.view.live import run_engine
+    from a5mi.view.server import Hub, Jobs
+    from a5mi.view.watcher import Watcher
+
+    with time_limit(120):
+        scene = write_scene(tmp_path / "s.txt")
+        engine = ViewEngine(str(scene), session)
+        hub, jobs, stop = Hub(), Jobs(), threading.Event()
+        watcher = Watcher(lambda: jobs.render(reload=True), interval=0.05)
+        watcher.start()
+        done = threading.Event()
+        errors: list[BaseException] = []
+
+        def wait_version(v: int) -> dict:
+            t0 = time.monotonic()
+            while hub.state().get("version", 0) < v:
+                assert time.monotonic() - t0 < 60, hub.state()
+                time.sleep(0.02)
+            return hub.state()
+
+        def drive() -> None:
+            try:
+                first = wait_version(1)
+                assert first["error"] is None and hub.image("render") is not None
+                good = hub.image("render")
+                scene.write_text(scene.read_text().replace("numObjects 3", "numObjects 3\n    Sphere {\n  radius"))
+                bad = wait_version(2)
+                assert bad["error"].startswith(f"{scene}:") and ": error: " in bad["error"], bad["error"]
+                assert "\n" not in bad["error"] and hub.image("render") == good and bad["frame"] == first["frame"]
+                write_scene(scene, "0.9 0.9 0.1")
+                fixed = wait_version(3)
+                assert fixed["error"] is None and fixed["frame"] == first["frame"] + 1
+                assert hub.image("render") == a5_png(scene, tmp_path / "a5.png", "-size", "40", "40", "-shadows")
+                done.set()
+            except BaseException as exc:  # noqa: BLE001 - re-raised on the main thread
+                errors.append(exc)
+            finally:
+                stop.set()
+
+        # the loop renders on this (the main) thread, as in a5mi view; the checks run beside it
+        checker = threading.Thread(target=drive)
+        checker.start()
+        run_engine(engine, hub, jobs, watcher, OPTS, stop=stop)
+        checker.join(timeout=10)
+        watcher.stop()
+        if errors:
+            raise errors[0]
+        assert done.is_set()
+
+
+def test_binary_argv_is_the_spec_flags() -> None:
+    from a5mi.view.engine import binary_argv
+
+    opts = RenderOptions(width=30, height=20, bounces=2, shadows=True, jitter=True, filter=True, refraction=False,
+                         phong=True)
+    assert binary_argv(opts) == ["-size", "30", "20", "-bounces", "2", "-shadows", "-jitter", "-filter",
+                                 "-refraction_off"]
+
+
+def test_a_reload_decodes_only_the_images_that_changed(tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001
+    """The six cube-map faces are decoded once; a save of the scene text reuses them, a changed face is read
+    again (and only it)."""
+    from a5mi.converters import files
+    from a5mi.imageio import write_image
+    from a5mi.view.engine import ViewEngine
+
+    (tmp_path / "sky").mkdir()
+    faces = ("left", "right", "up", "down", "front", "back")
+    for k, face in enumerate(faces):
+        write_image(tmp_path / "sky" / f"{face}.png", np.full((4, 4, 3), k / 8.0))
+    scene = tmp_path / "s.txt"
+    scene.write_text(write_scene(tmp_path / "plain.txt").read_text().replace(
+        "    ambientLight 0.2 0.2 0.2", "    ambientLight 0.2 0.2 0.2\n    cubeMap sky"))
+    reads: list[str] = []
+    real = files.imageio.read_uint8
+    monkeypatch.setattr(files.imageio, "read_uint8", lambda p: (reads.append(Path(p).name), real(p))[1])
+    from types import SimpleNamespace
+
+    engine = ViewEngine(str(scene), session=SimpleNamespace(forget=lambda desc: None))
+    time.sleep(0.05)
+    engine.load()
+    assert sorted(reads) == sorted(f"{f}.png" for f in faces)
+    first = engine.desc.background.faces
+    reads.clear()
+    scene.write_text(scene.read_text().replace("0.2 0.1 0.6", "0.3 0.1 0.6"))
+    engine.load()
+    assert reads == [] and engine.desc.background.faces[0] is first[0]
+    write_image(tmp_path / "sky" / "up.png", np.full((4, 4, 3), 0.9))
+    engine.load()
+    up = next(f for f in engine.desc.background.faces if f.path.name == "up.png")
+    assert reads == ["up.png"] and int(up.pixels[0, 0, 0]) == int(np.float32(0.9) * np.float32(255))
+
+
+def test_binary_reference_runs_sandboxed_and_trace_diff_names_a_term(tmp_path: Path, session) -> None:  # noqa: ANN001
+    """``--binary``: another a5 (here a5 with ``-fresnel schlick``, a Python script of this venv, allowed to read
+    its interpreter and a5mi's sources) renders the same scene and flags in the sandbox; the glass differs, so
+    the verdict is not ``match``, and a glass pixel's ``trace --diff`` names terms of the tree."""
+    import sys
+
+    from a5mi import PROJECT_ROOT, sandbox
+    from a5mi.difftest.runner import Binary, check_binary
+    from a5mi.view.engine import ViewEngine
+
+    if sandbox.sandbox_problem():
+        pytest.skip(f"--binary runs only sandboxed: {sandbox.sandbox_problem()}")
+    with time_limit(300):
+        (tmp_path / "bin").mkdir(mode=0o755)
+        exe = tmp_path / "bin" / "a5schlick"
+        exe.write_text(f"#!{sys.executable}\nimport sys\nfrom a5mi.cli import run\n"
+                       "sys.exit(run(sys.argv[1:] + ['-fresnel', 'schlick']))\n")
+        for p in (exe, exe.parent, tmp_path):  # the run's own user id reaches it
+            p.chmod(0o755)
+        binary = Binary(check_binary(exe), (sys.prefix, sys.base_prefix, str(PROJECT_ROOT)))
+        scene = write_scene(tmp_path / "s.txt")
+        engine = ViewEngine(str(scene), session, binary=binary)
+        frame = engine.render(OPTS)
+        assert frame.reference_error is None and frame.metrics is not None, frame.reference_error
+        assert frame.metrics["psnr"] is not None and frame.metrics["verdict"] != "match"
+        x0, y0, x1, y1 = frame.metrics["bbox"]
+        doc = engine.trace((x0 + x1) // 2, (y0 + y1) // 2)
+        assert doc["diff"] is not None and doc["diff"]["off_by"] >= 0
+        again = engine.render(OPTS)  # same scene and flags: the binary's image is reused, not run again
+        assert again.seconds["reference"] < 0.5 and again.reference_png == frame.reference_png
+
+
+def test_an_integrator_without_a_ray_tree_says_so(tmp_path: Path, session) -> None:  # noqa: ANN001
+    """``-integrator path`` renders on the page; a click answers that it records no ray tree (one line, a user
+    error), instead of failing inside the record mode."""
+    from a5mi.trace.core import TraceError
+    from a5mi.view.engine import ViewEngine
+
+    with time_limit(300):
+        engine = ViewEngine(str(write_scene(tmp_path / "s.txt")), session)
+        frame = engine.render(RenderOptions(width=12, height=12, integrator="path", seed=1))
+        assert frame.size == (12, 12)
+        with pytest.raises(TraceError, match="-integrator path records no ray tree"):
+            engine.trace(5, 5)

@@ -1,0 +1,110 @@
+"""Shared by the ``a5mi view`` tests: a small scene (glass and red spheres, a floor, two lights, no cube map, so
+a render takes well under a second), a hard per-test timeout, and the ``a5`` render to compare with."""
+
+from __future__ import annotations
+
+import faulthandler
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+SCENE = """PerspectiveCamera {
+    center 0 1.5 5
+    direction 0 -0.2 -1
+    up 0 1 0
+    angle 30
+}
+Lights {
+    numLights 2
+    DirectionalLight {
+        direction 0.5 -1 0
+        color 0.3 0.3 0.3
+    }
+    PointLight {
+        position -1 1 0
+        color 0.5 0.5 0.5
+    }
+}
+Materials {
+    numMaterials 3
+    PhongMaterial {
+        diffuseColor 0.1 0.1 0.1
+        specularColor 1 1 1
+        refractionIndex 1.3
+    }
+    PhongMaterial {
+        diffuseColor RED
+        specularColor 0.3 0.3 0.3
+    }
+    PhongMaterial {
+        diffuseColor 0.8 0.8 0.8
+        specularColor 0.1 0.1 0.5
+    }
+}
+Background {
+    color 0.2 0.1 0.6
+    ambientLight 0.2 0.2 0.2
+}
+Group {
+    numObjects 3
+    MaterialIndex 0
+    Sphere {
+        center 0.3 0.0 -1
+        radius 1.0
+    }
+    MaterialIndex 1
+    Sphere {
+        center -0.5 -0.6 0.2
+        radius 0.4
+    }
+    MaterialIndex 2
+    Plane {
+        normal 0 1 0
+        offset -1
+    }
+}
+"""
+
+RED = "1 0.1 0.1"
+
+
+def scene_text(red: str = RED) -> str:
+    return SCENE.replace("RED", red)
+
+
+def write_scene(path: Path, red: str = RED) -> Path:
+    path.write_text(scene_text(red))
+    return path
+
+
+def a5_png(scene: Path, out: Path, *flags: str) -> bytes:
+    """The PNG file ``a5 -input SCENE -output OUT FLAGS`` writes (run in this process)."""
+    from a5mi.cli import run
+
+    assert run(["-input", str(scene), "-output", str(out), *flags]) == 0
+    return out.read_bytes()
+
+
+@contextmanager
+def time_limit(seconds: float) -> Iterator[None]:
+    """Fail the test after ``seconds``: SIGALRM raises TimeoutError in the main thread; elsewhere faulthandler
+    ends the process with every thread's traceback."""
+    if threading.current_thread() is threading.main_thread():
+        def expire(signum: int, frame: object) -> None:
+            raise TimeoutError(f"the test ran past its {seconds:g} s limit")
+
+        old = signal.signal(signal.SIGALRM, expire)
+        signal.setitimer(signal.ITIMER_REAL, seconds)
+        try:
+            yield
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, old)
+    else:
+        faulthandler.dump_traceback_later(seconds, exit=True)
+        try:
+            yield
+        finally:
+            faulthandler.cancel_dump_traceback_later()
