@@ -21,19 +21,9 @@ from typing import Any
 def thin_lens(ray: Any, camera: Any, sample: Any) -> Any:
     """The E.3 thin-lens ray for the pinhole ``ray`` of ``camera`` (``direction``, ``up``, ``aperture``,
     ``focus_distance``) and a unit-square ``sample`` (``mi.Point2f``)."""
-    import drjit as dr
-    import mitsuba as mi
+    from a5mi.plugins.camera import thin_lens as lens  # the a5_camera sensor's lens, the same operations
 
-    from a5mi.plugins.camera import camera_basis
-
-    # opaque: a keyframed camera (docs/EXTENSIONS.md E.11) turns without a new kernel
-    w, u, v = (dr.opaque(mi.Vector3f, [float(c) for c in a]) for a in camera_basis(camera.direction, camera.up))
-    radius = dr.opaque(mi.Float, 0.5 * float(camera.aperture))
-    focus = dr.opaque(mi.Float, float(camera.focus_distance))
-    focal_point = ray.o + (focus / dr.dot(ray.d, w)) * ray.d
-    disk = mi.warp.square_to_uniform_disk_concentric(sample)
-    origin = ray.o + radius * (disk.x * u + disk.y * v)
-    return mi.Ray3f(origin, dr.normalize(focal_point - origin))
+    return lens(ray, camera.direction, camera.up, camera.aperture, camera.focus_distance, sample)
 
 
 def sample_passes(scene: Any, integrator: Any, sampler: Any, ray: Any, camera: Any, first: int, n: int,

@@ -29,6 +29,7 @@ from .model import (
     Vec3,
 )
 from .subsurface import Subsurface
+from .surface_model import Btf, Milled
 
 _ZERO: Vec3 = (0.0, 0.0, 0.0)
 
@@ -116,6 +117,8 @@ class MaterialBuilder:
     roughness: float = 0.0
     glossy_samples: int = 1
     subsurface: Subsurface | None = None   # docs/EXTENSIONS.md E.18
+    btf: Btf | None = None          # E.19
+    milled: Milled | None = None    # E.20
 
     def build(self) -> Material:
         return Material(diffuse_color=self.diffuse_color, specular_color=self.specular_color,
@@ -123,7 +126,8 @@ class MaterialBuilder:
                         texture_loc=self.texture_loc, bump=self.bump, noise=self.noise, loc=self.loc,
                         roughness=self.roughness, glossy_samples=self.glossy_samples, dispersion=self.dispersion,
                         solid=self.solid, bump_loc=self.bump_loc, bump_scale=self.bump_scale,
-                        normal_map=self.normal_map, normal_map_loc=self.normal_map_loc, subsurface=self.subsurface)
+                        normal_map=self.normal_map, normal_map_loc=self.normal_map_loc, subsurface=self.subsurface,
+                        btf=self.btf, milled=self.milled)
 
 
 @dataclass

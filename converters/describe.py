@@ -44,6 +44,7 @@ from .geometry import (
 from .model import Camera, Fog, Light, Noise, Plane, Scene, Solid, Sphere, Triangle, TriangleMesh, Vec3, Volume
 from .obj import NormalMode, ObjMesh
 from .subsurface import Subsurface
+from .surface_ext import STOCK_BTF_WARNING, STOCK_WARNING, BtfImages, Milled, describe_btf
 
 SceneWarning = tuple[FileLoc, str]
 
@@ -79,7 +80,7 @@ class MaterialDescription:
     specular_color: Vec3
     shininess: float
     refraction_index: float
-    kd: Noise | Solid | Image | None
+    kd: Noise | Solid | Image | BtfImages | None
     loc: FileLoc | None = None
     #: docs/EXTENSIONS.md E.4: GGX alpha (0 = mirror) and glossy children per camera hit
     roughness: float = 0.0
@@ -93,10 +94,13 @@ class MaterialDescription:
     normal_map: Image | None = None
     #: docs/EXTENSIONS.md E.18: the ``subsurface`` block (converters/subsurface.py), None without one
     subsurface: Subsurface | None = None
+    #: docs/EXTENSIONS.md E.20: Ward's anisotropic lobe on a milling tangent field
+    milled: Milled | None = None
 
-    def kd_on(self, with_uv: bool) -> Noise | Solid | Image | None:
-        """The kd source on a shape with (``with_uv``) or without texture coordinates."""
-        return None if isinstance(self.kd, Image) and not with_uv else self.kd
+    def kd_on(self, with_uv: bool) -> Noise | Solid | Image | BtfImages | None:
+        """The kd source on a shape with (``with_uv``) or without texture coordinates (a texture or an E.19
+        btf is looked up at uv only)."""
+        return None if isinstance(self.kd, (Image, BtfImages)) and not with_uv else self.kd
 
     @property
     def has_maps(self) -> bool:
@@ -175,7 +179,7 @@ MediumDescription = Fog | VolumeDescription
 def describe_volume(scene: Scene, vol: Volume) -> VolumeDescription:
     """Resolve and read the ``.vol`` grid of ``vol`` (E.9); a missing, unreadable, malformed or multi-channel
     file is a :class:`SceneSemanticError` at its name."""
-    path = scene.resolve(vol.grid, vol.grid_loc, "Volume grid")
+    path = scene.resolve(volgrid.frame_name(vol.grid, 0), vol.grid_loc, "Volume grid")  # E.11: frame 0's grid
     try:
         grid = volgrid.read_vol(path)
     except OSError as exc:
@@ -265,6 +269,7 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
     used: set[int] = set()
     textures: dict[int, Image] = {}
     maps: dict[tuple[int, str], Image] = {}  # E.7: (material, 'bump' | 'normal_map') -> image, with -bump
+    btfs: dict[int, BtfImages] = {}  # E.19: material -> its images
 
     def use_material(index: int, with_uv: bool, shape: object) -> None:
         mat = scene.materials[index]
@@ -273,16 +278,34 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
             if stock and mat.noise is not None:
                 warnings.append((mat.noise.loc or mat.loc,  # type: ignore[arg-type]
                                  "stock conversion: Noise (marble) replaced by its mean colour"))
+            if stock and mat.solid is not None:  # docs/EXTENSIONS.md E.6, stock mapping
+                warnings.append((mat.solid.loc or mat.loc,  # type: ignore[arg-type]
+                                 f"stock conversion: {mat.solid.kind.capitalize()} baked into an RGB grid over "
+                                 "its shapes' box (stock 'volume' texture, trilinear)"))
             if stock and mat.dispersion is not None:  # docs/EXTENSIONS.md E.10
                 n_c = mat.refraction_index + mat.dispersion / (CENTRE_WAVELENGTH_NM * 1e-3) ** 2
                 warnings.append((mat.loc,  # type: ignore[arg-type]
                                  "stock conversion: dispersion replaced by the index at the centre wavelength, "
                                  f"n({CENTRE_WAVELENGTH_NM:g} nm) = {n_c:.6g}"))
+            if stock and (mat.milled is not None or mat.btf is not None):  # docs/EXTENSIONS.md E.19, E.20
+                warnings.extend((mat.loc, w) for w, on in ((STOCK_WARNING, mat.milled), (STOCK_BTF_WARNING, mat.btf))  # type: ignore[misc]
+                                if on is not None)
+        if mat.btf is not None:  # E.19: the images, read once; no texture coordinates, no lookup
+            if index not in btfs:
+                btfs[index] = describe_btf(scene, mat, decoded)
+            if not with_uv:
+                warnings.append((shape.loc, f"btf cannot show on this {type(shape).__name__}: it has no "  # type: ignore[attr-defined]
+                                 "texture coordinates (SPEC B.3)"))
         for which in ("bump", "normal_map") if bump and with_uv else ():
             if getattr(mat, which) is not None and (index, which) not in maps:
                 maps[(index, which)], warning = files.map_image(scene, mat, which, decoded)
                 if warning is not None:
                     warnings.append((mat.bump_loc or mat.loc, warning))  # type: ignore[arg-type]
+        if bump and not with_uv:  # E.7: like a texture, a map cannot show without uv
+            for which, name in (("bump", mat.bump), ("normalMap", mat.normal_map)):
+                if name is not None:
+                    warnings.append((shape.loc, f"{which} '{name}' cannot show on this "  # type: ignore[attr-defined]
+                                     f"{type(shape).__name__}: it has no texture coordinates (EXTENSIONS E.7)"))
         if mat.texture is None:
             return
         # A referenced file is checked wherever it is used, even where Noise hides it (SPEC B.3 kd order).
@@ -331,11 +354,12 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
         MaterialDescription(mat.diffuse_color, mat.specular_color, float(mat.shininess),
                             float(mat.refraction_index),
                             mat.noise if mat.noise is not None else mat.solid if mat.solid is not None
-                            else textures.get(i),
+                            else btfs.get(i, textures.get(i)),
                             mat.loc, float(mat.roughness), int(mat.glossy_samples),
                             None if mat.dispersion is None else float(mat.dispersion),
                             bump=maps.get((i, "bump")), bump_scale=float(mat.bump_scale),
-                            normal_map=maps.get((i, "normal_map")), subsurface=mat.subsurface)
+                            normal_map=maps.get((i, "normal_map")), subsurface=mat.subsurface,
+                            milled=mat.milled)
         for i, mat in enumerate(scene.materials))
     medium = describe_volume(scene, scene.medium) if isinstance(scene.medium, Volume) else scene.medium
     return SceneDescription(scene.path, scene.camera, scene.ambient, background, materials, tuple(shapes),

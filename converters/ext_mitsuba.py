@@ -24,6 +24,10 @@ of a PointLight does), so ``a5mi crosscheck`` compares like with like there and 
 * ``Volume`` (E.9) -> ``medium = volume`` and ``medium_grid``, a ``gridvolume`` placed on the box (``to_world``
   maps the unit cube onto ``[min, max]``) | a stock ``heterogeneous`` medium with that ``gridvolume`` as
   ``sigma_t``, ``scale = density``, on the sensor, with ``volpath``.
+* ``Wood`` / ``Turbulence`` / ``Veins`` (E.6) -> ``a5_solid`` | the solid baked (:func:`solid_box`,
+  :func:`solid_resolution`, evaluated by ``a5_solid`` at the cell centres ``lo + (i + ½)/n (hi − lo)``) into an
+  RGB ``gridvolume`` of at most :data:`SOLID_CELLS` cells over the box of the material's shapes, read by the
+  stock ``volume`` texture (trilinear, clamped outside the box): the XML needs no a5mi plugin;
 * ``refractionIndex dispersion A B`` (E.10) -> a5: ``refraction_index = A``, ``cauchy_b = B`` on ``a5_material``
   and ``dispersion = true`` on ``a5_whitted`` | stock: the RGB ``dielectric`` has no dispersion, so ``int_ior`` is
   ``n(λc) = A + B/λc²`` at the centre wavelength ``λc = 550 nm`` (:func:`centre_index`).
@@ -180,3 +184,60 @@ def stock_medium(medium: Any, grid: dict[str, Any] | None) -> dict[str, Any]:
                 "phase": phase}
     return {"type": "heterogeneous", "sigma_t": grid, "scale": float(medium.density), "albedo": _rgb(medium.color),
             "phase": phase}
+
+
+# ------------------------------------------------------------------------------------- E.6 solids, --stock
+#: Cells of a baked solid's grid at most (float32 RGB: 3 MiB per material).
+SOLID_CELLS = 1 << 18
+
+
+def solid_box(desc: Any, material: int) -> tuple[np.ndarray, np.ndarray]:
+    """The box a ``--stock`` solid texture is baked over: the union of the world boxes of the shapes of
+    ``material`` (a plane's stand-in rectangle clipped to the cube of half-size ``2·max(|camera − C|, 1)``
+    around the centre ``C`` of the finite geometry, where it can be seen), padded by 1e-3 of its size."""
+    cam = np.asarray(desc.camera.center, dtype=np.float64)
+    centre = cam if desc.centre is None else np.asarray(desc.centre, dtype=np.float64)
+    reach = 2.0 * max(float(np.linalg.norm(cam - centre)), 1.0)
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for shape in desc.shapes:
+        if shape.material != material:
+            continue
+        if hasattr(shape, "mesh"):
+            pts = np.asarray(shape.mesh.positions, dtype=np.float64).reshape(-1, 3)
+        elif hasattr(shape, "rectangle"):
+            corners = np.array([[x, y, 0.0, 1.0] for x in (-1, 1) for y in (-1, 1)]) @ np.asarray(shape.rectangle).T
+            pts = np.clip(corners[:, :3], centre - reach, centre + reach)
+        else:
+            c, r = np.asarray(shape.center, dtype=np.float64), float(shape.radius)
+            pts = np.array([c + [x, y, z] for x in (-r, r) for y in (-r, r) for z in (-r, r)])
+            if shape.to_world is not None:
+                pts = np.hstack([pts, np.ones((8, 1))]) @ np.asarray(shape.to_world).T
+                pts = pts[:, :3]
+        lo, hi = np.minimum(lo, pts.min(axis=0)), np.maximum(hi, pts.max(axis=0))
+    if not np.all(np.isfinite(lo)):
+        lo, hi = centre - 1.0, centre + 1.0
+    pad = 1e-3 * max(float(np.max(hi - lo)), 1e-3)
+    return lo - pad, hi + pad
+
+
+def solid_resolution(lo: np.ndarray, hi: np.ndarray, cells: int = SOLID_CELLS) -> tuple[int, int, int]:
+    """``(nx, ny, nz)``: cells in proportion to the box's sides ``e``, ``n_a = clamp(round(k e_a), 2, 1024)`` with
+    the largest ``k`` that keeps ``nx·ny·nz <= cells`` (so a flat box spends its cells in its plane)."""
+    ext = np.maximum(np.asarray(hi, dtype=np.float64) - np.asarray(lo, dtype=np.float64), 1e-12)
+
+    def size(k: float) -> np.ndarray:
+        return np.clip(np.round(k * ext), 2, 1024).astype(np.int64)
+
+    a, b = 0.0, 1e9 / float(ext.max())
+    for _ in range(100):
+        k = 0.5 * (a + b)
+        a, b = (k, b) if int(np.prod(size(k))) <= cells else (a, k)
+    n = size(a)
+    return int(n[0]), int(n[1]), int(n[2])
+
+
+def baked_solid(source: dict[str, Any], lo: np.ndarray, hi: np.ndarray) -> dict[str, Any]:
+    """The stock ``volume`` texture of a baked solid: an RGB ``gridvolume`` (``source``: ``{'data': tensor}``
+    or ``{'filename': path}``) on the box, trilinear, clamped: ``kd(p)`` = the grid at the surface point."""
+    return {"type": "volume", "volume": {"type": "gridvolume", **source, "filter_type": "trilinear",
+                                         "wrap_mode": "clamp", "to_world": box_to_world(lo, hi)}}

@@ -23,6 +23,7 @@ from .errors import FileLoc
 from .lexer import Token
 from .model import AreaLight, Fog, Light, Medium, Solid, SphereLight, SpotLight, Vec3, Volume
 from .subsurface import parse_subsurface
+from .surface_ext import MATERIAL_RULES as SURFACE_RULES
 from .tokens import Rule, TokenStream, keyword_block, quoted_raw
 
 #: Upper bound of ``samples`` / ``glossySamples`` (one kernel loop bound / stack size, EXTENSIONS E.5).
@@ -292,7 +293,7 @@ def _subsurface(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
 MATERIAL_RULES: Final[dict[str, Rule[MaterialBuilder]]] = {
     "roughness": _roughness, "glossySamples": _glossy_samples, "Wood": _material_solid,
     "Turbulence": _material_solid, "Veins": _material_solid, "bumpScale": _bump_scale, "normalMap": _normal_map,
-    "subsurface": _subsurface}
+    "subsurface": _subsurface, **SURFACE_RULES}  # E.19 btf, E.20 milled
 MATERIAL_KEYWORDS: Final = tuple(MATERIAL_RULES)
 
 

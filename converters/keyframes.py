@@ -6,8 +6,10 @@ model, :class:`~.model.Animation` of :class:`~.model.Track` s, is in :mod:`.mode
     Animation { frames I fps F [shutter F] Track { TARGET (linear | smooth) (key T VALUES)+ }* }
 
 ``TARGET`` names one value of the still scene: ``Camera center|direction|up|angle|aperture|focusDistance``,
-``Light I position|direction|color``, ``Material I diffuseColor|specularColor`` or ``Transform I J`` (the
-``J``-th keyword of the ``I``-th ``Transform`` block in file order, both from 0: its numbers as written).
+``Light I position|direction|color``, ``Material I diffuseColor|specularColor``, ``Transform I J`` (the
+``J``-th keyword of the ``I``-th ``Transform`` block in file order, both from 0: its numbers as written) or
+``Fog|Volume density|color`` (the scene's medium, E.8, E.9; a Volume whose ``grid`` name holds ``%d`` /
+``%03d`` reads the grid of the frame ``round(t · fps)``, :func:`.volgrid.frame_name`).
 :func:`evaluate` gives a track's value at time ``t`` (seconds):
 
 * before the first key its value, after the last key its value (held);
@@ -33,11 +35,11 @@ import numpy as np
 
 from a5mi.vecmath32 import camera_basis
 
-from . import transforms
+from . import transforms, volgrid
 from .builders import AnimationBuilder
 from .errors import FileLoc, SceneSemanticError
 from .lexer import Token
-from .model import Animation, Camera, Group, Node, Scene, Track, Transform
+from .model import Animation, Camera, Fog, Group, Node, Scene, Track, Transform, Volume
 from .tokens import Rule, TokenStream, keyword_block, quoted_raw
 
 __all__ = ["Animation", "Track", "check", "evaluate", "parse_animation", "scene_at", "transform_blocks"]
@@ -49,7 +51,8 @@ CAMERA_FIELDS: Final = {"center": (3, "center"), "direction": (3, "direction"), 
 LIGHT_FIELDS: Final = {"position": (3, "position"), "direction": (3, "direction"), "color": (3, "color")}
 #: The light fields each kind of light can keyframe (area and sphere lights: the colour only).
 LIGHT_KINDS: Final = {"PointLight": ("position", "color"), "DirectionalLight": ("direction", "color"),
-                      "SpotLight": ("position", "direction", "color")}
+                      "SpotLight": ("position", "direction", "color"), "AreaLight": ("color",),
+                      "SphereLight": ("color",)}
 MATERIAL_FIELDS: Final = {"diffuseColor": (3, "diffuse_color"), "specularColor": (3, "specular_color")}
 #: Numbers of each Transform keyword (SPEC A.6).
 OP_ARITY: Final = {"Translate": 3, "Scale": 3, "UniformScale": 1, "XRotate": 1, "YRotate": 1, "ZRotate": 1,
@@ -57,7 +60,11 @@ OP_ARITY: Final = {"Translate": 3, "Scale": 3, "UniformScale": 1, "XRotate": 1, 
 INTERPOLATIONS: Final = ("linear", "smooth")
 #: The top-level block (accepted besides SPEC A.1's five; the course's error messages do not list it).
 KEYWORD: Final = "Animation"
-TARGETS: Final = ("Camera", "Light", "Material", "Transform")
+#: The medium's fields (EXTENSIONS E.8, E.9; target ``Fog`` or ``Volume``, no number: a scene has one medium).
+MEDIUM_FIELDS: Final = {"density": (1, "density"), "color": (3, "color")}
+TARGETS: Final = ("Camera", "Light", "Material", "Transform", "Fog", "Volume")
+#: Targets without a number (the scene has at most one of each).
+SINGLE: Final = ("Camera", "Fog", "Volume")
 MAX_FRAMES: Final = 1_000_000
 
 
@@ -133,9 +140,10 @@ def scene_at(scene: Scene, t: float) -> Scene:
     """The still scene at time ``t``: each track's value (:func:`evaluate`) in place of the written one, the
     ``Transform`` matrices recomposed (SPEC A.6 composition). Without an animation: ``scene`` itself."""
     anim = scene.animation
-    if anim is None or not anim.tracks:
+    pattern = isinstance(scene.medium, Volume) and volgrid.is_pattern(scene.medium.grid)
+    if anim is None or not (anim.tracks or pattern):
         return scene
-    camera = scene.camera
+    camera, medium = scene.camera, scene.medium
     lights, materials = list(scene.lights), list(scene.materials)
     ops: dict[int, dict[int, tuple[float, ...]]] = {}
     for tr in anim.tracks:
@@ -147,15 +155,35 @@ def scene_at(scene: Scene, t: float) -> Scene:
             lights[tr.index] = dataclasses.replace(lights[tr.index], **{LIGHT_FIELDS[tr.field][1]: value})
         elif tr.target == "Material":
             materials[tr.index] = dataclasses.replace(materials[tr.index], **{MATERIAL_FIELDS[tr.field][1]: value})
+        elif tr.target in ("Fog", "Volume"):
+            n, name = MEDIUM_FIELDS[tr.field]
+            medium = dataclasses.replace(medium, **{name: value if n == 3 else value[0]})  # type: ignore[type-var]
         else:
             ops.setdefault(tr.index, {})[int(tr.field)] = value
     root = _rebuild(scene.root, ops, [0]) if ops else scene.root
     if camera is not scene.camera:
         _check_camera(camera)
+    if medium is not scene.medium:
+        _check_medium(medium)
     for light in lights:
         if hasattr(light, "direction") and not any(light.direction):
             raise SceneSemanticError("keyframed light direction is the zero vector at this time", light.loc)
-    return dataclasses.replace(scene, camera=camera, lights=tuple(lights), materials=tuple(materials), root=root)
+    if isinstance(medium, Volume) and pattern:  # a grid per frame: the frame nearest t
+        frame = max(0, math.floor(t * anim.fps + 0.5))
+        medium = dataclasses.replace(medium, grid=volgrid.frame_name(medium.grid, frame))
+    return dataclasses.replace(scene, camera=camera, lights=tuple(lights), materials=tuple(materials), root=root,
+                               medium=medium)
+
+
+def _check_medium(m: Fog | Volume | None) -> None:
+    """The limits of E.8 / E.9 for a keyframed medium: ``density >= 0``, albedo in ``[0, 1]³``."""
+    if m is None:
+        return
+    if not 0.0 <= m.density < math.inf:
+        raise SceneSemanticError(f"keyframed {type(m).__name__} density {m.density:g} is negative at this time", m.loc)
+    if not all(0.0 <= c <= 1.0 for c in m.color):
+        raise SceneSemanticError(f"keyframed {type(m).__name__} color must stay in [0, 1], found "
+                                 f"{' '.join(f'{c:g}' for c in m.color)} at this time", m.loc)
 
 
 def _check_camera(c: Camera) -> None:
@@ -182,7 +210,7 @@ def _track(ts: TokenStream, start: Token) -> Track:
                               tok)
     target = tok.text
     index = 0
-    if target != "Camera":
+    if target not in SINGLE:
         index, itok = ts.integer(target)
         if index < 0:
             raise ts.semantic_error(f"{target} number must not be negative, found {index}", itok.loc)
@@ -193,7 +221,8 @@ def _track(ts: TokenStream, start: Token) -> Track:
                                   f"{quoted_raw(field_tok)}", field_tok)
         arity = -1
     else:
-        fields = {"Camera": CAMERA_FIELDS, "Light": LIGHT_FIELDS, "Material": MATERIAL_FIELDS}[target]
+        fields = {"Camera": CAMERA_FIELDS, "Light": LIGHT_FIELDS, "Material": MATERIAL_FIELDS, "Fog": MEDIUM_FIELDS,
+                  "Volume": MEDIUM_FIELDS}[target]
         if field_tok is None or field_tok.text not in fields:
             raise ts.syntax_error(f"expected {', '.join(fields)} after '{target}', found {quoted_raw(field_tok)}",
                                   field_tok)
@@ -280,7 +309,10 @@ def check(ts: TokenStream, scene: Scene) -> None:
             raise ts.semantic_error(f"a second Track for {tr.target} {tr.index} {tr.field} (the first is at line "
                                     f"{seen[key].line})", tr.loc)
         seen[key] = tr.loc
-        if tr.target == "Light":
+        if tr.target in ("Fog", "Volume"):
+            if type(scene.medium).__name__ != tr.target:
+                raise ts.semantic_error(f"the scene has no {tr.target} block to keyframe", tr.loc)
+        elif tr.target == "Light":
             if tr.index >= len(scene.lights):
                 raise ts.semantic_error(f"Light {tr.index} out of range: the scene has {len(scene.lights)} lights",
                                         tr.loc)

@@ -23,8 +23,9 @@ Stock (:func:`stock_bsdf`, for use outside a5mi; none is needed for a5 renders):
   Mitsuba's own OBJ loader flips v to compensate, which these meshes built from the OBJ's numbers do not): it
   has Mitsuba's half-texel offset, unlike A.4; Noise (3D marble): the mean colour ``(color1 + color2)/2`` (the
   mean of ``t`` over a period of the sine; :func:`.describe.describe` warns with ``stock=True``);
-  procedural solids (docs/EXTENSIONS.md E.6): the same ``a5_solid`` texture as the reflectance of the stock
-  BSDF (so the a5mi plugins must be registered to load it), unscaled like a bitmap texture;
+  procedural solids (docs/EXTENSIONS.md E.6): the ``a5_solid`` texture as the reflectance of the stock BSDF,
+  unscaled like a bitmap texture, which the back end then bakes into the stock ``volume`` texture of an RGB grid
+  (:meth:`.to_mitsuba.Backend.stock_solids`), so the stock scene needs no a5mi plugin;
 * bump and normal maps (E.7, with ``-bump``, on shapes with uv): the BSDF wrapped in stock ``bumpmap``
   (``scale = bumpScale``, the height field as a grey ``bitmap``, ``raw``) / ``normalmap`` (the map as a raw
   ``bitmap``); both use Mitsuba's bilinear lookup with its half-texel offset and ``2c − 1`` decoding.
@@ -46,6 +47,7 @@ from .describe import MaterialDescription
 from .ext_mitsuba import centre_index, rough
 from .files import Image
 from .model import Noise, Solid
+from .surface_ext import BtfImages, btf_texture, milled_bsdf, stock_milled
 
 #: ``(image) -> the image parameters of a bitmap texture`` (``{'filename': ...}`` or ``{'bitmap': ...}``).
 ImageParams = Callable[[Image], dict[str, Any]]
@@ -145,8 +147,10 @@ def a5_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_p
         d["kd"] = solid_texture(kd)
     elif isinstance(kd, Image):
         d["kd"] = {"type": "a5_bitmap", **image(kd)}
+    elif isinstance(kd, BtfImages):  # docs/EXTENSIONS.md E.19
+        d["kd"] = btf_texture(kd, image)
     d.update(map_params(mat, with_uv, image))  # E.7 (-bump)
-    return d
+    return d if mat.milled is None else milled_bsdf(mat.milled, d)  # E.20: the a5 channel forwarded
 
 
 def stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_params) -> dict[str, Any]:
@@ -163,11 +167,14 @@ def _stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams) -> 
     elif isinstance(kd_src, Solid):  # E.6: the a5 texture itself, unscaled
         kd = np.ones(3)
         texture = solid_texture(kd_src)
-    elif isinstance(kd_src, Image):
+    elif isinstance(kd_src, (Image, BtfImages)):  # E.19: a btf's first image
         kd = np.ones(3)
-        texture = stock_bitmap(kd_src, image)
+        texture = stock_bitmap(kd_src if isinstance(kd_src, Image) else kd_src.images[0], image)
     else:
         kd = np.asarray(mat.diffuse_color, dtype=np.float64)
+    if mat.milled is not None:  # docs/EXTENSIONS.md E.20: roughconductor on the uv tangent
+        return stock_milled(mat.milled, _max_diffuse(kd_src, mat),
+                            lambda s: {"type": "diffuse", "reflectance": texture or reflectance(kd * s)})
     spec = np.asarray(mat.specular_color, dtype=np.float64)
     m = float(max(spec.max(), 0.0))
     if mat.refraction_index <= 0.0 and float(np.linalg.norm(spec)) <= MIRROR_THRESHOLD or m == 0.0:
@@ -190,11 +197,12 @@ def _stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams) -> 
     return {"type": "blendbsdf", "weight": w, "bsdf_0": diffuse, "bsdf_1": other}
 
 
-def _max_diffuse(kd_src: Noise | Solid | Image | None, mat: MaterialDescription) -> float:
+def _max_diffuse(kd_src: Noise | Solid | Image | BtfImages | None, mat: MaterialDescription) -> float:
     """``d = max kd``: the largest channel of the diffuse colour, of the texture's pixels (/255) or of the
     marble's mean colour."""
-    if isinstance(kd_src, Image):
-        return float(kd_src.pixels[..., :3].max()) / 255.0
+    if isinstance(kd_src, (Image, BtfImages)):
+        img = kd_src if isinstance(kd_src, Image) else kd_src.images[0]
+        return float(img.pixels[..., :3].max()) / 255.0
     if isinstance(kd_src, Noise):
         return float(max(0.0, ((np.asarray(kd_src.color1) + np.asarray(kd_src.color2)) / 2).max()))
     if isinstance(kd_src, Solid):  # the largest channel either colour reaches

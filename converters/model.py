@@ -26,6 +26,7 @@ from .errors import FileLoc, SceneSemanticError, shown
 
 if TYPE_CHECKING:
     from .subsurface import Subsurface
+    from .surface_model import Btf, Milled
 
 Vec3 = tuple[float, float, float]
 #: A 4x4 matrix as hashable row-major tuples (``m[row][col]``); :func:`.transforms.as_array` gives numpy.
@@ -217,6 +218,9 @@ class Material:
     bump_scale: float = BUMP_SCALE
     normal_map: str | None = None
     normal_map_loc: FileLoc | None = None
+    #: docs/EXTENSIONS.md E.19, E.20: view-dependent images (the uv colour source) and the milled lobe
+    btf: Btf | None = None
+    milled: Milled | None = None
     #: docs/EXTENSIONS.md E.18 (used with -subsurface only): the ``subsurface`` block (converters/subsurface.py)
     subsurface: Subsurface | None = None
 

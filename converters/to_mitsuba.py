@@ -15,8 +15,9 @@ Camera, integrator, lights and background:
 
 * integrator ``a5_whitted`` with ``ambient`` (the description's ambient term) and
   :meth:`a5mi.options.RenderOptions.integrator_params`; sensor ``a5_camera`` (B.2) with an ``hdrfilm`` of
-  :attr:`~a5mi.options.RenderOptions.render_size`, a ``box`` filter and the ``stratified`` sampler without
-  jitter (one ray through each pixel centre);
+  :attr:`~a5mi.options.RenderOptions.render_size`, a ``box`` filter, the jittered ``stratified`` sampler and
+  ``pixel_centres`` (every sample through its pixel's centre, as ``a5 -spp N``: the sampler's positions only
+  choose the pixel), and the E.3 ``aperture`` / ``focus_distance`` of a thin-lens camera;
 * ``directional`` (stock; ``irradiance`` = colour, the direction it travels); ``a5_point``;
 * the background is ``a5_cubemap`` (its six faces) if ``cubeMap`` is set, else a stock ``constant`` with
   ``radiance`` = colour.
@@ -36,6 +37,9 @@ Camera, integrator, lights and background:
 * materials: :mod:`.materials`;
 * ``a5_point`` -> ``point`` with ``intensity = color·d²/(1 + falloff·d²)``, ``d`` the distance from the light
   to the centre of the scene's finite geometry: exact at that distance, inverse-square elsewhere;
+* ``Wood`` / ``Turbulence`` / ``Veins`` (E.6) -> the stock ``volume`` texture of an RGB grid baked from
+  ``a5_solid`` (:func:`bake_solid`; loaded by name, so the a5 plugins must be registered for this step, as for
+  the cube map);
 * cube map -> ``envmap`` from a 2048 x 1024 latitude-longitude image baked by evaluating the ``a5_cubemap``
   plugin (loaded by name, so the a5 plugins must be registered for this step) at the pixel-centre directions
   ``d = (sin θ sin φ, cos θ, −sin θ cos φ)``, ``θ = π (j + ½)/1024``, ``φ = 2π (i + ½)/2048`` (Mitsuba's
@@ -66,7 +70,16 @@ from .describe import (
     SphereShape,
     VolumeDescription,
 )
-from .ext_mitsuba import grid_volume, light_entry, medium_params, stock_medium, thinlens_params
+from .ext_mitsuba import (
+    baked_solid,
+    grid_volume,
+    light_entry,
+    medium_params,
+    solid_box,
+    solid_resolution,
+    stock_medium,
+    thinlens_params,
+)
 from .files import Image
 from .geometry import MeshData
 from .materials import rgb
@@ -109,9 +122,12 @@ def sensor_dict(desc: SceneDescription, options: RenderOptions, *, stock: bool) 
     film = {"type": "hdrfilm", "width": int(width), "height": int(height), "rfilter": {"type": "box"},
             "pixel_format": "rgb"}
     sampler = {"type": "stratified", "sample_count": 1, "jitter": False}
-    if not stock:
+    if not stock:  # every sample through its pixel's centre, as a5 -spp N; the E.3 lens in the sensor
+        lens = ({"aperture": float(cam.aperture), "focus_distance": float(cam.focus_distance)}
+                if cam.aperture > 0.0 else {})
         return {"type": "a5_camera", "center": list(cam.center), "direction": list(cam.direction),
-                "up": list(cam.up), "angle": float(cam.angle), "film": film, "sampler": sampler}
+                "up": list(cam.up), "angle": float(cam.angle), **lens, "pixel_centres": True, "film": film,
+                "sampler": {**sampler, "jitter": True}}
     w = max(int(width), 2)
     fov = math.degrees(2.0 * math.atan(math.tan(math.radians(cam.angle) / 2.0) * w / (w - 1)))
     c = np.asarray(cam.center, dtype=np.float64)
@@ -152,6 +168,26 @@ class Backend(ABC):
     def __init__(self, desc: SceneDescription, *, stock: bool) -> None:
         self.desc = desc
         self.stock = stock
+        self.solids: dict[int, dict[str, Any]] = {}  # material -> its baked stock texture (E.6)
+
+    def stock_solids(self, value: Any, material: int) -> Any:
+        """``value`` (a stock BSDF dict) with every ``a5_solid`` texture replaced by the stock ``volume``
+        texture of its grid (:func:`bake_solid`, once per material; docs/EXTENSIONS.md E.6, stock mapping)."""
+        if isinstance(value, dict):
+            if value.get("type") == "a5_solid":
+                if material not in self.solids:
+                    lo, hi = solid_box(self.desc, material)
+                    self.solids[material] = baked_solid(self.solid_grid(bake_solid(value, lo, hi), material), lo, hi)
+                return self.solids[material]
+            return {k: self.stock_solids(v, material) for k, v in value.items()}
+        return value
+
+    def solid_grid(self, grid: np.ndarray, material: int) -> dict[str, Any]:
+        """Where the ``gridvolume`` of a baked solid gets its (z, y, x, 3) grid: here the tensor itself (the XML
+        back end writes a file)."""
+        import mitsuba as mi
+
+        return {"data": mi.TensorXf(np.ascontiguousarray(grid, dtype=np.float32))}
 
     @abstractmethod
     def bsdf(self, entries: dict[str, Any], material: int, with_uv: bool) -> Any:
@@ -261,6 +297,22 @@ def cubemap_faces(bg: CubeMapBackground, make: Callable[[Image], Any] = bitmap) 
     return {face: make(img) for face, img in zip(CUBE_FACES, bg.faces, strict=True)}
 
 
+def bake_solid(texture: dict[str, Any], lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """(nz, ny, nx, 3) float32: the ``a5_solid`` ``texture`` (loaded by name: the a5 plugins must be registered)
+    at the cell centres ``lo + (i + ½)/n (hi − lo)`` of :func:`.ext_mitsuba.solid_resolution`'s grid."""
+    import drjit as dr
+    import mitsuba as mi
+
+    nx, ny, nz = solid_resolution(lo, hi)
+    tex = mi.load_dict(texture)
+    axes = [lo[a] + (np.arange(n) + 0.5) / n * (hi[a] - lo[a]) for a, n in enumerate((nx, ny, nz))]
+    zz, yy, xx = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    si = dr.zeros(mi.SurfaceInteraction3f, xx.size)
+    si.p = mi.Point3f(xx.ravel(), yy.ravel(), zz.ravel())
+    color = tex.eval(si)
+    return np.stack([np.asarray(c, dtype=np.float32) for c in color], axis=-1).reshape(nz, ny, nx, 3)
+
+
 def bake_cubemap_envmap(bg: CubeMapBackground, size: tuple[int, int] = ENVMAP_SIZE) -> np.ndarray:
     """(H, W, 3) float32 latitude-longitude image of the ``a5_cubemap`` of ``bg``'s faces, sampled at
     pixel-centre directions in Mitsuba's envmap parametrisation (module docstring)."""
@@ -299,6 +351,8 @@ class _DictBackend(Backend):
         key = (material, materials.without_texture(mat, with_uv))
         if key not in self.bsdfs:
             d = materials.bsdf(mat, with_uv, stock=self.stock, image=lambda img: {"bitmap": self.image(img)})
+            if self.stock:
+                d = self.stock_solids(d, material)
             self.bsdfs[key] = mi.load_dict(_transforms(d))  # the stock bitmaps' to_uv (materials.FLIP_V)
         return self.bsdfs[key]
 

@@ -2,7 +2,8 @@
 
 ``write_xml(desc, "out/scene.xml")`` writes ``out/scene.xml``, ``out/scene_meshes/mesh_NNN.ply``, the textures
 as ``out/scene_images/texture_NNN_{name}.png`` and a cube map's six faces as ``out/scene_images/cubemap/{face}.png``
-(and, with ``stock=True`` and a cube map, ``out/scene_envmap.exr``). The XML loads with ``mi.load_file``: with
+(and, with ``stock=True``, a cube map as ``out/scene_envmap.exr`` and each procedural solid's baked RGB grid as
+``out/scene_images/solid_NNN.vol``, docs/EXTENSIONS.md E.6). The XML loads with ``mi.load_file``: with
 ``stock=False`` once the a5mi plugins are registered (``a5mi.plugins.register_all()``), with ``stock=True``
 in plain Mitsuba (see :mod:`.to_mitsuba` and :mod:`.materials` for every stock approximation). Every file is
 named relative to the XML (Mitsuba's file resolver looks beside the XML first; the a5 plugins resolve through
@@ -62,8 +63,8 @@ PLUGIN_TAGS: dict[str, str] = {
     **dict.fromkeys(("directional", "a5_point", "point", "a5_cubemap", "constant", "envmap", "a5_spot", "spot",
                      "a5_area", "area"), "emitter"),
     **dict.fromkeys(("a5_material", "diffuse", "conductor", "dielectric", "blendbsdf", "roughconductor",
-                     "roughdielectric", "bumpmap", "normalmap"), "bsdf"),
-    **dict.fromkeys(("a5_marble", "a5_solid", "a5_bitmap", "bitmap", "srgb"), "texture"),
+                     "roughdielectric", "bumpmap", "normalmap", "a5_milled"), "bsdf"),
+    **dict.fromkeys(("a5_marble", "a5_solid", "a5_bitmap", "bitmap", "srgb", "volume", "a5_btf"), "texture"),
     **dict.fromkeys(("sphere", "rectangle", "instance", "shapegroup", "ply"), "shape"),
     **dict.fromkeys(("homogeneous", "heterogeneous"), "medium"),
     "isotropic": "phase",
@@ -108,6 +109,8 @@ class _XmlBackend(Backend):
         key = f"mat_{material:03d}" + ("_nouv" if materials.without_texture(mat, with_uv) else "")
         if key not in entries:
             entries[key] = materials.bsdf(mat, with_uv, stock=self.stock, image=self.texture)
+            if self.stock:
+                entries[key] = self.stock_solids(entries[key], material)
         return {"type": "ref", "id": key}
 
     def mesh(self, key: str, shape: MeshShape, bsdf: Any) -> Any:
@@ -144,6 +147,17 @@ class _XmlBackend(Backend):
         target = self.xml_path.parent / rel
         target.parent.mkdir(parents=True, exist_ok=True)
         write_vol(target, vol.grid)
+        return {"filename": rel}
+
+
+    def solid_grid(self, grid: np.ndarray, material: int) -> dict[str, Any]:
+        """``{'filename': '{stem}_images/solid_NNN.vol'}``: a baked solid's RGB grid (E.6, ``--stock``)."""
+        from .volgrid import write_vol
+
+        rel = f"{self.image_dir.name}/solid_{material:03d}.vol"
+        target = self.xml_path.parent / rel
+        target.parent.mkdir(parents=True, exist_ok=True)
+        write_vol(target, grid)
         return {"filename": rel}
 
 

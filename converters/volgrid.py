@@ -20,6 +20,7 @@ the border (``gridvolume``'s lookup, which a5mi uses too).
 from __future__ import annotations
 
 import os
+import re
 import struct
 import tempfile
 from pathlib import Path
@@ -92,3 +93,21 @@ def write_vol(path: str | Path, grid: np.ndarray, bbox: tuple[float, ...] = (0.0
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+# ------------------------------------------------------------------------------ a grid per frame (E.11, E.22)
+#: A printf integer conversion in a grid name: ``%d``, ``%3d``, ``%03d``.
+_FRAME = re.compile(r"%(0?\d{0,2})d")
+
+
+def is_pattern(name: str) -> bool:
+    """True when ``name`` holds exactly one ``%d`` / ``%0Nd`` (a grid per frame, ``smoke_%03d.vol``)."""
+    return len(_FRAME.findall(name)) == 1
+
+
+def frame_name(name: str, frame: int) -> str:
+    """``name`` with its ``%0Nd`` replaced by ``frame`` (printf's rule: ``smoke_%03d.vol``, 7 ->
+    ``smoke_007.vol``); a name without one is returned as it is."""
+    if not is_pattern(name):
+        return name
+    return _FRAME.sub(lambda m: f"%{m.group(1)}d" % frame, name)

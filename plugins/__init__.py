@@ -16,12 +16,14 @@ PLUGIN_MODULES: tuple[str, ...] = (
     "marble",           # a5_marble texture (noise functions in perlin.py)
     "bitmap",           # a5_bitmap texture
     "solids",           # a5_solid textures: wood, turbulence, veins (docs/EXTENSIONS.md E.6)
+    "btf",              # a5_btf view-dependent texture (docs/EXTENSIONS.md E.19)
     "point_light",      # a5_point emitter
     "spot_light",       # a5_spot emitter (docs/EXTENSIONS.md E.1)
     "area_light",       # a5_area emitter (docs/EXTENSIONS.md E.2)
     "cubemap",          # a5_cubemap emitter
     "camera",           # a5_camera sensor
     "a5_material",      # a5_material BSDF
+    "milled",           # a5_milled BSDF: Ward on a milling tangent field (docs/EXTENSIONS.md E.20)
     "whitted",          # a5_whitted integrator
     "path",             # a5_path integrator (docs/EXTENSIONS.md E.13, E.14)
     "photon",           # a5_photon integrator (docs/EXTENSIONS.md E.16)

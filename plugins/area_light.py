@@ -82,6 +82,8 @@ class A5AreaLight(mi.Emitter):
         y = self._point(it.p, sample)
         d = y - it.p
         dist = dr.norm(d)
+        # a point on the light's own sphere (a ray that hit the light) may sample y = p: no direction, term 0
+        d, dist = dr.select(dist > 0.0, d, 0.0), dr.maximum(dist, 1e-30)
         ds = light_sample(self, it, y, d, dist, delta=False)
         return ds, dr.select(active, attenuation(self.color, self.falloff, dist), 0.0)
 

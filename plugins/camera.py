@@ -1,4 +1,4 @@
-"""Camera rays of the sample solution and the ``a5_camera`` sensor (SPEC B.2)."""
+"""Camera rays of the sample solution and the ``a5_camera`` sensor (SPEC B.2; thin lens of docs/EXTENSIONS.md E.3)."""
 
 from __future__ import annotations
 
@@ -91,6 +91,25 @@ def camera_rays(
     return mi.Ray3f(origin, mi.Vector3f(dx / norm, dy / norm, dz / norm))
 
 
+def thin_lens(ray: mi.Ray3f, direction: Sequence[float], up: Sequence[float], aperture: float,
+              focus_distance: float, sample: mi.Point2f) -> mi.Ray3f:
+    """The E.3 thin-lens ray for the pinhole ``ray`` (B.2) of a camera looking along ``direction`` with ``up``,
+    lens diameter ``aperture`` and ``focus_distance``, for a unit-square ``sample``::
+
+        P  = o + (F / (d·w)) d                 the point of the focus plane on the pinhole ray
+        o' = o + (A/2)(x u + y v)              (x, y) = concentric map of ``sample`` onto the unit disc
+        ray = (o', normalize(P − o'))
+
+    Every camera value is opaque: a keyframed camera (EXTENSIONS E.11) turns without a new kernel."""
+    w, u, v = (dr.opaque(mi.Vector3f, [float(c) for c in a]) for a in camera_basis(direction, up))
+    radius = dr.opaque(mi.Float, 0.5 * float(aperture))
+    focus = dr.opaque(mi.Float, float(focus_distance))
+    focal_point = ray.o + (focus / dr.dot(ray.d, w)) * ray.d
+    disk = mi.warp.square_to_uniform_disk_concentric(sample)
+    origin = ray.o + radius * (disk.x * u + disk.y * v)
+    return mi.Ray3f(origin, dr.normalize(focal_point - origin))
+
+
 #: A 3-number parameter of ``a5_camera`` (:func:`a5mi.plugins.params.vec3_param`).
 _vec3 = partial(vec3_param, "a5_camera")
 
@@ -116,6 +135,16 @@ class A5Camera(mi.Sensor):
        * - ``angle``
          - float
          - Full field of view in **degrees**, used for both axes (Default: 30)
+       * - ``aperture``
+         - float
+         - Lens diameter ``A >= 0`` of the E.3 thin lens; 0 is the pinhole (Default: 0)
+       * - ``focus_distance``
+         - float
+         - Distance ``F > 0`` along the view direction of the plane in focus (Default: 1)
+       * - ``pixel_centres``
+         - boolean
+         - Trace every sample through its pixel's centre, whatever the sampler's position inside the
+           pixel (Default: false)
        * - ``film``
          - film
          - Usually ``hdrfilm`` with ``width``/``height`` and a ``box`` reconstruction filter
@@ -139,6 +168,18 @@ class A5Camera(mi.Sensor):
             'sampler': {'type': 'stratified', 'sample_count': 1, 'jitter': False},
         }
 
+    **Several samples per pixel, as** ``a5 -spp N``. A sampler with ``sample_count > 1`` spreads the film
+    positions over the pixel (the ``stratified`` sampler at the centres of a √N × √N grid of strata, jittered
+    or not): an antialiased image whose edges differ from ``a5 -spp N``, which keeps the B.2 pixel centre and
+    samples only the stochastic dimensions (EXTENSIONS E.5). With ``pixel_centres`` true the camera traces
+    pixel ``i = floor(pos.x·W)``, ``j = H − 1 − floor(pos.y·H)`` through its centre, ``x_pix = i``, ``y_pix = j``
+    (the box filter keeps the sample in that pixel), so ``N`` samples sample the lens and the lights only.
+    ``a5mi convert`` writes it.
+
+    **Thin lens (E.3).** With ``aperture > 0`` the ray is :func:`thin_lens` of the pinhole ray with the
+    sampler's aperture sample (``sample3``); ``aperture 0`` leaves the pinhole ray untouched (the lens code
+    is not traced).
+
     As in the binary, W − 1 and H − 1 scale the two axes (no aspect correction); a 1-pixel axis gives
     coordinate 0. ``a5mi.driver`` calls :func:`camera_rays` itself (with the B.5 jitter offsets).
     """
@@ -151,9 +192,11 @@ class A5Camera(mi.Sensor):
             "direction": mi.Vector3f(_vec3(props, "direction", (0.0, 0.0, -1.0))),
             "up": mi.Vector3f(_vec3(props, "up", (0.0, 1.0, 0.0))),
             "angle": mi.Float(float(props.get("angle", 30.0))),
+            "aperture": mi.Float(float(props.get("aperture", 0.0))),
+            "focus_distance": mi.Float(float(props.get("focus_distance", 1.0))),
         }
+        self.pixel_centres = bool(props.get("pixel_centres", False))
         self._read_params()
-        self.m_needs_sample_3 = False
 
     def _read_params(self) -> None:
         """Copy the traversable parameters to Python numbers (validated) for :func:`camera_rays`."""
@@ -162,11 +205,17 @@ class A5Camera(mi.Sensor):
         self.direction = tuple(float(dr.slice(c, 0)) for c in p["direction"])
         self.up = tuple(float(dr.slice(c, 0)) for c in p["up"])
         self.angle = float(dr.slice(p["angle"], 0))
+        self.aperture = float(dr.slice(p["aperture"], 0))
+        self.focus_distance = float(dr.slice(p["focus_distance"], 0))
         try:
             camera_basis(self.direction, self.up)
             focal_factor(self.angle)
         except ValueError as exc:
             raise ValueError(f"a5_camera: {exc}") from None
+        if not (0.0 <= self.aperture < math.inf and 0.0 < self.focus_distance < math.inf):
+            raise ValueError(f"a5_camera: aperture must be >= 0 and focus_distance > 0, got {self.aperture} and "
+                             f"{self.focus_distance}")
+        self.m_needs_sample_3 = self.aperture > 0.0
 
     def sample_ray(
         self,
@@ -179,9 +228,15 @@ class A5Camera(mi.Sensor):
         """Output (camera ray for the film position ``sample2``, weight 1); see the class docstring."""
         size = self.film().size()
         width, height = int(size.x), int(size.y)
-        x_pix = snap(sample2.x * width - 0.5)
-        y_pix = snap(height * (1.0 - sample2.y) - 0.5)
+        if self.pixel_centres:
+            x_pix = dr.clip(dr.floor(sample2.x * width), 0.0, width - 1.0)
+            y_pix = (height - 1.0) - dr.clip(dr.floor(sample2.y * height), 0.0, height - 1.0)
+        else:
+            x_pix = snap(sample2.x * width - 0.5)
+            y_pix = snap(height * (1.0 - sample2.y) - 0.5)
         ray = camera_rays(self.center, self.direction, self.up, self.angle, x_pix, y_pix, width, height)
+        if self.aperture > 0.0:
+            ray = thin_lens(ray, self.direction, self.up, self.aperture, self.focus_distance, mi.Point2f(sample3))
         ray.time = mi.Float(time)
         return ray, dr.full(mi.Color3f, 1.0, dr.width(x_pix))
 
@@ -204,7 +259,8 @@ class A5Camera(mi.Sensor):
     def to_string(self) -> str:
         return (
             f"A5Camera[center={self.center}, direction={self.direction}, up={self.up}, "
-            f"angle={self.angle}, film={self.film()}]"
+            f"angle={self.angle}, aperture={self.aperture}, focus_distance={self.focus_distance}, "
+            f"film={self.film()}]"
         )
 
 

@@ -19,6 +19,10 @@
 * ``volumes/cloud.vol``: a 24 x 24 x 24 Mitsuba ``.vol`` density grid (docs/EXTENSIONS.md E.9: ``VOL`` 3,
   float32, x fastest), three overlapping Gaussian puffs ``exp(-|x - c|²/(2 s²))``, summed and clamped to 1, so
   the ``Volume`` of ``scenes/volume.txt`` shows a varying density.
+* ``tex/btf/silk_I_J.bmp``: a 16 x 16 view-dependent "shot silk" (docs/EXTENSIONS.md E.19, ``scenes/btf.txt``),
+  one image per view elevation ``BTF_ELEVATIONS[I]`` and azimuth ``BTF_AZIMUTHS[J]``: a 4 x 4 weave of red warp
+  (along u) and blue weft threads whose visible share follows the view, ``w = 0.5 + 0.45 sin θ cos φ`` of the
+  warp's colour, the other threads darkened by ``1 − 0.5 sin θ``.
 * ``sky/{left,right,up,down,front,back}.bmp``: a 32 x 32 cube map, each face its own hue with a vertical
   gradient and a dark mark in its top-left corner (SPEC A.4's face/uv table is visible in a render).
 """
@@ -214,6 +218,28 @@ def cloud(n: int = 24) -> list[float]:
     return values
 
 
+BTF_ELEVATIONS = (0.0, 30.0, 60.0)
+BTF_AZIMUTHS = (0.0, 90.0, 180.0, 270.0)
+
+
+def silk(theta: float, phi: float, n: int = 16) -> list[list[tuple[int, int, int]]]:
+    """The shot-silk image seen from ``theta``, ``phi`` (degrees; module docstring)."""
+    st, cp = math.sin(math.radians(theta)), math.cos(math.radians(phi))
+    w = 0.5 + 0.45 * st * cp
+    warp, weft = (220, 40, 70), (40, 80, 230)
+    mix = tuple(round(w * a + (1 - w) * b) for a, b in zip(warp, weft, strict=True))
+    dark = 1.0 - 0.5 * st
+    rows = []
+    for y in range(n):
+        row = []
+        for x in range(n):
+            over = ((x // 4) + (y // 4)) % 2 == 0           # the weave: warp over weft on half the cells
+            base = mix if over else tuple(round(c * dark) for c in mix)
+            row.append(base if (x % 4 and y % 4) else tuple(round(0.6 * c) for c in base))
+        rows.append(row)
+    return rows
+
+
 def write_vol(path: Path, n: int, values: list[float]) -> None:
     """A Mitsuba ``.vol`` file (docs/EXTENSIONS.md E.9): ``VOL`` 3, encoding 1, n³ cells, 1 channel, the unit
     bounding box, float32 values."""
@@ -233,7 +259,11 @@ if __name__ == "__main__":
     write_bmp(ROOT / "tex" / "ripples.bmp", ripples())
     (ROOT / "volumes").mkdir(exist_ok=True)
     write_vol(ROOT / "volumes" / "cloud.vol", 24, cloud(24))
+    (ROOT / "tex" / "btf").mkdir(exist_ok=True)
+    for i, theta in enumerate(BTF_ELEVATIONS):
+        for j, phi in enumerate(BTF_AZIMUTHS):
+            write_bmp(ROOT / "tex" / "btf" / f"silk_{i}_{j}.bmp", silk(theta, phi))
     (ROOT / "sky").mkdir(exist_ok=True)
     for face, colour in SKY_HUES.items():
         write_bmp(ROOT / "sky" / f"{face}.bmp", sky_face(colour))
-    print("wrote meshes/ (box, icosphere, prism, tile), tex/*.bmp, volumes/cloud.vol, sky/*.bmp under", ROOT)
+    print("wrote meshes/ (box, icosphere, prism, tile), tex/*.bmp, tex/btf/, volumes/cloud.vol, sky/*.bmp under", ROOT)

@@ -165,7 +165,7 @@ def command_argv(name: str, rng: random.Random, scene: str, images: tuple[str, s
     size = ["--size", str(rng.randint(1, 8)), str(rng.randint(1, 8))]
     argv: list[str]
     outs: list[str] = []
-    if name == "render":
+    if name == "render":  # the caller makes the folder "outdir"
         argv = ["render", scene, "--output-dir", "outdir", *size, *_pick(rng, [["-shadows"], ["-jitter"]], 2)]
         outs = [f"outdir/{Path(scene).stem}.png"]
     elif name == "convert":
@@ -201,7 +201,7 @@ def command_argv(name: str, rng: random.Random, scene: str, images: tuple[str, s
     else:  # bench, and any command added later: its flag checks
         argv = [name]
     if hostile:
-        junk = ["--frobnicate"] if name in PARSE_ONLY and rng.random() < 0.5 else _junk(rng)
+        junk = [rng.choice(("--frobnicate", "--no-such-flag=1", "-z"))] if name in PARSE_ONLY else _junk(rng)
         at = rng.randint(1, len(argv))
         argv[at:at] = junk
         outs = []

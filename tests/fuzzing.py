@@ -19,6 +19,7 @@ import contextlib
 import io
 import os
 import random
+import re
 import signal
 import time
 from collections.abc import Iterator
@@ -159,6 +160,9 @@ def _alarm(seconds: int) -> Iterator[None]:
         signal.signal(signal.SIGALRM, old)
 
 
+#: The closing line of a batch (``a5mi render`` with --output-dir or --jobs): one error line per failed job, then this.
+BATCH_SUMMARY = re.compile(r"a5mi render: \d+ of \d+ jobs written in ")
+
 #: Mutant kinds and their shares: a mutated scene through ``a5`` or ``convert``; a course scene with a mutated
 #: OBJ mesh, or with a mutated texture / cube face (tests/fuzz_inputs.py); a sub-command's command line.
 KINDS = (("scene", 0.5), ("mesh", 0.15), ("image", 0.1), ("command", 0.25))
@@ -228,7 +232,7 @@ def mutant(seed: int, scenes: list[Path], kinds: tuple[tuple[str, float], ...] =
 def verdict(status: int | None, err: str, outputs: list[Path], *, may_differ: bool = False) -> str:
     """'' when the run kept the promise (module docstring), else what went wrong; ``may_differ``: the command
     gives a verdict, so exit 1 (with its outputs) is an answer too."""
-    lines = [ln for ln in err.splitlines() if ": warning: " not in ln]
+    lines = [ln for ln in err.splitlines() if ": warning: " not in ln and not BATCH_SUMMARY.match(ln)]
     if "Traceback" in err:
         return "traceback: " + err[-300:]
     if status == 0 or (status == 1 and may_differ):
@@ -287,6 +291,7 @@ def _command(m: Mutant, run: Path, seed: int) -> tuple[list[str], list[Path], bo
     else:
         odd_image(rng, b)
     xml = None
+    (run / "outdir").mkdir()
     if m.command == "render-xml":
         with contextlib.redirect_stderr(io.StringIO()):
             if cli.run_a5mi(["convert", "s.txt", "-o", "c.xml", "-q", "--size", "6", "6"]) == 0:

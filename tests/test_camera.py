@@ -172,3 +172,53 @@ def test_b2_sensor_render_pixel_centres(variant: str) -> None:
     assert np.allclose(img.reshape(-1, 3), want, atol=1e-4)
     assert img[0, 0, 1] > 0 > img[-1, 0, 1]  # top row of the image looks up
     assert "sensor.angle" in mi.traverse(scene).keys()
+
+
+def test_e3_sensor_thin_lens_is_the_driver_lens(variant: str) -> None:
+    """docs/EXTENSIONS.md E.3 in a5_camera: with ``aperture`` the sensor's ray for aperture sample ``s`` is the
+    driver's thin-lens ray of the same pinhole ray and sample (bit for bit); its origin lies on the lens disc
+    of radius A/2 around the centre and it passes through the pinhole ray's point on the focus plane."""
+    import mitsuba as mi
+
+    from a5mi.passes import thin_lens
+    from a5mi.vecmath32 import camera_basis
+
+    W, H = 7, 5
+    cam = dict(center=[0.5, 1.0, 6.0], direction=[0.1, -0.2, -1.0], up=[0, 1, 0], angle=40.0)
+    sensor = _sensor(W, H, **cam, aperture=0.8, focus_distance=5.0)
+    rng = np.random.default_rng(3)
+    px, py = rng.random(40, dtype=F32), rng.random(40, dtype=F32)
+    s3 = mi.Point2f(rng.random(40, dtype=F32), rng.random(40, dtype=F32))
+    ray, _ = sensor.sample_ray(mi.Float(0.0), mi.Float(0.5), mi.Point2f(px, py), s3)
+    pinhole, _ = _sensor(W, H, **cam).sample_ray(mi.Float(0.0), mi.Float(0.5), mi.Point2f(px, py), s3)
+    camera = type("C", (), {"direction": cam["direction"], "up": cam["up"], "aperture": 0.8, "focus_distance": 5.0})
+    want = thin_lens(pinhole, camera, s3)
+    assert np.array_equal(np.asarray(ray.o), np.asarray(want.o)) and np.array_equal(np.asarray(ray.d),
+                                                                                  np.asarray(want.d))
+    o, d = np.asarray(ray.o).T.astype(np.float64), np.asarray(ray.d).T.astype(np.float64)
+    assert np.all(np.linalg.norm(o - cam["center"], axis=1) <= 0.4 + 1e-6)
+    w = np.asarray(camera_basis(cam["direction"], cam["up"])[0], dtype=np.float64)
+    p_o, p_d = np.asarray(pinhole.o).T.astype(np.float64), np.asarray(pinhole.d).T.astype(np.float64)
+    focus = p_o + (5.0 / (p_d @ w))[:, None] * p_d
+    t = ((focus - o) @ w) / (d @ w)
+    assert np.allclose(o + t[:, None] * d, focus, atol=1e-4)
+    assert not np.allclose(o, cam["center"])  # the lens moved the origins: the test can fail
+    assert "sensor.aperture" not in mi.traverse(sensor).keys() and "aperture" in mi.traverse(sensor).keys()
+
+
+def test_sensor_pixel_centres_ignores_the_position_inside_the_pixel(variant: str) -> None:
+    """``pixel_centres``: any film position inside pixel (col, row) gives the ray of its centre, (i, j) =
+    (col, H-1-row), bit for bit; without it the position moves the ray."""
+    import mitsuba as mi
+
+    W, H = 9, 4
+    rng = np.random.default_rng(5)
+    cols, rows = rng.integers(0, W, 60), rng.integers(0, H, 60)
+    px = ((cols + rng.random(60)) / W).astype(F32)
+    py = ((rows + rng.random(60)) / H).astype(F32)
+    args = (mi.Float(0.0), mi.Float(0.5), mi.Point2f(px, py), mi.Point2f(0.5))
+    ray, _ = _sensor(W, H, pixel_centres=True).sample_ray(*args)
+    _, want = ref_rays(*CAMERAS[2], cols, H - 1 - rows, W, H)
+    assert np.array_equal(np.asarray(ray.d).T, want)
+    moved, _ = _sensor(W, H).sample_ray(*args)
+    assert not np.array_equal(np.asarray(moved.d).T, want)

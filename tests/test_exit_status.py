@@ -126,6 +126,7 @@ def _internal_cases(tmp: Path, scene: str) -> dict[str, tuple[list[str], str]]:
         "animate": ([scene, "-o", str(tmp / "frames")], "a5mi.cli.app.load_scene"),
         "photons": ([scene, "-o", str(tmp / "m.png")], "a5mi.cli.photons.load_scene"),
         "view": ([scene, "-size", "4", "4"], "a5mi.cli.view.activate_variant"),
+        "simulate": (["smoke", "-o", str(tmp / "grids"), "--frames", "1"], "a5mi.simulate.smoke.write_frames"),
     }
 
 

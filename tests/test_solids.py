@@ -173,7 +173,7 @@ def test_solid_errors_are_positioned(tmp_path: Path, block: str, at: str, messag
 
 def test_solid_scene_renders_the_texture(tmp_path: Path, variant: str) -> None:
     """A Wood sphere through parse -> describe -> to_dict -> render: the a5_solid texture is the kd (the
-    centre pixel equals ambient + kd·cos at the hit point); the stock conversion keeps the same texture."""
+    centre pixel equals ambient + kd·cos at the hit point); the stock conversion bakes it into a grid."""
     import mitsuba as mi
 
     from a5mi.converters.describe import describe
@@ -186,7 +186,8 @@ def test_solid_scene_renders_the_texture(tmp_path: Path, variant: str) -> None:
     kd = _eval(_solid_from(desc), np.array([[0.0, 0.0, 1.0]], dtype=np.float32))[0]
     assert np.allclose(img[10, 10], 0.1 + kd, atol=1e-5)
     stock = mi.load_dict(to_dict(desc, RenderOptions(width=21, height=21), stock=True))
-    assert "A5Solid[kind='wood'" in str(stock.shapes()[0].bsdf())
+    assert "A5Solid" not in str(stock.shapes()[0].bsdf())  # baked: the stock volume texture (EXTENSIONS E.6)
+    assert "GridVolume" in str(stock.shapes()[0].bsdf())
 
 
 def _solid_from(desc):

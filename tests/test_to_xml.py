@@ -101,3 +101,91 @@ def test_xml_renders_like_the_dict(variant: str, scenes_dir: Path, tmp_path: Pat
     img_a = np.asarray(mi.render(a, spp=1))[..., :3]
     img_b = np.asarray(mi.render(b, spp=1))[..., :3]
     assert np.abs(img_a - img_b).max() < 1e-4
+
+
+# ------------------------------------------------------------------------- E.6 solids and E.7 maps, --stock
+ROOT = Path(__file__).resolve().parents[1]
+
+PLAIN_STOCK = """
+import sys
+import mitsuba as mi
+import numpy as np
+mi.set_variant("scalar_rgb")
+assert not any(m.startswith("a5mi") for m in sys.modules)
+image = np.asarray(mi.render(mi.load_file(sys.argv[1]), spp=1))
+np.save(sys.argv[2], image)
+"""
+
+
+def test_stock_xml_of_solids_loads_in_plain_mitsuba(variant: str, tmp_path: Path) -> None:
+    """scenes/solids.txt (Wood, Turbulence, Veins; E.6) converted with --stock: no a5 plugin in the XML, one
+    warning per solid at its block, and a process that imports Mitsuba only (no a5mi plugin registered)
+    loads and renders it. The baked grid holds the a5_solid colour at its cell centres (float32), and the
+    stock texture looked up there returns it."""
+    import subprocess
+    import sys
+
+    import mitsuba as mi
+
+    from a5mi.converters import ext_mitsuba
+    from a5mi.converters.to_mitsuba import bake_solid
+
+    model = parse_file(ROOT / "scenes" / "solids.txt")
+    desc = describe(model, stock=True)
+    warned = [msg for _, msg in desc.warnings if "baked into an RGB grid" in msg]
+    assert sorted(w.split()[2] for w in warned) == ["Turbulence", "Veins", "Wood", "Wood"]
+    out = write_xml(desc, tmp_path / "stock.xml", RenderOptions(24, 24), stock=True)
+    text = out.read_text()
+    assert 'type="a5_' not in text and text.count('type="gridvolume"') == 4
+    subprocess.run([sys.executable, "-c", PLAIN_STOCK, str(out), str(tmp_path / "img.npy")], check=True,
+                   timeout=300, cwd=tmp_path)
+    image = np.load(tmp_path / "img.npy")
+    assert image.shape == (24, 24, 3) and float(image.std()) > 0.01
+    # the bake: the grid at its cell centres is the a5_solid colour there
+    m = next(i for i, mat in enumerate(model.materials) if mat.solid is not None)
+    solid = {"type": "a5_solid", "kind": model.materials[m].solid.kind,
+             "color1": {"type": "rgb", "value": list(model.materials[m].solid.color1)},
+             "color2": {"type": "rgb", "value": list(model.materials[m].solid.color2)},
+             "frequency": model.materials[m].solid.frequency, "amplitude": model.materials[m].solid.amplitude,
+             "scale": model.materials[m].solid.scale, "axis": list(model.materials[m].solid.axis),
+             "center": list(model.materials[m].solid.center), "octaves": model.materials[m].solid.octaves}
+    lo, hi = ext_mitsuba.solid_box(desc, m)
+    grid = bake_solid(solid, lo, hi)
+    nx, ny, nz = ext_mitsuba.solid_resolution(lo, hi)
+    assert grid.shape == (nz, ny, nx, 3) and nx * ny * nz <= ext_mitsuba.SOLID_CELLS
+    rng = np.random.default_rng(1)
+    idx = rng.integers(0, [nx, ny, nz], size=(50, 3))
+    pts = lo + (idx + 0.5) / [nx, ny, nz] * (hi - lo)
+    import drjit as dr
+
+    si = dr.zeros(mi.SurfaceInteraction3f, 50)
+    si.p = mi.Point3f(*pts.T.astype(np.float32))
+    want = np.asarray(mi.load_dict(solid).eval(si))
+    assert np.allclose(grid[idx[:, 2], idx[:, 1], idx[:, 0]], want.T, atol=1e-6)
+    baked = ext_mitsuba.baked_solid({"data": mi.TensorXf(grid)}, lo, hi)
+    baked["volume"]["to_world"] = mi.ScalarTransform4f(baked["volume"]["to_world"].tolist())
+    got = np.asarray(mi.load_dict(baked).eval(si))
+    assert np.allclose(got, want, atol=1e-5)
+
+
+@pytest.mark.parametrize("shape", ["Sphere { center 0 0 0 radius 1 }", "TriangleMesh { obj_file QUAD }"],
+                         ids=["sphere", "obj-without-uv"])
+def test_bump_and_normal_map_without_uv_warn_at_the_shape(shape: str, tmp_path: Path) -> None:
+    """E.7: with -bump, a bump or normal map on a shape without texture coordinates cannot show (as a texture
+    there): a warning at the shape, as for the texture; without -bump the maps are not read and nothing is said."""
+    from a5mi.imageio import write_image
+
+    write_image(tmp_path / "h.png", np.full((4, 4, 3), 128, dtype=np.uint8))
+    (tmp_path / "q.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    text = ("PerspectiveCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 angle 30 }\n"
+            "Background { color 0 0 0 }\n"
+            "Materials { numMaterials 1 Material { diffuseColor 1 1 1 bump h.png normalMap h.png } }\n"
+            f"Group {{ numObjects 1 MaterialIndex 0 {shape.replace('QUAD', 'q.obj')} }}\n")
+    (tmp_path / "s.txt").write_text(text)
+    model = parse_file(tmp_path / "s.txt")
+    col = text.splitlines()[3].index(shape.split()[0]) + 1
+    kind = shape.split()[0]
+    got = [(str(loc), msg) for loc, msg in describe(model, bump=True).warnings if "cannot show" in msg]
+    assert got == [(f"{tmp_path / 's.txt'}:4:{col}", f"{which} 'h.png' cannot show on this {kind}: it has no "
+                    "texture coordinates (EXTENSIONS E.7)") for which in ("bump", "normalMap")]
+    assert not [msg for _, msg in describe(model).warnings if "cannot show" in msg]

@@ -8,8 +8,12 @@ changes enters the kernel as an opaque variable or a device array):
 * camera: the a5 camera is not a Mitsuba sensor; the driver takes the camera of the frame (its basis, focal
   factor, lens radius and focus distance are opaque, :mod:`a5mi.plugins.camera`, :mod:`a5mi.passes`);
 * ``PointLight`` / ``SpotLight``: ``position``, ``color`` and the spot's unit ``axis = d/|d|``;
+  ``AreaLight`` / ``SphereLight``: the ``color`` of the ``a5_area`` emitter on the light's shape (opaque);
   ``DirectionalLight``: ``irradiance.value`` and the ``to_world`` Mitsuba's ``directional`` builds from
   ``direction`` (copied from a stand-alone one, so it is the same to the bit);
+* media (E.8, E.9): the ``Fog`` / ``Volume`` ``density`` and albedo ``color`` (opaque values of ``a5_whitted``'s
+  medium) and a Volume's grid per frame (``grid "smoke_%03d.vol"``: the ``gridvolume``'s ``data``, read once per
+  frame);
 * materials: ``diffuse_color``, ``specular_color`` of each ``a5_material`` of the material (and its uniform
   ``kd.value``); a keyframed specular colour keeps the still material's kind (mirror or not, SPEC B.3);
 * shapes under a keyframed ``Transform`` get the world-space data of :func:`converters.describe.describe`
@@ -31,12 +35,13 @@ from typing import Any
 import numpy as np
 
 from a5mi.arrays import aligned_float32
-from a5mi.converters import keyframes
+from a5mi.converters import keyframes, volgrid
 from a5mi.converters import transforms as tf
-from a5mi.converters.describe import describe
+from a5mi.converters.describe import describe, describe_volume
 from a5mi.converters.errors import SceneSemanticError
 from a5mi.converters.geometry import mesh_from_obj, mesh_from_triangle, world_plane
 from a5mi.converters.model import (
+    AreaLight,
     DirectionalLight,
     Group,
     Node,
@@ -44,10 +49,12 @@ from a5mi.converters.model import (
     PointLight,
     Scene,
     Sphere,
+    SphereLight,
     SpotLight,
     Transform,
     Triangle,
     TriangleMesh,
+    Volume,
 )
 from a5mi.converters.names import object_bsdf, scene_ids
 from a5mi.converters.to_mitsuba import OCTREE_ATTRIBUTES, TRIANGLE_ATTRIBUTES, to_dict
@@ -111,6 +118,11 @@ class WarmScene:
         moving = {tr.index for tr in tracks if tr.target == "Transform"}
         self.moving = [i for i, around in enumerate(enclosing_transforms(model.root)) if around & moving]
         self.lights = sorted({tr.index for tr in tracks if tr.target == "Light"})
+        # E.8, E.9: a keyframed medium, or a Volume with a grid per frame (volgrid.frame_name)
+        medium = model.medium
+        self.grid_frames = isinstance(medium, Volume) and volgrid.is_pattern(medium.grid)
+        self.medium_tracked = self.grid_frames or any(tr.target in ("Fog", "Volume") for tr in tracks)
+        self._grid_name = volgrid.frame_name(medium.grid, 0) if isinstance(medium, Volume) else None
         self.materials = sorted({tr.index for tr in tracks if tr.target == "Material"})
         self.meshes: dict[str, tuple[Any, np.ndarray]] = {}  # OBJ name -> (ObjMesh, reach masks)
         placed = model.objects
@@ -125,6 +137,7 @@ class WarmScene:
     # ----------------------------------------------------------------------------------------------- update
     def update(self, t: float) -> Any:
         """Write the scene at time ``t`` into the loaded scene (module docstring); returns its camera."""
+        import drjit as dr
         import mitsuba as mi
 
         model_t = keyframes.scene_at(self.model, t)
@@ -142,6 +155,8 @@ class WarmScene:
                 # the matrix Mitsuba's directional builds from a direction, taken from one it builds
                 probe = mi.load_dict({"type": "directional", "direction": list(light.direction)})
                 p[f"{key}.to_world"] = mi.traverse(probe)["to_world"]
+            elif isinstance(light, AreaLight | SphereLight):  # the a5_area emitter of the light's shape (E.2)
+                p[f"{key}.emitter.color"] = dr.opaque(mi.Color3f, list(light.color))
         for m in self.materials:
             mat = model_t.materials[m]
             for obj in self.bsdfs.get(m, ()):
@@ -153,8 +168,31 @@ class WarmScene:
                 bp.update()
         if self.moving:
             self._move_shapes(model_t)
+        if self.medium_tracked:
+            self._update_medium(model_t)
         p.update()
         return model_t.camera
+
+    def _update_medium(self, model_t: Scene) -> None:
+        """The medium's opaque ``density`` and ``albedo`` (plugins/media.py ``MediumParams``, read by the kernel
+        at trace time) and, for a grid per frame, the ``gridvolume``'s ``data`` (same resolution every frame)."""
+        import drjit as dr
+        import mitsuba as mi
+
+        med, m = self.integrator._medium, model_t.medium  # the a5_whitted medium (E.8, E.9)
+        med.density = dr.opaque(mi.Float, float(m.density))
+        med.albedo = dr.opaque(mi.Color3f, [float(c) for c in m.color])
+        if self.grid_frames and m.grid != self._grid_name:
+            grid = describe_volume(model_t, m).grid
+            gp = mi.traverse(med.grid)
+            if tuple(gp["data"].shape) != grid.shape:
+                raise SceneSemanticError(f"Volume grid '{m.grid}' is {grid.shape[2]} x {grid.shape[1]} x "
+                                         f"{grid.shape[0]}; every frame's grid must have the size of frame 0's "
+                                         f"({' x '.join(str(n) for n in tuple(gp['data'].shape)[2::-1])})",
+                                         m.grid_loc)
+            gp["data"] = mi.TensorXf(np.ascontiguousarray(grid, dtype=np.float32))
+            gp.update()
+            self._grid_name = m.grid
 
     def _move_shapes(self, model_t: Scene) -> None:
         import mitsuba as mi

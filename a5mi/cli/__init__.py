@@ -33,6 +33,7 @@ SUBCOMMANDS: dict[str, str] = {
     "animate": "render an Animation block's frames (here or on Dask) + a video",
     "photons": "photon maps drawn over the image, counts per surface; --ppm: progressive passes on Dask",
     "view": "live page on 127.0.0.1: render, reference, heatmap, controls, reload on save, ray tree of a pixel",
+    "simulate": "simulate rising smoke (stable fluids) into .vol grid frames",
 }
 
 A5MI_USAGE = """\

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import mitsuba as mi
 
+from ..milled import uses_milled
 from . import pbr_gather
 from .lights import Lights, has_area_lights
 
@@ -42,6 +43,7 @@ class Features(NamedTuple):
     media_light    bool     E.8, E.9 with ``medium_bounces >= 1`` and shadows: shadow rays carry T_light
     dispersion     bool     E.10: a wavelength per lane, Cauchy n(λ), the w(λ) weight
     subsurface     str      E.18: ``none`` | ``dipole`` | ``walk``: light under materials with ``sss_*``
+    milled         bool     E.20: the Ward lobe of ``a5_milled`` BSDFs in the light loop
     environment    bool     the scene has an environment emitter (else misses are black)
     triangle_rule  bool     some mesh carries the binary's triangle data (plugins/triangle_rule.py)
     record         bool     record mode: the ray tree's values are scattered into a recorder
@@ -62,6 +64,7 @@ class Features(NamedTuple):
     media_light: bool = False
     dispersion: bool = False
     subsurface: str = "none"
+    milled: bool = False
     environment: bool = False
     triangle_rule: bool = False
     record: bool = False
@@ -121,6 +124,7 @@ def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, reco
         bump=source.bump, media=data.medium is not None,
         media_light=data.medium is not None and data.medium.bounces > 0 and source.shadows,
         dispersion=source.dispersion, subsurface=getattr(source, "subsurface", "none"),
+        milled=uses_milled(scene, [p[3] for p in getattr(source, "planes", ())]),
         environment=scene.environment() is not None, triangle_rule=data.rules is not None, record=record,
         stack_size=size, indirect=indirect,
     )

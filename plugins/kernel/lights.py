@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from .. import media_light
+from .. import media_light, milled
 from ..sampling import Stochastic, stratified_2d
 from ..syntax import syntax
 from .intersect import visible
@@ -85,10 +85,12 @@ class LightSample(NamedTuple):
 
 def sample(scene: mi.Scene, data: SceneData, f: Features, emitter: mi.EmitterPtr, is_area: mi.Bool,
            si: mi.SurfaceInteraction3f, p: mi.Point3f, hit: mi.Bool, n: mi.Vector3f, kd: mi.Color3f,
-           specular: mi.Color3f, shininess: mi.Float, r_view: mi.Vector3f, u: mi.Point2f) -> LightSample:
+           specular: mi.Color3f, shininess: mi.Float, r_view: mi.Vector3f, u: mi.Point2f,
+           bsdf: mi.BSDFPtr | None = None) -> LightSample:
     """The light ``emitter`` (``is_area``: an E.2 light) seen from the hit ``si`` (point ``p``, lanes ``hit``,
     shading normal ``n``, material ``kd``, ``specular``, ``shininess``, mirror direction ``r_view``) through the
-    unit-square sample ``u`` (module docstring); :func:`direct` loops over lights and samples."""
+    unit-square sample ``u`` (module docstring); :func:`direct` loops over lights and samples. With ``milled``
+    (E.20) the term adds ``π ρs W(wi, L) cosθ_L lightColor`` of the hit's BSDF ``bsdf`` (default ``si.bsdf()``)."""
     ds, light_color = emitter.sample_direction(si, u, hit)
     d_light = ds.d                                               # SPEC L
     seen = mi.Bool(hit)                                          # SPEC S
@@ -98,6 +100,8 @@ def sample(scene: mi.Scene, data: SceneData, f: Features, emitter: mi.EmitterPtr
         far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0   # directional: the binary's FLT_MAX
         seen = visible(scene, data.planes, p, d_light, data.tmin, dist, far, hit)
     term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * kd
+    if dr.hint(f.milled, mode="scalar"):
+        term += milled.light_term(si.bsdf() if bsdf is None else bsdf, si, d_light, hit) * light_color
     highlight = None
     if dr.hint(f.phong, mode="scalar"):
         l_dot_r = dr.maximum(dr.dot(d_light, dr.normalize(r_view)), 0.0)
@@ -119,7 +123,7 @@ def direct(scene: mi.Scene, data: SceneData, f: Features, si: mi.SurfaceInteract
            hit: mi.Bool, n: mi.Vector3f, kd: mi.Color3f, specular: mi.Color3f, shininess: mi.Float,
            r_view: mi.Vector3f, local: mi.Color3f, rng: Stochastic, node: mi.UInt32, counter: mi.UInt32,
            n_shadow: mi.Float, rec: TreeRecorder | None = None,
-           at: mi.UInt32 | None = None) -> tuple[mi.Color3f, mi.UInt32, mi.Float]:
+           at: mi.UInt32 | None = None, bsdf: mi.BSDFPtr | None = None) -> tuple[mi.Color3f, mi.UInt32, mi.Float]:
     """The light loop of SPEC B.3 at a hit (module docstring): ``local + Σ_lights (1/S) Σ_samples S·term``, with
     ``counter`` advanced by two draws per light sample and ``n_shadow`` by the shadow rays traced; returns
     ``(local, counter, n_shadow)``. Arguments as :func:`sample`; ``node``: the ray-tree node (E.5 dimensions);
@@ -137,7 +141,7 @@ def direct(scene: mi.Scene, data: SceneData, f: Features, si: mi.SurfaceInteract
             if dr.hint(f.area_lights, mode="scalar"):
                 u = sample_point(rng, node, k, j, n_samples, counter)
             counter += 2
-            ls = sample(scene, data, f, emitter, is_area, si, p, hit, n, kd, specular, shininess, r_view, u)
+            ls = sample(scene, data, f, emitter, is_area, si, p, hit, n, kd, specular, shininess, r_view, u, bsdf)
             if dr.hint(f.shadows, mode="scalar"):
                 n_shadow += dr.select(hit, 1.0, 0.0)
             term = ls.term

@@ -94,7 +94,7 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
         if dr.hint(f.subsurface != "none", mode="scalar"):   # E.18: light under the surface replaces Lambert
             kd, local, counter = subsurface.shade(scene, data, f, bsdf, si, p, d, n, hit, kd, local, rng, counter)
         local, counter, n_shadow = lights.direct(scene, data, f, si, p, hit, n, kd, specular, shininess, r_view,
-                                                 local, rng, node, counter, n_shadow, rec, at)
+                                                 local, rng, node, counter, n_shadow, rec, at, bsdf)
         if dr.hint(f.area_lights, mode="scalar"):   # E.2: an area light seen directly
             on_shape = hit & ~on_plane
             if dr.hint(f.indirect > 0, mode="scalar"):   # E.15: not by a gathered ray (the light loop has it)
