@@ -108,6 +108,36 @@ class A5AreaLight(mi.Emitter):
         ps.pdf = mi.Float(1.0)
         return ps, dr.full(mi.Float, 1.0, dr.width(sample))
 
+    def sample_ray(
+        self, time: mi.Float, sample1: mi.Float, sample2: mi.Point2f, sample3: mi.Point2f, active: mi.Bool = True
+    ) -> tuple[mi.Ray3f, mi.Color3f]:
+        """A light ray for light tracers (Mitsuba's ``ptracer``), the light read as the Lambertian emitter that
+        ``eval`` shows (radiance ``color``; the a5 ``falloff`` has no counterpart there): a point uniform on
+        the surface of area ``A`` (a parallelogram's two faces, each chosen with probability 1/2; a sphere's
+        outside), a cosine-weighted direction about that face's normal; weight = power / pdf = ``π A color``
+        (``2 π A color`` for the parallelogram's two faces)."""
+        local = mi.warp.square_to_cosine_hemisphere(sample3)
+        if self.kind == "parallelogram":
+            p = self.corner + sample2.x * self.edge1 + sample2.y * self.edge2
+            cross = dr.cross(self.edge1, self.edge2)
+            area = dr.norm(cross)
+            n = cross / dr.maximum(area, 1e-30)
+            n = dr.select(sample1 < 0.5, n, -n)
+            weight = 2.0 * dr.pi * area
+        else:
+            n = mi.warp.square_to_uniform_sphere(sample2)
+            p = self.center + self.radius * n
+            weight = 4.0 * dr.pi * dr.pi * self.radius * self.radius
+        ray = mi.Ray3f(p, mi.Frame3f(n).to_world(local), time)
+        return ray, dr.select(active, weight * self.color, 0.0)
+
+    def sample_wavelengths(
+        self, si: mi.SurfaceInteraction3f, sample: mi.Float, active: mi.Bool = True
+    ) -> tuple[mi.Color0f, mi.Color3f]:
+        """RGB rendering (a5mi's variants) has no wavelengths to sample: (none, ``color``). Mitsuba's own
+        integrators (``ptracer``) call it on every emitter alive in the process, a5mi's included."""
+        return dr.zeros(mi.Color0f), dr.select(active, mi.Color3f(self.color), 0.0)
+
     def bbox(self) -> mi.ScalarBoundingBox3f:
         if self.kind == "parallelogram":
             c = [float(dr.slice(x, 0)) for x in self.corner]

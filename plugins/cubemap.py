@@ -175,6 +175,43 @@ class A5CubeMap(mi.Emitter):
         """lookup(ds.d)."""
         return self.lookup(ds.d, active)
 
+    def sample_wavelengths(
+        self, si: mi.SurfaceInteraction3f, sample: mi.Float, active: mi.Bool = True
+    ) -> tuple[mi.Color0f, mi.Color3f]:
+        """RGB rendering (a5mi's variants) has no wavelengths to sample: (none, the colour seen along
+        ``-si.wi``). Mitsuba's integrators call it on every emitter alive in the process."""
+        return dr.zeros(mi.Color0f), self.lookup(-si.wi, active)
+
+    def set_scene(self, scene: mi.Scene) -> None:
+        """Keep the scene's bounding sphere (:meth:`sample_ray` starts light rays on a disc of its radius)."""
+        box = scene.bbox()
+        sphere = box.bounding_sphere() if box.valid() else mi.ScalarBoundingSphere3f(mi.ScalarPoint3f(0.0), 1.0)
+        self._centre = mi.Point3f(sphere.center)
+        self._radius = mi.Float(max(float(sphere.radius), 1e-3))
+        dr.make_opaque(self._centre, self._radius)
+
+    def sample_ray(
+        self, time: mi.Float, sample1: mi.Float, sample2: mi.Point2f, sample3: mi.Point2f, active: mi.Bool = True
+    ) -> tuple[mi.Ray3f, mi.Color3f]:
+        """A light ray from the environment for light tracers (as Mitsuba's ``constant``): a direction ``d``
+        uniform over the sphere (pdf 1/4π), the ray travelling along ``-d`` from a point uniform on the disc
+        of the scene's bounding sphere (radius ``R``) facing ``d``; weight = lookup(d) · 4π · πR²."""
+        d = mi.warp.square_to_uniform_sphere(sample2)
+        disc = mi.warp.square_to_uniform_disk_concentric(sample3)
+        centre = getattr(self, "_centre", mi.Point3f(0.0))
+        radius = getattr(self, "_radius", mi.Float(1.0))
+        origin = centre + radius * (d + mi.Frame3f(-d).to_world(mi.Vector3f(disc.x, disc.y, 0.0)))
+        weight = self.lookup(d, active) * (4.0 * dr.pi * dr.pi * radius * radius)
+        return mi.Ray3f(origin, -d, time), dr.select(active, weight, 0.0)
+
+    def sample_position(self, time: mi.Float, sample: mi.Point2f,
+                        active: mi.Bool = True) -> tuple[mi.PositionSample3f, mi.Float]:
+        """An environment lies at infinity: no position to sample (pdf 0, weight 0), as Mitsuba's ``constant``
+        and ``envmap``, which refuse the call."""
+        ps = dr.zeros(mi.PositionSample3f, dr.width(sample))
+        ps.time = time
+        return ps, dr.zeros(mi.Float, dr.width(sample))
+
     def bbox(self) -> mi.ScalarBoundingBox3f:
         return mi.ScalarBoundingBox3f()  # occupies no region of space
 

@@ -129,6 +129,14 @@ class A5PointLight(mi.Emitter):
         ray = mi.Ray3f(mi.Point3f(self.position), d, time)
         return ray, dr.select(active, 4.0 * dr.pi * self.color, 0.0)
 
+    def sample_wavelengths(
+        self, si: mi.SurfaceInteraction3f, sample: mi.Float, active: mi.Bool = True
+    ) -> tuple[mi.Color0f, mi.Color3f]:
+        """RGB rendering (a5mi's variants) has no wavelengths to sample: (none, ``color``), as Mitsuba's ``point``
+        answers with an RGB intensity. Mitsuba's own integrators (``ptracer``) call it on every emitter alive in
+        the process, a5mi's included."""
+        return dr.zeros(mi.Color0f), dr.select(active, mi.Color3f(self.color), 0.0)
+
     def bbox(self) -> mi.ScalarBoundingBox3f:
         p = mi.ScalarPoint3f(*(float(dr.slice(c, 0)) for c in self.position))
         return mi.ScalarBoundingBox3f(p)
