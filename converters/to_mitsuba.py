@@ -201,7 +201,11 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
         bsdf = backend.bsdf(d, shape.material, shape.has_uv)
         if isinstance(shape, SphereShape):
             sphere = {"type": "sphere", "center": list(shape.center), "radius": float(shape.radius), "bsdf": bsdf}
-            if o.group is None or o.inner is None:
+            if o.plane is not None:   # non-similarity: the binary's object-space test in a5_whitted (planes.py)
+                d["integrator"].update({o.plane_param("center"): list(shape.center),
+                                        o.plane_param("radius"): float(shape.radius),
+                                        o.plane_param("to_world"): shape.to_world, o.plane_param("bsdf"): bsdf})
+            elif o.group is None or o.inner is None:
                 d[o.entry] = sphere
             else:
                 d[o.group] = {"type": "shapegroup", o.inner: sphere}  # the inner id names the object

@@ -196,6 +196,8 @@ class WarmScene:
                     c = tf.transform_points(m, np.asarray(prim.center))
                     p[f"{ids.entry}.to_world"] = (mi.ScalarTransform4f().translate(mi.ScalarPoint3f(*c))
                                                   @ mi.ScalarTransform4f().scale(float(prim.radius * scale)))
+                elif ids.plane is not None:     # exact in a5_whitted's plane set (plugins/planes.py)
+                    planes[ids.plane] = m
                 else:
                     p[f"{ids.entry}.to_world"] = mi.ScalarTransform4f(m.tolist())
             elif isinstance(prim, Plane) and ids.plane is not None:  # an exact plane: a5_whitted's parameters
