@@ -77,6 +77,7 @@ class PlaneSet:
     tr: tuple[mi.Float, ...] = ()
     centre: tuple[mi.Float, ...] = ()
     radius: mi.Float | None = None
+    inv3: tuple[mi.Float, ...] = ()
 
 
 def _vec3(value: Any, key: str) -> tuple[float, float, float]:
@@ -102,6 +103,9 @@ class Plane(NamedTuple):
     bsdf: Any
     mirror: tuple[float, float, float]
     sphere: tuple[tuple[float, ...], tuple[float, float, float], float] | None = None
+    #: A plane inside a ``Transform``: its ``M`` (16 numbers row by row); ``normal``, ``offset`` are then the
+    #: object-space plane as written, intersected in object space as the binary does.
+    to_world: tuple[float, ...] | None = None
 
 
 def _order(pid: str) -> tuple[int, int | str]:
@@ -146,7 +150,7 @@ def planes_from_props(props: mi.Properties) -> list[Plane]:
     for pid in sorted(found, key=_order):
         parts = found[pid]
         bsdf = parts.get("bsdf")
-        if "to_world" in parts:
+        if "to_world" in parts and "normal" not in parts:
             if not isinstance(bsdf, mi.BSDF):
                 raise ValueError(f"a5_whitted: 'plane_{pid}_bsdf' must be a BSDF")
             out.append(Plane(pid, (0.0, 0.0, 0.0), 0.0, bsdf, (0.0, 0.0, 0.0), _sphere(pid, parts)))
@@ -165,8 +169,16 @@ def planes_from_props(props: mi.Properties) -> list[Plane]:
         length = math.sqrt(sum(c * c for c in n))
         mirror = _vec3(parts["mirror_normal"], f"plane_{pid}_mirror_normal") if "mirror_normal" in parts else \
             tuple(c / length for c in n)
-        out.append(Plane(pid, n, float(off), bsdf, mirror))  # type: ignore[arg-type]
+        placed = _matrix(parts["to_world"], f"plane_{pid}_to_world") if "to_world" in parts else None
+        out.append(Plane(pid, n, float(off), bsdf, mirror, None, placed))  # type: ignore[arg-type]
     return out
+
+
+#: The 16 numbers of the identity: a sphere outside any ``Transform`` (its normal is not mapped).
+IDENTITY = tuple(float(x) for x in np.eye(4).ravel())
+#: Entry kinds (:attr:`PlaneSet.kind`): a world-space plane, a sphere inside a ``Transform``, a sphere outside
+#: any, a plane inside a ``Transform`` (object space).
+PLANE, SPHERE, WORLD_SPHERE, PLACED_PLANE = 0, 1, 2, 3
 
 
 def _det3(m00: Any, m01: Any, m02: Any, m10: Any, m11: Any, m12: Any, m20: Any, m21: Any, m22: Any) -> Any:
@@ -195,6 +207,25 @@ def inverse32(m: np.ndarray) -> np.ndarray:
     return np.array([[c[j][i] * r for j in range(4)] for i in range(4)], dtype=np.float32)
 
 
+def inverse33(m: np.ndarray) -> np.ndarray:
+    """vecmath's ``Matrix3f::inverse`` of ``m`` rounded to float32, in float32 (the normal map of the binary's
+    ``Transform``: cofactors ``p s − q r``, determinant ``m00 c00 + m01 c01 + m02 c02``, times ``1/det``)."""
+    e = m.astype(np.float32)
+
+    def det2(p: Any, q: Any, r: Any, t: Any) -> Any:
+        return p * t - q * r
+
+    c = [[det2(e[1, 1], e[1, 2], e[2, 1], e[2, 2]), -det2(e[1, 0], e[1, 2], e[2, 0], e[2, 2]),
+          det2(e[1, 0], e[1, 1], e[2, 0], e[2, 1])],
+         [-det2(e[0, 1], e[0, 2], e[2, 1], e[2, 2]), det2(e[0, 0], e[0, 2], e[2, 0], e[2, 2]),
+          -det2(e[0, 0], e[0, 1], e[2, 0], e[2, 1])],
+         [det2(e[0, 1], e[0, 2], e[1, 1], e[1, 2]), -det2(e[0, 0], e[0, 2], e[1, 0], e[1, 2]),
+          det2(e[0, 0], e[0, 1], e[1, 0], e[1, 1])]]
+    det = (e[0, 0] * c[0][0] + e[0, 1] * c[0][1]) + e[0, 2] * c[0][2]
+    r = np.float32(1.0) / det
+    return np.array([[c[j][i] * r for j in range(3)] for i in range(3)], dtype=np.float32)
+
+
 def plane_set(planes: list[Plane]) -> PlaneSet:
     """Device arrays of ``planes`` (as from :func:`planes_from_props`); a dummy entry when there are none."""
     if not planes:
@@ -208,20 +239,26 @@ def plane_set(planes: list[Plane]) -> PlaneSet:
         [mi.Float(c) for c in mirror]
     dr.make_opaque(ptrs, *arrays)  # literals of a one-plane scene would bake its values into the kernel
     out = PlaneSet(*arrays, ptrs, dr.opaque(mi.UInt32, len(planes)), len(planes))
-    spheres = [p.sphere for p in planes]
-    if any(s is not None for s in spheres):
-        rows = np.zeros((len(planes), 16), dtype=np.float32)
-        for k, s in enumerate(spheres):
-            if s is not None:
-                inverse = inverse32(np.array(s[0], dtype=np.float64).reshape(4, 4))
+    if any(p.sphere is not None or p.to_world is not None for p in planes):
+        rows = np.zeros((len(planes), 25), dtype=np.float32)
+        kinds = []
+        for k, p in enumerate(planes):
+            m = p.sphere[0] if p.sphere is not None else p.to_world
+            if m is not None:
+                inverse = inverse32(np.array(m, dtype=np.float64).reshape(4, 4))
                 rows[k, :9], rows[k, 9:12] = inverse[:3, :3].ravel(), inverse[:3, 3]
-                rows[k, 12:15], rows[k, 15] = s[1], s[2]
-        sphere_arrays = [mi.Float(rows[:, j].tolist()) for j in range(16)]
-        kind = mi.UInt32([0 if s is None else 1 for s in spheres])
+                rows[k, 16:] = inverse33(np.array(m, dtype=np.float64).reshape(4, 4)[:3, :3]).ravel()
+            if p.sphere is not None:
+                rows[k, 12:15], rows[k, 15] = p.sphere[1], p.sphere[2]
+            kinds.append(PLANE if m is None else PLACED_PLANE if p.sphere is None else
+                         SPHERE if m != IDENTITY else WORLD_SPHERE)
+        sphere_arrays = [mi.Float(rows[:, j].tolist()) for j in range(25)]
+        kind = mi.UInt32(kinds)
         dr.make_opaque(kind, *sphere_arrays)
-        out.spheres = sum(s is not None for s in spheres)
+        out.spheres = sum(k != PLANE for k in kinds)
         out.kind, out.a, out.tr = kind, tuple(sphere_arrays[:9]), tuple(sphere_arrays[9:12])
         out.centre, out.radius = tuple(sphere_arrays[12:15]), sphere_arrays[15]
+        out.inv3 = tuple(sphere_arrays[16:])
     return out
 
 
@@ -240,11 +277,10 @@ def _sphere_space(ps: PlaneSet, k: mi.UInt32, o: mi.Point3f, d: mi.Vector3f,
     return a, o_obj, d_obj
 
 
-def _sphere_t(ps: PlaneSet, k: mi.UInt32, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float,
+def _sphere_t(ps: PlaneSet, k: mi.UInt32, o_obj: mi.Vector3f, d_obj: mi.Vector3f, t_min: mi.Float,
               m: mi.Bool) -> tuple[mi.Bool, mi.Float]:
-    """``(hit, t)`` of ``Sphere::intersect`` on sphere entry ``k`` in object space (module docstring), before
-    the ``t < t_current`` test."""
-    _, o_obj, d_obj = _sphere_space(ps, k, o, d, m)
+    """``(hit, t)`` of ``Sphere::intersect`` on sphere entry ``k`` for the object-space ray ``(o', d')``
+    (module docstring), before the ``t < t_current`` test."""
     c = mi.Vector3f(*[dr.gather(mi.Float, ps.centre[j], k, m) for j in range(3)])
     r = dr.gather(mi.Float, ps.radius, k, m)
     q = o_obj - c
@@ -278,12 +314,17 @@ def intersect_planes(ps: PlaneSet, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Floa
         ny = dr.gather(mi.Float, ps.ny, k)
         nz = dr.gather(mi.Float, ps.nz, k)
         off = dr.gather(mi.Float, ps.offset, k)
-        denom = _dot(nx, ny, nz, d)
-        t = (off - _dot(nx, ny, nz, mi.Vector3f(o))) / denom
+        o_k, d_k = mi.Vector3f(o), mi.Vector3f(d)
+        if dr.hint(ps.spheres > 0, mode="scalar"):
+            kind = dr.gather(mi.UInt32, ps.kind, k)
+            _, o_obj, d_obj = _sphere_space(ps, k, o, d, active & (kind != PLANE))
+            o_k, d_k = dr.select(kind != PLANE, o_obj, o_k), dr.select(kind != PLANE, d_obj, d_k)
+        denom = _dot(nx, ny, nz, d_k)
+        t = (off - _dot(nx, ny, nz, o_k)) / denom
         ok = (denom != 0.0) & (t > t_min) & (t < best)
         if dr.hint(ps.spheres > 0, mode="scalar"):
-            is_sphere = dr.gather(mi.UInt32, ps.kind, k) == 1
-            s_hit, s_t = _sphere_t(ps, k, o, d, t_min, active & is_sphere)
+            is_sphere = (kind == SPHERE) | (kind == WORLD_SPHERE)
+            s_hit, s_t = _sphere_t(ps, k, o_k, d_k, t_min, active & is_sphere)
             t = dr.select(is_sphere, s_t, t)
             ok = dr.select(is_sphere, s_hit & (s_t < best), ok)
         best = dr.select(ok, t, best)
@@ -307,13 +348,17 @@ def plane_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool, o: mi.Point3f | 
                     dr.gather(mi.Float, ps.ny, idx, active) * inv,
                     dr.gather(mi.Float, ps.nz, idx, active) * inv)
     if ps.spheres > 0 and o is not None and d is not None and t is not None:
-        m = mi.Bool(active) & (dr.gather(mi.UInt32, ps.kind, idx, active) == 1)
-        a, o_obj, d_obj = _sphere_space(ps, idx, o, d, m)
+        kind = dr.gather(mi.UInt32, ps.kind, idx, active)
+        m = mi.Bool(active) & (kind != PLANE)
+        _, o_obj, d_obj = _sphere_space(ps, idx, o, d, m)
         c = mi.Vector3f(*[dr.gather(mi.Float, ps.centre[j], idx, m) for j in range(3)])
-        n_obj = _normalize((o_obj + d_obj * t) - c)
-        n_world = _normalize(mi.Vector3f(*[(a[i] * n_obj.x + a[3 + i] * n_obj.y) + a[6 + i] * n_obj.z
+        n_raw = mi.Vector3f(dr.gather(mi.Float, ps.nx, idx, m), dr.gather(mi.Float, ps.ny, idx, m),
+                            dr.gather(mi.Float, ps.nz, idx, m))
+        n_obj = dr.select(kind == PLACED_PLANE, n_raw, _normalize((o_obj + d_obj * t) - c))
+        b = [dr.gather(mi.Float, ps.inv3[j], idx, m) for j in range(9)]   # the Transform's normal map
+        n_world = _normalize(mi.Vector3f(*[(b[i] * n_obj.x + b[3 + i] * n_obj.y) + b[6 + i] * n_obj.z
                                            for i in range(3)]))
-        n = dr.select(m, n_world, n)
+        n = dr.select(m, dr.select(kind == WORLD_SPHERE, n_obj, n_world), n)
     return n
 
 
@@ -324,7 +369,7 @@ def plane_mirror_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool,
     m = mi.Vector3f(dr.gather(mi.Float, ps.mx, idx, active), dr.gather(mi.Float, ps.my, idx, active),
                     dr.gather(mi.Float, ps.mz, idx, active))
     if ps.spheres > 0 and n is not None:
-        m = dr.select(dr.gather(mi.UInt32, ps.kind, idx, active) == 1, n, m)
+        m = dr.select(dr.gather(mi.UInt32, ps.kind, idx, active) != PLANE, n, m)
     return m
 
 
@@ -334,14 +379,16 @@ def plane_bsdf(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool) -> mi.BSDFPtr:
 
 
 def replace_planes(integrator: Any, moved: dict[str, Any]) -> None:
-    """Give the planes ``moved`` (id -> (normal, offset, mirror normal); a sphere entry: id -> its new 4x4
-    ``to_world``) of an ``a5_whitted`` integrator new values, keeping their BSDFs (keyframed Transforms,
-    docs/EXTENSIONS.md E.11). The device arrays keep their length and are opaque (a one-plane array would be
-    a literal of the kernel), so the compiled kernel is reused."""
+    """Give the planes ``moved`` (id -> (normal, offset, mirror normal); a sphere or a plane inside a
+    ``Transform``: id -> its new 4x4 ``to_world``) of an ``a5_whitted`` integrator new values, keeping their
+    BSDFs (keyframed Transforms, docs/EXTENSIONS.md E.11). The device arrays keep their length and are opaque
+    (a one-plane array would be a literal of the kernel), so the compiled kernel is reused."""
     planes = []
     for p in integrator.planes:
         if p.pid in moved and p.sphere is not None:
             p = p._replace(sphere=(_matrix(moved[p.pid], f"plane_{p.pid}_to_world"), *p.sphere[1:]))
+        elif p.pid in moved and p.to_world is not None:
+            p = p._replace(to_world=_matrix(moved[p.pid], f"plane_{p.pid}_to_world"))
         elif p.pid in moved:
             n, off, mirror = moved[p.pid]
             p = p._replace(normal=n, offset=off, mirror=mirror)

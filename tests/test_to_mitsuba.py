@@ -135,8 +135,11 @@ def test_a6_sphere_similarity_vs_shapegroup(variant: str, scenes_dir: Path) -> N
     desc = describe(parse_file(scenes_dir / "scene10_sphere.txt"))
     sph = desc.shapes[0]
     assert isinstance(sph, SphereShape) and sph.to_world is None and list(sph.center) == [0.3, 0.0, -1.0]
-    d = to_dict(desc)
+    d = to_dict(desc, stock=True)
     assert d["sphere_000"]["type"] == "sphere" and d["sphere_000"]["center"] == [0.3, 0.0, -1.0]
+    d = to_dict(desc)   # a5: the binary's sphere test in a5_whitted, untransformed (identity)
+    assert d["integrator"]["plane_000_center"] == [0.3, 0.0, -1.0]
+    assert np.array_equal(np.array(d["integrator"]["plane_000_to_world"].matrix), np.eye(4))
     desc = describe(parse_file(scenes_dir / "scene03_sphere.txt"))  # ZRotate 45 * Scale 1 .2 1
     sph = desc.shapes[0]
     assert isinstance(sph, SphereShape) and sph.to_world is not None
@@ -205,14 +208,15 @@ def test_scene_ids_name_every_entry_of_every_kind(scenes_dir: Path, stock: bool)
     assert [o.kind for o in ids.objects] == ["sphere", "sphere", "plane", "triangle", "mesh"]
     assert [o.index for o in ids.objects] == [0, 1, 2, 3, 4]
     plain, moved, plane, tri, mesh = ids.objects
-    assert d[plain.entry]["type"] == "sphere" and plain.shape_ids == (plain.entry,)
     if stock:
+        assert d[plain.entry]["type"] == "sphere" and plain.shape_ids == (plain.entry,)
         assert d[moved.entry]["type"] == "instance" and d[moved.entry]["shapegroup"]["id"] == moved.group
         assert d[moved.group][moved.inner]["type"] == "sphere" and moved.shape_ids == (moved.entry, moved.inner)
-    else:   # exact, in a5_whitted's plane set
-        assert moved.key is None and moved.shape_ids == ()
-        for name in ("center", "radius", "to_world", "bsdf"):
-            assert moved.plane_param(name) in d["integrator"]
+    else:   # the binary's sphere test, in a5_whitted's plane set
+        for sphere in (plain, moved):
+            assert sphere.key is None and sphere.shape_ids == ()
+            for name in ("center", "radius", "to_world", "bsdf"):
+                assert sphere.plane_param(name) in d["integrator"]
     assert d[tri.entry]["type"] == d[mesh.entry]["type"] == "stub_mesh"
     if stock:
         assert plane.plane is None and d[plane.entry]["type"] == "rectangle"
@@ -253,6 +257,7 @@ def test_scene_ids_are_the_loaded_scene_ids(variant: str, scenes_dir: Path) -> N
     assert loaded - light_shapes == {o.entry for o in ids.objects if o.key is not None}
     params = mi.traverse(scene)
     plain, moved, _, tri, mesh = ids.objects
+    assert plain.key is None and plain.plane_param("center") in d["integrator"]
     for key in (f"{ids.lights[1].key}.position", f"{ids.lights[2].key}.position",
                 f"{tri.entry}.vertex_positions", f"{mesh.entry}.vertex_positions"):
         assert key in params, key
@@ -407,11 +412,9 @@ def test_shipped_scene_loads_stock(variant: str, path: Path) -> None:
 def test_shipped_scene_loads_with_a5_plugins(variant: str, path: Path) -> None:
     model = parse_file(path)
     scene = _load(to_dict(describe(model), RenderOptions(8, 8)))
-    # Planes (and spheres under a non-similarity transform) are not Mitsuba shapes here: a5_whitted intersects
-    # them analytically (SPEC A.6, plugins/planes.py).
-    n_planes = sum(type(p.primitive).__name__ == "Plane" or (type(p.primitive).__name__ == "Sphere" and
-                                                             tf.similarity_scale(p.to_world) is None)
-                   for p in model.objects)
+    # Planes and spheres are not Mitsuba shapes here: a5_whitted intersects them analytically (SPEC A.6,
+    # plugins/planes.py).
+    n_planes = sum(type(p.primitive).__name__ in ("Plane", "Sphere") for p in model.objects)
     assert len(scene.shapes()) == len(model.objects) - n_planes
     assert len(scene.integrator().planes) == n_planes
     assert len(scene.emitters()) == len(model.lights) + 1  # + the background
