@@ -193,3 +193,21 @@ def test_the_binary_runs_sandboxed_with_a_time_limit(tmp_path: Path) -> None:
     assert (img, status) == (None, "binary failed: exit 3")
     assert not escape.exists() and not (Path.cwd() / "escaped").exists()
     assert run_binary(binary, folder, ["sleep"], timeout=1) == (None, "timeout")
+
+
+def test_a_jittered_unfiltered_scene_is_compared_at_three_times_the_size(variant: str, a5_data: Path,
+                                                                           tmp_path: Path) -> None:
+    """``-jitter`` without ``-filter`` writes the 3W x 3H render (SPEC B.5): the binary's image is decoded and
+    compared, not refused as too large (a5 against itself: identical)."""
+    from a5mi import PROJECT_ROOT
+
+    (tmp_path / "bin").mkdir(mode=0o755)
+    exe = tmp_path / "bin" / "a5plain"
+    exe.write_text(f"#!{sys.executable}\nimport sys\nfrom a5mi.cli import run\nsys.exit(run(sys.argv[1:]))\n")
+    exe.chmod(0o755)
+    other = Binary(check_binary(exe), (sys.prefix, sys.base_prefix, str(PROJECT_ROOT)))
+    s = _glass_scene()
+    scene = GenScene(s.camera, s.lights, s.background, s.materials, s.objects[:1],
+                     Flags(size=24, bounces=0, jitter=True))
+    out = compare_scene(scene, other, a5_data / "scenes")
+    assert out.status == "ok" and math.isinf(out.psnr)
