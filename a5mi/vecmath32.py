@@ -27,7 +27,10 @@ def _cross32(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def camera_basis(direction: Sequence[float], up: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(w, u, v) of SPEC B.2 in float32: w = normalize(direction), u = normalize(w × up), v = normalize(u × w).
+    """(w, u, v) of SPEC B.2 in float32 as the binary computes them (read with gdb from its camera):
+    w = normalize(direction), u = normalize(direction × up), v = normalize(u × direction), the cross products
+    taken with the direction *as written* (equal to SPEC's w × up and u × w up to rounding; the last bits of v
+    decide grazing mirror re-hits of planes, docs/FIDELITY.md).
 
     ``direction`` and ``up`` need not be unit or perpendicular. Raises ``ValueError`` when they are
     parallel (or either is zero), where the binary would produce NaN rays.
@@ -38,8 +41,8 @@ def camera_basis(direction: Sequence[float], up: Sequence[float]) -> tuple[np.nd
         raise ValueError("camera direction and up must have 3 components")
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         w = _normalize32(d)
-        u = _normalize32(_cross32(w, upv))
-        v = _normalize32(_cross32(u, w))
+        u = _normalize32(_cross32(d, upv))
+        v = _normalize32(_cross32(u, d))
     if not all(np.all(np.isfinite(a)) and np.any(a != 0) for a in (w, u, v)):
         raise ValueError(f"camera direction {d.tolist()} and up {upv.tolist()} do not define a basis")
     return w, u, v

@@ -134,6 +134,9 @@ class SphereShape:
     loc: FileLoc
     to_world: np.ndarray | None = None
     has_uv: bool = False
+    #: Inside a ``Transform``: ``(M, centre, radius)`` as the binary holds them (``M`` its float32 matrix,
+    #: :func:`.transforms.binary_chain`; the object-space sphere as written), for a5_whitted's sphere test.
+    binary: tuple[np.ndarray, Vec3, float] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,6 +154,9 @@ class PlaneShape:
     loc: FileLoc
     has_uv: bool = False
     mirror_normal: np.ndarray | None = None
+    #: Inside a ``Transform``: ``(M, normal, offset)`` as the binary holds them (its float32 matrix and the
+    #: object-space plane as written), for a5_whitted's object-space plane test.
+    binary: tuple[np.ndarray, Vec3, float] | None = None
 
 
 Shape = MeshShape | SphereShape | PlaneShape
@@ -327,22 +333,26 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
             shapes.append(MeshShape(data, prim.material, prim.loc, obj_paths[prim.obj_file]))
             continue
         use_material(prim.material, False, prim)
+        chain = tf.binary_chain(p.levels)
         if isinstance(prim, Sphere):
+            binary = None if chain is None else (chain, prim.center, float(prim.radius))
             scale = tf.similarity_scale(m)
             if scale is not None:
                 center = tf.transform_points(m, np.asarray(prim.center))
                 check_float32(prim, center, prim.radius * scale)
                 shapes.append(SphereShape(tuple(float(x) for x in center), float(prim.radius * scale),  # type: ignore[arg-type]
-                                          prim.material, prim.loc))
+                                          prim.material, prim.loc, binary=binary))
             else:
                 check_float32(prim, m)
-                shapes.append(SphereShape(prim.center, float(prim.radius), prim.material, prim.loc, m.copy()))
+                shapes.append(SphereShape(prim.center, float(prim.radius), prim.material, prim.loc, m.copy(),
+                                          binary=binary))
         elif isinstance(prim, Plane):
             n_w, off_w = world_plane(prim, m)
             rect = plane_rectangle_to_world(n_w, off_w, cam_c)
             check_float32(prim, rect)
             mirror = n_w / np.linalg.norm(n_w) if p.transformed else n_w
-            shapes.append(PlaneShape(n_w, off_w, rect, prim.material, prim.loc, mirror_normal=mirror))
+            shapes.append(PlaneShape(n_w, off_w, rect, prim.material, prim.loc, mirror_normal=mirror,
+                                     binary=None if chain is None else (chain, prim.normal, float(prim.offset))))
         elif isinstance(prim, Triangle):
             data = mesh_from_triangle(prim, m)
             check_float32(prim, data.positions)

@@ -11,7 +11,7 @@
   (``AᵀA = s² I``, :func:`.transforms.similarity_scale`); otherwise the object-space sphere placed by
   ``to_world = M`` (a sphere with a non-uniform ``to_world`` gives wrong hits in Mitsuba 3.9.1, so the back
   ends instance it).
-* **Triangles**: a one-face mesh, as flat meshes above.
+* **Triangles**: a one-face mesh, as flat meshes above, with the binary's triangle-test rows.
 * **Planes** (infinite in the assignment: ``P·n = offset``, n not normalised): the world plane is
   ``π_w = M⁻ᵀ (n, −offset)`` (:func:`world_plane`). a5 renders intersect it exactly, analytically, inside
   ``a5_whitted`` (``plugins/planes.py``): no geometry stands in for it. Plain Mitsuba (``--stock``) needs a
@@ -60,7 +60,8 @@ class MeshData:
     texcoords: np.ndarray | None = None
     #: (F, 12) float32 per face for the binary's octree rule (:mod:`.octree`): the rows of the world-to-object
     #: matrix A = M⁻¹ (upper 3x3, 9 numbers), the two reach-mask words, and 1.0 if some ``Transform``
-    #: encloses the mesh, else 0.0. None for a ``Triangle`` (the binary tests it exactly).
+    #: encloses the mesh, else 0.0 (a ``Triangle``: every pattern reached, 2.0 outside any Transform,
+    #: :func:`mesh_from_triangle`).
     octree: np.ndarray | None = None
     #: (F, 21) float32 per face for the binary's triangle test and shading normal (:func:`triangle_rows`,
     #: plugins/triangle_rule.py); None where :attr:`octree` is None.
@@ -136,11 +137,27 @@ def mesh_from_obj(obj: ObjMesh, m: np.ndarray, normals: NormalMode = "auto",
     return MeshData(world, faces.astype(np.uint32), world_n, texcoords, rows, tris)
 
 
+#: The reach-mask words of a face every ray pattern reaches (24 bits each, :mod:`.octree`).
+ALL_REACHED = float((1 << 24) - 1)
+
+
 def mesh_from_triangle(tri: Triangle, m: np.ndarray) -> MeshData:
-    """One-face world-space mesh with a flat normal (winding reversed when det M < 0)."""
-    v = tf.transform_points(m, np.array([tri.vertex0, tri.vertex1, tri.vertex2], dtype=np.float64))
+    """One-face world-space mesh with a flat normal (winding reversed when det M < 0), carrying the binary's
+    triangle-test rows (plugins/triangle_rule.py: ``Triangle::intersect`` is the test meshes use) and octree
+    rows that every ray reaches (a ``Triangle`` has no octree); the octree row's last number is 2.0 for a
+    triangle outside any ``Transform`` (``M`` = I: its rays are not mapped, and a ``-0.0`` direction component
+    does not hide it), else 1.0."""
+    corners = np.array([tri.vertex0, tri.vertex1, tri.vertex2], dtype=np.float64)
+    v = tf.transform_points(m, corners)
     faces = _face_normals_flip(np.array([[0, 1, 2]]), m)
-    return MeshData(v, faces.astype(np.uint32))
+    rows = np.empty((1, 12), dtype=np.float32)
+    rows[0, :9] = np.linalg.inv(m[:3, :3]).astype(np.float32).ravel()
+    rows[0, 9:11], rows[0, 11] = ALL_REACHED, 2.0 if np.array_equal(m, np.eye(4)) else 1.0
+    tris = np.empty((1, 21), dtype=np.float32)
+    tris[0, :3] = np.linalg.inv(m)[:3, 3].astype(np.float32)
+    tris[0, 3:12] = corners.astype(np.float32).ravel()
+    tris[0, 12:] = binary_corner_normals(corners, np.array([[0, 1, 2]]), "flat").reshape(9)
+    return MeshData(v, faces.astype(np.uint32), octree=rows, triangles=tris)
 
 
 def world_plane(plane: Plane, m: np.ndarray) -> tuple[np.ndarray, float]:

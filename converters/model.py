@@ -319,18 +319,23 @@ class Placed:
     primitive: Primitive
     to_world: np.ndarray
     transformed: bool = False
+    #: The enclosing ``Transform`` blocks' keywords, outermost first, as ``(kind, values)`` pairs (for the
+    #: binary's float32 matrices, :func:`.transforms.binary_chain`).
+    levels: tuple[tuple[tuple[str, tuple[float, ...]], ...], ...] = ()
 
 
-def iter_placed(obj: Node, to_world: np.ndarray | None = None, transformed: bool = False) -> Iterator[Placed]:
+def iter_placed(obj: Node, to_world: np.ndarray | None = None, transformed: bool = False,
+                levels: tuple = ()) -> Iterator[Placed]:
     """Depth-first, file-order walk: ``to_world = M_outer @ ... @ M_inner`` (SPEC A.6)."""
     m = np.eye(4) if to_world is None else to_world
     if isinstance(obj, Group):
         for child in obj.children:
-            yield from iter_placed(child, m, transformed)
+            yield from iter_placed(child, m, transformed, levels)
     elif isinstance(obj, Transform):
-        yield from iter_placed(obj.child, m @ obj.matrix_array, True)
+        ops = tuple((op.kind, op.values) for op in obj.ops)
+        yield from iter_placed(obj.child, m @ obj.matrix_array, True, (*levels, ops))
     else:
-        yield Placed(obj, m, transformed)
+        yield Placed(obj, m, transformed, levels)
 
 
 # ---------------------------------------------------------------------------------------------------- animation

@@ -107,14 +107,17 @@ class SceneIds:
 
 def scene_ids(desc: SceneDescription, *, stock: bool = False) -> SceneIds:
     """The names of ``desc``'s objects and lights in the dict of :func:`.to_mitsuba.to_dict` (and the XML of
-    :mod:`.to_xml`) made with the same ``stock``: ``sphere_NNN`` (with ``sphere_NNN_group`` holding
-    ``sphere_NNN_shape`` when its transform is no similarity), ``plane_NNN`` (``--stock`` rectangle) or the
-    parameter id ``NNN`` (exact plane), ``triangle_NNN``, ``mesh_NNN``, ``light_NNN``; ``NNN`` the index,
-    three digits at least."""
+    :mod:`.to_xml`) made with the same ``stock``: the parameter id ``NNN`` for a sphere (intersected by
+    ``a5_whitted`` as the binary does, plugins/planes.py; with ``stock`` ``sphere_NNN``, and
+    ``sphere_NNN_group`` holding ``sphere_NNN_shape`` when its transform is no similarity), ``plane_NNN``
+    (``--stock`` rectangle) or the parameter id ``NNN`` (exact plane), ``triangle_NNN``, ``mesh_NNN``,
+    ``light_NNN``; ``NNN`` the index, three digits at least."""
     objects = []
     for i, shape in enumerate(desc.shapes):
         key = f"{shape_kind(shape)}_{i:03d}"
-        if isinstance(shape, SphereShape) and shape.to_world is not None:
+        if isinstance(shape, SphereShape) and not stock:
+            objects.append(ObjectIds(i, "sphere", None, plane=f"{i:03d}"))   # the binary's test, a5_whitted's
+        elif isinstance(shape, SphereShape) and shape.to_world is not None:
             objects.append(ObjectIds(i, "sphere", key, group=key + "_group", inner=key + "_shape"))
         elif isinstance(shape, PlaneShape) and not stock:
             objects.append(ObjectIds(i, "plane", None, plane=f"{i:03d}"))

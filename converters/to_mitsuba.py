@@ -237,7 +237,12 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
         bsdf = backend.bsdf(d, shape.material, shape.has_uv)
         if isinstance(shape, SphereShape):
             sphere = {"type": "sphere", "center": list(shape.center), "radius": float(shape.radius), "bsdf": bsdf}
-            if o.group is None or o.inner is None:
+            if o.plane is not None:   # a5: the binary's sphere test inside a5_whitted (plugins/planes.py)
+                to_world, centre, radius = shape.binary or (np.eye(4), shape.center, shape.radius)
+                d["integrator"].update({o.plane_param("center"): [float(x) for x in centre],
+                                        o.plane_param("radius"): float(radius),
+                                        o.plane_param("to_world"): to_world, o.plane_param("bsdf"): bsdf})
+            elif o.group is None or o.inner is None:
                 d[o.entry] = sphere
             else:
                 d[o.group] = {"type": "shapegroup", o.inner: sphere}  # the inner id names the object
@@ -248,8 +253,11 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
                 d[o.entry] = {"type": "rectangle", "to_world": shape.rectangle, "bsdf": bsdf}
             else:      # exact: intersected analytically by a5_whitted (plugins/planes.py)
                 mirror = shape.n_w if shape.mirror_normal is None else shape.mirror_normal
-                d["integrator"].update({o.plane_param("normal"): [float(x) for x in shape.n_w],
-                                        o.plane_param("offset"): float(shape.offset_w),
+                n, off = (shape.n_w, shape.offset_w) if shape.binary is None else shape.binary[1:]
+                if shape.binary is not None:   # in object space, as the binary's Transform does
+                    d["integrator"][o.plane_param("to_world")] = shape.binary[0]
+                d["integrator"].update({o.plane_param("normal"): [float(x) for x in n],
+                                        o.plane_param("offset"): float(off),
                                         o.plane_param("mirror_normal"): [float(x) for x in mirror],
                                         o.plane_param("bsdf"): bsdf})
         else:

@@ -159,3 +159,80 @@ def similarity_scale(m: np.ndarray, rtol: float = 1e-9) -> float | None:
     if s2 <= 0.0 or not np.allclose(gram, s2 * np.eye(3), rtol=0.0, atol=rtol * s2):
         return None
     return math.sqrt(s2)
+
+
+# ------------------------------------------------------------------------------------------- the binary's float32
+def _mul32(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """vecmath ``Matrix4f * Matrix4f`` in float32: ``p_ik = (((0 + x_i0 y_0k) + x_i1 y_1k) + x_i2 y_2k)
+    + x_i3 y_3k``."""
+    out = np.zeros((4, 4), dtype=np.float32)
+    for i in range(4):
+        for k in range(4):
+            acc = np.float32(0.0)
+            for j in range(4):
+                acc = np.float32(acc + np.float32(x[i, j] * y[j, k]))
+            out[i, k] = acc
+    return out
+
+
+def _radians32(degrees: float) -> np.float32:
+    """The binary's ``(float)((double)(float)a * π / 180.0)``."""
+    return np.float32(float(np.float32(degrees)) * math.pi / 180.0)
+
+
+def _cos_sin32(degrees: float) -> tuple[np.float32, np.float32]:
+    r = float(_radians32(degrees))
+    return np.float32(math.cos(r)), np.float32(math.sin(r))
+
+
+def _keyword32(kind: str, a: Sequence[float]) -> np.ndarray:
+    f = [np.float32(x) for x in a]
+    m = np.eye(4, dtype=np.float32)
+    if kind == "Translate":
+        m[:3, 3] = f[:3]
+    elif kind == "Scale":
+        m[0, 0], m[1, 1], m[2, 2] = f[:3]
+    elif kind == "UniformScale":
+        m[0, 0] = m[1, 1] = m[2, 2] = f[0]
+    elif kind in ("XRotate", "YRotate", "ZRotate"):
+        c, s = _cos_sin32(a[0])
+        i, j = {"XRotate": (1, 2), "YRotate": (2, 0), "ZRotate": (0, 1)}[kind]
+        m[i, i], m[i, j], m[j, i], m[j, j] = c, -s, s, c
+    elif kind == "Rotate":
+        x, y, z = f[:3]
+        norm = np.float32(math.sqrt(float(np.float32(np.float32(x * x + y * y) + z * z))))
+        x, y, z = x / norm, y / norm, z / norm
+        c, s = _cos_sin32(a[3])
+        t = np.float32(1.0) - c
+        m[:3, :3] = [[x * x * t + c, y * x * t - z * s, z * x * t + y * s],
+                     [x * y * t + z * s, y * y * t + c, z * y * t - x * s],
+                     [x * z * t - y * s, y * z * t + x * s, z * z * t + c]]
+    elif kind == "Matrix4f":
+        m = np.asarray(f, dtype=np.float32).reshape(4, 4).T.copy()
+    else:
+        raise ValueError(f"unknown transform keyword {kind!r}")
+    return m
+
+
+def binary_matrix(ops: Sequence[tuple[str, Sequence[float]]]) -> np.ndarray:
+    """A ``Transform`` block's matrix as the sample solution builds it (SPEC A.6; read from the binary and
+    vecmath): every keyword's matrix in float32 (angles ``(float)((double)a π / 180)``, ``cosf``/``sinf``;
+    ``Rotate`` with vecmath's ``rotation(axis, radians)``), composed by float32 products in the A.6 order
+    (``M = M T``, ``Matrix4f``: ``M = G M``). A float32 (4, 4) array."""
+    m = np.eye(4, dtype=np.float32)
+    for kind, args in ops:
+        t = _keyword32(kind, args)
+        m = _mul32(t, m) if kind == "Matrix4f" else _mul32(m, t)
+    return m
+
+
+def binary_chain(levels: Sequence[Sequence[tuple[str, Sequence[float]]]]) -> np.ndarray | None:
+    """The object-to-world matrix of a primitive inside the ``Transform`` blocks ``levels`` (outermost
+    first), each as :func:`binary_matrix`, multiplied in float32 (the binary maps a ray through each level
+    in turn; one product stands for them: exact for one level). None outside any ``Transform``."""
+    if not levels:
+        return None
+    m = binary_matrix(levels[0])
+    for ops in levels[1:]:
+        m = _mul32(m, binary_matrix(ops))
+    return m.astype(np.float64)

@@ -7,7 +7,7 @@ the rule as face attributes (written by the converter; absent on meshes from els
 intersected exactly)::
 
     face_a5_inv0, face_a5_inv1, face_a5_inv2   rows of A = M⁻¹ (world to object, upper 3x3)
-    face_a5_octree                             (mask word 0, mask word 1, transformed 0/1)
+    face_a5_octree                             (mask word 0, mask word 1, transformed 0/1; 2: a Triangle)
 
 For a hit on such a face and world direction ``d``: ``d_o = A d`` (vecmath order ``(a_0 d_x + a_1 d_y) +
 a_2 d_z``); zero axes ``zmask`` (x=1, y=2, z=4), negative finite axes ``neg``; an untransformed mesh sees
@@ -131,6 +131,12 @@ def intersect(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, a
         skip &= again
         n += 1
     row = dr.select(skip, 0, row)
+    if dr.hint(table is not None and table.partners is not None, mode="scalar"):
+        # exact depth ties between coincident faces of different meshes: the binary's Group order
+        row, t_b, n_b, moved = triangle_rule.coincident(table, row, t_b, n_b, o, d, t_min, active)
+        shape, face = triangle_rule.mesh_of(table, row, moved)
+        si.shape = dr.select(moved, shape, si.shape)
+        si.prim_index = dr.select(moved, face, si.prim_index)
     binary = row > 0
     si.t = dr.select(binary, t_b, si.t)
     offset = dr.select(binary, 0.0, offset)

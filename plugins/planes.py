@@ -18,6 +18,23 @@ Transform, because the binary mirrors and refracts with it (measured against a5s
 written), so the mirror ray is not a unit vector after such a plane; the binary's Transform normalises the
 normals it maps, so transformed planes get ``n_w/|n_w|``. Plane data lives in device arrays gathered by
 index with an opaque count, so scenes with any number of planes share one compiled kernel.
+
+**Spheres under a non-similarity transform** travel the same way (an exact analytic primitive of the same
+index space, so that plane/sphere ties keep the scene order): ``plane_<id>_center`` point, ``plane_<id>_radius``
+float, ``plane_<id>_to_world`` transform (the object-to-world ``M``) and ``plane_<id>_bsdf``. They are
+intersected as the binary's ``Transform::intersect`` and ``Sphere::intersect`` do (SPEC A.6, B.3 notes; read
+from the binary): the ray goes into object space unnormalised, ``o' = A o + T``, ``d' = A d`` (``A | T`` =
+``M⁻¹`` rounded once to float32; vecmath sums ``((0 + a_0 v_0) + a_1 v_1) + a_2 v_2``, plus ``T`` for points),
+then in float32 with ``q = o' − c``::
+
+    a = (d'_x² + d'_y²) + d'_z²,   b = 2 (d'·q),   c = q·q − r²,   disc = b² − (4a) c      (miss if disc < 0)
+    t₊ = (float)((double)(√disc − b) / (2.0 (double)a)),   t₋ = (float)((double)(−b − √disc) / (2.0 (double)a))
+    t  = t₋ if t₋ > tmin else 10000;  if t₊ > tmin: t = t if t₋ >= tmin else t₊;  miss if tmin > t₊ and tmin > t₋
+
+and the hit counts when ``t < t_current`` (strict: the earlier of two coincident spheres wins). The shading
+normal is ``normalize(Aᵀ normalize(o' + t d' − c))`` (the binary maps it by ``(M₃⁻¹)ᵀ``); mirror and refracted
+rays turn about it. Mitsuba's own sphere under such a ``to_world`` (an instance) misses or speckles: a
+``Scale 1 1 0.01`` sphere under ``XRotate 60`` read 21.3 dB from a5soln at 100 x 100 that way.
 """
 
 from __future__ import annotations
@@ -25,19 +42,23 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import drjit as dr
 import mitsuba as mi
+import numpy as np
 
 from .syntax import syntax
 
-_KEY = re.compile(r"^plane_(.+?)_(normal|offset|bsdf|mirror_normal)$")
+_KEY = re.compile(r"^plane_(.+?)_(normal|offset|bsdf|mirror_normal|center|radius|to_world)$")
 
 
 @dataclass
 class PlaneSet:
-    """The planes of an ``a5_whitted`` integrator as device arrays (length ``max(count, 1)``)."""
+    """The planes of an ``a5_whitted`` integrator as device arrays (length ``max(count, 1)``); with
+    ``spheres`` > 0 also the non-similarity spheres' arrays (module docstring; a sphere's plane normal is 0,
+    so the plane test never hits it): ``kind`` (1: a sphere), ``a`` (the 9 entries of ``A`` row by row),
+    ``tr`` (``T``), ``centre``, ``radius``."""
 
     nx: mi.Float
     ny: mi.Float
@@ -50,6 +71,13 @@ class PlaneSet:
     bsdf: mi.BSDFPtr
     count: mi.UInt32
     size: int
+    spheres: int = 0
+    kind: mi.UInt32 | None = None
+    a: tuple[mi.Float, ...] = ()
+    tr: tuple[mi.Float, ...] = ()
+    centre: tuple[mi.Float, ...] = ()
+    radius: mi.Float | None = None
+    inv3: tuple[mi.Float, ...] = ()
 
 
 def _vec3(value: Any, key: str) -> tuple[float, float, float]:
@@ -64,22 +92,69 @@ def _vec3(value: Any, key: str) -> tuple[float, float, float]:
     return out  # type: ignore[return-value]
 
 
-Plane = tuple[str, tuple[float, float, float], float, Any, tuple[float, float, float]]
+class Plane(NamedTuple):
+    """One exact primitive of :func:`planes_from_props`: a plane (``normal``, ``offset``, ``mirror``) or, with
+    ``sphere`` = ``(M as 16 numbers row by row, centre, radius)``, a non-similarity sphere (``normal`` and
+    ``mirror`` zero)."""
+
+    pid: str
+    normal: tuple[float, float, float]
+    offset: float
+    bsdf: Any
+    mirror: tuple[float, float, float]
+    sphere: tuple[tuple[float, ...], tuple[float, float, float], float] | None = None
+    #: A plane inside a ``Transform``: its ``M`` (16 numbers row by row); ``normal``, ``offset`` are then the
+    #: object-space plane as written, intersected in object space as the binary does.
+    to_world: tuple[float, ...] | None = None
+
+
+def _order(pid: str) -> tuple[int, int | str]:
+    """Scene order of the ids (the converter writes the object index, ``NNN``); other ids after, by name."""
+    return (0, int(pid)) if pid.isdigit() else (1, pid)
+
+
+def _matrix(value: Any, key: str) -> tuple[float, ...]:
+    try:
+        m = np.array(value.matrix if hasattr(value, "matrix") else value, dtype=np.float64).reshape(4, 4)
+    except (TypeError, ValueError):
+        raise ValueError(f"a5_whitted: '{key}' must be a 4x4 transform, got {value!r}") from None
+    if not np.all(np.isfinite(m)) or np.linalg.det(m[:3, :3]) == 0.0:
+        raise ValueError(f"a5_whitted: '{key}' must be finite and invertible")
+    return tuple(float(x) for x in m.ravel())
+
+
+def _sphere(pid: str, parts: dict[str, Any]) -> tuple[tuple[float, ...], tuple[float, float, float], float]:
+    missing = [k for k in ("center", "radius") if k not in parts]
+    if missing:
+        raise ValueError(f"a5_whitted: sphere '{pid}' lacks 'plane_{pid}_{missing[0]}'")
+    c = _vec3(parts["center"], f"plane_{pid}_center")
+    r = parts["radius"]
+    if isinstance(r, bool) or not isinstance(r, (int, float)) or not math.isfinite(r) or r <= 0.0 or \
+            not all(math.isfinite(x) for x in c):
+        raise ValueError(f"a5_whitted: sphere '{pid}' needs a finite centre and a radius > 0")
+    return _matrix(parts["to_world"], f"plane_{pid}_to_world"), c, float(r)
 
 
 def planes_from_props(props: mi.Properties) -> list[Plane]:
-    """``[(id, normal, offset, bsdf, mirror normal), ...]`` from the ``plane_<id>_*`` parameters, by id.
+    """The :class:`Plane` s of the ``plane_<id>_*`` parameters, in scene order of their ids.
 
-    Every plane needs all three parameters; a zero or non-finite normal or a non-finite offset is a
-    ``ValueError`` naming the parameter."""
+    Every plane needs ``normal``, ``offset``, ``bsdf``, every sphere ``to_world``, ``center``, ``radius``,
+    ``bsdf``; a zero or non-finite normal, a non-finite offset, a singular ``to_world`` or a radius <= 0 is
+    a ``ValueError`` naming the parameter."""
     found: dict[str, dict[str, Any]] = {}
     for key in props.keys():
         m = _KEY.match(key)
         if m:
             found.setdefault(m.group(1), {})[m.group(2)] = props.get(key)
     out = []
-    for pid in sorted(found):
+    for pid in sorted(found, key=_order):
         parts = found[pid]
+        bsdf = parts.get("bsdf")
+        if "to_world" in parts and "normal" not in parts:
+            if not isinstance(bsdf, mi.BSDF):
+                raise ValueError(f"a5_whitted: 'plane_{pid}_bsdf' must be a BSDF")
+            out.append(Plane(pid, (0.0, 0.0, 0.0), 0.0, bsdf, (0.0, 0.0, 0.0), _sphere(pid, parts)))
+            continue
         missing = [k for k in ("normal", "offset", "bsdf") if k not in parts]
         if missing:
             raise ValueError(f"a5_whitted: plane '{pid}' lacks 'plane_{pid}_{missing[0]}'")
@@ -89,14 +164,66 @@ def planes_from_props(props: mi.Properties) -> list[Plane]:
         off = parts["offset"]
         if isinstance(off, bool) or not isinstance(off, (int, float)) or not math.isfinite(off):
             raise ValueError(f"a5_whitted: 'plane_{pid}_offset' must be a finite number, got {off!r}")
-        bsdf = parts["bsdf"]
         if not isinstance(bsdf, mi.BSDF):
             raise ValueError(f"a5_whitted: 'plane_{pid}_bsdf' must be a BSDF, got {type(bsdf).__name__}")
         length = math.sqrt(sum(c * c for c in n))
         mirror = _vec3(parts["mirror_normal"], f"plane_{pid}_mirror_normal") if "mirror_normal" in parts else \
             tuple(c / length for c in n)
-        out.append((pid, n, float(off), bsdf, mirror))
+        placed = _matrix(parts["to_world"], f"plane_{pid}_to_world") if "to_world" in parts else None
+        out.append(Plane(pid, n, float(off), bsdf, mirror, None, placed))  # type: ignore[arg-type]
     return out
+
+
+#: The 16 numbers of the identity: a sphere outside any ``Transform`` (its normal is not mapped).
+IDENTITY = tuple(float(x) for x in np.eye(4).ravel())
+#: Entry kinds (:attr:`PlaneSet.kind`): a world-space plane, a sphere inside a ``Transform``, a sphere outside
+#: any, a plane inside a ``Transform`` (object space).
+PLANE, SPHERE, WORLD_SPHERE, PLACED_PLANE = 0, 1, 2, 3
+
+
+def _det3(m00: Any, m01: Any, m02: Any, m10: Any, m11: Any, m12: Any, m20: Any, m21: Any, m22: Any) -> Any:
+    return (m00 * (m11 * m22 - m12 * m21) - m01 * (m10 * m22 - m12 * m20)) + m02 * (m10 * m21 - m11 * m20)
+
+
+def inverse32(m: np.ndarray) -> np.ndarray:
+    """vecmath's ``Matrix4f::inverse`` of ``m`` rounded to float32, in float32: the cofactors as 3x3
+    determinants ``m00 (m11 m22 − m12 m21) − m01 (m10 m22 − m12 m20) + m02 (m10 m21 − m11 m20)``, the
+    determinant ``m00 c00 + m01 c01 + m02 c02 + m03 c03`` left to right, each cofactor times ``1/det``."""
+    e = m.astype(np.float32)
+    g = [[e[i, j] for j in range(4)] for i in range(4)]
+
+    def cof(i: int, j: int) -> np.float32:
+        rows = [r for r in range(4) if r != i]
+        cols = [c for c in range(4) if c != j]
+        # vecmath's cyclic argument order: rows i+1.., columns j+1.. (as Matrix4f.cpp writes them out)
+        rows = [(i + k) % 4 for k in (1, 2, 3)]
+        cols = [(j + k) % 4 for k in (1, 2, 3)]
+        sign = np.float32(1.0 if (i + j) % 2 == 0 else -1.0)
+        return sign * _det3(*[g[r][c] for r in rows for c in cols])
+
+    c = [[cof(i, j) for j in range(4)] for i in range(4)]
+    det = ((g[0][0] * c[0][0] + g[0][1] * c[0][1]) + g[0][2] * c[0][2]) + g[0][3] * c[0][3]
+    r = np.float32(1.0) / det
+    return np.array([[c[j][i] * r for j in range(4)] for i in range(4)], dtype=np.float32)
+
+
+def inverse33(m: np.ndarray) -> np.ndarray:
+    """vecmath's ``Matrix3f::inverse`` of ``m`` rounded to float32, in float32 (the normal map of the binary's
+    ``Transform``: cofactors ``p s − q r``, determinant ``m00 c00 + m01 c01 + m02 c02``, times ``1/det``)."""
+    e = m.astype(np.float32)
+
+    def det2(p: Any, q: Any, r: Any, t: Any) -> Any:
+        return p * t - q * r
+
+    c = [[det2(e[1, 1], e[1, 2], e[2, 1], e[2, 2]), -det2(e[1, 0], e[1, 2], e[2, 0], e[2, 2]),
+          det2(e[1, 0], e[1, 1], e[2, 0], e[2, 1])],
+         [-det2(e[0, 1], e[0, 2], e[2, 1], e[2, 2]), det2(e[0, 0], e[0, 2], e[2, 0], e[2, 2]),
+          -det2(e[0, 0], e[0, 1], e[2, 0], e[2, 1])],
+         [det2(e[0, 1], e[0, 2], e[1, 1], e[1, 2]), -det2(e[0, 0], e[0, 2], e[1, 0], e[1, 2]),
+          det2(e[0, 0], e[0, 1], e[1, 0], e[1, 1])]]
+    det = (e[0, 0] * c[0][0] + e[0, 1] * c[0][1]) + e[0, 2] * c[0][2]
+    r = np.float32(1.0) / det
+    return np.array([[c[j][i] * r for j in range(3)] for i in range(3)], dtype=np.float32)
 
 
 def plane_set(planes: list[Plane]) -> PlaneSet:
@@ -105,13 +232,34 @@ def plane_set(planes: list[Plane]) -> PlaneSet:
         z = mi.Float([0.0])
         return PlaneSet(z, z, z, z, z, z, z, z, dr.zeros(mi.BSDFPtr, 1), dr.opaque(mi.UInt32, 0), 0)
     cols = list(zip(*[p[1] for p in planes], strict=True))
-    inv = [1.0 / math.sqrt(sum(c * c for c in p[1])) for p in planes]
+    inv = [0.0 if p.sphere is not None else 1.0 / math.sqrt(sum(c * c for c in p[1])) for p in planes]
     ptrs = mi.BSDFPtr([p[3] for p in planes])
     mirror = list(zip(*[p[4] for p in planes], strict=True))
     arrays = [mi.Float(c) for c in cols] + [mi.Float([p[2] for p in planes]), mi.Float(inv)] + \
         [mi.Float(c) for c in mirror]
     dr.make_opaque(ptrs, *arrays)  # literals of a one-plane scene would bake its values into the kernel
-    return PlaneSet(*arrays, ptrs, dr.opaque(mi.UInt32, len(planes)), len(planes))
+    out = PlaneSet(*arrays, ptrs, dr.opaque(mi.UInt32, len(planes)), len(planes))
+    if any(p.sphere is not None or p.to_world is not None for p in planes):
+        rows = np.zeros((len(planes), 25), dtype=np.float32)
+        kinds = []
+        for k, p in enumerate(planes):
+            m = p.sphere[0] if p.sphere is not None else p.to_world
+            if m is not None:
+                inverse = inverse32(np.array(m, dtype=np.float64).reshape(4, 4))
+                rows[k, :9], rows[k, 9:12] = inverse[:3, :3].ravel(), inverse[:3, 3]
+                rows[k, 16:] = inverse33(np.array(m, dtype=np.float64).reshape(4, 4)[:3, :3]).ravel()
+            if p.sphere is not None:
+                rows[k, 12:15], rows[k, 15] = p.sphere[1], p.sphere[2]
+            kinds.append(PLANE if m is None else PLACED_PLANE if p.sphere is None else
+                         SPHERE if m != IDENTITY else WORLD_SPHERE)
+        sphere_arrays = [mi.Float(rows[:, j].tolist()) for j in range(25)]
+        kind = mi.UInt32(kinds)
+        dr.make_opaque(kind, *sphere_arrays)
+        out.spheres = sum(k != PLANE for k in kinds)
+        out.kind, out.a, out.tr = kind, tuple(sphere_arrays[:9]), tuple(sphere_arrays[9:12])
+        out.centre, out.radius = tuple(sphere_arrays[12:15]), sphere_arrays[15]
+        out.inv3 = tuple(sphere_arrays[16:])
+    return out
 
 
 def _dot(ax: mi.Float, ay: mi.Float, az: mi.Float, v: mi.Vector3f) -> mi.Float:
@@ -119,11 +267,44 @@ def _dot(ax: mi.Float, ay: mi.Float, az: mi.Float, v: mi.Vector3f) -> mi.Float:
     return (ax * v.x + ay * v.y) + az * v.z
 
 
+def _sphere_space(ps: PlaneSet, k: mi.UInt32, o: mi.Point3f, d: mi.Vector3f,
+                  m: mi.Bool) -> tuple[list[mi.Float], mi.Vector3f, mi.Vector3f]:
+    """``(A, o', d')`` of sphere entry ``k``: ``A`` as 9 floats, the ray in object space (module docstring)."""
+    a = [dr.gather(mi.Float, ps.a[j], k, m) for j in range(9)]
+    tr = [dr.gather(mi.Float, ps.tr[j], k, m) for j in range(3)]
+    o_obj = mi.Vector3f(*[_dot(a[3 * i], a[3 * i + 1], a[3 * i + 2], mi.Vector3f(o)) + tr[i] for i in range(3)])
+    d_obj = mi.Vector3f(*[_dot(a[3 * i], a[3 * i + 1], a[3 * i + 2], d) for i in range(3)])
+    return a, o_obj, d_obj
+
+
+def _sphere_t(ps: PlaneSet, k: mi.UInt32, o_obj: mi.Vector3f, d_obj: mi.Vector3f, t_min: mi.Float,
+              m: mi.Bool) -> tuple[mi.Bool, mi.Float]:
+    """``(hit, t)`` of ``Sphere::intersect`` on sphere entry ``k`` for the object-space ray ``(o', d')``
+    (module docstring), before the ``t < t_current`` test."""
+    c = mi.Vector3f(*[dr.gather(mi.Float, ps.centre[j], k, m) for j in range(3)])
+    r = dr.gather(mi.Float, ps.radius, k, m)
+    q = o_obj - c
+    a2 = _dot(d_obj.x, d_obj.y, d_obj.z, d_obj)
+    b = _dot(d_obj.x, d_obj.y, d_obj.z, q)
+    b = b + b
+    cc = _dot(q.x, q.y, q.z, q) - r * r
+    disc = b * b - (4.0 * a2) * cc
+    root = dr.sqrt(dr.maximum(disc, 0.0))
+    den = 2.0 * mi.Float64(a2)
+    t_far = mi.Float(mi.Float64(root - b) / den)
+    t_near = mi.Float(mi.Float64(-b - root) / den)
+    t = dr.select(t_min < t_near, t_near, 10000.0)
+    t = dr.select(t_far > t_min, dr.select(t_near >= t_min, t, t_far), t)
+    hit = m & (disc >= 0.0) & ~((t_min > t_far) & (t_min > t_near))     # NaN: a miss, as in the binary
+    return hit, t
+
+
 @syntax
 def intersect_planes(ps: PlaneSet, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, t_max: mi.Float,
                      active: mi.Bool) -> tuple[mi.Bool, mi.Float, mi.UInt32]:
-    """Nearest plane hit with ``t_min < t < t_max`` (SPEC A.6): ``(hit, t, plane index)``; ``t = t_max``
-    and index 0 where no plane is hit."""
+    """Nearest plane (or non-similarity sphere) hit with ``t_min < t < t_max`` (SPEC A.6; spheres by the
+    binary's rule, module docstring): ``(hit, t, plane index)``; ``t = t_max`` and index 0 where nothing is
+    hit. Entries are tested in scene order with ``t < best``: of two coincident ones the first wins."""
     k = dr.zeros(mi.UInt32, dr.width(d))
     best = mi.Float(t_max)
     idx = dr.zeros(mi.UInt32, dr.width(d))
@@ -133,9 +314,19 @@ def intersect_planes(ps: PlaneSet, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Floa
         ny = dr.gather(mi.Float, ps.ny, k)
         nz = dr.gather(mi.Float, ps.nz, k)
         off = dr.gather(mi.Float, ps.offset, k)
-        denom = _dot(nx, ny, nz, d)
-        t = (off - _dot(nx, ny, nz, mi.Vector3f(o))) / denom
+        o_k, d_k = mi.Vector3f(o), mi.Vector3f(d)
+        if dr.hint(ps.spheres > 0, mode="scalar"):
+            kind = dr.gather(mi.UInt32, ps.kind, k)
+            _, o_obj, d_obj = _sphere_space(ps, k, o, d, active & (kind != PLANE))
+            o_k, d_k = dr.select(kind != PLANE, o_obj, o_k), dr.select(kind != PLANE, d_obj, d_k)
+        denom = _dot(nx, ny, nz, d_k)
+        t = (off - _dot(nx, ny, nz, o_k)) / denom
         ok = (denom != 0.0) & (t > t_min) & (t < best)
+        if dr.hint(ps.spheres > 0, mode="scalar"):
+            is_sphere = (kind == SPHERE) | (kind == WORLD_SPHERE)
+            s_hit, s_t = _sphere_t(ps, k, o_k, d_k, t_min, active & is_sphere)
+            t = dr.select(is_sphere, s_t, t)
+            ok = dr.select(is_sphere, s_hit & (s_t < best), ok)
         best = dr.select(ok, t, best)
         idx = dr.select(ok, k, idx)
         found |= ok
@@ -143,18 +334,43 @@ def intersect_planes(ps: PlaneSet, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Floa
     return found, best, idx
 
 
-def plane_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool) -> mi.Vector3f:
-    """The shading normal ``n/|n|`` of plane ``idx`` (never flipped toward the viewer)."""
+def _normalize(v: mi.Vector3f) -> mi.Vector3f:
+    length = dr.sqrt(_dot(v.x, v.y, v.z, v))
+    return mi.Vector3f(v.x / length, v.y / length, v.z / length)
+
+
+def plane_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool, o: mi.Point3f | None = None,
+                 d: mi.Vector3f | None = None, t: mi.Float | None = None) -> mi.Vector3f:
+    """The shading normal ``n/|n|`` of plane ``idx`` (never flipped toward the viewer); for a sphere entry
+    (the scene has some: ``o``, ``d``, ``t`` of the hit needed) ``normalize(Aᵀ normalize(o' + t d' − c))``."""
     inv = dr.gather(mi.Float, ps.inv_len, idx, active)
-    return mi.Vector3f(dr.gather(mi.Float, ps.nx, idx, active) * inv,
-                       dr.gather(mi.Float, ps.ny, idx, active) * inv,
-                       dr.gather(mi.Float, ps.nz, idx, active) * inv)
+    n = mi.Vector3f(dr.gather(mi.Float, ps.nx, idx, active) * inv,
+                    dr.gather(mi.Float, ps.ny, idx, active) * inv,
+                    dr.gather(mi.Float, ps.nz, idx, active) * inv)
+    if ps.spheres > 0 and o is not None and d is not None and t is not None:
+        kind = dr.gather(mi.UInt32, ps.kind, idx, active)
+        m = mi.Bool(active) & (kind != PLANE)
+        _, o_obj, d_obj = _sphere_space(ps, idx, o, d, m)
+        c = mi.Vector3f(*[dr.gather(mi.Float, ps.centre[j], idx, m) for j in range(3)])
+        n_raw = mi.Vector3f(dr.gather(mi.Float, ps.nx, idx, m), dr.gather(mi.Float, ps.ny, idx, m),
+                            dr.gather(mi.Float, ps.nz, idx, m))
+        n_obj = dr.select(kind == PLACED_PLANE, n_raw, _normalize((o_obj + d_obj * t) - c))
+        b = [dr.gather(mi.Float, ps.inv3[j], idx, m) for j in range(9)]   # the Transform's normal map
+        n_world = _normalize(mi.Vector3f(*[(b[i] * n_obj.x + b[3 + i] * n_obj.y) + b[6 + i] * n_obj.z
+                                           for i in range(3)]))
+        n = dr.select(m, dr.select(kind == WORLD_SPHERE, n_obj, n_world), n)
+    return n
 
 
-def plane_mirror_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool) -> mi.Vector3f:
-    """The normal plane ``idx`` mirrors rays about (``plane_<id>_mirror_normal``, module docstring)."""
-    return mi.Vector3f(dr.gather(mi.Float, ps.mx, idx, active), dr.gather(mi.Float, ps.my, idx, active),
-                       dr.gather(mi.Float, ps.mz, idx, active))
+def plane_mirror_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool,
+                        n: mi.Vector3f | None = None) -> mi.Vector3f:
+    """The normal plane ``idx`` mirrors rays about (``plane_<id>_mirror_normal``, module docstring); a sphere
+    entry mirrors about its shading normal ``n``."""
+    m = mi.Vector3f(dr.gather(mi.Float, ps.mx, idx, active), dr.gather(mi.Float, ps.my, idx, active),
+                    dr.gather(mi.Float, ps.mz, idx, active))
+    if ps.spheres > 0 and n is not None:
+        m = dr.select(dr.gather(mi.UInt32, ps.kind, idx, active) != PLANE, n, m)
+    return m
 
 
 def plane_bsdf(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool) -> mi.BSDFPtr:
@@ -162,14 +378,21 @@ def plane_bsdf(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool) -> mi.BSDFPtr:
     return dr.gather(mi.BSDFPtr, ps.bsdf, idx, active)
 
 
-def replace_planes(integrator: Any, moved: dict[str, tuple[tuple[float, float, float], float,
-                                                          tuple[float, float, float]]]) -> None:
-    """Give the planes ``moved`` (id -> (normal, offset, mirror normal)) of an ``a5_whitted`` integrator new
-    values, keeping their BSDFs (keyframed Transforms, docs/EXTENSIONS.md E.11). The device arrays keep their
-    length and are opaque (a one-plane array would be a literal of the kernel), so the compiled kernel is
-    reused."""
-    planes = [(pid, *moved[pid][:2], bsdf, moved[pid][2]) if pid in moved else (pid, n, off, bsdf, mirror)
-              for pid, n, off, bsdf, mirror in integrator.planes]
+def replace_planes(integrator: Any, moved: dict[str, Any]) -> None:
+    """Give the planes ``moved`` (id -> (normal, offset, mirror normal); a sphere or a plane inside a
+    ``Transform``: id -> its new 4x4 ``to_world``) of an ``a5_whitted`` integrator new values, keeping their
+    BSDFs (keyframed Transforms, docs/EXTENSIONS.md E.11). The device arrays keep their length and are opaque
+    (a one-plane array would be a literal of the kernel), so the compiled kernel is reused."""
+    planes = []
+    for p in integrator.planes:
+        if p.pid in moved and p.sphere is not None:
+            p = p._replace(sphere=(_matrix(moved[p.pid], f"plane_{p.pid}_to_world"), *p.sphere[1:]))
+        elif p.pid in moved and p.to_world is not None:
+            p = p._replace(to_world=_matrix(moved[p.pid], f"plane_{p.pid}_to_world"))
+        elif p.pid in moved:
+            n, off, mirror = moved[p.pid]
+            p = p._replace(normal=n, offset=off, mirror=mirror)
+        planes.append(p)
     integrator.planes = planes
     ps = plane_set(planes)
     dr.make_opaque(ps.nx, ps.ny, ps.nz, ps.offset, ps.inv_len, ps.mx, ps.my, ps.mz)

@@ -34,6 +34,7 @@ plus one, 0 for "not a rule-mesh face".
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import drjit as dr
@@ -54,6 +55,12 @@ _SLOT = {name: k for k, name in enumerate(ROW_ATTRIBUTES)}
 #: read with nine 4-float packet gathers (one vector load per lane each; a ``Vector3f`` gather is three
 #: scalar gathers in Dr.Jit's LLVM backend).
 ROW_FLOATS = 36
+#: Where a row keeps its mesh's number (in row order) and its face index (two of the padding floats).
+MESH_SLOT = 33
+#: Coincident faces of other rule meshes kept per face (:func:`coincident_faces`), and the largest group of
+#: coplanar faces searched for them.
+PARTNERS = 4
+MAX_GROUP = 4096
 
 
 @dataclass
@@ -68,6 +75,10 @@ class RuleTable:
     base: mi.UInt32
     last: mi.UInt32   # len(base) - 1, opaque (a literal would differ between scenes and recompile the kernel)
     key: tuple
+    #: :data:`PARTNERS` rows per row: coincident faces of *other* rule meshes (0: none), or None when no face
+    #: has one (:func:`coincident`); ``shapes``: the rule meshes, in row order.
+    partners: mi.UInt32 | None = None
+    shapes: mi.ShapePtr | None = None
 
 
 def _shape_id(shape: mi.Shape) -> int:
@@ -77,7 +88,8 @@ def _shape_id(shape: mi.Shape) -> int:
 def rule_table(scene: mi.Scene, cached: RuleTable | None = None) -> RuleTable | None:
     """The :class:`RuleTable` of ``scene`` (None when no shape carries the binary's triangle data);
     ``cached`` is returned as it is when its attribute buffers are still the scene's."""
-    meshes = [s for s in scene.shapes() if isinstance(s, mi.Mesh) and s.has_attribute(MARKER)]
+    meshes = sorted((s for s in scene.shapes() if isinstance(s, mi.Mesh) and s.has_attribute(MARKER)),
+                    key=_scene_order)
     if not meshes:
         return None
     buffers = [[mi.traverse(m)[name] for name in ROW_ATTRIBUTES] for m in meshes]
@@ -91,13 +103,98 @@ def rule_table(scene: mi.Scene, cached: RuleTable | None = None) -> RuleTable | 
         block = np.zeros((faces, ROW_FLOATS), dtype=np.float32)
         block[:, :3 * len(ROW_ATTRIBUTES)] = np.concatenate(
             [np.asarray(b, dtype=np.float32).reshape(faces, 3) for b in bufs], axis=1)
+        block[:, MESH_SLOT], block[:, MESH_SLOT + 1] = len(blocks), np.arange(faces)
         blocks.append(block)
         base[_shape_id(m)] = first
         first += faces
     rows = mi.Float(aligned_float32(np.concatenate(blocks)))  # (unaligned: a random recompile, a5mi/arrays.py)
     ids = mi.UInt32(base.tolist())   # a few entries: a Dr.Jit-owned copy, not numpy memory
     dr.make_opaque(rows, ids)
-    return RuleTable(rows, ids, dr.opaque(mi.UInt32, len(base) - 1), key)
+    table = RuleTable(rows, ids, dr.opaque(mi.UInt32, len(base) - 1), key)
+    partners = coincident_faces(meshes)
+    if partners is not None:
+        table.partners = mi.UInt32(partners.ravel().tolist())
+        table.shapes = mi.ShapePtr(meshes)
+        dr.make_opaque(table.partners, table.shapes)
+    return table
+
+
+def _scene_order(shape: mi.Shape) -> tuple[int, int]:
+    """A rule mesh's place in the scene's Group order (its converter id ``mesh_NNN`` / ``triangle_NNN``)."""
+    m = re.match(r"^(?:mesh|triangle)_(\d+)$", shape.id())
+    return (0, int(m.group(1))) if m else (1, _shape_id(shape))
+
+
+def coincident_faces(meshes: list[mi.Mesh]) -> np.ndarray | None:
+    """Per face of ``meshes`` (in row order), up to :data:`PARTNERS` rows of faces of *other* meshes that lie
+    in the same plane (world space: unit normal within 1e-5 up to sign, offset within 1e-4) with overlapping
+    bounding boxes: the faces an exact depth tie can occur with (:func:`coincident`). None when there are
+    none (the kernel then has no tie code)."""
+    tris, owner = [], []
+    for k, m in enumerate(meshes):
+        params = mi.traverse(m)
+        v = np.asarray(params["vertex_positions"], dtype=np.float64).reshape(-1, 3)
+        f = np.asarray(params["faces"], dtype=np.int64).reshape(-1, 3)
+        tris.append(v[f])
+        owner.append(np.full(len(f), k))
+    if len(meshes) < 2:
+        return None
+    t = np.concatenate(tris)
+    who = np.concatenate(owner)
+    n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    ok = length > 0
+    n[ok] /= length[ok, None]
+    lead = np.take_along_axis(n, np.argmax(np.abs(n) > 1e-6, axis=1)[:, None], axis=1)
+    n *= np.where(lead < 0, -1.0, 1.0)
+    off = np.einsum("ij,ij->i", n, t[:, 0])
+    keys = np.concatenate([np.round(n * 1e5), np.round(off * 1e4)[:, None]], axis=1)
+    keys[~ok] = np.nan
+    _, group = np.unique(keys, axis=0, return_inverse=True)
+    group = group.ravel()
+    lo, hi = t.min(axis=1) - 1e-5, t.max(axis=1) + 1e-5
+    out = np.zeros((len(t), PARTNERS), dtype=np.uint32)
+    found = False
+    order = np.argsort(group, kind="stable")
+    bounds = np.flatnonzero(np.diff(group[order])) + 1
+    for members in np.split(order, bounds):
+        members = members[ok[members]]
+        if len(members) < 2 or len(members) > MAX_GROUP or len(set(who[members])) < 2:
+            continue
+        overlap = np.all((lo[members, None] <= hi[None, members]) & (lo[None, members] <= hi[members, None]), axis=2)
+        overlap &= who[members, None] != who[None, members]
+        for i, row in zip(members, overlap, strict=True):
+            others = members[row][:PARTNERS]
+            out[i, :len(others)] = others + 1
+            found |= len(others) > 0
+    return out if found else None
+
+
+def coincident(table: RuleTable, row: mi.UInt32, t: mi.Float, n: mi.Vector3f, o: mi.Point3f, d: mi.Vector3f,
+               t_min: mi.Float, active: mi.Bool) -> tuple[mi.UInt32, mi.Float, mi.Vector3f, mi.Bool]:
+    """The binary's Group order among coincident faces (SPEC A.6: objects are tested in scene order and a
+    triangle replaces the hit when ``t <= t_current``): each partner of the hit face ``row`` is evaluated by
+    :func:`evaluate`; it takes the hit when its ``t`` is smaller, or equal and its mesh comes later (rows are
+    in scene order). Returns ``(row, t, N, moved)``, ``moved`` where a partner took the hit."""
+    moved = dr.zeros(mi.Bool, dr.width(t))
+    live = mi.Bool(active) & (row > 0)
+    first = (dr.maximum(row, 1) - 1) * PARTNERS
+    for k in range(PARTNERS):
+        other = dr.gather(mi.UInt32, table.partners, first + k, live)
+        ok = live & (other > 0)
+        hit, t_o, n_o = evaluate(table, other, o, d, t_min, ok)
+        wins = ok & hit & ((t_o < t) | ((t_o == t) & (other > row)))
+        row, t, n = dr.select(wins, other, row), dr.select(wins, t_o, t), dr.select(wins, n_o, n)
+        moved |= wins
+    return row, t, n, moved
+
+
+def mesh_of(table: RuleTable, row: mi.UInt32, active: mi.Bool) -> tuple[mi.ShapePtr, mi.UInt32]:
+    """``(shape, prim_index)`` of table row ``row`` (a table with :attr:`RuleTable.shapes`)."""
+    at = (row - 1) * ROW_FLOATS + MESH_SLOT
+    mesh = mi.UInt32(dr.gather(mi.Float, table.rows, at, active))
+    face = mi.UInt32(dr.gather(mi.Float, table.rows, at + 1, active))
+    return dr.gather(mi.ShapePtr, table.shapes, mesh, active), face
 
 
 def row_of(table: RuleTable, si: mi.SurfaceInteraction3f, active: mi.Bool) -> mi.UInt32:
@@ -151,7 +248,7 @@ def evaluate(table: RuleTable, row: mi.UInt32, o: mi.Point3f, d: mi.Vector3f, t_
         return mi.Vector3f(floats[k], floats[k + 1], floats[k + 2])
 
     a0, a1, a2, tr = attr("face_a5_inv0"), attr("face_a5_inv1"), attr("face_a5_inv2"), attr("face_a5_inv_t")
-    transformed = attr("face_a5_octree").z != 0.0
+    transformed = attr("face_a5_octree").z == 1.0     # 0: an untransformed mesh, 2: an untransformed Triangle
     ov, dv = mi.Vector3f(o), mi.Vector3f(d)
     o_obj = mi.Vector3f(dot(a0, ov) + tr.x, dot(a1, ov) + tr.y, dot(a2, ov) + tr.z)
     d_obj = mi.Vector3f(dot(a0, dv), dot(a1, dv), dot(a2, dv))

@@ -24,10 +24,11 @@ def _cross32(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def ref_rays(center, direction, up, angle_deg, xp, yp, W, H) -> tuple[np.ndarray, np.ndarray]:
-    """Independent numpy float32 re-implementation of the binary's camera (SPEC B.2)."""
+    """Independent numpy float32 re-implementation of the binary's camera (SPEC B.2; its cross products take
+    the direction as written, not w: read with gdb from the binary's camera, docs/FIDELITY.md)."""
     w = _norm32(np.array(direction, F32))
-    u = _norm32(_cross32(w, np.array(up, F32)))
-    v = _norm32(_cross32(u, w))
+    u = _norm32(_cross32(np.array(direction, F32), np.array(up, F32)))
+    v = _norm32(_cross32(u, np.array(direction, F32)))
     angle = F32(math.pi * float(F32(angle_deg)) / 180.0)
     f = F32(1.0 / math.tan(float(angle) * 0.5))
     x = np.asarray(xp, F32) / F32(W - 1)

@@ -212,3 +212,21 @@ def test_no_sandbox_reaches_the_runner(tmp_path: Path, monkeypatch: pytest.Monke
         run_binary(Binary(script, (), True), folder, [], timeout=10)
     levels, why = run_binary(Binary(script, (), False), folder, [], timeout=10)
     assert levels is None and "3" in why, why
+
+
+def test_a_jittered_unfiltered_scene_is_compared_at_three_times_the_size(variant: str, a5_data: Path,
+                                                                           tmp_path: Path) -> None:
+    """``-jitter`` without ``-filter`` writes the 3W x 3H render (SPEC B.5): the binary's image is decoded and
+    compared, not refused as too large (a5 against itself: identical)."""
+    from a5mi import PROJECT_ROOT
+
+    (tmp_path / "bin").mkdir(mode=0o755)
+    exe = tmp_path / "bin" / "a5plain"
+    exe.write_text(f"#!{sys.executable}\nimport sys\nfrom a5mi.cli import run\nsys.exit(run(sys.argv[1:]))\n")
+    exe.chmod(0o755)
+    other = Binary(check_binary(exe), (sys.prefix, sys.base_prefix, str(PROJECT_ROOT)))
+    s = _glass_scene()
+    scene = GenScene(s.camera, s.lights, s.background, s.materials, s.objects[:1],
+                     Flags(size=24, bounces=0, jitter=True))
+    out = compare_scene(scene, other, a5_data / "scenes")
+    assert out.status == "ok" and math.isinf(out.psnr)

@@ -135,18 +135,24 @@ def test_a6_sphere_similarity_vs_shapegroup(variant: str, scenes_dir: Path) -> N
     desc = describe(parse_file(scenes_dir / "scene10_sphere.txt"))
     sph = desc.shapes[0]
     assert isinstance(sph, SphereShape) and sph.to_world is None and list(sph.center) == [0.3, 0.0, -1.0]
-    d = to_dict(desc)
+    d = to_dict(desc, stock=True)
     assert d["sphere_000"]["type"] == "sphere" and d["sphere_000"]["center"] == [0.3, 0.0, -1.0]
+    d = to_dict(desc)   # a5: the binary's sphere test in a5_whitted, untransformed (identity)
+    assert d["integrator"]["plane_000_center"] == [0.3, 0.0, -1.0]
+    assert np.array_equal(np.array(d["integrator"]["plane_000_to_world"].matrix), np.eye(4))
     desc = describe(parse_file(scenes_dir / "scene03_sphere.txt"))  # ZRotate 45 * Scale 1 .2 1
     sph = desc.shapes[0]
     assert isinstance(sph, SphereShape) and sph.to_world is not None
     assert np.allclose(sph.to_world, tf.z_rotate(45) @ tf.scale(1, 0.2, 1))
-    d = to_dict(desc)
+    d = to_dict(desc, stock=True)
     assert d["sphere_000"]["type"] == "instance"
     assert d["sphere_000"]["shapegroup"] == {"type": "ref", "id": "sphere_000_group"}
     group = d["sphere_000_group"]
     assert group["type"] == "shapegroup" and group["sphere_000_shape"]["type"] == "sphere"
     assert np.allclose(np.array(d["sphere_000"]["to_world"].matrix), tf.z_rotate(45) @ tf.scale(1, 0.2, 1))
+    d = to_dict(desc)   # a5 renders: the binary's object-space test inside a5_whitted (plugins/planes.py)
+    assert "sphere_000" not in d and d["integrator"]["plane_000_radius"] == sph.radius
+    assert np.allclose(np.array(d["integrator"]["plane_000_to_world"].matrix), tf.z_rotate(45) @ tf.scale(1, 0.2, 1))
     text = CAM + "Materials { numMaterials 1 Material { } }\nGroup { numObjects 1 MaterialIndex 0 Transform {" \
                  " Translate 1 2 3 ZRotate 30 UniformScale 2 Sphere { center 1 0 0 radius 0.5 } } }"
     sph = describe(parse_text(text, "s.txt")).shapes[0]
@@ -202,9 +208,15 @@ def test_scene_ids_name_every_entry_of_every_kind(scenes_dir: Path, stock: bool)
     assert [o.kind for o in ids.objects] == ["sphere", "sphere", "plane", "triangle", "mesh"]
     assert [o.index for o in ids.objects] == [0, 1, 2, 3, 4]
     plain, moved, plane, tri, mesh = ids.objects
-    assert d[plain.entry]["type"] == "sphere" and plain.shape_ids == (plain.entry,)
-    assert d[moved.entry]["type"] == "instance" and d[moved.entry]["shapegroup"]["id"] == moved.group
-    assert d[moved.group][moved.inner]["type"] == "sphere" and moved.shape_ids == (moved.entry, moved.inner)
+    if stock:
+        assert d[plain.entry]["type"] == "sphere" and plain.shape_ids == (plain.entry,)
+        assert d[moved.entry]["type"] == "instance" and d[moved.entry]["shapegroup"]["id"] == moved.group
+        assert d[moved.group][moved.inner]["type"] == "sphere" and moved.shape_ids == (moved.entry, moved.inner)
+    else:   # the binary's sphere test, in a5_whitted's plane set
+        for sphere in (plain, moved):
+            assert sphere.key is None and sphere.shape_ids == ()
+            for name in ("center", "radius", "to_world", "bsdf"):
+                assert sphere.plane_param(name) in d["integrator"]
     assert d[tri.entry]["type"] == d[mesh.entry]["type"] == "stub_mesh"
     if stock:
         assert plane.plane is None and d[plane.entry]["type"] == "rectangle"
@@ -226,8 +238,8 @@ def test_scene_ids_name_every_entry_of_every_kind(scenes_dir: Path, stock: bool)
     named = {o.key for o in ids.objects} | {o.group for o in ids.objects} | {lt.key for lt in ids.lights}
     assert set(d) - {"type", "integrator", "sensor", "background"} == named - {None}
     plane_params = {k for k in d["integrator"] if k.startswith("plane_")}
-    assert plane_params == {o.plane_param(n) for o in ids.objects if o.plane is not None
-                            for n in ("normal", "offset", "mirror_normal", "bsdf")}
+    kinds = {"plane": ("normal", "offset", "mirror_normal", "bsdf"), "sphere": ("center", "radius", "to_world", "bsdf")}
+    assert plane_params == {o.plane_param(n) for o in ids.objects if o.plane is not None for n in kinds[o.kind]}
     assert ids.object_of_shape(ids.lights[3].key) is None and ids.object_of_plane("nope") is None
 
 
@@ -245,9 +257,11 @@ def test_scene_ids_are_the_loaded_scene_ids(variant: str, scenes_dir: Path) -> N
     assert loaded - light_shapes == {o.entry for o in ids.objects if o.key is not None}
     params = mi.traverse(scene)
     plain, moved, _, tri, mesh = ids.objects
-    for key in (f"{ids.lights[1].key}.position", f"{ids.lights[2].key}.position", f"{moved.entry}.to_world",
+    assert plain.key is None and plain.plane_param("center") in d["integrator"]
+    for key in (f"{ids.lights[1].key}.position", f"{ids.lights[2].key}.position",
                 f"{tri.entry}.vertex_positions", f"{mesh.entry}.vertex_positions"):
         assert key in params, key
+    assert moved.key is None and moved.plane_param("to_world") in d["integrator"]   # exact: a5_whitted's
     for o in ids.objects:
         assert isinstance(object_bsdf(d, o), mi.BSDF)
 
@@ -398,8 +412,9 @@ def test_shipped_scene_loads_stock(variant: str, path: Path) -> None:
 def test_shipped_scene_loads_with_a5_plugins(variant: str, path: Path) -> None:
     model = parse_file(path)
     scene = _load(to_dict(describe(model), RenderOptions(8, 8)))
-    # Planes are not Mitsuba shapes here: a5_whitted intersects them analytically (SPEC A.6).
-    n_planes = sum(type(p.primitive).__name__ == "Plane" for p in model.objects)
+    # Planes and spheres are not Mitsuba shapes here: a5_whitted intersects them analytically (SPEC A.6,
+    # plugins/planes.py).
+    n_planes = sum(type(p.primitive).__name__ in ("Plane", "Sphere") for p in model.objects)
     assert len(scene.shapes()) == len(model.objects) - n_planes
     assert len(scene.integrator().planes) == n_planes
     assert len(scene.emitters()) == len(model.lights) + 1  # + the background

@@ -150,7 +150,8 @@ def test_rule_table_rows_are_the_face_attributes(variant: str) -> None:
     params = mi.traverse(mesh)
     for k, name in enumerate(triangle_rule.ROW_ATTRIBUTES):
         assert rows[:, 3 * k:3 * k + 3].ravel().tolist() == np.asarray(params[name]).tolist()
-    assert not rows[:, 3 * len(triangle_rule.ROW_ATTRIBUTES):].any()
+    pad = rows[:, 3 * len(triangle_rule.ROW_ATTRIBUTES):]      # the mesh's number (row order), the face, 0
+    assert pad.tolist() == [[0.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
     assert triangle_rule.rule_table(scene, table) is table
     hits = scene.ray_intersect(mi.Ray3f(mi.Point3f([3.2, 0.2, 0.2, 10, 0.2], [0.2, 0.2, 0.2, 0, 0.2],
                                                    [5, 0.5, -0.5, 5, -5]),

@@ -230,13 +230,19 @@ class WarmScene:
                 if (scale is not None) != self._sphere_kind[i]:
                     raise SceneSemanticError("a keyframed Transform must keep this Sphere's scale uniform (or "
                                              "non-uniform) for the whole animation", prim.loc)
-                if scale is not None:
+                if ids.plane is not None:       # a5_whitted's sphere test (plugins/planes.py): the binary's M
+                    planes[ids.plane] = tf.binary_chain(pl.levels)
+                elif scale is not None:
                     c = tf.transform_points(m, np.asarray(prim.center))
                     p[f"{ids.entry}.to_world"] = (mi.ScalarTransform4f().translate(mi.ScalarPoint3f(*c))
                                                   @ mi.ScalarTransform4f().scale(float(prim.radius * scale)))
                 else:
                     p[f"{ids.entry}.to_world"] = mi.ScalarTransform4f(m.tolist())
             elif isinstance(prim, Plane) and ids.plane is not None:  # an exact plane: a5_whitted's parameters
+                chain = tf.binary_chain(pl.levels)
+                if chain is not None:           # intersected in object space (plugins/planes.py)
+                    planes[ids.plane] = chain
+                    continue
                 n_w, off_w = world_plane(prim, m)
                 mirror = n_w / np.linalg.norm(n_w) if pl.transformed else n_w
                 planes[ids.plane] = (tuple(float(x) for x in n_w), float(off_w), tuple(float(x) for x in mirror))

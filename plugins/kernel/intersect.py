@@ -2,7 +2,8 @@
 
 :func:`intersect` is the nearest hit with ``t > t_min`` of a ray ``(o, d)``: Mitsuba's scene (meshes by the
 binary's triangle and octree rules, plugins/triangle_rule.py and plugins/octree_rule.py; spheres exactly), then
-the analytic planes (plugins/planes.py, ``t = (offset − n·o)/(n·d)``), the nearer one winning. The result is one
+the analytic planes (plugins/planes.py, ``t = (offset − n·o)/(n·d)``) and spheres under a non-similarity
+transform (the same set: the binary's object-space sphere test), the nearer one winning. The result is one
 :class:`Hit` whose ``si`` describes a plane hit too (``p = o + t d``, shading frame about ``n/|n|``, ``uv = 0``),
 so the material and light code never asks which kind of surface it is. :func:`visible` is SPEC B.3's shadow
 test ``S``: nothing the binary sees with ``tmin < t < dist`` between ``p`` and the light (planes up to +∞ for a
@@ -52,7 +53,7 @@ def intersect(scene: mi.Scene, planes: PlaneSet, rules: RuleTable | None, o: mi.
     hit = shape_hit | on_plane
     row = dr.select(on_plane, 0, row)                   # a plane's children leave no mesh face
     p = o + t_hit * d                                   # SPEC: p = o + t d
-    n = dr.select(on_plane, plane_normal(planes, plane_idx, on_plane),
+    n = dr.select(on_plane, plane_normal(planes, plane_idx, on_plane, o, d, t_hit),
                   mi.Vector3f(si.sh_frame.n))           # SPEC N: not flipped toward the viewer
     si.p = dr.select(hit, p, si.p)
     si.t = dr.select(hit, t_hit, si.t)
@@ -66,8 +67,9 @@ def intersect(scene: mi.Scene, planes: PlaneSet, rules: RuleTable | None, o: mi.
 
 def mirror_normal(planes: PlaneSet, on_plane: mi.Bool, plane: mi.UInt32, n: mi.Vector3f) -> mi.Vector3f:
     """The normal mirror and refracted rays turn about: ``n``, except on plane ``plane`` (where ``on_plane``),
-    which the binary mirrors about its normal as written (``plane_<id>_mirror_normal``, plugins/planes.py)."""
-    return dr.select(on_plane, plane_mirror_normal(planes, plane, on_plane), n)
+    which the binary mirrors about its normal as written (``plane_<id>_mirror_normal``, plugins/planes.py; a
+    non-similarity sphere of the plane set: ``n``)."""
+    return dr.select(on_plane, plane_mirror_normal(planes, plane, on_plane, n), n)
 
 
 def visible(scene: mi.Scene, planes: PlaneSet, p: mi.Point3f, d_light: mi.Vector3f, tmin: mi.Float,
