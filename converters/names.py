@@ -105,17 +105,19 @@ class SceneIds:
         return self._by_plane.get(plane_id)
 
 
-def scene_ids(desc: SceneDescription, *, stock: bool = False) -> SceneIds:
+def scene_ids(desc: SceneDescription, *, stock: bool = False, binary_spheres: bool = True) -> SceneIds:
     """The names of ``desc``'s objects and lights in the dict of :func:`.to_mitsuba.to_dict` (and the XML of
     :mod:`.to_xml`) made with the same ``stock``: the parameter id ``NNN`` for a sphere (intersected by
     ``a5_whitted`` as the binary does, plugins/planes.py; with ``stock`` ``sphere_NNN``, and
     ``sphere_NNN_group`` holding ``sphere_NNN_shape`` when its transform is no similarity), ``plane_NNN``
     (``--stock`` rectangle) or the parameter id ``NNN`` (exact plane), ``triangle_NNN``, ``mesh_NNN``,
-    ``light_NNN``; ``NNN`` the index, three digits at least."""
+    ``light_NNN``; ``NNN`` the index, three digits at least. ``binary_spheres = False`` (the physically based
+    integrators and ``-subsurface``, which trace Mitsuba's own shapes: :func:`binary_spheres`): spheres are
+    ``sphere_NNN`` Mitsuba shapes, as with ``stock``."""
     objects = []
     for i, shape in enumerate(desc.shapes):
         key = f"{shape_kind(shape)}_{i:03d}"
-        if isinstance(shape, SphereShape) and not stock:
+        if isinstance(shape, SphereShape) and not stock and binary_spheres:
             objects.append(ObjectIds(i, "sphere", None, plane=f"{i:03d}"))   # the binary's test, a5_whitted's
         elif isinstance(shape, SphereShape) and shape.to_world is not None:
             objects.append(ObjectIds(i, "sphere", key, group=key + "_group", inner=key + "_shape"))
@@ -126,6 +128,13 @@ def scene_ids(desc: SceneDescription, *, stock: bool = False) -> SceneIds:
     lights = tuple(LightIds(i, f"light_{i:03d}", isinstance(light, AreaLight | SphereLight))
                    for i, light in enumerate(desc.lights))
     return SceneIds(tuple(objects), lights)
+
+
+def binary_spheres(integrator: str, subsurface: str) -> bool:
+    """Whether spheres are intersected by the binary's test inside ``a5_whitted`` (SPEC B.3, plugins/planes.py):
+    for the sample solution's tracing (``-integrator whitted``) without ``-subsurface``; the physically based
+    integrators (docs/EXTENSIONS.md E.13-E.17) and the E.18 probes and walks trace Mitsuba's sphere shape."""
+    return integrator == "whitted" and subsurface == "none"
 
 
 def shape_kind(shape: SphereShape | PlaneShape | MeshShape) -> str:

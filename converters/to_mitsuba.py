@@ -84,7 +84,7 @@ from .files import Image
 from .geometry import MeshData
 from .materials import rgb
 from .model import AreaLight, DirectionalLight, SphereLight, SpotLight
-from .names import scene_ids
+from .names import binary_spheres, scene_ids
 
 #: Face attributes carrying :attr:`.geometry.MeshData.octree` (name -> its columns).
 OCTREE_ATTRIBUTES = {"face_a5_inv0": [0, 1, 2], "face_a5_inv1": [3, 4, 5], "face_a5_inv2": [6, 7, 8],
@@ -215,7 +215,7 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
     ``background``, then one entry per shape (exact planes: ``a5_whitted`` parameters), each named by
     :func:`scene_ids`, with 4x4 transforms as ``np.ndarray``."""
     stock = backend.stock
-    ids = scene_ids(desc, stock=stock)
+    ids = scene_ids(desc, stock=stock, binary_spheres=binary_spheres(options.integrator, options.subsurface))
     d: dict[str, Any] = {"type": "scene", "integrator": integrator_dict(desc, options, stock=stock),
                          "sensor": sensor_dict(desc, options, stock=stock)}
     for light, lid in zip(desc.lights, ids.lights, strict=True):

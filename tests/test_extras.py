@@ -23,7 +23,7 @@ from a5mi.extras import require
 ROOT = Path(__file__).resolve().parent.parent
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
 #: The modules of the core dependencies: all that ``a5`` imports besides the standard library.
-CORE_MODULES = {"mitsuba", "drjit", "numpy", "OpenImageIO"}
+CORE_MODULES = {"mitsuba", "drjit", "numpy", "OpenImageIO", "scipy"}  # scipy: the photon maps' k-d tree (E.16)
 #: Every module that an extra brings and the code imports.
 EXTRA_MODULES = ("distributed", "dask", "cryptography", "flip_evaluator", "imageio_ffmpeg", "tqdm")
 SCENE = ("PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 20 }\n"

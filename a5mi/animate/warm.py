@@ -56,7 +56,7 @@ from a5mi.converters.model import (
     TriangleMesh,
     Volume,
 )
-from a5mi.converters.names import object_bsdf, scene_ids
+from a5mi.converters.names import binary_spheres, object_bsdf, scene_ids
 from a5mi.converters.to_mitsuba import OCTREE_ATTRIBUTES, TRIANGLE_ATTRIBUTES, to_dict
 from a5mi.driver import RenderResult, render_scene
 from a5mi.options import RenderOptions
@@ -105,7 +105,7 @@ class WarmScene:
         self.animation = model.animation
         self.desc = describe(model, bump=options.bump)  # -bump: the maps of docs/EXTENSIONS.md E.7
         d = to_dict(self.desc, options)
-        self.ids = scene_ids(self.desc)  # the names to_dict gave the objects and lights
+        self.ids = scene_ids(self.desc, binary_spheres=binary_spheres(options.integrator, options.subsurface))
         self.bsdfs: dict[int, list[Any]] = {}  # material -> its a5_material objects
         for shape, ids in zip(self.desc.shapes, self.ids.objects, strict=True):
             obj = object_bsdf(d, ids)

@@ -82,7 +82,9 @@ def explain(desc_or_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]
 
         if str(d["integrator"].get("medium", "none")) != "none":
             return path(d)
-        entry = {**d["integrator"], "type": "a5_path", "max_depth": options.bounces, "rr_depth": NO_RR_DEPTH,
+        whitted_only = ("medium_bounces", "subsurface", "indirect")  # a5_whitted's modes, not a5_path parameters
+        entry = {**{k: v for k, v in d["integrator"].items() if k not in whitted_only}, "type": "a5_path",
+                 "max_depth": options.bounces, "rr_depth": NO_RR_DEPTH,
                  "fresnel": "exact", "aovs": ""}
         ro = RenderOptions(width=options.width, height=options.height, bounces=options.bounces, spp=options.spp,
                            seed=options.seed + 1, integrator="path", fresnel="exact", bump=options.bump)

@@ -314,11 +314,11 @@ class ViewEngine:
         if frame is None or self.desc is None:
             raise UserError("nothing rendered yet")
         tracer = session_tracer(self.desc, frame.options, self.session, frame.image)
-        if not _records(tracer.integrator):
+        if frame.options.integrator != "whitted" or not _records(tracer.integrator):
             from a5mi.trace.core import TraceError
 
-            raise TraceError(f"-integrator {frame.options.integrator} records no ray tree (the Whitted integrator's "
-                             "SPEC B.3 tree is what a5mi trace shows): set -integrator whitted to trace a pixel")
+            raise TraceError(f"-integrator {frame.options.integrator} records no ray tree (the page shows the Whitted "
+                             "integrator's SPEC B.3 tree): set -integrator whitted to trace a pixel here")
         (pt,) = tracer.pixels([(x, y)])
         shown = 4 if len(pt.block) > 1 else 0
         tree = pt.trees[shown]

@@ -91,7 +91,10 @@ def lights_of(scene: mi.Scene) -> PbrLights:
                          dr.opaque(mi.UInt32, 0))
     ptrs = dr.gather(mi.EmitterPtr, scene.emitters_dr(), mi.UInt32(idx))
     has_shape = mi.Bool([j >= 0 for j in shape_idx])
-    shape_ptrs = dr.gather(mi.ShapePtr, scene.shapes_dr(), mi.UInt32([max(j, 0) for j in shape_idx]), has_shape)
+    if any(j >= 0 for j in shape_idx):
+        shape_ptrs = dr.gather(mi.ShapePtr, scene.shapes_dr(), mi.UInt32([max(j, 0) for j in shape_idx]), has_shape)
+    else:  # no light has a shape (a scene may hold no Mitsuba shape at all: exact planes only)
+        shape_ptrs = dr.zeros(mi.ShapePtr, len(idx))
     dr.eval(ptrs, shape_ptrs)
     return PbrLights(ptrs, shape_ptrs, mi.UInt32(kinds), dr.opaque(mi.UInt32, len(idx)))
 
