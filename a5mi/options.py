@@ -26,7 +26,7 @@ AOV_GROUPS: tuple[str, ...] = ("normal", "depth", "class", "counts")
 #: accepts the scene part of ``a5_whitted``'s parameters (``ambient``, ``plane_<id>_*``, ``medium*``,
 #: ``glossy_samples``, ``glossy``, ``dispersion``: converters/to_mitsuba.py ``integrator_dict``) and the
 #: ``aovs`` groups it lists in ``aov_names()``.
-INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted"}
+INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted", "irradiancecache": "a5_irradiancecache"}
 #: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
 TILE_RAYS: int = 1 << 20
 
@@ -76,6 +76,9 @@ class RenderOptions:
     bump: bool = False
     #: ``-integrator``: a key of :data:`INTEGRATORS` (``whitted``: SPEC B.3)
     integrator: str = "whitted"
+    #: docs/EXTENSIONS.md E.15: ``-integrator irradiancecache``'s error bound ``a`` and hemisphere rays per record
+    ic_error: float = 0.3
+    ic_samples: int = 256
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -87,6 +90,8 @@ class RenderOptions:
             raise ValueError(f"aov_mode must be one of {', '.join(AOV_MODES)}, got '{self.aov_mode}'")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got '{self.integrator}'")
+        if not 0.0 < self.ic_error <= 1.0 or self.ic_samples < 6:
+            raise ValueError(f"ic_error must be in (0, 1] and ic_samples >= 6, got {self.ic_error}, {self.ic_samples}")
         if self.spp < 1:
             raise ValueError(f"spp must be >= 1, got {self.spp}")
         if self.tile_rays <= 0:
@@ -119,4 +124,6 @@ class RenderOptions:
                   "refraction": bool(self.refraction), "aovs": ",".join(self.aov_groups)}
         if self.bump:  # docs/EXTENSIONS.md E.7; absent otherwise, so course dicts and XML are unchanged
             params["bump"] = True
+        if self.plugin == "a5_irradiancecache":  # docs/EXTENSIONS.md E.15
+            params.update(error=float(self.ic_error), samples=int(self.ic_samples))
         return params

@@ -47,7 +47,8 @@ def sample_passes(scene: Any, integrator: Any, sampler: Any, ray: Any, camera: A
     from a5mi.plugins.sampling import LENS_DIM, SamplePass, pixel_keys, stratified_2d
     from a5mi.plugins.whitted import A5WhittedIntegrator
 
-    a5 = isinstance(integrator, A5WhittedIntegrator)   # takes the pass; any other integrator samples alone
+    # a5 integrators take the pass (``takes_sample_pass``); any other integrator samples alone
+    a5 = isinstance(integrator, A5WhittedIntegrator) or getattr(integrator, "takes_sample_pass", False)
 
     aperture = float(getattr(camera, "aperture", 0.0) or 0.0)
     total = None

@@ -23,6 +23,7 @@ PLUGIN_MODULES: tuple[str, ...] = (
     "camera",           # a5_camera sensor
     "a5_material",      # a5_material BSDF
     "whitted",          # a5_whitted integrator
+    "irradiance_cache", # a5_irradiancecache integrator (docs/EXTENSIONS.md E.15)
 )
 
 def register_all() -> None:
