@@ -212,10 +212,11 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
             self.stats = {"records": 0, "rounds": 0, "hemisphere_rays": 0, "nodes": 0}
             self._scene_id = id(scene)
 
-    def sample(self, scene: mi.Scene, sampler: mi.Sampler | None, ray: mi.Ray3f, medium: mi.Medium | None = None,
-               active: mi.Bool | bool = True, sample_pass: SamplePass | None = None,
-               ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
-        """Colour of each camera ray (module docstring), the ``active`` mask and the AOVs of :meth:`aov_names`."""
+    def trace(self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True, sampler: mi.Sampler | None = None,
+              sample_pass: SamplePass | None = None) -> tuple[mi.Color3f, np.ndarray, list[mi.Float]]:
+        """``(colour without the cache, β kd/π ⊙ E summed per lane (numpy, W x 3), AOVs nx, ny, nz, t,
+        n_reflection, n_refraction, n_shadow)`` of camera rays ``ray`` (module docstring); the colour of
+        :meth:`sample` is the sum of the first two."""
         self._reset(scene, sample_pass)
         data, lights, features = self._setup(scene)
         width = max(dr.width(ray.o), dr.width(ray.d), dr.width(active) if isinstance(active, mi.Bool) else 1)
@@ -236,8 +237,17 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
                 break
             capacity = found
         indirect = self._indirect(scene, data, lights, features, nodes, found, width, sample_pass)
+        return color, indirect, [n.x, n.y, n.z, t, n_refl, n_refr, n_shadow]
+
+    def sample(self, scene: mi.Scene, sampler: mi.Sampler | None, ray: mi.Ray3f, medium: mi.Medium | None = None,
+               active: mi.Bool | bool = True, sample_pass: SamplePass | None = None,
+               ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
+        """Colour of each camera ray (module docstring), the ``active`` mask and the AOVs of :meth:`aov_names`."""
+        color, indirect, (nx, ny, nz, t, n_refl, n_refr, n_shadow) = self.trace(scene, ray, active, sampler,
+                                                                                sample_pass)
         color = color + mi.Color3f(*(_floats(indirect[:, c]) for c in range(3)))
-        channels = {"normal": [n.x, n.y, n.z], "depth": [t], "counts": [n_refl, n_refr, n_shadow]}
+        channels = {"normal": [nx, ny, nz], "depth": [t], "counts": [n_refl, n_refr, n_shadow]}
+        go = dr.full(mi.Bool, True, dr.width(color)) & active
         return color, go, [a for g in self.aovs for a in channels[g]]
 
     # ------------------------------------------------------------------ the cache
@@ -310,13 +320,14 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
                           _floats(np.repeat(medium[start:start + chunk], per)), data, lights, rng, features,
                           dr.opaque(mi.UInt32, self.rr_depth))
             dr.eval(L, r)
-            L_np = np.nan_to_num(np.asarray(L, np.float64).reshape(k, m, nn, 3), nan=0.0, posinf=0.0)
+            L_np = np.nan_to_num(np.asarray(L, np.float64).T.reshape(k, m, nn, 3), nan=0.0, posinf=0.0)
             r_np = np.asarray(r, np.float64).reshape(k, m, nn)
             est = icm.estimate(nk, L_np, r_np)
             grad_r, grad_t = est.grad_r, est.grad_t
             if self.gradients:
-                R = icm.limit_radius(est.R, est.E, grad_t, spacing[start:start + chunk], self.error,
-                                     self.min_pixels, self.max_pixels)
+                R, grad_t = icm.limit_radius(est.R, est.E, grad_t, r_np.min(axis=(1, 2)),
+                                             spacing[start:start + chunk], self.error, self.min_pixels,
+                                             self.max_pixels)
             else:
                 grad_r, grad_t = np.zeros_like(grad_r), np.zeros_like(grad_t)
                 R = np.clip(est.R, self.min_pixels * spacing[start:start + chunk] / self.error,

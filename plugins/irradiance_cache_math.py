@@ -26,7 +26,8 @@ wall (``δ / (r sin θ)`` in φ), times the difference of the radiance on both s
 the derivative of ``∫ L cos θ dω`` when the normal tilts. ``R`` is then limited by the translation
 gradient (``R ≤ E_c / |∇t E_c|`` per channel, Křivánek et al. 2005) and clamped to ``[m_min, m_max]``
 pixel spacings divided by ``a`` (the record's reach ``a R`` lies between ``m_min`` and ``m_max`` pixels of
-the image, as pbrt-v2's ``minpixelspacing`` / ``maxpixelspacing``).
+the image, as pbrt-v2's ``minpixelspacing`` / ``maxpixelspacing``); ``∇t E`` is scaled by
+``min(1, r_min / R_lo)`` (``r_min`` the nearest hit, ``R_lo`` the lower clamp), as Mitsuba 0.6 does.
 
 Interpolation at ``(p, n)`` over the records with ``ε_i < a`` that are not in front of ``p``::
 
@@ -142,14 +143,19 @@ def estimate(n: F, L: F, r: F) -> Estimate:
     return Estimate(E, R, grad_r, grad_t)
 
 
-def limit_radius(R: F, E: F, grad_t: F, spacing: F, a: float, m_min: float, m_max: float) -> F:
-    """The validity radius of records (module docstring): ``min(R, E_c/|∇t E_c|)`` over the channels with a
-    gradient, clamped to ``[m_min, m_max] · spacing / a`` (``spacing``: the pixel spacing at the record)."""
+def limit_radius(R: F, E: F, grad_t: F, r_min: F, spacing: F, a: float, m_min: float,
+                 m_max: float) -> tuple[F, F]:
+    """``(R, ∇t E)`` of records after the limits of the module docstring: ``R ← min(R, E_c/|∇t E_c|)`` over the
+    channels with a gradient, clamped to ``[m_min, m_max] · spacing / a`` (``spacing``: the pixel spacing at
+    the record); ``∇t E`` scaled by ``min(1, r_min / R_lo)`` with ``r_min`` the nearest hit of the hemisphere
+    and ``R_lo = m_min · spacing / a`` (Křivánek et al. 2005, as Mitsuba 0.6: a record in a crease, whose
+    gradient comes from hits nearer than the smallest radius it may have, extrapolates less)."""
     g = np.linalg.norm(grad_t, axis=1)                            # (K, 3)
     with np.errstate(divide="ignore", invalid="ignore"):
         limit = np.where(g > 1e-12, E / np.where(g > 1e-12, g, 1.0), np.inf).min(axis=1)
-    R = np.minimum(R, limit)
-    return np.clip(R, m_min * spacing / a, m_max * spacing / a)
+    R_lo, R_hi = m_min * spacing / a, m_max * spacing / a
+    scale = np.minimum(1.0, r_min / R_lo)
+    return np.clip(np.minimum(R, limit), R_lo, R_hi), grad_t * scale[:, None, None]
 
 
 def epsilon(p: F, n: F, pi: F, ni: F, Ri: F) -> F:

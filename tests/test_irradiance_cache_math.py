@@ -174,14 +174,18 @@ def test10_rotation_gradient_extrapolates_to_second_order() -> None:
 
 
 def test11_radius_limits() -> None:
-    """R ← min(R, E_c/|∇t E_c|), then clamped to [m_min, m_max] · spacing / a."""
+    """R ← min(R, E_c/|∇t E_c|), then clamped to [m_min, m_max] · spacing / a; ∇t scaled by min(1, r_min/R_lo)."""
     R = np.array([10.0, 10.0, 10.0, 0.001])
     E = np.array([[1.0, 1, 1], [1.0, 1, 1], [1.0, 1, 1], [1.0, 1, 1]])
     g = np.zeros((4, 3, 3))
     g[1, 0, :] = 2.0                      # E/|∇| = 0.5
+    g[3, 1, :] = 4.0
     spacing = np.array([0.01, 0.01, 1.0, 0.01])
-    out = icm.limit_radius(R, E, g, spacing, a=0.5, m_min=2.5, m_max=15.0)
+    r_min = np.array([1.0, 1.0, 1.0, 0.01])
+    out, grad = icm.limit_radius(R, E, g, r_min, spacing, a=0.5, m_min=2.5, m_max=15.0)
     assert out.tolist() == pytest.approx([0.3, 0.3, 10.0, 0.05])
+    assert np.array_equal(grad[:3], g[:3])            # nearest hit beyond R_lo: unchanged
+    assert np.allclose(grad[3], g[3] * 0.01 / 0.05)   # R_lo = 2.5 · 0.01 / 0.5
 
 
 def test12_grid_keys_and_candidates_cover_every_reach() -> None:
