@@ -171,7 +171,7 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
         if medium != "none":
             raise ValueError(f"a5_irradiancecache: participating media are not part of E.13 (medium {medium!r})")
         for name in IGNORED:
-            if props.has_property(name):
+            if name in props:
                 props.get(name)
         self.planes = planes_from_props(props)
         self._planes = plane_set(self.planes)

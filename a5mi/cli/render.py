@@ -102,8 +102,9 @@ def check_render_args(args: Args) -> None:
                          f"samples; the limit is {MAX_SAMPLES}")
     if args.get("ic_records_output") and args.get("integrator") != "irradiancecache":
         raise UsageError("-ic_records needs -integrator irradiancecache")
-    if not 0.0 < float(args.get("ic_error") or 0.3) <= 1.0:
-        raise UsageError(f"-ic_error must be in (0, 1], got {args.get('ic_error')}")
+    ic_error = args.get("ic_error")
+    if ic_error is not None and not 0.0 < ic_error <= 1.0:
+        raise UsageError(f"-ic_error must be in (0, 1], got {ic_error}")
     if args.filter and not args.jitter and (args.width < 3 or args.height < 3):
         raise UsageError(f"-filter without -jitter saves a W/3 x H/3 image; -size {args.width} {args.height} is "
                          "too small")
