@@ -76,7 +76,7 @@ class RenderResult:
     #: per-sample ray-tree class (0 miss, 1 opaque, 2 glass), when ``RenderOptions.classes`` asked for it
     classes: npt.NDArray[np.uint8] | None = None
     #: what the integrator reports of the render (its ``render_extras()``, if it has one; the irradiance
-    #: cache's records, docs/EXTENSIONS.md E.15)
+    #: cache's records, docs/EXTENSIONS.md E.16)
     extras: dict[str, Any] = field(default_factory=dict)
 
 

@@ -254,8 +254,10 @@ def _open_input(p: Path) -> Any:
     format library printed folded in (:func:`native_stderr`)."""
     import OpenImageIO as oiio  # deferred: only the commands that read images pay for it
 
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)  # the stored colour bytes, never multiplied by an alpha channel
     with native_stderr() as printed:
-        inp = oiio.ImageInput.open(str(p))
+        inp = oiio.ImageInput.open(str(p), config)
     if inp is None:
         raise _read_error(p, _with_native(oiio.geterror() or "unknown format", printed))
     return inp

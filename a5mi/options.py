@@ -26,7 +26,7 @@ AOV_GROUPS: tuple[str, ...] = ("normal", "depth", "class", "counts")
 #: accepts the scene part of ``a5_whitted``'s parameters (``ambient``, ``plane_<id>_*``, ``medium*``,
 #: ``glossy_samples``, ``glossy``, ``dispersion``: converters/to_mitsuba.py ``integrator_dict``) and the
 #: ``aovs`` groups it lists in ``aov_names()``.
-INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted", "irradiancecache": "a5_irradiancecache"}
+INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted", "path": "a5_path", "irradiancecache": "a5_irradiancecache"}
 #: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
 TILE_RAYS: int = 1 << 20
 
@@ -76,7 +76,11 @@ class RenderOptions:
     bump: bool = False
     #: ``-integrator``: a key of :data:`INTEGRATORS` (``whitted``: SPEC B.3)
     integrator: str = "whitted"
-    #: docs/EXTENSIONS.md E.15: ``-integrator irradiancecache``'s error bound ``a`` and hemisphere rays per record
+    #: docs/EXTENSIONS.md E.14: ``-integrator path`` plays Russian roulette from this many scatterings on
+    rr_depth: int = 5
+    #: docs/EXTENSIONS.md E.15: ``a5_whitted`` gathers indirect light with N cosine-weighted rays per diffuse hit
+    indirect: int = 0
+    #: docs/EXTENSIONS.md E.16: ``-integrator irradiancecache``'s error bound ``a`` and hemisphere rays per record
     ic_error: float = 0.3
     ic_samples: int = 256
 
@@ -90,6 +94,10 @@ class RenderOptions:
             raise ValueError(f"aov_mode must be one of {', '.join(AOV_MODES)}, got '{self.aov_mode}'")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got '{self.integrator}'")
+        if self.indirect < 0:
+            raise ValueError(f"indirect must be >= 0, got {self.indirect}")
+        if self.rr_depth < 0:
+            raise ValueError(f"rr_depth must be >= 0, got {self.rr_depth}")
         if not 0.0 < self.ic_error <= 1.0 or self.ic_samples < 6:
             raise ValueError(f"ic_error must be in (0, 1] and ic_samples >= 6, got {self.ic_error}, {self.ic_samples}")
         if self.spp < 1:
@@ -124,6 +132,10 @@ class RenderOptions:
                   "refraction": bool(self.refraction), "aovs": ",".join(self.aov_groups)}
         if self.bump:  # docs/EXTENSIONS.md E.7; absent otherwise, so course dicts and XML are unchanged
             params["bump"] = True
-        if self.plugin == "a5_irradiancecache":  # docs/EXTENSIONS.md E.15
+        if self.indirect > 0 and self.plugin == "a5_whitted":  # E.15; absent at 0: course dicts unchanged
+            params["indirect"] = int(self.indirect)
+        if self.plugin in ("a5_path", "a5_irradiancecache"):  # docs/EXTENSIONS.md E.14, E.16
+            params["rr_depth"] = int(self.rr_depth)
+        if self.plugin == "a5_irradiancecache":  # docs/EXTENSIONS.md E.16
             params.update(error=float(self.ic_error), samples=int(self.ic_samples))
         return params

@@ -26,6 +26,7 @@ normals. The 2015 starter used 500; pass ``smooth_threshold=500`` for it.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -144,12 +145,16 @@ def _ints(words: list[str]) -> np.ndarray | None:
     return a
 
 
+def split_lines(text: str) -> list[str]:
+    """The file's lines: LF, CRLF and a lone CR each end a line (as the scene lexer counts them, SPEC A.1), so
+    positions are right whatever editor wrote the file."""
+    return text.split("\n") if "\r" not in text else re.split(r"\r\n?|\n", text)
+
+
 def _parse_fast(text: str, spath: str) -> ObjMesh | None:
     """The whole-file reader of :func:`load_obj`: the same mesh and warnings as :func:`_parse_slow`, or
     None when the file needs the slow reader (see :func:`load_obj`)."""
-    lines = text.split("\n")
-    if "\r" in text:
-        lines = [line.rstrip("\r") for line in lines]
+    lines = split_lines(text)
     v_lines: list[str] = []
     vt_lines: list[str] = []
     f_lines: list[str] = []
@@ -267,8 +272,7 @@ def _parse_slow(text: str, spath: str, loc: FileLoc | None) -> ObjMesh:
                                      FileLoc(spath, line_no, col))
         return value
 
-    for line_no, raw in enumerate(text.split("\n"), start=1):
-        line = raw.rstrip("\r")
+    for line_no, line in enumerate(split_lines(text), start=1):
         if len(line) < 3 or line.startswith("#"):
             continue
         words = _columns(line)

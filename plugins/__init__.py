@@ -23,7 +23,8 @@ PLUGIN_MODULES: tuple[str, ...] = (
     "camera",           # a5_camera sensor
     "a5_material",      # a5_material BSDF
     "whitted",          # a5_whitted integrator
-    "irradiance_cache", # a5_irradiancecache integrator (docs/EXTENSIONS.md E.15)
+    "path",             # a5_path integrator (docs/EXTENSIONS.md E.13, E.14)
+    "irradiance_cache", # a5_irradiancecache integrator (docs/EXTENSIONS.md E.16)
 )
 
 def register_all() -> None:

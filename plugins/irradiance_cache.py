@@ -1,5 +1,5 @@
 """The ``a5_irradiancecache`` integrator: Ward's irradiance cache over the E.13 reading of an a5 scene
-(docs/EXTENSIONS.md E.15; Ward, Rubinstein, Clear 1988; Ward, Heckbert 1992).
+(docs/EXTENSIONS.md E.16; Ward, Rubinstein, Clear 1988; Ward, Heckbert 1992).
 
 Per camera ray: the delta-lobe ray tree with the emission it finds and next-event estimation at each diffuse
 node (:func:`.irradiance_cache_kernel.camera_tree`), plus, at each diffuse node, ``β kd/π ⊙ E(p, N)`` with the
@@ -104,7 +104,7 @@ def pixel_angle(scene: mi.Scene) -> float:
 
 
 class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
-    """Irradiance caching with rotation and translation gradients (module docstring, docs/EXTENSIONS.md E.15).
+    """Irradiance caching with rotation and translation gradients (module docstring, docs/EXTENSIONS.md E.16).
 
     ================ ======= ======= ==========================================================
     parameter        type    default meaning

@@ -1,5 +1,5 @@
 """The irradiance cache's records and their spatial index: a loose octree as a multi-level hash grid, in numpy
-(docs/EXTENSIONS.md E.15).
+(docs/EXTENSIONS.md E.16).
 
 A record reaches no farther than ``a R_i`` (beyond it ``ε_i ≥ a``, :mod:`.irradiance_cache_math`). It is
 filed at level ``ℓ_i = ⌈log2(a R_i)⌉ − 1`` (cells of side ``2^ℓ`` in ``[a R_i / 2, a R_i)``), in every cell

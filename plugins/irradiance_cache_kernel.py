@@ -1,4 +1,4 @@
-"""The irradiance cache's two Dr.Jit kernels (docs/EXTENSIONS.md E.15), built from the kernel library and the
+"""The irradiance cache's two Dr.Jit kernels (docs/EXTENSIONS.md E.16), built from the kernel library and the
 E.13 reading (:mod:`.kernel.pbr`, :mod:`.kernel.pbr_lights`).
 
 :func:`camera_tree` follows each camera ray through its delta lobes, as SPEC B.3's ray tree (both children,

@@ -1,4 +1,4 @@
-"""The irradiance cache's formulas, in numpy (docs/EXTENSIONS.md E.15; Ward, Rubinstein, Clear 1988;
+"""The irradiance cache's formulas, in numpy (docs/EXTENSIONS.md E.16; Ward, Rubinstein, Clear 1988;
 Ward, Heckbert 1992).
 
 A *record* ``i`` holds, at a diffuse point ``p_i`` with normal ``n_i``, the indirect irradiance ``E_i``

@@ -1,4 +1,4 @@
-"""``-ic_records IMG``: a picture of where the irradiance cache put its records (docs/EXTENSIONS.md E.15).
+"""``-ic_records IMG``: a picture of where the irradiance cache put its records (docs/EXTENSIONS.md E.16).
 
 The rendered image, dimmed to 50%, with each record drawn where the a5 camera sees its point (SPEC B.2
 inverted: ``x = f (d·u)/(d·w)``, ``y = f (d·v)/(d·w)`` for ``d = p_i − center``, pixel

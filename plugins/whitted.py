@@ -60,6 +60,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     aovs             string  ""      comma-separated AOV groups: ``normal`` (nx, ny, nz), ``depth``
                                      (t), ``class`` (class), ``counts`` (n_reflection, n_refraction,
                                      n_shadow)
+    indirect         int     0       rays gathered at each diffuse hit (``-indirect``, EXTENSIONS E.15)
     medium           string  none    ``fog`` / ``volume``: a participating medium (EXTENSIONS E.8,
                                      E.9; ``medium_*`` parameters, plugins/media.py)
     plane_<id>_*     ...             an exact infinite plane: ``_normal`` vector, ``_offset`` float,
@@ -141,6 +142,10 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         if isinstance(glossy_samples, bool) or not isinstance(glossy_samples, int) or glossy_samples < 1:
             raise ValueError(f"a5_whitted: 'glossy_samples' must be an integer >= 1, got {glossy_samples!r}")
         self.glossy_samples = glossy_samples
+        indirect = props.get("indirect", 0)   # docs/EXTENSIONS.md E.15: gathered rays per diffuse hit
+        if isinstance(indirect, bool) or not isinstance(indirect, int) or indirect < 0:
+            raise ValueError(f"a5_whitted: 'indirect' must be an integer >= 0, got {indirect!r}")
+        self.indirect = indirect
         self._medium = media.params_from_props(props)   # docs/EXTENSIONS.md E.8, E.9 (None: no medium)
         self._rules: dict[int, triangle_rule.RuleTable] = {}   # id(scene) -> its rule table (the last scene only)
 
@@ -206,6 +211,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         callback.put("dispersion", self.dispersion, flags)
         callback.put("bump", self.bump, flags)
         callback.put("glossy", self.glossy, flags)
+        callback.put("indirect", self.indirect, flags)
 
     def to_string(self) -> str:
         return (

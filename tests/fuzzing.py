@@ -1,12 +1,16 @@
-"""The mutation campaign of ``make fuzz``: mutated course scenes with random flags through the real commands.
+"""The mutation campaign of ``make fuzz``: mutated scenes, meshes, images and command lines through the real commands.
 
-Each mutant is a course scene with a few token-level mutations (:func:`mutate`) and a random command line
-(:func:`random_flags`: tiny sizes, bounces <= 5 so a glass ray tree stays small). It is run through
-``a5mi.cli.run`` (``a5``: parse -> describe -> ``mi.load_dict`` -> a real render -> atomic writes) or
-``a5mi convert`` followed by ``mi.load_file`` of the XML, in this process (the variant is loaded once), and
-judged by :func:`verdict`: exit 0 with every output written, or exit 2 with exactly one error line and no
-output; anything else (exit 1, a traceback, two lines, an exception escaping the guard, a run longer than
-``HANG_SECONDS``) is a failure, returned with its seed so that :func:`mutant` rebuilds it exactly.
+Each mutant (:data:`KINDS`) is a course scene with a few token-level mutations (:func:`mutate`) and a random
+command line (:func:`random_flags`: tiny sizes, bounces <= 5 so a glass ray tree stays small); or a course
+scene whose OBJ mesh or texture / cube face is mutated (tests/fuzz_inputs.py: coincident, degenerate, sliver
+and crossing faces, bad indices, image headers, odd channel counts); or a command line of any ``a5mi``
+sub-command (tests/fuzz_inputs.py :func:`command_argv`). It is run through ``a5mi.cli.run`` (``a5``: parse ->
+describe -> ``mi.load_dict`` -> a real render -> atomic writes) or ``a5mi.cli.run_a5mi`` (``convert``, followed
+by ``mi.load_file`` of the XML, and the sub-commands), in this process (the variant is loaded once), and
+judged by :func:`verdict`: exit 0 with every output written (exit 1 too for a command that gives a verdict),
+or exit 2 with exactly one error line and no output; anything else (exit 1 elsewhere, 70, a traceback, two
+lines, an exception escaping the guard, a run longer than ``HANG_SECONDS``) is a failure, returned with its
+seed so that :func:`mutant` rebuilds it exactly.
 """
 
 from __future__ import annotations
@@ -21,8 +25,9 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-#: A run longer than this is a hang (the renders are at most 36 x 36 samples, 5 bounces).
-HANG_SECONDS = 60
+#: A run longer than this is a hang (the renders are at most 36 x 36 samples, 5 bounces; ``crosscheck`` compiles
+#: six kernels, ~1 min on a loaded 2-core machine).
+HANG_SECONDS = 150
 
 NUMBERS = ("0", "-0", "1", "-1", "0.5", "1.5", "2", "-3", "1e30", "-1e30", "3e38", "1e39", "1e-40", "1e-30",
            "1e20", "2147483647", "2147483648", "-2147483649", "100", "360", "180", "1.0000001", "1" * 60,
@@ -136,7 +141,7 @@ class Campaign:
         return out
 
 
-class _Hang(Exception):
+class _Hang(BaseException):  # not an Exception: a command's own "except Exception" must not swallow it
     pass
 
 
@@ -154,23 +159,79 @@ def _alarm(seconds: int) -> Iterator[None]:
         signal.signal(signal.SIGALRM, old)
 
 
-def mutant(seed: int, scenes: list[Path]) -> tuple[Path, str, list[str], bool]:
-    """The mutant of ``seed``: (source scene, mutated text, flags, convert instead of render)."""
+#: Mutant kinds and their shares: a mutated scene through ``a5`` or ``convert``; a course scene with a mutated
+#: OBJ mesh, or with a mutated texture / cube face (tests/fuzz_inputs.py); a sub-command's command line.
+KINDS = (("scene", 0.5), ("mesh", 0.15), ("image", 0.1), ("command", 0.25))
+
+
+@dataclass
+class Mutant:
+    """What the seed of a mutant rebuilds: its kind, the source scene, the scene text, the files laid over the
+    scene's folder (relative path -> bytes, or a seed for :func:`fuzz_inputs.mutate_image`), and the command."""
+
+    kind: str
+    src: Path
+    text: str
+    files: dict[str, bytes] = field(default_factory=dict)
+    image: tuple[str, int] | None = None
+    flags: list[str] = field(default_factory=list)
+    convert: bool = False
+    command: str = ""
+
+
+def _named(text: str, keyword: str) -> list[str]:
+    tokens = text.split()
+    return [tokens[k + 1] for k, t in enumerate(tokens[:-1]) if t == keyword]
+
+
+def _image_files(src: Path, text: str) -> list[str]:
+    faces = [f"{d}/{f}" for d in _named(text, "cubeMap") for f in sorted(os.listdir(src.parent / d))
+             if f.endswith((".bmp", ".png"))]
+    return [*_named(text, "texture"), *faces]
+
+
+def mutant(seed: int, scenes: list[Path], kinds: tuple[tuple[str, float], ...] = KINDS) -> Mutant:
+    """The mutant of ``seed`` (of ``kinds``, default :data:`KINDS`)."""
+    from fuzz_inputs import mutate_obj
+
+    from a5mi.cli import SUBCOMMANDS
+
     rng = random.Random(seed)
+    kind = rng.choices([k for k, _ in kinds], [w for _, w in kinds])[0]
+    if kind == "mesh":
+        scenes = [s for s in scenes if "obj_file" in s.read_text(encoding="utf-8")] or scenes
+    elif kind == "image":
+        scenes = [s for s in scenes if _image_files(s, s.read_text(encoding="utf-8"))] or scenes
     src = rng.choice(scenes)
-    hostile = rng.random() < 0.4
     original = src.read_text(encoding="utf-8")
+    if kind == "command":
+        name = rng.choice(list(SUBCOMMANDS))
+        r = rng.random()  # the command's own paths need scenes that load: a third unchanged, a fifth broken
+        text = original if r < 0.35 else mutate_values(original, rng) if r < 0.8 else mutate(original, rng)
+        return Mutant(kind, src, text, command=name)
+    if kind == "mesh":
+        obj = rng.choice(_named(original, "obj_file"))
+        body = (src.parent / obj).read_text(encoding="utf-8", errors="replace")
+        files = {obj: mutate_obj(body, rng).encode("utf-8")}
+        convert = rng.random() < 0.2
+        return Mutant(kind, src, original, files, flags=[] if convert else random_flags(rng, False), convert=convert)
+    if kind == "image":
+        image = (rng.choice(_image_files(src, original)), rng.randrange(2**31))
+        return Mutant(kind, src, original, image=image, flags=random_flags(rng, False))
+    hostile = rng.random() < 0.4
     text = mutate(original, rng) if hostile else mutate_values(original, rng)
     convert = rng.random() < 0.15
-    return src, text, ([] if convert else random_flags(rng, hostile and rng.random() < 0.5)), convert
+    return Mutant(kind, src, text, flags=[] if convert else random_flags(rng, hostile and rng.random() < 0.5),
+                  convert=convert)
 
 
-def verdict(status: int | None, err: str, outputs: list[Path]) -> str:
-    """'' when the run kept the promise (module docstring), else what went wrong."""
+def verdict(status: int | None, err: str, outputs: list[Path], *, may_differ: bool = False) -> str:
+    """'' when the run kept the promise (module docstring), else what went wrong; ``may_differ``: the command
+    gives a verdict, so exit 1 (with its outputs) is an answer too."""
     lines = [ln for ln in err.splitlines() if ": warning: " not in ln]
     if "Traceback" in err:
         return "traceback: " + err[-300:]
-    if status == 0:
+    if status == 0 or (status == 1 and may_differ):
         missing = [str(p) for p in outputs if not p.exists()]
         return f"missing output: {missing}" if missing else ""
     if status == 2:
@@ -181,21 +242,87 @@ def verdict(status: int | None, err: str, outputs: list[Path]) -> str:
     return f"exit {status}: {' | '.join(lines)[:300]}"
 
 
-def run_one(seed: int, scenes: list[Path], work: Path) -> Outcome:
-    """Run the mutant of ``seed`` in a fresh folder of ``work`` (the course OBJ files and ``tex/`` linked in)."""
+def _stage(m: Mutant, run: Path) -> None:
+    """Lay the source scene's folder into ``run`` as links, the mutated files as real files."""
+    from fuzz_inputs import mutate_image
+
+    replaced = dict(m.files)
+    if m.image is not None:
+        replaced[m.image[0]] = b""
+    dirs = {Path(r).parts[0] for r in replaced if len(Path(r).parts) > 1}
+    for p in m.src.parent.iterdir():
+        if p.name in dirs:
+            _stage_dir(p, run / p.name, replaced, p.name)
+        elif p.suffix == ".obj" or p.name == "tex":
+            if p.name not in replaced:
+                os.symlink(p, run / p.name)
+    for rel, data in m.files.items():
+        (run / rel).write_bytes(data)
+    if m.image is not None:
+        rel, image_seed = m.image
+        mutate_image((m.src.parent / rel).read_bytes(), random.Random(image_seed), run / rel)
+
+
+def _stage_dir(src: Path, dst: Path, replaced: dict[str, bytes], prefix: str) -> None:
+    dst.mkdir()
+    for p in src.iterdir():
+        rel = f"{prefix}/{p.name}"
+        if p.is_dir() and any(r.startswith(rel + "/") for r in replaced):
+            _stage_dir(p, dst / p.name, replaced, rel)
+        elif rel not in replaced:
+            os.symlink(p, dst / p.name)
+
+
+def _command(m: Mutant, run: Path, seed: int) -> tuple[list[str], list[Path], bool]:
+    """The sub-command line of a command mutant, its inputs written into ``run``."""
+    from fuzz_inputs import command_argv, odd_image
+
     from a5mi import cli
 
-    src, text, flags, convert = mutant(seed, scenes)
+    rng = random.Random(seed ^ 0x5EED)
+    a, b = run / "a.png", run / "b.png"
+    odd_image(rng, a)
+    if rng.random() < 0.5:
+        b.write_bytes(a.read_bytes())
+    else:
+        odd_image(rng, b)
+    xml = None
+    if m.command == "render-xml":
+        with contextlib.redirect_stderr(io.StringIO()):
+            if cli.run_a5mi(["convert", "s.txt", "-o", "c.xml", "-q", "--size", "6", "6"]) == 0:
+                xml = "c.xml"
+    if m.command == "animate" and rng.random() < 0.7:
+        anim = Path(__file__).resolve().parents[1] / "scenes" / "animation.txt"
+        (run / "s.txt").write_text(mutate_values(anim.read_text(encoding="utf-8"), rng), encoding="utf-8")
+        os.symlink(anim.parent / "meshes", run / "meshes")
+    argv, outs = command_argv(m.command, rng, "s.txt", ("a.png", "b.png"), xml)
+    may_differ = cli.command(m.command).exit_differ is not None
+    return [*argv, "-q"], [run / o for o in outs], may_differ
+
+
+def run_one(seed: int, scenes: list[Path], work: Path, kinds: tuple[tuple[str, float], ...] = KINDS) -> Outcome:
+    """Run the mutant of ``seed`` in a fresh folder of ``work`` (the course OBJ files and ``tex/`` linked in,
+    the mutated ones written)."""
+    from a5mi import cli
+
+    m = mutant(seed, scenes, kinds)
     run = work / f"m{seed}"
     run.mkdir()
-    for p in src.parent.iterdir():
-        if p.suffix == ".obj" or p.name == "tex":
-            os.symlink(p, run / p.name)
-    (run / "s.txt").write_text(text, encoding="utf-8")
-    if convert:
+    _stage(m, run)
+    (run / "s.txt").write_text(m.text, encoding="utf-8")
+    may_differ = False
+    if m.kind == "command":
+        cwd = os.getcwd()
+        try:
+            os.chdir(run)
+            argv, outputs, may_differ = _command(m, run, seed)
+        finally:
+            os.chdir(cwd)
+    elif m.convert:
         argv = ["convert", "s.txt", "-o", "o.xml", "-q"]
         outputs = [run / "o.xml"]
     else:
+        flags = m.flags
         argv = ["-input", "s.txt", "-output", "o.png", *flags, "-q"]
         names = [flags[i + 1] for i, f in enumerate(flags[:-1]) if f in ("-normals", "-output")]
         names += [flags[i + 3] for i, f in enumerate(flags[:-3]) if f == "-depth"]
@@ -208,8 +335,8 @@ def run_one(seed: int, scenes: list[Path], work: Path) -> Outcome:
     try:
         os.chdir(run)
         with _alarm(HANG_SECONDS), contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-            status = cli.run_a5mi(argv) if convert else cli.run(argv)
-            if convert and status == 0:
+            status = cli.run_a5mi(argv) if (m.convert or m.kind == "command") else cli.run(argv)
+            if m.convert and status == 0:
                 import mitsuba as mi
 
                 mi.load_file(str(run / "o.xml"))
@@ -222,16 +349,17 @@ def run_one(seed: int, scenes: list[Path], work: Path) -> Outcome:
     seconds = time.monotonic() - t0
     text_err = err.getvalue()
     if not problem:
-        problem = verdict(status, text_err, outputs)
-    return Outcome(seed, argv, status, text_err, seconds, problem)
+        problem = verdict(status, text_err, outputs, may_differ=may_differ)
+    return Outcome(seed, [m.kind, *argv], status, text_err, seconds, problem)
 
 
-def campaign(scenes: list[Path], work: Path, *, seed: int, count: int, seconds: float) -> Campaign:
-    """Run mutants ``seed, seed+1, ...`` until ``count`` are done or ``seconds`` have passed."""
+def campaign(scenes: list[Path], work: Path, *, seed: int, count: int, seconds: float,
+             kinds: tuple[tuple[str, float], ...] = KINDS) -> Campaign:
+    """Run mutants ``seed, seed+1, ...`` (of ``kinds``) until ``count`` are done or ``seconds`` have passed."""
     result = Campaign()
     t_end = time.monotonic() + seconds
     for k in range(count):
         if time.monotonic() > t_end:
             break
-        result.outcomes.append(run_one(seed + k, scenes, work))
+        result.outcomes.append(run_one(seed + k, scenes, work, kinds))
     return result

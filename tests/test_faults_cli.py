@@ -306,6 +306,16 @@ def test_render_xml_plugin_errors_are_one_positioned_line(textured_xml: Path, ca
     assert "Traceback" not in line and "File " not in line
 
 
+def test_render_xml_names_an_unused_define(textured_xml: Path, capsys) -> None:
+    """Mitsuba's two-line "Found unused parameters:" error keeps the parameter it names in its one line."""
+    capsys.readouterr()
+    assert cli.run_a5mi(["render-xml", str(textured_xml), "-o", str(textured_xml.parent / "o.png"), "-D",
+                         "nosuch=1"]) == 2
+    line = _one_line(capsys)
+    assert line.endswith("Found unused parameters: $nosuch=1"), line
+    assert not (textured_xml.parent / "o.png").exists()
+
+
 def test_render_xml_refuses_a_film_beyond_memory(textured_xml: Path, capsys) -> None:
     capsys.readouterr()
     assert cli.run_a5mi(["render-xml", str(textured_xml), "-o", str(textured_xml.parent / "o.png"), "-D",

@@ -13,7 +13,7 @@ import os
 from pathlib import Path
 
 import pytest
-from fuzzing import campaign
+from fuzzing import campaign, mutant
 
 
 def _scenes(scenes_dir: Path) -> list[Path]:
@@ -31,6 +31,35 @@ def test_fuzz_campaign_sample(scenes_dir: Path, tmp_path: Path, mi) -> None:
     assert not result.failures, _report(result)
     counts = result.counts()
     assert counts.get("exit 0", 0) > 0 and counts.get("exit 2", 0) > 0, counts
+
+
+def test_fuzz_mesh_and_image_mutants_sample(scenes_dir: Path, tmp_path: Path, mi) -> None:
+    """Mutated OBJ meshes (coincident, degenerate, sliver, crossing faces, bad indices, other line ends) and
+    mutated textures / cube faces (headers, truncation, odd channel counts) through real renders."""
+    kinds = (("mesh", 0.6), ("image", 0.4))
+    result = campaign(_scenes(scenes_dir), tmp_path, seed=23_000, count=14, seconds=600, kinds=kinds)
+    assert len(result.outcomes) == 14
+    assert not result.failures, _report(result)
+    assert {o.argv[0] for o in result.outcomes} == {"mesh", "image"}
+    counts = result.counts()
+    assert counts.get("exit 0", 0) > 0 and counts.get("exit 2", 0) > 0, counts
+
+
+def test_fuzz_commands_cover_every_sub_command(scenes_dir: Path) -> None:
+    """The command mutants reach every sub-command of ``a5mi`` (the campaign proper runs them)."""
+    from a5mi.cli import SUBCOMMANDS
+
+    kinds = (("command", 1.0),)
+    seen = {mutant(seed, _scenes(scenes_dir), kinds).command for seed in range(400)}
+    assert seen == set(SUBCOMMANDS)
+
+
+def test_fuzz_commands_sample(scenes_dir: Path, tmp_path: Path, mi) -> None:
+    """A seeded sample of sub-command lines (cheap commands run for real, long ones end at their flag checks)."""
+    kinds = (("command", 1.0),)
+    result = campaign(_scenes(scenes_dir), tmp_path, seed=29_000, count=12, seconds=600, kinds=kinds)
+    assert not result.failures, _report(result)
+    assert len({o.argv[1] for o in result.outcomes}) >= 6, [o.argv[:2] for o in result.outcomes]
 
 
 @pytest.mark.skipif(not os.environ.get("A5MI_FUZZ_SECONDS"), reason="the campaign runs in make fuzz")

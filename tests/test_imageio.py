@@ -112,3 +112,23 @@ def test_read_image_errors(tmp_path) -> None:
     (tmp_path / "bad.png").write_bytes(b"\x89PNG\r\n\x1a\nnot really")
     with pytest.raises(ImageReadError):
         imageio.read_image(tmp_path / "bad.png")
+
+
+@pytest.mark.parametrize("channels", [2, 4])
+def test_a4_alpha_channel_never_scales_the_stored_colour(tmp_path, channels: int) -> None:
+    """SPEC A.4 uses the file's bytes as they are: a PNG with alpha 128 (stored unassociated, as image editors
+    write it) reads back with its colour bytes, not multiplied by alpha (OpenImageIO's default would darken
+    them by 0.5)."""
+    import OpenImageIO as oiio
+
+    rng = np.random.default_rng(4)
+    pixels = rng.integers(0, 256, (5, 7, channels), dtype=np.uint8)
+    pixels[..., -1] = 128
+    path = tmp_path / "a.png"
+    spec = oiio.ImageSpec(7, 5, channels, oiio.UINT8)
+    spec.attribute("oiio:UnassociatedAlpha", 1)
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), spec)
+    out.write_image(pixels)
+    out.close()
+    assert np.array_equal(imageio.read_uint8(path), pixels)

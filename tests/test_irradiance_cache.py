@@ -1,4 +1,4 @@
-"""``a5_irradiancecache`` (docs/EXTENSIONS.md E.15) as a Mitsuba plugin and through ``a5``: parameters, the
+"""``a5_irradiancecache`` (docs/EXTENSIONS.md E.16) as a Mitsuba plugin and through ``a5``: parameters, the
 records picture, reuse of records, and its indirect light against path tracing (``-integrator path``, E.14).
 
 The comparison with path tracing traces the same pixel-centre camera rays: the cache's colour splits into the

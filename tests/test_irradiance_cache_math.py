@@ -1,4 +1,4 @@
-"""The irradiance cache's formulas against closed forms (docs/EXTENSIONS.md E.15): numpy only, no Mitsuba.
+"""The irradiance cache's formulas against closed forms (docs/EXTENSIONS.md E.16): numpy only, no Mitsuba.
 
 Hemisphere estimates use seeded stratified samples; each tolerance is stated against the spread measured
 over seeds (σ) and the estimator's known bias (the cell-difference gradients of Ward and Heckbert are first

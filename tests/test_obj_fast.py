@@ -75,6 +75,15 @@ def test_a6_fast_reader_handles_crlf_comments_other_records_quads_and_zero_area(
     ]
 
 
+def test_a6_lone_cr_line_endings_are_lines_with_their_positions() -> None:
+    """An OBJ written with lone CR line ends (classic Mac) is read line by line, and an error names its line."""
+    mesh = _check("v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r")
+    assert mesh is not None and mesh.faces.tolist() == [[0, 1, 2]]
+    with pytest.raises(SceneSemanticError) as err:
+        _parse_slow("v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 9\r", "m.obj", None)
+    assert (err.value.loc.line, err.value.loc.col) == (4, 7), err.value
+
+
 def test_a6_fast_reader_uv_pairs() -> None:
     mesh = _check("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0 0\nvt 0.5 1\nf 1/3 2/1 3/2\n")
     assert mesh is not None and mesh.face_texcoords is not None and mesh.texcoords is not None
@@ -138,7 +147,7 @@ def _obj_text(draw: st.DrawFn) -> str:
             lines[k] = line
         else:
             lines.insert(k, line)
-    eol = draw(st.sampled_from(["\n", "\r\n"]))
+    eol = draw(st.sampled_from(["\n", "\r\n", "\r"]))
     return eol.join(lines) + draw(st.sampled_from(["", eol, eol + eol]))
 
 

@@ -329,7 +329,10 @@ def exception_summary(exc: BaseException) -> str:
     """One line for an unexpected exception: its first line, plus the innermost cause when Mitsuba's
     ``load_dict`` has wrapped a plugin's Python exception (with its traceback text) into its message."""
     head, *embedded = str(exc).split("Traceback")
-    first = (head.strip().splitlines() or [""])[0]
+    head_lines = [ln.strip() for ln in head.strip().splitlines() if ln.strip()]
+    first = head_lines[0] if head_lines else ""
+    if first.endswith(":") and len(head_lines) > 1:  # a heading and its list ("Found unused parameters:\n - $x")
+        first = f"{first} {', '.join(ln.lstrip('- ') for ln in head_lines[1:5])}"
     if embedded:
         lines = [ln.strip() for ln in embedded[-1].strip().splitlines() if ln.strip()]
         if lines and re.match(r"[A-Za-z_][\w.]*(Error|Exception|Exit|Interrupt)\b", lines[-1]):

@@ -58,8 +58,12 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          1, integer(1, 65536), 1, "N"),
     Flag(("-integrator", "--integrator"), "integrator", "whitted (the sample solution's, SPEC B.3) or a physically "
          "based mode of docs/EXTENSIONS.md", 1, choice(tuple(INTEGRATORS)), "whitted", "NAME"),
+    Flag(("-rr_depth", "--rr-depth"), "rr_depth", "-integrator path: Russian roulette from N scatterings on "
+         "(docs/EXTENSIONS.md E.14)", 1, integer(0, 1 << 16), 5, "N"),
+    Flag(("-indirect", "--indirect"), "indirect", "whitted: N cosine-weighted rays gather indirect light at each "
+         "diffuse hit (docs/EXTENSIONS.md E.15)", 1, integer(0, 4096), 0, "N"),
     Flag(("-ic_error", "--ic-error"), "ic_error", "-integrator irradiancecache: Ward's error bound a (records serve "
-         "where ε < a; docs/EXTENSIONS.md E.15)", 1, real, 0.3, "A"),
+         "where ε < a; docs/EXTENSIONS.md E.16)", 1, real, 0.3, "A"),
     Flag(("-ic_samples", "--ic-samples"), "ic_samples", "-integrator irradiancecache: hemisphere rays per record "
          "(M x N strata, N ≈ πM)", 1, integer(6, 1 << 16), 256, "N"),
     Flag(("-ic_records", "--ic-records"), "ic_records_output", "-integrator irradiancecache: also write a picture "
@@ -216,7 +220,7 @@ def _render_and_write(args: Args, console: Console, activate: Any, render: Any, 
 
     t0 = time.perf_counter()
     images = {"-output": result.image, "-normals": result.normals, "-depth": result.depth}
-    if args.get("ic_records_output"):  # docs/EXTENSIONS.md E.15
+    if args.get("ic_records_output"):  # docs/EXTENSIONS.md E.16
         from a5mi.plugins.irradiance_cache_records import picture
 
         images["-ic_records"] = picture(result.image, desc.camera, result.render_size,

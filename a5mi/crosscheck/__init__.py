@@ -21,6 +21,12 @@ the glass pixels and over all other pixels, in 8-bit levels as the images would 
 (``byte = clamp(int(c·255))``, SPEC B.1), plus the signed ``bias = mean(B − A)``.
 :func:`write_montage` draws ``a5 | schlick | exact | path`` with their error maps.
 
+``path`` renders the physically based reading of the scene (docs/EXTENSIONS.md E.13: Lambert ``kd/π``, the
+mirror lobe ``ks R``, the dielectric ``ks (1 − R)/η²``, lights as emitters, the environment as a light, no
+ambient term), the one ``a5mi``'s own ``-integrator path`` (E.14) renders from ``plugins/kernel/pbr.py``; the
+stock conversion agrees with it where ``kd + ks <= 1``, front faces are seen and the lights are directional or
+the background (its point, spot and area lights are scaled to agree at the scene's centre only).
+
 What separates ``path`` from Whitted (measured on scene10 in the README section "Cross-check against
 physically based rendering"): the ``stock=True`` conversion's approximations (``converters/to_mitsuba.py``:
 Noise -> mean colour, ``blendbsdf`` instead of a5's diffuse + mirror sum, inverse-square point lights); the

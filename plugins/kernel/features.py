@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import mitsuba as mi
 
+from . import pbr_gather
 from .lights import Lights, has_area_lights
 
 if TYPE_CHECKING:
@@ -42,6 +43,7 @@ class Features(NamedTuple):
     environment    bool     the scene has an environment emitter (else misses are black)
     triangle_rule  bool     some mesh carries the binary's triangle data (plugins/triangle_rule.py)
     record         bool     record mode: the ray tree's values are scattered into a recorder
+    indirect       int      E.15: cosine-weighted rays gathered at each diffuse hit (0: none)
     stack_size     int      entries of the pending-ray stack (:func:`stack_size`)
     ============== ======== ===================================================================
     """
@@ -60,6 +62,7 @@ class Features(NamedTuple):
     triangle_rule: bool = False
     record: bool = False
     stack_size: int = 8
+    indirect: int = 0
 
 
 class SceneData(NamedTuple):
@@ -102,11 +105,16 @@ def stack_size(max_depth: int, glossy_samples: int = 1) -> int:
 
 def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, record: bool = False) -> Features:
     """The :class:`Features` of a kernel call: the integrator's flags, what ``scene`` holds (area lights, an
-    environment) and what ``data`` carries (a triangle-rule table, a medium)."""
+    environment) and what ``data`` carries (a triangle-rule table, a medium); ``indirect`` (E.15) is read where
+    the integrator has it."""
+    indirect = int(getattr(source, "indirect", 0))
+    size = stack_size(source.max_depth, source.glossy_samples)
+    if indirect > 0:
+        size = pbr_gather.stack_size(source.max_depth, source.glossy_samples, indirect)
     return Features(
         shadows=source.shadows, phong=source.phong, fresnel=source.fresnel, reflection=source.reflection,
         refraction=source.refraction, area_lights=has_area_lights(scene), glossy=source.glossy,
         bump=source.bump, media=data.medium is not None, dispersion=source.dispersion,
         environment=scene.environment() is not None, triangle_rule=data.rules is not None, record=record,
-        stack_size=stack_size(source.max_depth, source.glossy_samples),
+        stack_size=size, indirect=indirect,
     )

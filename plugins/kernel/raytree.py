@@ -5,7 +5,7 @@ pixel, and its children carry ``w ⊙ specularColor ⊙ R`` (reflection) and ``w
 (refraction). :func:`trace_tree` walks that tree depth-first with a stack of pending rays (:mod:`.stack`)
 inside one ``@dr.syntax`` while-loop, so the whole render is one kernel. Each popped node reads as SPEC B.3:
 intersect, background on a miss, the material, ambient plus the light loop, then the children. The optional
-blocks (docs/EXTENSIONS.md E.2, E.4, E.7-E.10, record mode) are named helpers under
+blocks (docs/EXTENSIONS.md E.2, E.4, E.7-E.10, E.15, record mode) are named helpers under
 ``if dr.hint(f.<feature>, mode='scalar'):``, decided by the :class:`~.features.Features` ``f``.
 """
 
@@ -21,7 +21,7 @@ from ..common import fresnel_weight, reflect, snell
 from ..sampling import Stochastic
 from ..syntax import syntax
 from ..whitted_record import TreeRecorder, shape_id
-from . import gloss, lights
+from . import gloss, lights, pbr_gather
 from . import stack as ray_stack
 from .features import Features, SceneData
 from .intersect import intersect, mirror_normal
@@ -69,6 +69,9 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
         # (the helpers' NamedTuples are unpacked at once: each value has one name in the loops that carry it)
         top -= 1
         o, d, weight, bounces, n_medium, t_min, origin, weighted = ray_stack.pop(stack, top)
+        gathered = None
+        if dr.hint(f.indirect > 0, mode="scalar"):   # E.15: the gathered flag rides on origin's top bit
+            origin, gathered = pbr_gather.split_origin(origin)
         at = None
         if dr.hint(f.record, mode="scalar"):
             at = rec.index(n_refl, n_refr, top)
@@ -91,7 +94,10 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
         local, counter, n_shadow = lights.direct(scene, data, f, si, p, hit, n, kd, specular, shininess, r_view,
                                                  local, rng, node, counter, n_shadow, rec, at)
         if dr.hint(f.area_lights, mode="scalar"):   # E.2: an area light seen directly
-            local = lights.emission(scene, si, hit & ~on_plane, local)
+            on_shape = hit & ~on_plane
+            if dr.hint(f.indirect > 0, mode="scalar"):   # E.15: not by a gathered ray (the light loop has it)
+                on_shape &= ~gathered
+            local = lights.emission(scene, si, on_shape, local)
 
         if dr.hint(f.media, mode="scalar"):         # E.8, E.9: the segment o -> p (o -> infinity on a miss)
             seg_t, seg_light, counter = media.segment(scene, data, o, d, t_min, t_hit, n_medium == 1.0, f.shadows,
@@ -154,6 +160,10 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
                     rec.node(at, push_refl=push_refl, r_dir=r_dir, r_fresnel=r_fresnel,
                              w_refl=weight * specular * r_fresnel * share)
             g += 1
+        if dr.hint(f.indirect > 0, mode="scalar"):   # E.15: N cosine-weighted rays gather indirect light
+            top, counter, n_refl = pbr_gather.gather(stack, top, go, p, d, n, kd, weight, bounces, n_medium,
+                                                     data.tmin, row, weighted, rng, node, counter, n_refl,
+                                                     f.indirect)
         node += 1
 
     return color, aov_n, aov_t, aov_class, n_refl, n_refr, n_shadow
