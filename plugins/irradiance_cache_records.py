@@ -2,10 +2,11 @@
 
 The rendered image, dimmed to 50%, with each record drawn where the a5 camera sees its point (SPEC B.2
 inverted: ``x = f (d·u)/(d·w)``, ``y = f (d·v)/(d·w)`` for ``d = p_i − center``, pixel
-``(x + 1)/2 · (W − 1)``, rows from the bottom): a red dot at its centre and a green circle of its reach
-``a R_i`` (where ``ε_i < a`` on its own plane), in pixels ``a R_i / s_i`` with ``s_i`` the pixel spacing at
-the record. A record made at a surface seen in a mirror or through glass is drawn at its own position, not
-where it was seen. Records behind the camera are left out. numpy only.
+``(x + 1)/2 · (W − 1)``, rows from the bottom): a red dot at its centre (one pixel; a cross of five from 320
+pixels wide) and a green circle of its reach ``a R_i`` (where ``ε_i < a`` on its own plane), blended at 40%,
+in pixels ``a R_i / s_i`` with ``s_i`` the pixel spacing at the record. A record made at a surface seen in a
+mirror or through glass is drawn at its own position, not where it was seen. Records behind the camera are left
+out. numpy only.
 """
 
 from __future__ import annotations
@@ -23,6 +24,10 @@ F32 = npt.NDArray[np.float32]
 
 DOT = np.array([1.0, 0.1, 0.1], np.float32)
 RING = np.array([0.2, 1.0, 0.3], np.float32)
+#: opacity of the rings (overlapping rings stay readable)
+RING_ALPHA = 0.4
+#: images at least this wide draw each dot as a cross of five pixels
+CROSS_WIDTH = 320
 
 
 def project(points: np.ndarray, camera: Any, render_size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray,
@@ -59,15 +64,19 @@ def picture(image: np.ndarray, camera: Any, render_size: tuple[int, int], record
     steps = np.maximum(8, np.ceil(4.0 * np.pi * radius)).astype(np.int64)
     owner = np.repeat(np.arange(cx.size), steps)
     angle = 2.0 * np.pi * (np.arange(steps.sum()) - np.repeat(np.cumsum(steps) - steps, steps)) / steps[owner]
-    _plot(out, cx[owner] + radius[owner] * np.cos(angle), cy[owner] + radius[owner] * np.sin(angle), RING)
-    # dots: the centre pixel and its four neighbours
-    for dx, dy in ((0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)):
-        _plot(out, cx + dx, cy + dy, DOT)
+    _plot(out, cx[owner] + radius[owner] * np.cos(angle), cy[owner] + radius[owner] * np.sin(angle), RING,
+          RING_ALPHA)
+    cross = ((0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)) if w >= CROSS_WIDTH else ((0, 0),)
+    for dx, dy in cross:
+        _plot(out, cx + dx, cy + dy, DOT, 1.0)
     return out
 
 
-def _plot(out: F32, x: np.ndarray, y: np.ndarray, color: np.ndarray) -> None:
+def _plot(out: F32, x: np.ndarray, y: np.ndarray, color: np.ndarray, alpha: float) -> None:
+    """Blend ``color`` at ``alpha`` into the pixels nearest to ``(x, y)`` (each pixel once per call)."""
     xi, yi = np.rint(x).astype(np.int64), np.rint(y).astype(np.int64)
     h, w = out.shape[:2]
     ok = (xi >= 0) & (xi < w) & (yi >= 0) & (yi < h)
-    out[yi[ok], xi[ok]] = color
+    flat = np.unique(yi[ok] * w + xi[ok])
+    rows, cols = flat // w, flat % w
+    out[rows, cols] = (1.0 - alpha) * out[rows, cols] + alpha * color

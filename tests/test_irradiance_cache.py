@@ -105,7 +105,7 @@ def test03_mi_render_of_the_converted_scene(mi: Any) -> None:
 def test04_records_picture(mi: Any) -> None:
     """The picture marks each record's projection (SPEC B.2 inverted) with a dot and its reach with a ring."""
     from a5mi.plugins.irradiance_cache_grid import RecordSet
-    from a5mi.plugins.irradiance_cache_records import DOT, RING, picture, project
+    from a5mi.plugins.irradiance_cache_records import DOT, RING, RING_ALPHA, picture, project
 
     desc = _load(SCENES / "ic_bleed.txt")
     cam = desc.camera
@@ -117,8 +117,9 @@ def test04_records_picture(mi: Any) -> None:
     records.add(target[None, :], np.array([[0.0, 0.0, 1.0]]), np.ones((1, 3)), np.array([1.0]), z3, z3,
                 np.array([0.05]))                                     # reach 0.5 / 0.05 = 10 pixels
     out = picture(np.ones((41, 41, 3), np.float32), cam, (41, 41), records)
-    assert np.array_equal(out[20, 20], DOT) and np.array_equal(out[20, 30], RING)
-    assert np.array_equal(out[20, 10], RING) and np.array_equal(out[0, 0], [0.5, 0.5, 0.5])
+    ring = (1 - RING_ALPHA) * 0.5 + RING_ALPHA * RING
+    assert np.array_equal(out[20, 20], DOT) and np.allclose(out[20, 30], ring) and np.allclose(out[20, 10], ring)
+    assert np.array_equal(out[0, 0], [0.5, 0.5, 0.5]) and np.array_equal(out[20, 21], [0.5, 0.5, 0.5])
 
 
 def test05_cli_writes_the_records_picture(tmp_path: Path, capsys: Any) -> None:
