@@ -42,6 +42,8 @@ def check_trace_args(args: Args) -> None:
     from a5mi.trace.core import TraceError
 
     check_render_args(args)
+    if args.get("integrator", "whitted") != "whitted":   # the recorder walks a5_whitted's ray tree (SPEC B.3)
+        raise TraceError(f"a5mi trace follows -integrator whitted only, not {args.integrator}")
     if args.sample is not None and not args.jitter:
         raise TraceError("--sample needs -jitter (without it a pixel has one camera ray)")
     if args.diff is None and args.px is None:
