@@ -133,6 +133,9 @@ def test05_cli_writes_the_records_picture(tmp_path: Path, capsys: Any) -> None:
     assert cli.run([*argv, "-ic_records", str(rec)]) == 2
     assert "-ic_records needs -integrator irradiancecache" in capsys.readouterr().err
     assert cli.run([*argv, "-integrator", "irradiancecache", "-ic_error", "0"]) == 2
+    trace = ["trace", "-input", str(SCENES / "ic_bleed.txt"), "-pixel", "1", "1", "-integrator", "irradiancecache"]
+    assert cli.run_a5mi(trace) == 2
+    assert "a5mi trace follows -integrator whitted only" in capsys.readouterr().err
 
 
 def test06_indirect_light_matches_path_tracing(mi: Any, scenes_dir: Path) -> None:
