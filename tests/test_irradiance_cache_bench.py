@@ -2,11 +2,13 @@
 machine: ``-integrator path -spp S``, ``-indirect N`` (a5_whitted) and ``-integrator irradiancecache``.
 
 The scene is ``scenes/ic_sky.txt`` (a white floor and back wall between a red and a green panel, lit by the
-background colour alone: colour bleeding), 48 x 48. Whitted's direct light is SPEC B.3's (``kd``, E.15), so only
+background colour alone: colour bleeding), 32 x 32. Whitted's direct light is SPEC B.3's (``kd``, E.15), so only
 light that arrives through the gather is comparable: lit by the background, ``-indirect N -bounces 2`` and
 ``-integrator path -bounces 1`` estimate the same image (E.15), and so does ``-integrator irradiancecache
--bounces 1`` (E.16). The reference is ``-integrator path -bounces 1`` at 2048 passes.
-Error: RMSE over pixels and channels divided by the reference's mean. Time: the render's wall time after a
+-bounces 1`` (E.16). The reference is ``-integrator path -bounces 1`` at 4096 passes.
+Error: the mean absolute difference over pixels and channels divided by the reference's mean (an RMSE is ruled
+by the reference's own rare bright samples: the sky is seen through the box's opening only, and an RMSE
+against a 2048-pass reference stalled near 0.14-0.19 for every mode). Time: the render's wall time after a
 first render of the same options (Dr.Jit's compile excluded). ``python -m pytest -s -m slow
 tests/test_irradiance_cache_bench.py`` prints the table that BENCHMARKS.md quotes.
 """
@@ -28,13 +30,13 @@ from a5mi.driver import render_scene
 from a5mi.options import RenderOptions
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "ic_sky.txt"
-SIZE, REFERENCE_SPP = 48, 2048
+SIZE, REFERENCE_SPP = 32, 4096
 
 #: (label, options) of each row
 ROWS: list[tuple[str, dict[str, Any]]] = [
     *((f"path -spp {s}", {"integrator": "path", "spp": s, "bounces": 1}) for s in (4, 16, 64, 256)),
     *((f"-indirect {n}", {"integrator": "whitted", "shadows": True, "indirect": n, "bounces": 2})
-      for n in (4, 16, 64)),
+      for n in (4, 16, 32)),
     *((f"irradiancecache -ic_samples {m} -ic_error {a}", {"integrator": "irradiancecache", "ic_samples": m,
                                                            "ic_error": a, "bounces": 1})
       for m, a in ((64, 0.5), (256, 0.3), (1024, 0.2))),
@@ -49,14 +51,14 @@ def _render(desc: Any, options: RenderOptions) -> tuple[np.ndarray, float]:
 
 
 def error_versus_time() -> list[tuple[str, float, float]]:
-    """``(label, seconds, relative RMSE)`` of every row of :data:`ROWS` (module docstring)."""
+    """``(label, seconds, relative mean absolute error)`` of every row of :data:`ROWS` (module docstring)."""
     desc = describe(parse_file(str(SCENE)))
     base = RenderOptions(width=SIZE, height=SIZE)
     reference, _ = _render(desc, dataclasses.replace(base, integrator="path", spp=REFERENCE_SPP, bounces=1))
     rows = []
     for label, kw in ROWS:
         image, seconds = _render(desc, dataclasses.replace(base, **kw))
-        rows.append((label, seconds, float(np.sqrt(np.mean((image - reference) ** 2)) / reference.mean())))
+        rows.append((label, seconds, float(np.mean(np.abs(image - reference)) / reference.mean())))
     return rows
 
 
