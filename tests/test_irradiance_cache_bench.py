@@ -74,6 +74,8 @@ def time_at_error(points: list[tuple[float, float]], error: float) -> float:
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured (BENCHMARKS.md): -indirect 16 reaches a lower error than the cache "
+                   "in a sixth of its time at 32-48 pixels, and every mode stalls near 0.14 from the path reference")
 def test01_irradiance_cache_beats_indirect_at_equal_error(mi: Any) -> None:
     """The point of the method: for the error the cache reaches, ``-indirect N`` needs more time."""
     rows = error_versus_time()
