@@ -34,7 +34,7 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -75,6 +75,9 @@ class RenderResult:
     kernels: dict[str, int] = field(default_factory=dict)
     #: per-sample ray-tree class (0 miss, 1 opaque, 2 glass), when ``RenderOptions.classes`` asked for it
     classes: npt.NDArray[np.uint8] | None = None
+    #: what the integrator reports of the render (its ``render_extras()``, if it has one; the irradiance
+    #: cache's records, docs/EXTENSIONS.md E.23)
+    extras: dict[str, Any] = field(default_factory=dict)
 
 
 def depth_gray(t: npt.ArrayLike, dmin: float, dmax: float) -> npt.NDArray[np.float32]:
@@ -209,4 +212,7 @@ def render_scene(
         if separate:
             trace_pass(ctx, quadrant_tiles(rw, rh, rows), aov, done)
         timings["render"] = time.perf_counter() - t_start - timings["filter"]  # the streamed filter: its own stage
-    return _result(options, main, aov, separate, len(rows), total, timings)
+    result = _result(options, main, aov, separate, len(rows), total, timings)
+    extras = getattr(integrator, "render_extras", None)
+    result.extras = extras() if callable(extras) else {}
+    return result

@@ -26,8 +26,8 @@ AOV_GROUPS: tuple[str, ...] = ("normal", "depth", "class", "counts")
 #: accepts the scene part of ``a5_whitted``'s parameters (``ambient``, ``plane_<id>_*``, ``medium*``,
 #: ``glossy_samples``, ``glossy``, ``dispersion``: converters/to_mitsuba.py ``integrator_dict``) and the
 #: ``aovs`` groups it lists in ``aov_names()``.
-INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted", "path": "a5_path", "photon": "a5_photon",
-                               "ppm": "a5_ppm"}
+INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted", "path": "a5_path", "irradiancecache": "a5_irradiancecache",
+                               "photon": "a5_photon", "ppm": "a5_ppm"}
 #: Radiance-estimate filters of ``-integrator photon`` / ``ppm`` (docs/EXTENSIONS.md E.16).
 PHOTON_FILTERS: tuple[str, ...] = ("none", "cone", "epanechnikov")
 #: ``-subsurface`` methods (docs/EXTENSIONS.md E.18; ``none``: the materials' ``subsurface`` blocks are ignored).
@@ -100,6 +100,9 @@ class RenderOptions:
     media_bounces: int = 0
     #: docs/EXTENSIONS.md E.18: ``none`` (materials' ``subsurface`` blocks ignored), ``dipole`` or ``walk``
     subsurface: str = "none"
+    #: docs/EXTENSIONS.md E.23: ``-integrator irradiancecache``'s error bound ``a`` and hemisphere rays per record
+    ic_error: float = 0.3
+    ic_samples: int = 256
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -117,6 +120,8 @@ class RenderOptions:
             raise ValueError(f"rr_depth must be >= 0, got {self.rr_depth}")
         if self.photon_filter not in PHOTON_FILTERS:
             raise ValueError(f"photon_filter must be one of {', '.join(PHOTON_FILTERS)}, got '{self.photon_filter}'")
+        if not 0.0 < self.ic_error <= 1.0 or self.ic_samples < 6:
+            raise ValueError(f"ic_error must be in (0, 1] and ic_samples >= 6, got {self.ic_error}, {self.ic_samples}")
         if self.spp < 1:
             raise ValueError(f"spp must be >= 1, got {self.spp}")
         if self.subsurface not in SUBSURFACE_METHODS:
@@ -155,7 +160,7 @@ class RenderOptions:
             params["bump"] = True
         if self.indirect > 0 and self.plugin == "a5_whitted":  # E.15; absent at 0: course dicts unchanged
             params["indirect"] = int(self.indirect)
-        if self.plugin == "a5_path":  # docs/EXTENSIONS.md E.14
+        if self.plugin in ("a5_path", "a5_irradiancecache"):  # docs/EXTENSIONS.md E.14, E.23
             params["rr_depth"] = int(self.rr_depth)
         if self.integrator in ("photon", "ppm"):  # docs/EXTENSIONS.md E.16, E.17
             del params["phong"]
@@ -169,4 +174,6 @@ class RenderOptions:
             params["medium_bounces"] = int(self.media_bounces)
         if self.subsurface != "none" and self.plugin == "a5_whitted":  # docs/EXTENSIONS.md E.18
             params["subsurface"] = str(self.subsurface)
+        if self.plugin == "a5_irradiancecache":  # docs/EXTENSIONS.md E.23
+            params.update(error=float(self.ic_error), samples=int(self.ic_samples))
         return params

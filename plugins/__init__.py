@@ -28,6 +28,7 @@ PLUGIN_MODULES: tuple[str, ...] = (
     "path",             # a5_path integrator (docs/EXTENSIONS.md E.13, E.14)
     "photon",           # a5_photon integrator (docs/EXTENSIONS.md E.16)
     "ppm",              # a5_ppm integrator (docs/EXTENSIONS.md E.17)
+    "irradiance_cache", # a5_irradiancecache integrator (docs/EXTENSIONS.md E.23)
 )
 
 def register_all() -> None:

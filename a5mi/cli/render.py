@@ -15,7 +15,7 @@ from typing import Any
 
 from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
-from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, size_flag, text
+from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, real, size_flag, text
 from a5mi.errors import ExitStatus, UsageError
 from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, PHOTON_FILTERS, SUBSURFACE_METHODS, RenderOptions
 from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR
@@ -98,6 +98,12 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          "sphere (E.17)", 1, lambda f, v: _nonneg(f, v[0]), 0.0, "R"),
     Flag(("-ppm_alpha", "--ppm-alpha"), "ppm_alpha", "ppm radius schedule alpha in (0, 1) (E.17)", 1,
          lambda f, v: _unit(f, v[0]), 2.0 / 3.0, "A"),
+    Flag(("-ic_error", "--ic-error"), "ic_error", "-integrator irradiancecache: Ward's error bound a (records serve "
+         "where ε < a; docs/EXTENSIONS.md E.23)", 1, real, 0.3, "A"),
+    Flag(("-ic_samples", "--ic-samples"), "ic_samples", "-integrator irradiancecache: hemisphere rays per record "
+         "(M x N strata, N ≈ πM)", 1, integer(6, 1 << 16), 256, "N"),
+    Flag(("-ic_records", "--ic-records"), "ic_records_output", "-integrator irradiancecache: also write a picture "
+         "of the cache's records (dots, reach circles)", 1, text, metavar="IMG"),
     Flag(("-variant", "--variant"), "variant", "llvm (default; or $A5MI_VARIANT), cuda or auto", 1,
          choice(("llvm", "cuda", "auto")), metavar="V"),
     Flag(("-threads", "--threads"), "threads", "Dr.Jit worker threads", 1, integer(1, 1024), metavar="N"),
@@ -151,6 +157,11 @@ def check_render_args(args: Args) -> None:
         pending = (indirect + 1) * args.bounces
         raise UsageError(f"-indirect {indirect} with -bounces {args.bounces} keeps up to {pending} pending rays per "
                          f"camera ray; the limit is {MAX_PENDING} (fewer rays or bounces)")
+    if args.get("ic_records_output") and args.get("integrator") != "irradiancecache":
+        raise UsageError("-ic_records needs -integrator irradiancecache")
+    ic_error = args.get("ic_error")
+    if ic_error is not None and not 0.0 < ic_error <= 1.0:
+        raise UsageError(f"-ic_error must be in (0, 1], got {ic_error}")
     if args.filter and not args.jitter and (args.width < 3 or args.height < 3):
         raise UsageError(f"-filter without -jitter saves a W/3 x H/3 image; -size {args.width} {args.height} is "
                          "too small")
@@ -184,6 +195,8 @@ def outputs_of(args: Args) -> list[tuple[str, str]]:
         outs.append(("-normals", args.normals_output))
     if args.get("depth_output"):
         outs.append(("-depth", args.depth_output))
+    if args.get("ic_records_output"):
+        outs.append(("-ic_records", args.ic_records_output))
     for _, path in outs:
         imageio.check_output_path(path)
     clobber.check_outputs(outs, [args.input])  # the same file twice, or the scene itself
@@ -260,6 +273,11 @@ def _render_and_write(args: Args, console: Console, activate: Any, render: Any, 
 
     t0 = time.perf_counter()
     images = {"-output": result.image, "-normals": result.normals, "-depth": result.depth}
+    if args.get("ic_records_output"):  # docs/EXTENSIONS.md E.23
+        from a5mi.plugins.irradiance_cache_records import picture
+
+        images["-ic_records"] = picture(result.image, desc.camera, result.render_size,
+                                        result.extras["irradiance_cache"])
     imageio.write_images([(path, images[role]) for role, path in outputs])
     timings["write"] = time.perf_counter() - t0
     if args.verbose:
@@ -292,7 +310,8 @@ A5 = Command("a5", _SUMMARY, RENDER_FLAGS, run_render, grammar="a5", required=("
 
 #: Render flags that name an image to write or say how its AOV rays are cast: not offered by the commands
 #: that write no a5 image (trace) or write their own (animate).
-IMAGE_OUTPUT_DESTS = frozenset({"output", "normals_output", "depth", "depth_output", "aov_mode"})
+IMAGE_OUTPUT_DESTS = frozenset({"output", "normals_output", "depth", "depth_output", "aov_mode",
+                                "ic_records_output"})
 
 
 def render_flags_except(dests: frozenset[str] | set[str]) -> tuple[Flag, ...]:

@@ -42,6 +42,9 @@ def check_trace_args(args: Args) -> None:
     from a5mi.trace.core import TraceError
 
     check_render_args(args)
+    if args.get("integrator", "whitted") not in ("whitted", "path"):  # recorders: a5_whitted's tree, a5_path's samples
+        raise TraceError(f"a5mi trace follows -integrator whitted (its ray tree, -indirect's samples) and path (its "
+                         f"samples), not {args.integrator}")
     if args.sample is not None and not args.jitter:
         raise TraceError("--sample needs -jitter (without it a pixel has one camera ray)")
     if args.diff is None and args.px is None:
