@@ -229,12 +229,16 @@ def mutant(seed: int, scenes: list[Path], kinds: tuple[tuple[str, float], ...] =
                   convert=convert)
 
 
-def verdict(status: int | None, err: str, outputs: list[Path], *, may_differ: bool = False) -> str:
+def verdict(status: int | None, err: str, outputs: list[Path], *, may_differ: bool = False,
+            batch: bool = False) -> str:
     """'' when the run kept the promise (module docstring), else what went wrong; ``may_differ``: the command
-    gives a verdict, so exit 1 (with its outputs) is an answer too."""
+    gives a verdict, so exit 1 (with its outputs) is an answer too; ``batch``: several scenes in one command
+    (``a5mi render A B --output-dir``), where each failed job has its own one-line error."""
     lines = [ln for ln in err.splitlines() if ": warning: " not in ln and not BATCH_SUMMARY.match(ln)]
     if "Traceback" in err:
         return "traceback: " + err[-300:]
+    if batch and status == 2 and lines and all(": error: " in ln for ln in lines):
+        return ""  # the jobs that succeeded are written, each atomically (docs/USAGE.md, batches)
     if status == 0 or (status == 1 and may_differ):
         missing = [str(p) for p in outputs if not p.exists()]
         return f"missing output: {missing}" if missing else ""
@@ -354,7 +358,8 @@ def run_one(seed: int, scenes: list[Path], work: Path, kinds: tuple[tuple[str, f
     seconds = time.monotonic() - t0
     text_err = err.getvalue()
     if not problem:
-        problem = verdict(status, text_err, outputs, may_differ=may_differ)
+        problem = verdict(status, text_err, outputs, may_differ=may_differ,
+                          batch=m.kind == "command" and m.command == "render")
     return Outcome(seed, [m.kind, *argv], status, text_err, seconds, problem)
 
 
