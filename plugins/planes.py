@@ -203,8 +203,9 @@ def inverse32(m: np.ndarray) -> np.ndarray:
 
     c = [[cof(i, j) for j in range(4)] for i in range(4)]
     det = ((g[0][0] * c[0][0] + g[0][1] * c[0][1]) + g[0][2] * c[0][2]) + g[0][3] * c[0][3]
-    r = np.float32(1.0) / det
-    return np.array([[c[j][i] * r for j in range(4)] for i in range(4)], dtype=np.float32)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # det 0 in float32: inf/NaN, as the binary
+        r = np.float32(1.0) / det
+        return np.array([[c[j][i] * r for j in range(4)] for i in range(4)], dtype=np.float32)
 
 
 def inverse33(m: np.ndarray) -> np.ndarray:
@@ -222,8 +223,9 @@ def inverse33(m: np.ndarray) -> np.ndarray:
          [det2(e[0, 1], e[0, 2], e[1, 1], e[1, 2]), -det2(e[0, 0], e[0, 2], e[1, 0], e[1, 2]),
           det2(e[0, 0], e[0, 1], e[1, 0], e[1, 1])]]
     det = (e[0, 0] * c[0][0] + e[0, 1] * c[0][1]) + e[0, 2] * c[0][2]
-    r = np.float32(1.0) / det
-    return np.array([[c[j][i] * r for j in range(3)] for i in range(3)], dtype=np.float32)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # det 0 in float32: inf/NaN, as the binary
+        r = np.float32(1.0) / det
+        return np.array([[c[j][i] * r for j in range(3)] for i in range(3)], dtype=np.float32)
 
 
 def plane_set(planes: list[Plane]) -> PlaneSet:

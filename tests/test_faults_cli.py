@@ -500,3 +500,16 @@ def test_depth_bounds_beyond_float32_are_refused(tmp_path: Path, capsys) -> None
     assert _one_line(capsys) == ("a5: error: -depth expects depths within float32 (|d| <= 3.4e38, the sample "
                                  "solution's precision), found '1e39'")
     assert not (tmp_path / "o.png").exists() and not (tmp_path / "d.png").exists()
+
+
+def test_near_singular_transforms_render_without_numpy_warnings(tmp_path: Path, capsys, recwarn) -> None:
+    """A sphere under ``Scale 1e-15`` and a plane under ``Scale 1e-20 1 1``: the binary's float32 inverse has
+    determinant 0 (inf/NaN entries, as in a5soln); the render completes with no RuntimeWarning (before: two
+    numpy warnings on stderr, four lines)."""
+    scene = tmp_path / "s.txt"
+    scene.write_text(HEAD + "Materials { numMaterials 1 Material { diffuseColor 0.5 0.5 0.5 } }\n"
+                     "Group { numObjects 2 MaterialIndex 0 Transform { Scale 1e-15 1e-15 1e-15 Sphere { center 0 0 0 "
+                     "radius 1 } } Transform { Scale 1e-20 1 1 Plane { normal 0 1 0 offset -1 } } }\n")
+    assert cli.run(["-input", str(scene), "-output", str(tmp_path / "o.png"), "-size", "8", "8"]) == 0
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)], [str(w.message) for w in recwarn]
+    assert capsys.readouterr().err == ""
