@@ -22,6 +22,7 @@ import random
 import re
 import signal
 import time
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -159,6 +160,9 @@ def _alarm(seconds: int) -> Iterator[None]:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, old)
 
+
+#: The project's folder: a Python warning raised by its code during a mutant is a failure.
+PROJECT = Path(__file__).resolve().parents[1]
 
 #: The closing line of a batch (``a5mi render`` with --output-dir or --jobs): one error line per failed job, then this.
 BATCH_SUMMARY = re.compile(r"a5mi render: \d+ of \d+ jobs written in ")
@@ -341,9 +345,12 @@ def run_one(seed: int, scenes: list[Path], work: Path, kinds: tuple[tuple[str, f
     cwd = os.getcwd()
     status: int | None = None
     problem = ""
+    caught: list[warnings.WarningMessage] = []
     try:
         os.chdir(run)
-        with _alarm(HANG_SECONDS), contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        with _alarm(HANG_SECONDS), contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()), \
+                warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
             status = cli.run_a5mi(argv) if (m.convert or m.kind == "command") else cli.run(argv)
             if m.convert and status == 0:
                 import mitsuba as mi
@@ -357,6 +364,10 @@ def run_one(seed: int, scenes: list[Path], work: Path, kinds: tuple[tuple[str, f
         os.chdir(cwd)
     seconds = time.monotonic() - t0
     text_err = err.getvalue()
+    ours = [w for w in caught if str(Path(w.filename).resolve()).startswith(str(PROJECT))]
+    if not problem and ours:  # a command run as a process would print it on stderr: a second line
+        w = ours[0]
+        problem = f"python warning: {w.category.__name__}: {w.message} ({w.filename}:{w.lineno})"
     if not problem:
         problem = verdict(status, text_err, outputs, may_differ=may_differ,
                           batch=m.kind == "command" and m.command == "render")
