@@ -198,20 +198,29 @@ def test_the_binary_runs_sandboxed_with_a_time_limit(tmp_path: Path) -> None:
 def test_no_sandbox_reaches_the_runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """``--no-sandbox`` (``Binary.require_sandbox`` off) lets a binary run without bubblewrap; with it on, the
     runner refuses (A5MI_NO_BWRAP=1 stands in for a machine without bubblewrap)."""
+    import tempfile
+
     from a5mi.sandbox import SandboxUnavailable
 
     monkeypatch.setenv("A5MI_NO_BWRAP", "1")
-    script = tmp_path / "bin" / "a5"
-    script.parent.mkdir()
-    script.write_text("#!/bin/sh\nexit 3\n")
-    script.chmod(0o755)
-    folder = tmp_path / "run"
-    folder.mkdir()
-    (folder / "scene.txt").write_text("")
-    with pytest.raises(SandboxUnavailable):
-        run_binary(Binary(script, (), True), folder, [], timeout=10)
-    levels, why = run_binary(Binary(script, (), False), folder, [], timeout=10)
-    assert levels is None and "3" in why, why
+    # the binary runs as a fresh unprivileged uid: its folder must be reachable (pytest's tmp_path is 0700)
+    base = Path(tempfile.mkdtemp(prefix="a5mi-nosandbox-"))
+    try:
+        base.chmod(0o755)
+        script = base / "bin" / "a5"
+        script.parent.mkdir(mode=0o755)
+        script.write_text("#!/bin/sh\nexit 3\n")
+        script.chmod(0o755)
+        folder = base / "run"
+        folder.mkdir(mode=0o777)
+        folder.chmod(0o777)
+        (folder / "scene.txt").write_text("")
+        with pytest.raises(SandboxUnavailable):
+            run_binary(Binary(script, (), True), folder, [], timeout=10)
+        levels, why = run_binary(Binary(script, (), False), folder, [], timeout=10)
+        assert levels is None and "3" in why, why
+    finally:
+        shutil.rmtree(base, ignore_errors=True)
 
 
 def test_a_jittered_unfiltered_scene_is_compared_at_three_times_the_size(variant: str, a5_data: Path,
