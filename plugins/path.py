@@ -21,7 +21,9 @@ hits (its MIS partner), so ``max_depth = B`` equals Mitsuba's ``path`` with ``ma
 segments). Rays and shadow rays use :func:`.kernel.intersect.intersect` / ``visible`` (the binary's mesh
 rules, exact planes); materials :func:`.kernel.surfaces.surface_at`. Sample numbers are the E.5 keys
 (:mod:`.sampling`): 2D dimension ``256·vertex + slot`` stratified over the ``-spp`` passes (slot ``k`` for
-light ``k``, 254 the environment, 255 the BSDF), 1D draws (lobe, roulette) TEA hashes of the pass key.
+light ``k``, 254 the environment, 255 the BSDF) and padded across dimensions (:mod:`.kernel.pbr_sampling`: an
+independent permutation of the strata per pixel and dimension), 1D draws (lobe, roulette) TEA hashes of the
+pass key.
 """
 
 from __future__ import annotations
@@ -149,16 +151,19 @@ class A5PathIntegrator(mi.SamplingIntegrator):
 
     def trace(self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True,
               sampler: mi.Sampler | None = None, sample_pass: SamplePass | None = None,
-              record: PathRecorder | None = None) -> PathResult:
+              record: PathRecorder | None = None, rng: Stochastic | None = None) -> PathResult:
         """``(radiance, first-hit normal, first-hit t, n_reflection, n_refraction, n_shadow)`` of one path per
-        camera ray (module docstring). ``record`` (``a5mi trace``): fill this recorder with every vertex."""
+        camera ray (module docstring). ``record`` (``a5mi trace``): fill this recorder with every vertex.
+        ``rng``: per-lane E.5 keys and pass indices instead of those of ``sample_pass`` (many passes of a pixel
+        in one launch)."""
         data = SceneData(dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, 0.0),
                          dr.opaque(mi.Float, self.tmin), lights_of(scene), self._planes, self._rule_table(scene),
                          None)
         width = max(dr.width(ray.o), dr.width(ray.d), dr.width(active) if isinstance(active, mi.Bool) else 1)
         o = mi.Point3f(ray.o) + dr.zeros(mi.Point3f, width)
         d = mi.Vector3f(ray.d) + dr.zeros(mi.Vector3f, width)
-        rng = stochastic(sample_pass, sampler, width, 1)
+        if rng is None:
+            rng = stochastic(sample_pass, sampler, width, 1)
         return trace_paths(scene, o, d, dr.full(mi.Bool, True, width) & active, data, pbr_lights_of(scene), rng,
                            self.features(scene, data, record is not None), dr.opaque(mi.UInt32, self.rr_depth),
                            record)

@@ -6,7 +6,7 @@ At a hit with ``max(kd) > 0`` and bounces left, ``N`` rays ``ω_j`` are drawn co
 Lambert estimator ``f cos θ / pdf = (kd/π) cos θ / (cos θ/π) = kd``), so the node gains the E.13 estimate of
 its indirect light ``kd ⊙ (1/N) Σ_j L(ω_j)``, with ``L`` what the ray tree computes at the child (recursively,
 within ``-bounces``). The directions are E.5 samples: dimension ``256 node + GATHER_SLOT``, sample ``pass · N + j``
-of ``spp · N``, stratified over the rays and the passes.
+of ``spp · N``, stratified over the rays and the passes and padded across nodes (:func:`.pbr_sampling.padded_2d`).
 
 A gathered child does not add the emission of an area light it hits: the parent's light loop already
 counted that light (E.2), so the gather holds only the light that arrives after at least one more bounce and
@@ -19,9 +19,10 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from ..sampling import Stochastic, stratified_2d
+from ..sampling import Stochastic
 from ..syntax import syntax
 from . import stack as ray_stack
+from .pbr_sampling import padded_2d
 
 #: the E.5 slot of the gathered rays at a node (light k uses slot k, the glossy lobe 255)
 GATHER_SLOT = 254
@@ -54,8 +55,7 @@ def gather(stack: tuple, top: mi.UInt32, go: mi.Bool, p: mi.Point3f, d: mi.Vecto
     w = weight * kd * (1.0 / count)
     j = dr.zeros(mi.UInt32, dr.width(p))
     while diffuse & (j < count):
-        u = stratified_2d(rng.pixel_key, rng.pass_key, node * 256 + GATHER_SLOT, rng.pass_index * count + j,
-                          rng.passes * count, counter)
+        u = padded_2d(rng, node * 256 + GATHER_SLOT, rng.pass_index * count + j, rng.passes * count, counter)
         counter += 2
         omega = frame.to_world(mi.warp.square_to_cosine_hemisphere(u))
         top = ray_stack.push(stack, top, diffuse, p, omega, w, bounces - 1, n_medium, tmin, row | GATHERED,

@@ -36,11 +36,12 @@ from typing import TYPE_CHECKING, NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from ..sampling import Stochastic, stratified_2d
+from ..sampling import Stochastic
 from ..syntax import syntax
 from .intersect import visible
 from .lights import area_samples
 from .pbr import Lobes, eval_diffuse, power_heuristic
+from .pbr_sampling import padded_2d
 from .surfaces import background
 
 if TYPE_CHECKING:
@@ -135,9 +136,9 @@ def sample_light(lights: PbrLights, k: mi.UInt32, si: mi.SurfaceInteraction3f, u
 
 
 def light_point(rng: Stochastic, dim: mi.UInt32, counter: mi.UInt32) -> mi.Point2f:
-    """A unit-square sample of dimension ``dim`` (E.5: stratified over the ``-spp`` passes, draws ``counter``,
-    ``counter + 1``)."""
-    return stratified_2d(rng.pixel_key, rng.pass_key, dim, rng.pass_index, rng.passes, counter)
+    """A unit-square sample of dimension ``dim``: stratified over the ``-spp`` passes, padded across dimensions
+    (:func:`.pbr_sampling.padded_2d`), draws ``counter``, ``counter + 1``."""
+    return padded_2d(rng, dim, rng.pass_index, rng.passes, counter)
 
 
 @syntax
