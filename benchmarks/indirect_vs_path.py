@@ -1,52 +1,74 @@
-"""Error against time of ``-indirect N`` (E.15) and ``-integrator path`` (E.14) on a scene where both estimate the
-same image: tests/test_indirect.py's diffuse spheres on a plane lit by the background alone (``-indirect N
--bounces B`` = ``path -bounces B-1``). One run; prints a markdown table and the load average.
+"""Error against time, and against rays cast, of the three indirect-light modes (docs/EXTENSIONS.md E.14, E.15,
+E.23), one process, one run: ``-integrator path -spp S``, ``-indirect N`` (a5_whitted) and ``-integrator
+irradiancecache``, on ``scenes/ic_sky.txt`` (a white floor and back wall between a red and a green panel, lit by
+the background alone, so Whitted's ``kd`` direct term plays no part: ``path -bounces 1``, ``-indirect N -bounces
+2 -shadows`` and ``irradiancecache -bounces 1`` estimate the same image, E.15 / E.23).
 
-RMSE of a render at ``spp`` = the standard deviation over 8 independent renders of it (both estimators are
-unbiased for the same image, so no reference is needed), averaged over pixels and channels; time = wall of one
-render of W x W pixels through :func:`a5mi.driver.render_scene` after a warm-up (kernels cached).
+Reference: ``a5_path -bounces 1`` at ``REF`` passes per pixel centre, traced many passes per launch
+(``A5PathIntegrator.trace(..., rng=)``, tests/test_irradiance_cache_bench.py's ``reference``), seed 99 (no render below uses it). Error: mean |image − reference| over
+pixels and channels / the reference's mean; the reference's own share of it is printed (its standard error).
+Time: the render's wall time through :func:`a5mi.driver.render_scene` after a first render of the same options
+(kernels compiled). Rays: every ray the render cast (camera, reflected / gathered, refracted, shadow; for the
+cache its camera trees plus every ray of its hemisphere paths; for ``-spp S`` pass 0's count times ``S``, the
+driver reports the AOVs of pass 0). ``-indirect N`` with ``N`` a square: E.5 stratifies a ``q x q`` grid,
+``q = floor(sqrt N)``, and draws the other ``N − q²`` uniformly, so ``N = 8`` or ``32`` is noisier than ``4`` or
+``16``.
 
-    .venv/bin/python benchmarks/indirect_vs_path.py [W]
+    .venv/bin/python benchmarks/indirect_vs_path.py [W [REF]]
 """
 
 from __future__ import annotations
 
-import math
+import dataclasses
 import os
 import sys
 import time
+from pathlib import Path
+
+SCENE = Path(__file__).resolve().parent.parent / "scenes" / "ic_sky.txt"
+ROWS = [*((f"path -spp {s}", {"integrator": "path", "spp": s, "bounces": 1}) for s in (4, 16, 64, 256)),
+        *((f"-indirect {n}", {"integrator": "whitted", "shadows": True, "indirect": n, "bounces": 2})
+          for n in (4, 9, 16, 36, 64)),
+        *((f"irradiancecache -ic_samples {m} -ic_error {a}", {"integrator": "irradiancecache", "ic_samples": m,
+                                                               "ic_error": a, "bounces": 1})
+          for m, a in ((64, 0.5), (256, 0.3), (1024, 0.2), (1024, 0.1), (4096, 0.1)))]
 
 
 def main() -> None:
     width = int(sys.argv[1]) if len(sys.argv) > 1 else 32
-    sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
+    passes = int(sys.argv[2]) if len(sys.argv) > 2 else 8192
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
     from a5mi.variant import activate
 
     activate()
     import mitsuba as mi
     import numpy as np
-    from path_helpers import a5_passes, load
-    from test_indirect import SCENE
+    from test_irradiance_cache_bench import reference
 
+    from a5mi import session
+    from a5mi.converters.a5_parser import parse_file
+    from a5mi.converters.describe import describe
     from a5mi.driver import render_scene
+    from a5mi.options import RenderOptions
 
-    modes = {"-indirect 2 -bounces 3": {"bounces": 3, "indirect": 2},
-             "-indirect 4 -bounces 3": {"bounces": 3, "indirect": 4},
-             "-integrator path -bounces 2": {"bounces": 2, "integrator": "path"}}
-    print(f"{width}x{width}, load average {os.getloadavg()[0]:.1f}\n")
-    print("| mode | spp | seconds | RMSE | RMSE² x seconds |")
-    print("|---|---:|---:|---:|---:|")
-    for name, opts in modes.items():
-        for spp in (1, 4, 16):
-            desc, scene, ro = load(mi, SCENE, width=width, height=width, spp=spp, **opts)
-            render_scene(scene, desc.camera, ro)
-            t0 = time.perf_counter()
-            render_scene(scene, desc.camera, ro)
-            seconds = time.perf_counter() - t0
-            means, _ = a5_passes(mi, scene, scene.integrator(), desc.camera, width, width, spp, seed=11 + spp,
-                                 replicas=8)
-            rmse = math.sqrt(float(np.mean(np.var(means, axis=0, ddof=1))))
-            print(f"| `{name}` | {spp} | {seconds:.2f} | {rmse:.4f} | {rmse * rmse * seconds:.2e} |", flush=True)
+    print(f"{width}x{width}, reference {passes} passes, load average {os.getloadavg()[0]:.1f}\n")
+    desc = describe(parse_file(str(SCENE)))
+    t0 = time.perf_counter()
+    ref, sem = reference(mi, desc, width, passes)
+    print(f"reference {time.perf_counter() - t0:.1f} s; its own error sqrt(2/pi) mean(sem) / mean = "
+          f"{np.sqrt(2 / np.pi) * sem.mean() / ref.mean():.4f}\n")
+    print("| mode | seconds | rays cast | relative mean abs. error |")
+    print("|---|---:|---:|---:|")
+    base = RenderOptions(width=width, height=width, count_rays=True)
+    for label, kw in ROWS:
+        opts = dataclasses.replace(base, **kw)
+        scene = session.build_scene(desc, opts)
+        render_scene(scene, desc.camera, opts)
+        result = render_scene(scene, desc.camera, opts)
+        rays = (result.camera_rays + sum(result.ray_counts.values())) * opts.spp    # counts are pass 0's
+        rays += result.extras.get("irradiance_cache_stats", {}).get("gather_rays", 0)
+        err = float(np.mean(np.abs(result.image - ref)) / ref.mean())
+        print(f"| `{label}` | {result.timings['render']:.2f} | {rays} | {err:.4f} |", flush=True)
     print(f"\nload average at the end {os.getloadavg()[0]:.1f}")
 
 

@@ -10,9 +10,9 @@ on the host:
 1. trace the batch's ray trees; read back the diffuse nodes;
 2. find the nodes no record covers (``ε_i < a`` for none);
 3. pick a well-spread subset of them: one per cell of a grid of ``g`` pixel spacings (cells at the node's own
-   scale ``2^round(log2 s)``, split by the normal's dominant axis), ``g`` halving from ``max_pixels`` to 1
-   round by round; trace ``M x N`` stratified hemisphere rays from each (:func:`.irradiance_cache_kernel.gather`)
-   and add their records;
+   scale ``2^round(log2 s)``, split by the normal's dominant axis), ``g`` divided by 4 from ``max_pixels``
+   round by round, every node left at ``g = 1``; trace ``M x N`` stratified hemisphere rays from each
+   (:func:`.irradiance_cache_kernel.gather`) and add their records;
 4. repeat from 2 until every node is covered (a node always covers itself), then interpolate.
 
 The cache lives on the integrator for one render: it is emptied when a call starts one (``sample_pass`` of
@@ -54,6 +54,8 @@ IGNORED = ("shadows", "phong", "ambient", "glossy", "glossy_samples", "dispersio
 GATHER_RAYS = 1 << 20
 #: placement rounds before every remaining node gets its own record
 MAX_ROUNDS = 24
+#: factor of the placement grid from one round to the next
+SHRINK = 0.25
 
 
 def _number(props: mi.Properties, name: str, default: float, low: float, high: float = math.inf) -> float:
@@ -177,7 +179,8 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
         self._planes = plane_set(self.planes)
         self._rules: dict[int, triangle_rule.RuleTable] = {}
         self.cache = RecordSet(self.error)
-        #: what the last render did: ``records``, ``rounds``, ``hemisphere_rays``, ``nodes`` (diffuse nodes)
+        #: what the last render did: ``records``, ``rounds``, ``hemisphere_rays``, ``gather_rays`` (every ray
+        #: the hemisphere paths cast: traced and shadow rays), ``nodes`` (diffuse nodes)
         self.stats: dict[str, int] = {}
         self._scene_id = 0
 
@@ -209,7 +212,7 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
         starts = sample_pass is None or (int(sample_pass.first_pixel) == 0 and int(sample_pass.index) == 0)
         if starts or self._scene_id != id(scene):
             self.cache = RecordSet(self.error)
-            self.stats = {"records": 0, "rounds": 0, "hemisphere_rays": 0, "nodes": 0}
+            self.stats = {"records": 0, "rounds": 0, "hemisphere_rays": 0, "gather_rays": 0, "nodes": 0}
             self._scene_id = id(scene)
 
     def trace(self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True, sampler: mi.Sampler | None = None,
@@ -287,11 +290,12 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
             uncovered = uncovered[~self.cache.lookup(p[uncovered], n[uncovered], gradients=False).covered]
             if uncovered.size == 0:
                 return rounds
-            pick = uncovered if rounds == MAX_ROUNDS else uncovered[spread(p[uncovered], n[uncovered],
-                                                                          spacing[uncovered], g, gen)]
+            final = rounds == MAX_ROUNDS or g <= 1.0             # the finest grid: every node left
+            pick = uncovered if final else uncovered[spread(p[uncovered], n[uncovered], spacing[uncovered], g,
+                                                            gen)]
             self.add_records(scene, data, lights, features, p[pick], n[pick], spacing[pick], medium[pick], gen)
             self.stats["rounds"] += 1
-            g = max(0.5 * g, 1.0)
+            g = max(SHRINK * g, 1.0)
         return MAX_ROUNDS + 1
 
     def add_records(self, scene: mi.Scene, data: SceneData, lights: Any, features: Features, p: np.ndarray,
@@ -314,12 +318,12 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
                                              dr.opaque(mi.UInt32, 0))
             rng = Stochastic(pixel_key, pass_key, dr.opaque(mi.UInt32, 0), dr.opaque(mi.UInt32, 1),
                              dr.opaque(mi.UInt32, 1))
-            L, r = gather(scene, mi.Point3f(*(_floats(origin[:, i]) for i in range(3))),
+            L, r, cast = gather(scene, mi.Point3f(*(_floats(origin[:, i]) for i in range(3))),
                           mi.Vector3f(*(_floats(flat[:, i]) for i in range(3))),
                           _floats(np.maximum(cos, 1e-8) / math.pi),
                           _floats(np.repeat(medium[start:start + chunk], per)), data, lights, rng, features,
                           dr.opaque(mi.UInt32, self.rr_depth))
-            dr.eval(L, r)
+            dr.eval(L, r, cast)
             L_np = np.nan_to_num(np.asarray(L, np.float64).T.reshape(k, m, nn, 3), nan=0.0, posinf=0.0)
             r_np = np.asarray(r, np.float64).reshape(k, m, nn)
             est = icm.estimate(nk, L_np, r_np)
@@ -334,6 +338,7 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
                             self.max_pixels * spacing[start:start + chunk] / self.error)
             self.cache.add(pk, nk, est.E, R, grad_r, grad_t, spacing[start:start + chunk])
             self.stats["hemisphere_rays"] += k * per
+            self.stats["gather_rays"] += int(np.asarray(cast, np.float64).sum())
             self.stats["records"] = len(self.cache)
 
     def traverse(self, callback: mi.TraversalCallback) -> None:

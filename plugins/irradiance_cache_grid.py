@@ -26,7 +26,6 @@ I = npt.NDArray[np.int64]  # noqa: E741 - the index-array alias
 
 _BITS = 21
 _MASK = (1 << _BITS) - 1
-_OFFSETS = np.array([(x, y, z) for x in range(5) for y in range(5) for z in range(5)], np.int64)
 #: query points weighed per block (bounds the pair arrays)
 _BLOCK = 8192
 
@@ -96,12 +95,13 @@ class RecordSet:
                 size = 2.0 ** int(lv)
                 lo = np.floor((self.p[ids] - reach[ids, None]) / size).astype(np.int64)
                 span = np.floor((self.p[ids] + reach[ids, None]) / size).astype(np.int64) - lo     # 0 .. 4
-                keys, owners = [], []
-                for off in _OFFSETS:
-                    inside = np.all(off[None, :] <= span, axis=1)
-                    keys.append(cell_keys(lo[inside] + off[None, :]))
-                    owners.append(ids[inside])
-                key, owner = np.concatenate(keys), np.concatenate(owners)
+                ext = span + 1                      # cells per axis; each record's cells expanded at once
+                cnt = ext.prod(axis=1)
+                owner = np.repeat(ids, cnt)
+                local = np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+                e = np.repeat(ext, cnt, axis=0)
+                off = np.stack([local // (e[:, 1] * e[:, 2]), (local // e[:, 2]) % e[:, 1], local % e[:, 2]], axis=1)
+                key = cell_keys(np.repeat(lo, cnt, axis=0) + off)
                 order = np.argsort(key, kind="stable")
                 self._index[int(lv)] = (key[order], owner[order], lo.min(axis=0), (lo + span).max(axis=0))
         return self._index

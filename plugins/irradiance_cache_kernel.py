@@ -151,12 +151,12 @@ def camera_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
 @syntax
 def gather(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, first_pdf: mi.Float, first_medium: mi.Float,
            data: SceneData, lights: PbrLights, rng: Stochastic, f: Features,
-           rr_depth: mi.UInt32) -> tuple[mi.Color3f, mi.Float]:
-    """``(L, r)`` of hemisphere rays ``(ray_o, ray_d)`` leaving a surface (module docstring): the radiance
+           rr_depth: mi.UInt32) -> tuple[mi.Color3f, mi.Float, mi.Float]:
+    """``(L, r, rays)`` of hemisphere rays ``(ray_o, ray_d)`` leaving a surface (module docstring): the radiance
     arriving along each ray, without what the record's node estimates itself (the environment counts in full;
     a light's shape by the power heuristic of ``first_pdf`` = cos θ/π against its light-sampling pdf), and the
-    distance ``r`` to the first hit (+inf for a miss); ``first_medium``: the index of the medium the rays
-    start in."""
+    distance ``r`` to the first hit (+inf for a miss) and the rays each lane cast (traced and shadow rays);
+    ``first_medium``: the index of the medium the rays start in."""
     width = dr.width(ray_d)
     o, d = mi.Point3f(ray_o), mi.Vector3f(ray_d)
     beta = dr.full(mi.Color3f, 1.0, width)                       # path throughput
@@ -168,7 +168,8 @@ def gather(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, first_pdf: mi
     origin = dr.zeros(mi.UInt32, width)                          # rule-table row of the face left
     t_min = data.tmin + dr.zeros(mi.Float, width)                # tmin of the ray being traced
     r_first = dr.full(mi.Float, dr.inf, width)                   # distance of the first hit
-    n_shadow = dr.zeros(mi.Float, width)                         # shadow rays (not reported)
+    n_shadow = dr.zeros(mi.Float, width)                         # shadow rays
+    n_traced = dr.zeros(mi.Float, width)                         # rays traced (the hemisphere ray included)
     counter = dr.zeros(mi.UInt32, width)                         # E.5 draw counter
     alive = dr.full(mi.Bool, True, width)                        # lanes still tracing
 
@@ -176,6 +177,7 @@ def gather(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, first_pdf: mi
         si, t_hit, p, n, hit, on_plane, plane_idx, row, bsdf = intersect(scene, data.planes, data.rules, o, d,
                                                                          t_min, origin)
         r_first = dr.select(depth == 0, t_hit, r_first)
+        n_traced += dr.select(alive, 1.0, 0.0)
         if dr.hint(f.environment, mode="scalar"):
             le, pdf_l = environment(scene, d, alive & ~hit)
             w = dr.select(prev_delta | (depth == 0), 1.0, power_heuristic(prev_pdf, pdf_l))
@@ -210,4 +212,4 @@ def gather(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, first_pdf: mi
         alive &= ~roulette | survive
         beta = dr.select(roulette & survive, beta / q, beta)
 
-    return result, r_first
+    return result, r_first, n_traced + n_shadow

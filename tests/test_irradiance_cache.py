@@ -45,7 +45,9 @@ def _rays(mi: Any, desc: Any, w: int, h: int) -> Any:
 def _indirect_against_path(mi: Any, desc: Any, size: int, spp: int, samples: int) -> tuple[np.ndarray, ...]:
     """``(cache's indirect, path's indirect mean, variance of one path pass)`` per pixel (W·H values, the three
     channels summed) over pixel centres (module docstring)."""
-    from a5mi.plugins.sampling import SamplePass
+    import drjit as dr
+
+    from a5mi.plugins.sampling import SamplePass, Stochastic, pixel_keys
 
     opts = _options(size, ic_samples=samples, bounces=6)
     scene = session.build_scene(desc, opts)
@@ -55,11 +57,19 @@ def _indirect_against_path(mi: Any, desc: Any, size: int, spp: int, samples: int
     path_scene = session.build_scene(desc, dataclasses.replace(opts, integrator="path"))
     path = path_scene.integrator()
     total, total2 = np.zeros_like(direct), np.zeros_like(direct)
-    for k in range(spp):
-        rgb, _, _ = path.sample(path_scene, None, ray, None, True, sample_pass=SamplePass(0, k, spp, 7))
-        value = np.asarray(rgb, np.float64).sum(axis=0)
-        total += value
-        total2 += value * value
+    pixels = size * size
+    chunk = max(1, min(spp, (1 << 20) // pixels))          # passes per launch: the keys of SamplePass(0, k, spp, 7)
+    rays = _rays(mi, desc, size, size)
+    many = type(rays)(*(type(v)(*(dr.tile(c, chunk) for c in v)) for v in (rays.o, rays.d)))
+    for start in range(0, spp, chunk):
+        lane = np.arange(chunk * pixels)
+        k = start + lane // pixels
+        pk, pass_key = pixel_keys(mi.UInt32(lane % pixels), dr.opaque(mi.UInt32, 7), mi.UInt32(k))
+        rng = Stochastic(pk, pass_key, mi.UInt32(k), dr.opaque(mi.UInt32, spp), dr.opaque(mi.UInt32, 1))
+        rgb = path.trace(path_scene, many, rng=rng)[0]
+        value = np.asarray(rgb, np.float64).sum(axis=0).reshape(chunk, pixels)[: spp - start]
+        total += value.sum(axis=0)
+        total2 += (value * value).sum(axis=0)
     mean = total / spp
     var = np.maximum(total2 / spp - mean * mean, 0.0) * spp / (spp - 1)
     return indirect.sum(axis=1), mean - direct, var
