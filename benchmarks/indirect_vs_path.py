@@ -5,8 +5,9 @@ the background alone, so Whitted's ``kd`` direct term plays no part: ``path -bou
 2 -shadows`` and ``irradiancecache -bounces 1`` estimate the same image, E.15 / E.23).
 
 Reference: ``a5_path -bounces 1`` at ``REF`` passes per pixel centre, traced many passes per launch
-(``A5PathIntegrator.trace(..., rng=)``, tests/test_irradiance_cache_bench.py's ``reference``), seed 99 (no render below uses it). Error: mean |image − reference| over
-pixels and channels / the reference's mean; the reference's own share of it is printed (its standard error).
+(``A5PathIntegrator.trace(..., rng=)``, tests/test_irradiance_cache_bench.py's ``reference``), seed 99 (no
+render below uses it). Error: mean |image − reference| over pixels and channels / the reference's mean; the
+reference's own share of it is printed (its standard error).
 Time: the render's wall time through :func:`a5mi.driver.render_scene` after a first render of the same options
 (kernels compiled). Rays: every ray the render cast (camera, reflected / gathered, refracted, shadow; for the
 cache its camera trees plus every ray of its hemisphere paths; for ``-spp S`` pass 0's count times ``S``, the
