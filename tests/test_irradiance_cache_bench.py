@@ -4,9 +4,10 @@
 The scene is ``scenes/ic_sky.txt`` (a white floor and back wall between a red and a green panel, lit by the
 background colour alone), 32 x 32: lit by the background, ``-indirect N -bounces 2 -shadows`` and
 ``-integrator irradiancecache -bounces 1`` estimate the image of ``-integrator path -bounces 1`` (E.15, E.23).
-Reference: ``a5_path -bounces 1`` at 4,096 passes per pixel centre (many passes per launch, seed 99); its own
-share of the error, ``sqrt(2/π)`` times its mean standard error over the mean, is checked below a fifth of
-the errors compared. Error: mean |image − reference| over pixels and channels / the reference's mean. Rays: all
+Reference: ``a5_path -bounces 1`` at 16,384 passes per pixel centre (many passes per launch, seed 99); its own
+share of the error, ``sqrt(2/π)`` times its mean standard error over the mean (0.0044), is checked below a
+quarter of every error compared (the errors add about in quadrature: at most +3 % on a compared error).
+Error: mean |image − reference| over pixels and channels / the reference's mean. Rays: all
 rays a render casts (camera rays, reflected and gathered, refracted, shadow; the cache's hemisphere paths with
 their continuation and shadow rays), as the ``counts`` AOV and the cache's statistics report them.
 """
@@ -27,8 +28,8 @@ from a5mi.driver import render_scene
 from a5mi.options import RenderOptions
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "ic_sky.txt"
-SIZE, REFERENCE_PASSES = 32, 4096
-INDIRECT = [{"integrator": "whitted", "shadows": True, "indirect": n, "bounces": 2} for n in (4, 16, 64)]
+SIZE, REFERENCE_PASSES = 32, 16384
+INDIRECT = [{"integrator": "whitted", "shadows": True, "indirect": n, "bounces": 2} for n in (4, 16, 36)]
 CACHE = [{"integrator": "irradiancecache", "ic_samples": m, "ic_error": a, "bounces": 1}
          for m, a in ((64, 0.5), (1024, 0.1))]
 
@@ -97,7 +98,7 @@ def test01_irradiance_cache_casts_fewer_rays_than_indirect_at_equal_error(mi: An
     indirect = [error_and_rays(desc, ref, **kw) for kw in INDIRECT]
     cache = [error_and_rays(desc, ref, **kw) for kw in CACHE]
     print("\n-indirect", indirect, "\ncache", cache)
-    assert math.sqrt(2 / math.pi) * sem.mean() / ref.mean() < 0.2 * min(e for e, _ in indirect + cache)
+    assert math.sqrt(2 / math.pi) * sem.mean() / ref.mean() < 0.25 * min(e for e, _ in indirect + cache)
     for err, rays in cache:
         assert rays < rays_at_error(indirect, err), (err, rays)
 
