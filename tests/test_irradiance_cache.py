@@ -172,5 +172,8 @@ def test07_indirect_light_per_block_matches_path_tracing(mi: Any, scenes_dir: Pa
 
     b_ic, b_path = blocks(ic), blocks(path)
     sigma = np.sqrt(blocks(var) / 1024)                 # pixels are independent: block variance = Σ var
+    print(f"\n{name}: block error {np.abs(b_ic - b_path).sum() / b_path.sum():.4f}, reference noise "
+          f"{np.sqrt(2 / np.pi) * sigma.sum() / b_path.sum():.4f}, "
+          f"pixel error {np.abs(ic - path).sum() / path.sum():.4f}")
     assert np.sqrt(2 / np.pi) * sigma.sum() < 0.01 * b_path.sum()
     assert np.abs(b_ic - b_path).sum() / b_path.sum() < 0.05
