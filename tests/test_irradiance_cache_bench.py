@@ -34,15 +34,16 @@ CACHE = [{"integrator": "irradiancecache", "ic_samples": m, "ic_error": a, "boun
          for m, a in ((64, 0.5), (1024, 0.1))]
 
 
-def reference(mi: Any, desc: Any, size: int, passes: int, seed: int = 99) -> tuple[np.ndarray, np.ndarray]:
-    """``(mean image HxWx3 row 0 = top, its standard error)`` of ``a5_path -bounces 1`` at the pixel centres,
+def reference(mi: Any, desc: Any, size: int, passes: int, seed: int = 99,
+              bounces: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """``(mean image HxWx3 row 0 = top, its standard error)`` of ``a5_path -bounces B`` at the pixel centres,
     ``passes`` passes per pixel, as many per launch as fit in 2^20 lanes."""
     import drjit as dr
 
     from a5mi.crosscheck import _pixel_rays
     from a5mi.plugins.sampling import Stochastic, pixel_keys
 
-    scene = session.build_scene(desc, RenderOptions(width=size, height=size, integrator="path", bounces=1))
+    scene = session.build_scene(desc, RenderOptions(width=size, height=size, integrator="path", bounces=bounces))
     pixels = size * size
     chunk = max(1, min(passes, (1 << 20) // pixels))
     total, total2 = np.zeros((3, pixels)), np.zeros((3, pixels))
