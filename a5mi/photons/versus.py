@@ -82,7 +82,6 @@ def caustic_region(mi: Any, tracer: dict[str, Any]) -> tuple[np.ndarray, np.ndar
     """``(region, seen)`` boolean images of the ptracer scene's film: ``seen`` the pixels whose centre ray hits
     a shape, ``region`` those whose first hit is not glass and lies in the shadow of a glass shape from a point
     light (module docstring)."""
-
     scene = mi.load_dict(dict(tracer, integrator={"type": "direct"}))
     sensor = scene.sensors()[0]
     w, h = (int(x) for x in sensor.film().size())
@@ -114,8 +113,9 @@ def metrics(photon: np.ndarray, reference: list[np.ndarray], region: np.ndarray)
     """Figures of a photon render against ptracer renders of independent seeds (luminance = channel mean):
     ``region_ratio`` = photon region mean / reference region mean, ``region_sigma`` the reference region mean's
     standard error (std of the seeds' means / sqrt(seeds)), ``image_ratio`` the whole-image means' ratio and
-    ``image_sigma`` its standard error, ``mre`` = Σ|p − r| / Σ r over the image and ``mre_ref`` the same between
-    two halves of the reference seeds (their own noise, times 1/√2 for one half against the mean of both)."""
+    ``image_sigma`` its standard error, ``mre`` = Σ|p − r| / Σ r over the image and ``mre_ref`` = Σ|a − b| / (2 Σ r)
+    for the means a, b of the two halves of the reference seeds: the reference's own part of ``mre`` (a − b has
+    √2 times a half's noise, the mean of all seeds 1/√2 of it)."""
     p = photon.mean(axis=-1)
     refs = [r.mean(axis=-1) for r in reference]
     ref = np.mean(refs, axis=0)
