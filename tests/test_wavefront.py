@@ -1,0 +1,48 @@
+"""The E.5 wavefront (a5mi/passes.py, docs/EXTENSIONS.md E.5): many ``-spp`` passes traced in one integrator call
+give the image of the pass-by-pass render bit for bit (``a5_whitted``: area lights, lens, gloss; ``a5_path``),
+also when the passes are split over several calls and the sample count is no multiple of the SIMD packet."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from a5mi import passes
+from a5mi.options import RenderOptions
+
+DATA = os.path.join(os.path.dirname(__file__), "..", "scenes")
+
+CASES = [("soft_shadows.txt", {}), ("dof.txt", {}), ("glossy.txt", {}),
+         ("colour_bleeding.txt", {"integrator": "path", "bounces": 3})]
+
+
+def _render(name: str, options: RenderOptions) -> np.ndarray:
+    from a5mi.session import describe_file, render
+    from a5mi.variant import activate
+
+    activate()
+    desc, _ = describe_file(os.path.join(DATA, name))
+    return render(desc, options).image
+
+
+@pytest.mark.parametrize(("name", "extra"), CASES, ids=[c[0] for c in CASES])
+def test_wavefront_is_bit_identical_to_pass_by_pass(name: str, extra: dict, monkeypatch: pytest.MonkeyPatch) -> None:
+    options = RenderOptions(width=21, height=13, shadows=True, spp=5, seed=3, **{"bounces": 2, **extra})
+    stride = -(-21 * 13 // passes.PACKET) * passes.PACKET
+    monkeypatch.setattr(passes, "WAVEFRONT_LANES", 0)             # one call per pass, as before the wavefront
+    reference = _render(name, options)
+    batches: list[int] = []
+    batch_sum = passes._batch_sum
+    monkeypatch.setattr(passes, "_batch_sum", lambda total, rgb, n, s, b: batches.append(b) or batch_sum(
+        total, rgb, n, s, b))
+    monkeypatch.setattr(passes, "WAVEFRONT_LANES", 2 * stride)    # batches of 2, 2, 1 passes
+    split = _render(name, options)
+    assert batches == [2, 2, 1]
+    monkeypatch.setattr(passes, "WAVEFRONT_LANES", 1 << 20)       # one call
+    whole = _render(name, options)
+    assert batches[3:] == [5]
+    assert np.array_equal(split, reference)
+    assert np.array_equal(whole, reference)
+    assert reference.std() > 0.0
