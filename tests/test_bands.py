@@ -102,3 +102,17 @@ def test_split_refuses_integrators_with_state() -> None:
     assert splittable(dataclasses.replace(options, integrator="whitted")) is None
     with pytest.raises(ValueError, match="ppm"):
         render_split("x.txt", options, workers=1)
+
+
+def test_cli_workers_writes_the_one_process_image(tmp_path) -> None:
+    """``a5 ... -workers 2`` (a local TLS cluster, a5mi.cluster.start_client): the same PNG bytes as without."""
+    from a5mi.cli import run
+
+    scene = os.path.join(SCENES, "soft_shadows.txt")
+    flags = ["-input", scene, "-size", "32", "24", "-spp", "4", "-seed", "3", "-shadows", "-q"]
+    assert run([*flags, "-output", str(tmp_path / "one.png")]) == 0
+    assert run([*flags, "-output", str(tmp_path / "two.png"), "-workers", "2"]) == 0
+    assert (tmp_path / "one.png").read_bytes() == (tmp_path / "two.png").read_bytes()
+    assert run([*flags, "-output", str(tmp_path / "x.png"), "-workers", "2", "-integrator",
+                            "ppm"]) == 2
+    assert run([*flags, "-output", str(tmp_path / "x.png"), "-tls_ca", "ca.pem"]) == 2
