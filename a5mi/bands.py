@@ -1,4 +1,4 @@
-"""One render split across Dask workers by bands of render-buffer rows (docs/EXTENSIONS.md E.5, "Split renders").
+"""One render split across Dask workers by bands of render-buffer rows (docs/EXTENSIONS.md E.24).
 
 A sample's colour depends only on the scene, the options and its index ``j · RW + i`` (its pixel position and
 E.5 keys), never on the process or the tile that traces it (:func:`a5mi.driver.render_band`). The render

@@ -1,4 +1,4 @@
-"""Samples per render-buffer pixel for the distribution-ray-tracing extension (docs/EXTENSIONS.md E.3, E.5).
+"""Samples per render-buffer pixel for the distribution-ray-tracing extension (docs/EXTENSIONS.md E.3, E.5, E.24).
 
 :func:`sample_passes` traces one tile ``spp`` times and averages the colours: pass ``k`` tells ``a5_whitted``
 its sample index with each call (a :class:`a5mi.plugins.sampling.SamplePass`: pixel ``first + i``, pass ``k`` of

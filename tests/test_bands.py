@@ -1,4 +1,4 @@
-"""A render split into row bands across Dask workers (a5mi/bands.py, docs/EXTENSIONS.md E.5 "Split renders"):
+"""A render split into row bands across Dask workers (a5mi/bands.py, docs/EXTENSIONS.md E.24):
 bit for bit the one-process image with the same seed (jitter + filter, spp, path), also when a worker is
 killed mid-render (its band re-run elsewhere)."""
 

@@ -1,4 +1,4 @@
-"""The E.5 wavefront (a5mi/passes.py, docs/EXTENSIONS.md E.5): many ``-spp`` passes traced in one integrator call
+"""The E.5 wavefront (a5mi/passes.py, docs/EXTENSIONS.md E.24): many ``-spp`` passes traced in one integrator call
 give the image of the pass-by-pass render bit for bit (``a5_whitted``: area lights, lens, gloss; ``a5_path``),
 also when the passes are split over several calls and the sample count is no multiple of the SIMD packet."""
 

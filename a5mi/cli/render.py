@@ -203,7 +203,7 @@ def outputs_of(args: Args) -> list[tuple[str, str]]:
     return outs
 
 
-#: docs/EXTENSIONS.md E.5 "Split renders": one render's row bands on Dask workers (a5mi/bands.py)
+#: docs/EXTENSIONS.md E.24: one render's row bands on Dask workers (a5mi/bands.py)
 SPLIT_FLAGS: tuple[Flag, ...] = (
     Flag(("-workers", "--workers"), "workers", "split the render into row bands on N local Dask worker processes",
          1, integer(1, 512), metavar="N"),
