@@ -128,6 +128,7 @@ def _wavefront_passes(scene: Any, integrator: Any, ray: Any, camera: Any, first:
         rgb, _valid, aovs = integrator.sample(scene, None, mi.RayDifferential3f(traced), None, active,
                                               sample_pass=sample_pass)
         if k0 == 0:
+            dr.eval(rgb, *aovs)     # one kernel: a gather from an unevaluated AOV would trace the batch again
             idx = dr.arange(mi.UInt32, n)
             aovs0 = [dr.gather(type(a), a, idx) for a in aovs]
         total = _batch_sum(total, rgb, n, stride, batch)

@@ -46,3 +46,26 @@ def test_wavefront_is_bit_identical_to_pass_by_pass(name: str, extra: dict, monk
     assert np.array_equal(split, reference)
     assert np.array_equal(whole, reference)
     assert reference.std() > 0.0
+
+
+def test_wavefront_aovs_and_counts_match_and_trace_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """-normals, -depth and the -v ray counts (pass 0's AOVs) are those of the pass-by-pass render, and the
+    batch is traced by one kernel (an AOV gathered before it is evaluated would launch the integrator again)."""
+    from a5mi.session import describe_file, render
+    from a5mi.variant import activate
+
+    activate()
+    desc, _ = describe_file(os.path.join(DATA, "soft_shadows.txt"))
+    options = RenderOptions(width=32, height=24, shadows=True, spp=4, seed=1, normals=True, depth=(1.0, 20.0),
+                            count_rays=True)
+    results = {}
+    for lanes in (0, 1 << 20):
+        monkeypatch.setattr(passes, "WAVEFRONT_LANES", lanes)
+        render(desc, options)                                        # kernels cached
+        results[lanes] = render(desc, options)
+    before, after = results[0], results[1 << 20]
+    for name in ("image", "normals", "depth"):
+        assert np.array_equal(getattr(after, name), getattr(before, name)), name
+    assert after.ray_counts == before.ray_counts and after.ray_counts["shadow"] > 0
+    launches = {k: sum(r.kernels.values()) for k, r in results.items()}
+    assert launches[1 << 20] <= 5 < launches[0], launches
