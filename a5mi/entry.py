@@ -120,12 +120,7 @@ def _fast_exit(status: int) -> None:
         sys.exit(status)
     import atexit
 
-    atexit._run_exitfuncs()  # what the interpreter's exit would run first
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):
-            pass
+    atexit._run_exitfuncs()  # what the interpreter's exit would run first; _run flushed the standard streams
     os._exit(status)
 
 
