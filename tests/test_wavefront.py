@@ -1,6 +1,7 @@
 """The E.5 wavefront (a5mi/passes.py, docs/EXTENSIONS.md E.24): many ``-spp`` passes traced in one integrator call
-give the image of the pass-by-pass render bit for bit (``a5_whitted``: area lights, lens, gloss; ``a5_path``),
-also when the passes are split over several calls and the sample count is no multiple of the SIMD packet."""
+give the image of the pass-by-pass render bit for bit (``a5_whitted``: area lights, lens, gloss, dispersion, a
+medium; ``a5_path``), also when the passes are split over several calls and the sample count is no multiple of
+the SIMD packet."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from a5mi.options import RenderOptions
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "scenes")
 
-CASES = [("soft_shadows.txt", {}), ("dof.txt", {}), ("glossy.txt", {}),
+CASES = [("soft_shadows.txt", {}), ("dof.txt", {}), ("glossy.txt", {}), ("prism.txt", {}), ("fog_shafts.txt", {}),
          ("colour_bleeding.txt", {"integrator": "path", "bounces": 3})]
 
 
