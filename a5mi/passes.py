@@ -10,7 +10,8 @@ stochastic dimensions. With ``spp = 1`` and a pinhole camera the pass is exactly
 Wavefront (``a5_whitted``, ``a5_path``): a batch of ``b`` consecutive passes is one call of the integrator
 over ``b · s`` lanes, pass-major (lane ``L`` = sample ``first + L mod s`` of pass ``k0 + L div s``; ``s`` = ``n``
 rounded up to :data:`PACKET` lanes, the ``s - n`` padding lanes inactive, so every sample shares its SIMD
-packet with the neighbours it has in a one-pass call), ``b · s <=`` :data:`WAVEFRONT_LANES`. The integrator
+packet with the neighbours it has in a one-pass call), ``b · s <=`` :data:`WAVEFRONT_LANES` (``s`` above half
+of it: one call per pass, the trace then small beside the kernel). The integrator
 is traced once per batch instead of once per pass; each lane computes exactly what its pass would alone (the
 E.5 keys are per lane), and the mean is the same float32 sum in pass order, ``((c_0 + c_1) + c_2) + ...``,
 times ``1/spp`` (a symbolic loop over the batch's passes), so the image is bit for bit the pass-by-pass one.
