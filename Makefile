@@ -19,6 +19,7 @@ STEP = step() { echo "a5mi setup: $$1"; shift; mkdir -p $(VENV); \
 	  exit $$s; }; }; step
 
 setup: llvm tools $(STAMP)
+	@$(BIN)/python -m compileall -q a5mi plugins converters >/dev/null  # bytecode: ~0.3 CPU-s of each a5 start where PYTHONDONTWRITEBYTECODE is set (docs/SPEED.md)
 
 # a5mi grade's and a5mi difftest's sandbox (bubblewrap) and the report's headless-browser test (chromium):
 # install if root.

@@ -216,3 +216,78 @@ def render_scene(
     extras = getattr(integrator, "render_extras", None)
     result.extras = extras() if callable(extras) else {}
     return result
+
+
+@dataclass
+class Band:
+    """Rows ``j0 .. j1-1`` of a render buffer as :func:`render_band` traced them: the colour (unfiltered,
+    row 0 = render row ``j0``, bottom-up), ``|N|`` and ``t`` when asked for, the ray counts and kernel launches."""
+
+    j0: int
+    j1: int
+    color: npt.NDArray[np.float32]
+    normal: npt.NDArray[np.float32] | None = None
+    dist: npt.NDArray[np.float32] | None = None
+    counts: dict[str, int] = field(default_factory=dict)
+    kernels: dict[str, int] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def render_band(mi_scene: mi.Scene, camera: Camera, options: RenderOptions, band: tuple[int, int], *,
+                integrator: mi.SamplingIntegrator | None = None) -> Band:
+    """Render-buffer rows ``band = (j0, j1)`` of :func:`render_scene`'s main pass, each sample exactly as the
+    whole render traces it: the same pixel position (the ``-jitter`` offsets of rows ``0 .. j0-1`` are drawn
+    and dropped, so the stream is where it would be), the same E.5 keys (absolute sample index), tiles
+    starting on :data:`a5mi.tiles.PACKET_ALIGN` samples when ``j0 · RW`` does. The ``-filter`` step is the
+    caller's (:func:`assemble`); ``aov_mode="quadrant"`` AOVs and motion blur are not rendered here."""
+    j0, j1 = band
+    with thread_count(options.threads):
+        integrator = integrator if integrator is not None else mi_scene.integrator()
+        rw, rh = options.render_size
+        rows = [(j0 + a, j0 + b) for a, b in tile_rows(rw, j1 - j0, options.tile_rays, steps=1)]
+        skipped = [(0, j0)] if j0 > 0 and options.jitter else []
+        timings: dict[str, float] = {"compile": 0.0, "execute": 0.0, "jitter": 0.0, "filter": 0.0}
+        buf = PassBuffers(color=np.empty((j1 - j0, rw, 3), np.float32),
+                          normal=np.empty((j1 - j0, rw, 3), np.float32) if options.normals else None,
+                          dist=np.empty((j1 - j0, rw), np.float32) if options.depth is not None else None, row0=j0)
+        tiles = main_tiles(rw, skipped + rows, options.seed, options.jitter, timings)
+        if skipped:
+            next(tiles)
+        t0 = time.perf_counter()
+        ctx = TraceContext(mi_scene, camera, integrator, _default_camera_rays(), (rw, rh), timings, None,
+                           rw * (j1 - j0), options.spp, options.seed or 0)
+        trace_pass(ctx, tiles, buf, 0)
+        timings["render"] = time.perf_counter() - t0
+    assert buf.color is not None
+    return Band(j0, j1, buf.color, buf.normal, buf.dist, buf.counts, buf.kernels, timings)
+
+
+def assemble(options: RenderOptions, bands: list[Band], timings: dict[str, float] | None = None) -> RenderResult:
+    """The :class:`RenderResult` of bands covering the render buffer (any order, no overlap): colour rows in
+    bottom-up order into the buffer or the streamed ``-filter`` (the same float32 operations as
+    :func:`render_scene`, so the image is bit for bit its image), AOVs, summed counts and launches."""
+    rw, rh = options.render_size
+    main, aov = _pass_buffers(options, separate=False)
+    ordered = sorted(bands, key=lambda b: b.j0)
+    if [b.j0 for b in ordered] != [0, *(b.j1 for b in ordered[:-1])] or ordered[-1].j1 != rh:
+        raise ValueError(f"bands {[(b.j0, b.j1) for b in ordered]} do not cover rows 0..{rh}")
+    timings = {"compile": 0.0, "execute": 0.0, "jitter": 0.0, "filter": 0.0, **(timings or {})}
+    for b in ordered:
+        if main.stream is not None:
+            t0 = time.perf_counter()
+            main.stream.push(b.color)
+            timings["filter"] += time.perf_counter() - t0
+        else:
+            assert main.color is not None
+            main.color[b.j0:b.j1] = b.color
+        if aov.normal is not None and b.normal is not None:
+            aov.normal[b.j0:b.j1] = b.normal
+        if aov.dist is not None and b.dist is not None:
+            aov.dist[b.j0:b.j1] = b.dist
+        for k, v in b.counts.items():
+            main.counts[k] = main.counts.get(k, 0) + v
+        for k, v in b.kernels.items():
+            main.kernels[k] = main.kernels.get(k, 0) + v
+        for k in ("compile", "execute", "jitter"):
+            timings[k] += b.timings.get(k, 0.0)
+    return _result(options, main, aov, False, len(ordered), rw * rh, timings)

@@ -65,6 +65,7 @@ class PassBuffers:
     classes: np.ndarray | None = None
     counts: dict[str, int] = field(default_factory=dict)
     kernels: dict[str, int] = field(default_factory=dict)  # launches by source: memory / disk / compiled
+    row0: int = 0   #: render-buffer row of the buffers' row 0 (a band of rows, a5mi.bands)
 
     @property
     def trace_color(self) -> bool:
@@ -90,7 +91,7 @@ class PassBuffers:
     def store(self, tile: Tile, rw: int, rgb: Any, named: dict[str, Any], timings: dict[str, float]) -> None:
         """Write the evaluated tile into the buffers: colour rows (the streamed filter's time added to
         ``timings["filter"]``), ``|N|`` per component (SPEC B.6), ``t``, the class as uint8."""
-        j0, j1 = tile.j0, tile.j1
+        j0, j1 = tile.j0 - self.row0, tile.j1 - self.row0
         if self.trace_color:
             rows = np.asarray(rgb).T.reshape(j1 - j0, rw, 3)
             if self.stream is not None:

@@ -78,6 +78,10 @@ class SamplePass(NamedTuple):
     index: int
     count: int
     seed: int
+    #: E.5 wavefront: the lanes hold ``batch`` consecutive passes, pass-major with ``stride`` lanes each (lane
+    #: ``L``: sample ``first_pixel + L mod stride`` in pass ``index + L div stride``); 1: every lane pass ``index``
+    batch: int = 1
+    stride: int = 0
 
 
 class Stochastic(NamedTuple):
@@ -95,8 +99,17 @@ def stochastic(sample_pass: SamplePass | None, sampler: mi.Sampler | None, width
                glossy_cap: int) -> Stochastic:
     """The :class:`Stochastic` state of ``width`` camera rays: keys of ``sample_pass``, or without one keys
     drawn from ``sampler`` (pass 0 of 1, seed 0; no sampler: key 0)."""
+    if sample_pass is not None and int(sample_pass.batch) > 1:
+        first, index, count, seed, _batch, stride = (int(v) for v in sample_pass)
+        lane = dr.arange(mi.UInt32, width)
+        k = lane // dr.opaque(mi.UInt32, stride)
+        pixel = lane - k * dr.opaque(mi.UInt32, stride) + dr.opaque(mi.UInt32, first)
+        pass_index = k + dr.opaque(mi.UInt32, index)
+        pixel_key, pass_key = pixel_keys(pixel, dr.opaque(mi.UInt32, seed & 0xFFFFFFFF), pass_index)
+        return Stochastic(pixel_key, pass_key, pass_index, dr.opaque(mi.UInt32, count),
+                          dr.opaque(mi.UInt32, glossy_cap))
     if sample_pass is not None:
-        first, index, count, seed = (int(v) for v in sample_pass)
+        first, index, count, seed = (int(v) for v in sample_pass[:4])
         seed &= 0xFFFFFFFF
         pixel = dr.arange(mi.UInt32, width) + dr.opaque(mi.UInt32, first)
     else:

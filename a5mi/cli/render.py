@@ -203,16 +203,62 @@ def outputs_of(args: Args) -> list[tuple[str, str]]:
     return outs
 
 
+#: docs/EXTENSIONS.md E.24: one render's row bands on Dask workers (a5mi/bands.py)
+SPLIT_FLAGS: tuple[Flag, ...] = (
+    Flag(("-workers", "--workers"), "workers", "split the render into row bands on N local Dask worker processes",
+         1, integer(1, 512), metavar="N"),
+    Flag(("-scheduler", "--scheduler"), "scheduler", "split the render into row bands on an existing Dask "
+         "cluster", 1, text, metavar="tls://HOST:PORT"),
+    Flag(("-tls_ca", "--tls-ca"), "tls_ca", "with -scheduler tls://: the CA certificate of the cluster (PEM)", 1,
+         text, metavar="CA.pem"),
+    Flag(("-tls_cert", "--tls-cert"), "tls_cert", "with -scheduler tls://: this client's certificate (PEM)", 1,
+         text, metavar="CERT.pem"),
+    Flag(("-tls_key", "--tls-key"), "tls_key", "with -scheduler tls://: this client's private key (PEM)", 1, text,
+         metavar="KEY.pem"),
+    Flag(("-insecure_scheduler", "--insecure-scheduler"), "insecure_scheduler", "allow a plain tcp:// -scheduler "
+         "(anyone who reaches it can run code on its workers)", default=False, show_default=False),
+)
+
+
+def _split(args: Args) -> Any:
+    """The render function of ``-workers`` / ``-scheduler`` (:func:`a5mi.bands.render_split`), or None."""
+    workers, scheduler = args.get("workers"), args.get("scheduler")
+    tls = [args.get(d) for d in ("tls_ca", "tls_cert", "tls_key")]
+    if (any(tls) or args.get("insecure_scheduler")) and scheduler is None:
+        raise UsageError("-tls_ca/-tls_cert/-tls_key/-insecure_scheduler need -scheduler")
+    if workers is None and scheduler is None:
+        return None
+    if workers is not None and scheduler is not None:
+        raise UsageError("give -workers or -scheduler, not both")
+    if any(tls) and not all(tls):
+        raise UsageError("give -tls_ca, -tls_cert and -tls_key together")
+    from a5mi import bands, cluster
+
+    why = bands.splittable(render_options(args))
+    if why is not None:
+        raise UsageError(f"-workers/-scheduler: {why}")
+    security = None if scheduler is None else cluster.check_scheduler(
+        scheduler, tuple(tls) if all(tls) else None, bool(args.get("insecure_scheduler")), flag="-scheduler")
+
+    def render(desc: Any, options: RenderOptions, progress: Any = None) -> Any:
+        return bands.render_split(args.input, options, workers=workers, scheduler=scheduler, security=security,
+                                  variant=args.variant, progress=progress)[0]
+
+    return render
+
+
 def run_render(args: Args, console: Console) -> int:
     """One scene (``a5``, ``a5mi render -input -output``), or the jobs of ``a5mi render`` with several scenes or
     ``--jobs`` (:mod:`a5mi.cli.batch`: one process, one :class:`a5mi.session.RenderSession`)."""
     from a5mi.cli import batch
 
     if batch.is_batch(args):
+        if args.get("workers") is not None or args.get("scheduler") is not None:
+            raise UsageError("-workers/-scheduler split one render; not with scenes as arguments or --jobs")
         return batch.run_batch(batch.make_jobs(args, RENDER_FLAGS, check_render_args), console, render_job)
     from a5mi import session
 
-    return _render_and_write(args, console, lambda: activate_variant(args.variant), session.render,
+    return _render_and_write(args, console, lambda: activate_variant(args.variant), _split(args) or session.render,
                              lambda: _load(args.input, console, bool(args.get("bump"))))
 
 
@@ -304,7 +350,7 @@ def _report(console: Console, variant: str, result: Any, timings: dict[str, floa
 _SUMMARY = "Render a 6.837 assignment-5 scene as the course's sample solution a5soln does (SPEC B.1)."
 
 #: ``a5``: the sample solution's command line, strict single-dash grammar.
-A5 = Command("a5", _SUMMARY, RENDER_FLAGS, run_render, grammar="a5", required=("input", "output"),
+A5 = Command("a5", _SUMMARY, RENDER_FLAGS + SPLIT_FLAGS, run_render, grammar="a5", required=("input", "output"),
              check=check_render_args, epilog="Flags in any order; a flag given twice keeps its last value.",
              exit_ok="every image written")
 
@@ -336,7 +382,7 @@ def _render_command() -> Command:
     from a5mi.cli.batch import BATCH_FLAGS, EPILOG, EXIT_NOTE
 
     return Command("render", "render a scene, or several in one process (the a5 flags; see 'a5 -h')",
-                   RENDER_FLAGS + BATCH_FLAGS, run_render,
+                   RENDER_FLAGS + SPLIT_FLAGS + BATCH_FLAGS, run_render,
                    (Positional("scenes", "SCENE.txt", "scenes to render with the same flags (with --output-dir)",
                                "*"),),
                    epilog=A5.epilog + " " + EPILOG, check=check_render_command, exit_ok="every image written",
