@@ -60,6 +60,10 @@ def push(stack: RayStack, top: mi.UInt32, mask: mi.Bool, o: mi.Point3f, d: mi.Ve
     """Push a child ray onto the stacks of the lanes in ``mask`` (``weighted``: its flag, with dispersion);
     returns the new stack pointer."""
     values = (o, d, w, bounces, n_medium, t_min, origin, *((weighted,) if len(stack) > 7 else ()))
+    # The size as a literal in the kernel: Dr.Jit 1.5 leaves an uninitialised ``alloc_local``'s size out of the
+    # kernel hash, so a kernel built for a smaller stack (e.g. -bounces 2) was reused for a larger one (-bounces
+    # 4) and wrote past its end (a segfault). The clamp never binds at the sizes of ``features.stack_size``.
+    slot = dr.minimum(top, mi.UInt32(len(stack[0]) - 1))
     for array, value in zip(stack, values, strict=True):
-        array.write(value, top, mask)
+        array.write(value, slot, mask)
     return top + dr.select(mask, 1, 0)
