@@ -56,7 +56,8 @@ async function sendControls() {
 function show(s) {
   state = s;
   $("scene").textContent = s.scene || "";
-  $("status").textContent = s.busy ? "rendering..." : (s.seconds ? "rendered in " + s.seconds.total.toFixed(3) + " s" : "");
+  $("status").textContent = s.preview ? "preview in " + s.seconds.total.toFixed(3) + " s; rendering the full image..."
+    : s.busy ? "rendering..." : (s.seconds ? "rendered in " + s.seconds.total.toFixed(3) + " s" : "");
   if (!s.busy) $("progress").value = 1;
   $("error").hidden = !s.error;
   $("error").textContent = s.error || "";
@@ -70,6 +71,8 @@ function show(s) {
       img.style.width = s.size[0] * scale + "px";
       if (name === "render" || (name === "reference" && s.has_reference) || (name === "diff" && s.has_diff)) {
         img.dataset.pending = s.frame;
+        img.dataset.pendingKind = s.preview ? "preview" : "final";
+        img.dataset.pendingChanges = s.changes || 0;
         img.src = api("/api/image/" + name + ".png", "&v=" + s.frame);
       }
     }
@@ -107,8 +110,17 @@ for (const name of ["render", "reference", "diff"]) {
   $(name).addEventListener("load", () => {
     const img = $(name);
     img.dataset.frame = img.dataset.pending;
+    img.dataset.kind = img.dataset.pendingKind;
+    img.dataset.changes = img.dataset.pendingChanges;
     img.dataset.loadedAt = Date.now();
-    if (name === "render") { sizeOverlay(); drawMarks(null); }
+    if (name === "render") {
+      // a preview is labelled as one while it is the image shown; the compare panels are the last full render's
+      const preview = img.dataset.kind === "preview";
+      $("preview-badge").hidden = !preview;
+      $("preview-note").hidden = !preview;
+      for (const id of ["diff-panel", "compare"]) $(id).classList.toggle("stale", preview);
+      sizeOverlay(); drawMarks(null);
+    }
   });
 }
 
