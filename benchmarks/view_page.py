@@ -18,8 +18,9 @@ Times, from just before the write (``t0``):
 * the stages of the full image, medians: ``watcher`` (``t0`` to the watcher's reload request), the engine's
   ``parse`` (parse + describe), ``build`` (Mitsuba objects), ``trace`` (the Python trace of the integrator and the
   rest of the tile loop), ``compile`` (Dr.Jit codegen + LLVM), ``execute`` (kernels), ``filter``, ``png``,
-  ``compare`` (reference + metrics + heatmap), ``engine`` (the render job's wall time, preview included), and
-  ``delivery`` (the state published to the image's ``load``: server-sent event, fetch, PNG decode). Kernel
+  ``compare`` (reference + metrics + heatmap: after the image, which the page shows first), ``engine`` (the
+  render job's wall time, preview and comparison included), and ``delivery`` (the image's state published to
+  its ``load``: server-sent event, fetch, PNG decode). Kernel
   launches compiled (not found in Dr.Jit's cache) are summed over the saves.
 
 ``--baseline A5MI`` runs another ``a5mi`` executable (an older checkout's) the same way, alternated with this one
@@ -91,11 +92,16 @@ def wait_load(page: Any, after: int, kind: str) -> dict[str, Any]:  # a Playwrig
     return handle.json_value()
 
 
+def wait_idle(page: Any) -> None:
+    """Until the page's status says the last render (and its comparison) is done."""
+    page.wait_for_function("() => { const s = document.getElementById('status').textContent;"
+                           " return s.startsWith('rendered') && !s.endsWith('...'); }", timeout=300_000)
+
+
 def measure(page: Any, scene: Path, saves: int) -> list[dict[str, Any]]:
     page.evaluate(RECORD_LOADS)
     page.wait_for_selector("#render[data-frame]", timeout=300_000)
-    page.wait_for_function("() => { const s = document.getElementById('status').textContent;"
-                           " return s.startsWith('rendered'); }", timeout=300_000)
+    wait_idle(page)
     rows = []
     for k in range(saves):
         last = int(page.get_attribute("#render", "data-frame"))
@@ -105,6 +111,7 @@ def measure(page: Any, scene: Path, saves: int) -> list[dict[str, Any]]:
         final = wait_load(page, last, "final")
         loads = page.evaluate("window.__loads")
         preview = next((x for x in loads if x["frame"] > last and x["kind"] == "preview"), None)
+        wait_idle(page)  # the comparison, which follows the image, is done: its stage is in the state
         state = page.evaluate("fetch('/api/state' + location.search).then(r => r.json())")
         sec = state.get("seconds") or {}
         row = {"final": final["t"] / 1000.0 - t0, "preview": preview["t"] / 1000.0 - t0 if preview else None,

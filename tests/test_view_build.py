@@ -165,7 +165,10 @@ def test_an_edited_mesh_file_reloads_and_the_page_shows_a5s_image(tmp_path: Path
         run_loop(ViewEngine(str(scene), session), OPTS, drive)
 
 
-def test_jitter_filter_shows_a_labelled_preview_then_a5s_full_image(tmp_path: Path, session) -> None:  # noqa: ANN001
+def test_jitter_filter_shows_a_labelled_preview_then_a5s_full_image_then_its_comparison(
+        tmp_path: Path, session) -> None:  # noqa: ANN001
+    """Three updates per save: the preview (the last comparison kept), the full image (compared next), the
+    comparison of that image."""
     from a5mi.view.engine import ViewEngine, preview_options
 
     jf = dataclasses.replace(OPTS, jitter=True, filter=True)
@@ -178,11 +181,16 @@ def test_jitter_filter_shows_a_labelled_preview_then_a5s_full_image(tmp_path: Pa
             first = wait_for(states, lambda s: s.get("frame") and not s["busy"], "first frame")
             edit(scene, "ambientLight 0.2 0.2 0.2", "ambientLight 0.3 0.2 0.2")
             final = wait_for(states, lambda s: (s.get("frame") or 0) > first["frame"] and not s["busy"], "final")
-            shown = [s for s in states if (s.get("frame") or 0) > first["frame"]]
-            preview = shown[0]
+            preview, image, compared = [s for s in states if (s.get("frame") or 0) > first["frame"]]
             assert preview["preview"] and preview["busy"] and preview["frame"] == final["frame"] - 1
+            assert preview["compared"] == first["frame"] == first["compared"]  # the last comparison stays
             assert preview["png"] == a5_png(scene, tmp_path / "pv.png", *FLAGS)  # no -jitter -filter
-            assert not final["preview"] and final["error"] is None
-            assert final["png"] == a5_png(scene, tmp_path / "jf.png", *FLAGS, "-jitter", "-filter")
+            assert image["comparing"] and not image["preview"] and image["frame"] == final["frame"]
+            assert image["compared"] == first["frame"]
+            assert compared is final and final["compared"] == final["frame"] and not final["comparing"]
+            assert not final["preview"] and final["error"] is None and final["metrics"]["verdict"] == "wrong"
+            assert final["png"] == image["png"] == a5_png(scene, tmp_path / "jf.png", *FLAGS, "-jitter", "-filter")
 
-        run_loop(ViewEngine(str(scene), session), jf, drive)
+        ref = tmp_path / "ref.png"
+        a5_png(scene, ref, *FLAGS)  # without -jitter -filter: not the same image
+        run_loop(ViewEngine(str(scene), session, reference=str(ref)), jf, drive)

@@ -219,14 +219,18 @@ class ViewEngine:
         return list(dict.fromkeys([*self.inputs, Path(self.scene).absolute().parent, Path.cwd()]))
 
     # ------------------------------------------------------------------------------------------ rendering
-    def render(self, options: RenderOptions, progress: Callable[[str, int, int], None] | None = None, *,
-               preview: bool = False) -> Frame:
-        """Render the loaded description with ``options`` and compare it with the reference (module docstring);
-        ``preview``: the frame is a preview (:func:`preview_options`), not compared. ``progress(stage, done,
-        total)``: stage ``render`` (``preview``) per tile for large renders, then ``reference``, ``compare``.
-        ``Frame.seconds``: ``render`` (wall) and its :func:`render_stages`, ``png``, ``reference``, ``compare``."""
-        from a5mi.imageio import quantize
+    @property
+    def compares(self) -> bool:
+        """Whether frames are compared with a reference (``--reference`` or ``--binary``)."""
+        return self.reference is not None or self.binary is not None
 
+    def render(self, options: RenderOptions, progress: Callable[[str, int, int], None] | None = None, *,
+               preview: bool = False, compare: bool = True) -> Frame:
+        """Render the loaded description with ``options`` and compare it with the reference (module docstring);
+        ``preview``: the frame is a preview (:func:`preview_options`), not compared; ``compare=False``: compared
+        later by :meth:`compare`. ``progress(stage, done, total)``: stage ``render`` (``preview``) per tile for
+        large renders, then ``reference``, ``compare``. ``Frame.seconds``: ``render`` (wall) and its
+        :func:`render_stages`, ``png``, ``reference``, ``compare``."""
         if self.desc is None or options.bump != self.bump:
             self.load(options.bump)
         opts = options
@@ -247,11 +251,18 @@ class ViewEngine:
         frame = Frame(self._versions, opts, image, png_bytes(image, self._scratch), (w, h), preview=preview,
                       kernels=dict(result.kernels))
         seconds["png"] = time.perf_counter() - t0
-        if not preview and (self.reference is not None or self.binary is not None):
-            self._compare(frame, quantize(image)[..., :3].astype(np.float64), progress, seconds)
         frame.seconds = seconds
+        if compare and not preview:
+            self.compare(frame, progress)
         self.frame = frame
         return frame
+
+    def compare(self, frame: Frame, progress: Callable[[str, int, int], None] | None = None) -> None:
+        """Fill ``frame``'s reference, heatmap and metrics (or ``reference_error``) when there is a reference."""
+        from a5mi.imageio import quantize
+
+        if self.compares:
+            self._compare(frame, quantize(frame.image)[..., :3].astype(np.float64), progress, frame.seconds)
 
     def _reference_levels(self, options: RenderOptions) -> np.ndarray:
         from a5mi.imageio import read_levels

@@ -23,8 +23,9 @@ from .watcher import snapshot
 
 #: Seconds between two checks for a signal while no job waits.
 WAIT_SECONDS = 0.25
-#: The state of a frame that a preview leaves as the last full render set it (the page dims them meanwhile).
-COMPARED = ("metrics", "reference_error", "has_reference", "has_diff")
+#: The state of a frame that a preview, or a frame not compared yet, leaves as the last comparison set it (the
+#: page dims them meanwhile).
+COMPARED = ("metrics", "reference_error", "has_reference", "has_diff", "compared")
 
 
 def error_line(exc: BaseException) -> str:
@@ -40,7 +41,9 @@ def frame_state(engine: Any, frame: Any) -> dict[str, Any]:
     """The part of the page's state a rendered frame gives."""
     from a5mi.trace.core import pixel_grid
 
+    compared = frame.metrics is not None or frame.reference_error is not None
     return {"frame": frame.version, "preview": frame.preview, "kernels": frame.kernels,
+            "compared": frame.version if compared else None,
             "size": list(frame.size), "grid": list(pixel_grid(frame.options)),
             "render_size": list(frame.options.render_size), "metrics": frame.metrics,
             "reference_error": frame.reference_error, "has_reference": frame.reference_png is not None,
@@ -79,7 +82,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
         changes += reload
         hub.update(busy=True)
         t0 = time.monotonic()
-        state: dict[str, Any] = {"busy": False, "error": None, "changes": changes, "preview": False,
+        state: dict[str, Any] = {"busy": False, "error": None, "changes": changes, "preview": False, "comparing": False,
                                  "saved_at": jobs.taken_reload_at if reload else None}
         images: dict[str, bytes | None] = {}
         try:
@@ -104,9 +107,16 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
                     "seconds": {"parse": parse, **pv.seconds, "total": time.monotonic() - t0}})
                 if jobs.render_pending():  # a newer save or control: its render replaces this one's full image
                     continue
-            frame = engine.render(current, progress=hub.progress)
+            frame = engine.render(current, progress=hub.progress, compare=False)
+            if engine.compares:  # the image first; its comparison follows (the page dims the last one meanwhile)
+                shown = {k: v for k, v in frame_state(engine, frame).items() if k not in COMPARED}
+                hub.update({"render": frame.render_png}, **{
+                    **state, **shown, "busy": True, "comparing": True, "warnings": engine.warnings,
+                    "options_ok": True, "version": hub.state().get("version", 0) + 1, "published_at": time.time(),
+                    "seconds": {"parse": parse, **frame.seconds, "total": time.monotonic() - t0}})
+                engine.compare(frame, hub.progress)
             images = {"render": frame.render_png, "reference": frame.reference_png, "diff": frame.diff_png}
-            state.update(frame_state(engine, frame), warnings=engine.warnings, options_ok=True)
+            state.update(frame_state(engine, frame), warnings=engine.warnings, options_ok=True, comparing=False)
             state["seconds"] = {"parse": parse, **frame.seconds, "total": time.monotonic() - t0}
         except UserError as exc:  # SceneError is a ValueError too: caught below
             state["error"] = error_line(exc)
