@@ -110,9 +110,10 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
             frame = engine.render(current, progress=hub.progress, compare=False)
             if engine.compares:  # the image first; its comparison follows (the page dims the last one meanwhile)
                 shown = {k: v for k, v in frame_state(engine, frame).items() if k not in COMPARED}
+                state["published_at"] = time.time()  # (of the image, also in the comparison's state)
                 hub.update({"render": frame.render_png}, **{
                     **state, **shown, "busy": True, "comparing": True, "warnings": engine.warnings,
-                    "options_ok": True, "version": hub.state().get("version", 0) + 1, "published_at": time.time(),
+                    "options_ok": True, "version": hub.state().get("version", 0) + 1,
                     "seconds": {"parse": parse, **frame.seconds, "total": time.monotonic() - t0}})
                 engine.compare(frame, hub.progress)
             images = {"render": frame.render_png, "reference": frame.reference_png, "diff": frame.diff_png}
@@ -132,7 +133,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
             log(state["error"])
         state["version"] = hub.state().get("version", 0) + 1
         state["watching"] = [str(p) for p in watcher.paths]
-        state["published_at"] = time.time()
+        state.setdefault("published_at", time.time())
         hub.update(images, **state)
 
 
