@@ -102,7 +102,8 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
                 pv = engine.render(quick, progress=hub.progress, preview=True)
                 shown = {k: v for k, v in frame_state(engine, pv).items() if k not in COMPARED}  # the last stay
                 hub.update({"render": pv.render_png}, **{
-                    **state, **shown, "busy": True, "warnings": engine.warnings, "options_ok": True,
+                    **state, **shown, "controls": describe_controls(current), "busy": True,
+                    "warnings": engine.warnings, "options_ok": True,
                     "version": hub.state().get("version", 0) + 1, "published_at": time.time(),
                     "seconds": {"parse": parse, **pv.seconds, "total": time.monotonic() - t0}})
                 if jobs.render_pending():  # a newer save or control: its render replaces this one's full image

@@ -128,7 +128,6 @@ for (const name of ["render", "reference", "diff"]) {
       // a preview is labelled as one while it is the image shown; the compare panels are the last full render's
       const preview = img.dataset.kind === "preview";
       $("preview-badge").hidden = !preview;
-      $("preview-note").hidden = !preview;
       sizeOverlay(); drawMarks(null);
     }
   });
