@@ -23,8 +23,9 @@ Times, from just before the write (``t0``):
   its ``load``: server-sent event, fetch, PNG decode). Kernel
   launches compiled (not found in Dr.Jit's cache) are summed over the saves.
 
-``--baseline A5MI`` runs another ``a5mi`` executable (an older checkout's) the same way, alternated with this one
-in each round, so the two are compared under the same load (its stages are those it reports). ``--a5`` adds the
+``--baseline A5MI`` runs another ``a5mi`` executable (an older checkout's) on its own copy of the scene at the same
+time, the saves alternating between the two pages (``ABBA``...), so both are measured under the same load (its
+stages are those it reports). ``--a5`` adds the
 same render as one ``a5`` process (best of two). Prints one markdown row per scene, flags and code, with the
 load average. ``--shots DIR`` saves ``view.png`` (scene10 with a traced pixel and a hovered node).
 """
@@ -67,7 +68,7 @@ def start(a5mi: Path, scene: Path, flags: list[str], reference: Path | None) -> 
 
 def stage(name: str, data: Path, tmp: Path) -> Path:
     folder = tmp / name
-    folder.mkdir(exist_ok=True)
+    folder.mkdir(parents=True, exist_ok=True)
     for entry in (data / "scenes").iterdir():
         if entry.suffix != ".txt" and not (folder / entry.name).exists():
             os.symlink(entry, folder / entry.name)
@@ -98,31 +99,33 @@ def wait_idle(page: Any) -> None:
                            " return s.startsWith('rendered') && !s.endsWith('...'); }", timeout=300_000)
 
 
-def measure(page: Any, scene: Path, saves: int) -> list[dict[str, Any]]:
+def warm(page: Any) -> None:
+    """Record the page's image loads and wait for its first render (not counted)."""
     page.evaluate(RECORD_LOADS)
     page.wait_for_selector("#render[data-frame]", timeout=300_000)
     wait_idle(page)
-    rows = []
-    for k in range(saves):
-        last = int(page.get_attribute("#render", "data-frame"))
-        time.sleep(0.6)  # idle: the watcher's baseline is the last save
-        t0 = time.time()
-        bump_ambient(scene, k)
-        final = wait_load(page, last, "final")
-        loads = page.evaluate("window.__loads")
-        preview = next((x for x in loads if x["frame"] > last and x["kind"] == "preview"), None)
-        wait_idle(page)  # the comparison, which follows the image, is done: its stage is in the state
-        state = page.evaluate("fetch('/api/state' + location.search).then(r => r.json())")
-        sec = state.get("seconds") or {}
-        row = {"final": final["t"] / 1000.0 - t0, "preview": preview["t"] / 1000.0 - t0 if preview else None,
-               "engine": sec.get("total"), "compiled": (state.get("kernels") or {}).get("compiled")}
-        row.update({k: sec.get(k) for k in STAGES})
-        if state.get("saved_at"):
-            row["watcher"] = state["saved_at"] - t0
-        if state.get("published_at"):
-            row["delivery"] = final["t"] / 1000.0 - state["published_at"]
-        rows.append(row)
-    return rows
+
+
+def one_save(page: Any, scene: Path, k: int) -> dict[str, Any]:
+    """Save ``scene`` (its ambient term changed) and time the page's update (module docstring)."""
+    last = int(page.get_attribute("#render", "data-frame"))
+    time.sleep(0.6)  # idle: the watcher's baseline is the last save
+    t0 = time.time()
+    bump_ambient(scene, k)
+    final = wait_load(page, last, "final")
+    loads = page.evaluate("window.__loads")
+    preview = next((x for x in loads if x["frame"] > last and x["kind"] == "preview"), None)
+    wait_idle(page)  # the comparison, which follows the image, is done: its stage is in the state
+    state = page.evaluate("fetch('/api/state' + location.search).then(r => r.json())")
+    sec = state.get("seconds") or {}
+    row = {"final": final["t"] / 1000.0 - t0, "preview": preview["t"] / 1000.0 - t0 if preview else None,
+           "engine": sec.get("total"), "compiled": (state.get("kernels") or {}).get("compiled")}
+    row.update({key: sec.get(key) for key in STAGES})
+    if state.get("saved_at"):
+        row["watcher"] = state["saved_at"] - t0
+    if state.get("published_at"):
+        row["delivery"] = final["t"] / 1000.0 - state["published_at"]
+    return row
 
 
 def a5_seconds(a5mi: Path, scene: Path, flags: list[str]) -> float:
@@ -162,7 +165,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scenes", nargs="*", default=SCENES)
     ap.add_argument("--saves", type=int, default=8)
-    ap.add_argument("--rounds", type=int, default=1)
+    ap.add_argument("--rounds", type=int, default=1, help="saves per code: saves x rounds")
     ap.add_argument("--baseline", type=Path, help="another a5mi executable, measured alternately")
     ap.add_argument("--modes", default=",".join(MODES))
     ap.add_argument("--a5", action="store_true", help="also time one a5 process per row")
@@ -189,25 +192,28 @@ def main() -> None:
                 ref = data / "reference" / f"{name}.b4-jitter-filter.png" if mode == "jitter-filter" else None
                 results: dict[str, list[dict[str, Any]]] = {c: [] for c in codes}
                 loads: dict[str, list[float]] = {c: [] for c in codes}
-                for rnd in range(args.rounds):
-                    order = list(codes) if rnd % 2 == 0 else list(reversed(codes))
-                    for code in order:
-                        scene = stage(name, data, Path(tmp))
-                        proc, url = start(codes[code], scene, flags, ref)
-                        try:
-                            page = browser.new_page(viewport={"width": 1480, "height": 1000})
-                            page.goto(url)
+                servers, pages, scenes = {}, {}, {}
+                try:  # every code serves its own copy at once; their saves alternate (the same load for both)
+                    for code in codes:
+                        scenes[code] = stage(name, data, Path(tmp) / code)
+                        servers[code] = start(codes[code], scenes[code], flags, ref)
+                        pages[code] = browser.new_page(viewport={"width": 1480, "height": 1000})
+                        pages[code].goto(servers[code][1])
+                    for code in codes:
+                        warm(pages[code])
+                    for k in range(args.saves * args.rounds):
+                        for code in (list(codes) if k % 2 == 0 else list(reversed(codes))):
                             loads[code].append(os.getloadavg()[0])
-                            results[code] += measure(page, scene, args.saves)
-                            loads[code].append(os.getloadavg()[0])
-                            if args.shots and name == "scene10_sphere" and mode == "jitter-filter" and code == "this":
-                                shoot(page, args.shots / "view.png")
-                            page.close()
-                        finally:
-                            proc.terminate()
-                            proc.wait(timeout=30)
+                            results[code].append(one_save(pages[code], scenes[code], k))
+                    if args.shots and name == "scene10_sphere" and mode == "jitter-filter":
+                        shoot(pages["this"], args.shots / "view.png")
+                finally:
+                    for code in servers:
+                        pages[code].close()
+                        servers[code][0].terminate()
+                        servers[code][0].wait(timeout=30)
                 for code in codes:
-                    a5 = a5_seconds(codes[code], stage(name, data, Path(tmp)), flags) if args.a5 else None
+                    a5 = a5_seconds(codes[code], scenes[code], flags) if args.a5 else None
                     print(row_line(name, flags, code, results[code], statistics.mean(loads[code]), a5), flush=True)
         browser.close()
 
