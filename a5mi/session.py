@@ -134,13 +134,20 @@ class RenderSession:
         if len(self._built) >= self.max_scenes:  # free first: the new scene's plugins then reuse the registry IDs
             self._built.popitem(last=False)
             gc.collect()
-        whole = scene_dict(desc, options)
-        template = dict(whole["integrator"])
-        scene = load(whole)
-        entry = _Built(desc, scene, template, {_integrator_key(options): scene.integrator()})
+        scene, template, integ = self.build(desc, options)
+        entry = _Built(desc, scene, template, {_integrator_key(options): integ})
         self.scenes_built += 1
         self._built[key] = entry
         return entry, time.perf_counter() - t0
+
+    def build(self, desc: SceneDescription, options: RenderOptions
+              ) -> tuple[mi.Scene, dict[str, Any], mi.SamplingIntegrator]:
+        """``(Mitsuba scene, the scene dict's integrator entry, the scene's integrator)`` of ``desc``: one
+        ``mi.load_dict`` of :func:`scene_dict` (a subclass may reuse objects of its earlier builds)."""
+        whole = scene_dict(desc, options)
+        template = dict(whole["integrator"])
+        scene = load(whole)
+        return scene, template, scene.integrator()
 
     def integrator(self, desc: SceneDescription, options: RenderOptions
                    ) -> tuple[mi.Scene, mi.SamplingIntegrator, float]:

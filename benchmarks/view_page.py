@@ -1,19 +1,33 @@
 """``a5mi view`` on the course's test scenes: the time from saving the scene to the updated image in the browser,
-and the README's screenshot.
+per stage, and the README's screenshot.
 
-    .venv/bin/python benchmarks/view_page.py [--saves N] [--shots DIR] [SCENE ...]
+    .venv/bin/python benchmarks/view_page.py [--saves N] [--baseline A5MI] [--rounds R] [--a5] [--shots DIR]
+                                             [SCENE ...]
 
 For each scene (default: the handout's four test scenes) a copy of the scene file is served (the meshes and the
 cube map linked from the course folder) by the real ``a5mi view`` command at 300 x 300, once with
 ``-shadows -bounces 4`` and once with the handout's ``-shadows -bounces 4 -jitter -filter`` against the course's
 reference image, in headless Chromium (Playwright, ``/usr/bin/chromium``). Each save changes the scene's
-``ambientLight`` (so the image really changes) and the time is from just before the write to the ``load`` event
-of the new image on the page (watcher poll, parse and describe, scene build, render, PNG, compare, the event,
-the browser's fetch and decode). The page stays warm: the first render of each run is not counted. Prints one
-markdown row per scene and mode: median, min and max of ``--saves`` saves, the engine's own stages (median), the
-same render as one ``a5`` process (best of two, measured right after: the loop without the page) and its ratio
-to the median, and the load average. ``--shots DIR`` saves ``view.png`` (scene10 with a traced pixel and a
-hovered node).
+``ambientLight`` (so the image really changes). The page stays warm: the first render of each run is not counted.
+
+Times, from just before the write (``t0``):
+
+* ``final``: to the ``load`` event of the save's full image on the page (the image ``a5`` writes for the flags);
+* ``preview``: to the ``load`` event of its preview, where the page shows one (``-jitter``/``-filter``: one ray
+  per pixel, labelled PREVIEW on the page, replaced by the full image);
+* the stages of the full image, medians: ``watcher`` (``t0`` to the watcher's reload request), the engine's
+  ``parse`` (parse + describe), ``build`` (Mitsuba objects), ``trace`` (the Python trace of the integrator and the
+  rest of the tile loop), ``compile`` (Dr.Jit codegen + LLVM), ``execute`` (kernels), ``filter``, ``png``,
+  ``compare`` (reference + metrics + heatmap: after the image, which the page shows first), ``engine`` (the
+  render job's wall time, preview and comparison included), and ``delivery`` (the image's state published to
+  its ``load``: server-sent event, fetch, PNG decode). Kernel
+  launches compiled (not found in Dr.Jit's cache) are summed over the saves.
+
+``--baseline A5MI`` runs another ``a5mi`` executable (an older checkout's) on its own copy of the scene at the same
+time, the saves alternating between the two pages (``ABBA``...), so both are measured under the same load (its
+stages are those it reports). ``--a5`` adds the
+same render as one ``a5`` process (best of two). Prints one markdown row per scene, flags and code, with the
+load average. ``--shots DIR`` saves ``view.png`` (scene10 with a traced pixel and a hovered node).
 """
 
 from __future__ import annotations
@@ -28,14 +42,21 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 CHROMIUM = "/usr/bin/chromium"
 SCENES = ["scene06_bunny_1k", "scene10_sphere", "scene11_cube", "scene12_vase"]
 MODES = {"plain": ["-shadows", "-bounces", "4"], "jitter-filter": ["-shadows", "-bounces", "4", "-jitter", "-filter"]}
+STAGES = ("parse", "build", "trace", "compile", "execute", "filter", "png", "compare")
+#: The benchmark's own record of the render image's load events (added after the page's handler, which sets the
+#: dataset first).
+RECORD_LOADS = """() => { window.__loads = []; const img = document.getElementById('render');
+  img.addEventListener('load', () => window.__loads.push({frame: Number(img.dataset.frame),
+    kind: img.dataset.kind || 'final', t: Number(img.dataset.loadedAt)})); }"""
 
 
-def start(scene: Path, flags: list[str], reference: Path | None) -> tuple[subprocess.Popen[str], str]:
-    argv = [str(Path(sys.executable).with_name("a5mi")), "view", str(scene), "-size", "300", "300", *flags]
+def start(a5mi: Path, scene: Path, flags: list[str], reference: Path | None) -> tuple[subprocess.Popen[str], str]:
+    argv = [str(a5mi), "view", str(scene), "-size", "300", "300", *flags]
     if reference is not None:
         argv += ["--reference", str(reference)]
     proc = subprocess.Popen(argv, cwd=scene.parent, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
@@ -47,9 +68,9 @@ def start(scene: Path, flags: list[str], reference: Path | None) -> tuple[subpro
 
 def stage(name: str, data: Path, tmp: Path) -> Path:
     folder = tmp / name
-    folder.mkdir()
+    folder.mkdir(parents=True, exist_ok=True)
     for entry in (data / "scenes").iterdir():
-        if entry.suffix != ".txt":
+        if entry.suffix != ".txt" and not (folder / entry.name).exists():
             os.symlink(entry, folder / entry.name)
     shutil.copy(data / "scenes" / f"{name}.txt", folder / "scene.txt")
     return folder / "scene.txt"
@@ -64,35 +85,90 @@ def bump_ambient(scene: Path, k: int) -> None:
         f.write(new)
 
 
-def measure(page, scene: Path, saves: int) -> tuple[list[float], list[dict]]:  # noqa: ANN001
-    page.wait_for_selector("#render[data-frame='1']", timeout=300_000)
-    times, stages = [], []
-    for k in range(saves):
-        frame = int(page.get_attribute("#render", "data-frame")) + 1
-        time.sleep(0.6)  # idle: the watcher's baseline is the last save
-        t0 = time.time()
-        bump_ambient(scene, k)
-        page.wait_for_selector(f"#render[data-frame='{frame}']", timeout=120_000)
-        times.append(int(page.get_attribute("#render", "data-loaded-at")) / 1000.0 - t0)
-        stages.append(page.evaluate("fetch('/api/state' + location.search).then(r => r.json())")["seconds"])
-    return times, stages
+def wait_load(page: Any, after: int, kind: str) -> dict[str, Any]:  # a Playwright page
+    """The first recorded load of a frame after ``after`` of ``kind`` (``final`` also matches an old page's)."""
+    want = "l.kind !== 'preview'" if kind == "final" else "l.kind === 'preview'"
+    handle = page.wait_for_function(f"(n) => window.__loads.find(l => l.frame > n && {want})", arg=after,
+                                    timeout=180_000)
+    return handle.json_value()
 
 
-def a5_seconds(scene: Path, flags: list[str]) -> float:
+def wait_idle(page: Any) -> None:
+    """Until the page's status says the last render (and its comparison) is done."""
+    page.wait_for_function("() => { const s = document.getElementById('status').textContent;"
+                           " return s.startsWith('rendered') && !s.endsWith('...'); }", timeout=300_000)
+
+
+def warm(page: Any) -> None:
+    """Record the page's image loads and wait for its first render (not counted)."""
+    page.evaluate(RECORD_LOADS)
+    page.wait_for_selector("#render[data-frame]", timeout=300_000)
+    wait_idle(page)
+
+
+def one_save(page: Any, scene: Path, k: int) -> dict[str, Any]:
+    """Save ``scene`` (its ambient term changed) and time the page's update (module docstring)."""
+    last = int(page.get_attribute("#render", "data-frame"))
+    time.sleep(0.6)  # idle: the watcher's baseline is the last save
+    t0 = time.time()
+    bump_ambient(scene, k)
+    final = wait_load(page, last, "final")
+    loads = page.evaluate("window.__loads")
+    preview = next((x for x in loads if x["frame"] > last and x["kind"] == "preview"), None)
+    wait_idle(page)  # the comparison, which follows the image, is done: its stage is in the state
+    state = page.evaluate("fetch('/api/state' + location.search).then(r => r.json())")
+    sec = state.get("seconds") or {}
+    row = {"final": final["t"] / 1000.0 - t0, "preview": preview["t"] / 1000.0 - t0 if preview else None,
+           "engine": sec.get("total"), "compiled": (state.get("kernels") or {}).get("compiled")}
+    row.update({key: sec.get(key) for key in STAGES})
+    if state.get("saved_at"):
+        row["watcher"] = state["saved_at"] - t0
+    if state.get("published_at"):
+        row["delivery"] = final["t"] / 1000.0 - state["published_at"]
+    return row
+
+
+def a5_seconds(a5mi: Path, scene: Path, flags: list[str]) -> float:
     """Wall time of the same render as one ``a5`` process (the loop without the page), best of two."""
     best = float("inf")
     for _ in range(2):
         t0 = time.perf_counter()
-        subprocess.run([str(Path(sys.executable).with_name("a5")), "-input", str(scene), "-size", "300", "300",
+        subprocess.run([str(a5mi.with_name("a5")), "-input", str(scene), "-size", "300", "300",
                         *flags, "-output", str(scene.with_name("a5.png"))], check=True, cwd=scene.parent)
         best = min(best, time.perf_counter() - t0)
     return best
+
+
+def median(rows: list[dict[str, Any]], key: str) -> float | None:
+    values = [r[key] for r in rows if r.get(key) is not None]
+    return statistics.median(values) if values else None
+
+
+def fmt(x: float | None) -> str:
+    return "-" if x is None else f"{x:.3f}"
+
+
+def row_line(name: str, flags: list[str], code: str, rows: list[dict[str, Any]], load: float,
+             a5: float | None) -> str:
+    finals = [r["final"] for r in rows]
+    compiled = [r["compiled"] for r in rows if r.get("compiled") is not None]
+    cells = [name, " ".join(flags), code, fmt(median(rows, "preview")),
+             f"{fmt(median(rows, 'final'))} ({fmt(min(finals))}-{fmt(max(finals))})",
+             *(fmt(median(rows, k)) for k in ("watcher", *STAGES, "engine", "delivery")),
+             str(sum(compiled)) if compiled else "-"]
+    if a5 is not None:
+        cells.append(f"{a5:.3f}")
+    return "| " + " | ".join(cells) + f" | {load:.1f} |"
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scenes", nargs="*", default=SCENES)
     ap.add_argument("--saves", type=int, default=8)
+    ap.add_argument("--rounds", type=int, default=1, help="saves per code: saves x rounds")
+    ap.add_argument("--baseline", type=Path, help="another a5mi executable, measured alternately")
+    ap.add_argument("--modes", default=",".join(MODES))
+    ap.add_argument("--a5", action="store_true", help="also time one a5 process per row")
     ap.add_argument("--shots", type=Path)
     args = ap.parse_args()
     from playwright.sync_api import sync_playwright
@@ -100,39 +176,49 @@ def main() -> None:
     from a5mi import data_dir
 
     data = data_dir()
-    print("| scene | flags | median | min | max | engine stages (median s) | one `a5` process | a5 / median | "
-          "load average |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    codes = {"this": Path(sys.executable).with_name("a5mi")}
+    if args.baseline:
+        codes["baseline"] = args.baseline
+    head = ["scene", "flags", "code", "preview", "final (min-max)", "watcher", *STAGES, "engine", "delivery",
+            "compiled"] + (["one a5"] if args.a5 else []) + ["load avg"]
+    print("| " + " | ".join(head) + " |")
+    print("|" + " --- |" * len(head))
     with tempfile.TemporaryDirectory() as tmp, sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, args=[
             "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
         for name in args.scenes:
-            scene = stage(name, data, Path(tmp))
-            for mode, flags in MODES.items():
+            for mode in args.modes.split(","):
+                flags = MODES[mode]
                 ref = data / "reference" / f"{name}.b4-jitter-filter.png" if mode == "jitter-filter" else None
-                proc, url = start(scene, flags, ref)
-                try:
-                    page = browser.new_page(viewport={"width": 1480, "height": 1000})
-                    page.goto(url)
-                    load = os.getloadavg()[0]
-                    times, stages = measure(page, scene, args.saves)
-                    load = (load + os.getloadavg()[0]) / 2
-                    a5 = a5_seconds(scene, flags)
-                    keys = [k for k in ("render", "png", "compare", "total") if k in stages[0]]
-                    st = ", ".join(f"{k} {statistics.median(s[k] for s in stages):.3f}" for k in keys)
-                    med = statistics.median(times)
-                    print(f"| {name} | {' '.join(flags)} | {med:.3f} s | {min(times):.3f} s | {max(times):.3f} s | "
-                          f"{st} | {a5:.3f} s | {a5 / med:.1f}x | {load:.1f} |", flush=True)
+                results: dict[str, list[dict[str, Any]]] = {c: [] for c in codes}
+                loads: dict[str, list[float]] = {c: [] for c in codes}
+                servers, pages, scenes = {}, {}, {}
+                try:  # every code serves its own copy at once; their saves alternate (the same load for both)
+                    for code in codes:
+                        scenes[code] = stage(name, data, Path(tmp) / code)
+                        servers[code] = start(codes[code], scenes[code], flags, ref)
+                        pages[code] = browser.new_page(viewport={"width": 1480, "height": 1000})
+                        pages[code].goto(servers[code][1])
+                    for code in codes:
+                        warm(pages[code])
+                    for k in range(args.saves * args.rounds):
+                        for code in (list(codes) if k % 2 == 0 else list(reversed(codes))):
+                            loads[code].append(os.getloadavg()[0])
+                            results[code].append(one_save(pages[code], scenes[code], k))
                     if args.shots and name == "scene10_sphere" and mode == "jitter-filter":
-                        shoot(page, args.shots / "view.png")
-                    page.close()
+                        shoot(pages["this"], args.shots / "view.png")
                 finally:
-                    proc.terminate()
-                    proc.wait(timeout=30)
+                    for code in servers:
+                        pages[code].close()
+                        servers[code][0].terminate()
+                        servers[code][0].wait(timeout=30)
+                for code in codes:
+                    a5 = a5_seconds(codes[code], scenes[code], flags) if args.a5 else None
+                    print(row_line(name, flags, code, results[code], statistics.mean(loads[code]), a5), flush=True)
         browser.close()
 
 
-def shoot(page, path: Path) -> None:  # noqa: ANN001
+def shoot(page: Any, path: Path) -> None:  # a Playwright page
     box = page.locator("#render").bounding_box()
     page.mouse.click(box["x"] + 172.5, box["y"] + 150.5)
     page.wait_for_selector("#trace-sum", timeout=120_000)

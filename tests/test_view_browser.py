@@ -164,6 +164,21 @@ def test_the_page_in_headless_chromium(tmp_path: Path) -> None:
                     assert "trace --diff" in page.inner_text("#trace")
                     if shots:
                         page.screenshot(path=str(Path(shots) / "view.png"))
+
+                    # -jitter -filter: a preview labelled as one, then a5's full image, the label gone
+                    page.evaluate("""() => { window.shown = []; const img = document.getElementById('render');
+                        img.addEventListener('load', () => window.shown.push([img.dataset.kind,
+                            !document.getElementById('preview-badge').hidden])); }""")
+                    page.locator("#controls input[name=jitter]").check()
+                    page.locator("#controls input[name=filter]").check()
+                    page.wait_for_function("() => window.shown.length && window.shown.at(-1)[0] === 'final'"
+                                           " && document.getElementById('status').textContent.startsWith('rendered')"
+                                           " && !document.getElementById('status').textContent.endsWith('...')",
+                                           timeout=120_000)
+                    shown = page.evaluate("window.shown")
+                    assert ["preview", True] in shown and shown[-1] == ["final", False], shown
+                    frame = int(page.get_attribute("#render", "data-frame"))
+                    check_image(page, tmp_path, scene, frame, *FLAGS, "-bounces", "1", "-jitter", "-filter")
                     page.close()  # a closed tab: the server goes on
                     assert status_of(url) == 200
                 finally:

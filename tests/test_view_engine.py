@@ -20,9 +20,9 @@ OPTS = RenderOptions(width=40, height=40, shadows=True)
 
 @pytest.fixture(scope="module")
 def session(variant):  # noqa: ANN001, ANN201 - fixtures
-    from a5mi.session import RenderSession
+    from a5mi.view.build import ViewSession
 
-    return RenderSession()
+    return ViewSession()
 
 
 def test_frame_png_is_a5s_file_and_the_reference_comparison_is_compares(tmp_path: Path, session) -> None:  # noqa: ANN001

@@ -59,8 +59,8 @@ def run_view(args: Args, console: Console) -> int:
 
 
 def _serve(args: Args, console: Console, options: object, binary: object) -> int:
-    from a5mi.session import RenderSession
     from a5mi.view import controls
+    from a5mi.view.build import ViewSession
     from a5mi.view.engine import ViewEngine
     from a5mi.view.live import run_engine
     from a5mi.view.server import Hub, Jobs, Server
@@ -74,7 +74,7 @@ def _serve(args: Args, console: Console, options: object, binary: object) -> int
         raise UsageError(f"cannot listen on 127.0.0.1:{args.port}: {exc.strerror or exc}") from None
     try:
         activate_variant(args.variant)
-        session = RenderSession(args.variant)
+        session = ViewSession(args.variant)
     except BaseException:
         server.httpd.server_close()
         raise

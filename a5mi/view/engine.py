@@ -58,6 +58,30 @@ class Frame:
     reference_error: str | None = None
     reference_levels: np.ndarray | None = None
     seconds: dict[str, float] = field(default_factory=dict)
+    #: a quick image shown before the full one (:func:`preview_options`), never compared
+    preview: bool = False
+    #: the render's kernel launches by where the kernel came from (:attr:`a5mi.driver.RenderResult.kernels`)
+    kernels: dict[str, int] = field(default_factory=dict)
+
+
+def preview_options(options: RenderOptions) -> RenderOptions | None:
+    """The options of the page's preview of a render with ``options``: one ray per pixel, W x H, neither
+    ``-jitter`` nor ``-filter`` nor E.5 passes (the image ``a5`` writes without those flags, about a ninth of the
+    samples); None where the render is that already or its integrator is not SPEC B.3's Whitted tracer (the others
+    build per-scene maps or caches that a preview would pay for twice)."""
+    if options.integrator != "whitted" or not (options.jitter or options.filter or options.spp > 1):
+        return None
+    return dataclasses.replace(options, jitter=False, filter=False, spp=1)
+
+
+def render_stages(timings: dict[str, float]) -> dict[str, float]:
+    """The render's stages (seconds) from :attr:`a5mi.driver.RenderResult.timings`: ``build`` (the Mitsuba
+    objects, 0 when kept), ``compile`` (Dr.Jit codegen + LLVM), ``execute`` (the kernels), ``trace`` (the rest
+    of the tile loop: the Python trace of the integrator that builds the kernel's IR, the camera rays, the
+    buffer copies) and ``filter`` (-filter's blur and downsample)."""
+    out = {k: timings.get(k, 0.0) for k in ("build", "compile", "execute", "filter")}
+    out["trace"] = max(0.0, timings.get("render", 0.0) - out["compile"] - out["execute"])
+    return out
 
 
 def png_bytes(img: np.ndarray, folder: str) -> bytes:
@@ -195,34 +219,50 @@ class ViewEngine:
         return list(dict.fromkeys([*self.inputs, Path(self.scene).absolute().parent, Path.cwd()]))
 
     # ------------------------------------------------------------------------------------------ rendering
-    def render(self, options: RenderOptions, progress: Callable[[str, int, int], None] | None = None) -> Frame:
-        """Render the loaded description with ``options`` and compare it with the reference (module docstring).
-        ``progress(stage, done, total)``: stage ``render`` per tile for large renders, then ``reference``,
-        ``compare``."""
-        from a5mi.imageio import quantize
+    @property
+    def compares(self) -> bool:
+        """Whether frames are compared with a reference (``--reference`` or ``--binary``)."""
+        return self.reference is not None or self.binary is not None
 
+    def render(self, options: RenderOptions, progress: Callable[[str, int, int], None] | None = None, *,
+               preview: bool = False, compare: bool = True) -> Frame:
+        """Render the loaded description with ``options`` and compare it with the reference (module docstring);
+        ``preview``: the frame is a preview (:func:`preview_options`), not compared; ``compare=False``: compared
+        later by :meth:`compare`. ``progress(stage, done, total)``: stage ``render`` (``preview``) per tile for
+        large renders, then ``reference``, ``compare``. ``Frame.seconds``: ``render`` (wall) and its
+        :func:`render_stages`, ``png``, ``reference``, ``compare``."""
         if self.desc is None or options.bump != self.bump:
             self.load(options.bump)
         opts = options
         seconds: dict[str, float] = {}
         t0 = time.perf_counter()
         rw, rh = opts.render_size
-        tiles = (lambda d, t: progress("render", d, t)) if progress and rw * rh > QUIET_SAMPLES else None
+        stage = "preview" if preview else "render"
+        tiles = (lambda d, t: progress(stage, d, t)) if progress and rw * rh > QUIET_SAMPLES else None
         if progress:
-            progress("render", 0, rw * rh)
+            progress(stage, 0, rw * rh)
         result = self.session.render(self.desc, opts, progress=tiles)
         seconds["render"] = time.perf_counter() - t0
+        seconds.update(render_stages(result.timings))
         image = result.image
         h, w = image.shape[:2]
         t0 = time.perf_counter()
         self._versions += 1
-        frame = Frame(self._versions, opts, image, png_bytes(image, self._scratch), (w, h))
+        frame = Frame(self._versions, opts, image, png_bytes(image, self._scratch), (w, h), preview=preview,
+                      kernels=dict(result.kernels))
         seconds["png"] = time.perf_counter() - t0
-        if self.reference is not None or self.binary is not None:
-            self._compare(frame, quantize(image)[..., :3].astype(np.float64), progress, seconds)
         frame.seconds = seconds
+        if compare and not preview:
+            self.compare(frame, progress)
         self.frame = frame
         return frame
+
+    def compare(self, frame: Frame, progress: Callable[[str, int, int], None] | None = None) -> None:
+        """Fill ``frame``'s reference, heatmap and metrics (or ``reference_error``) when there is a reference."""
+        from a5mi.imageio import quantize
+
+        if self.compares:
+            self._compare(frame, quantize(frame.image)[..., :3].astype(np.float64), progress, frame.seconds)
 
     def _reference_levels(self, options: RenderOptions) -> np.ndarray:
         from a5mi.imageio import read_levels
@@ -382,4 +422,5 @@ def session_tracer(desc: Any, options: RenderOptions, session: Any, image: np.nd
     return SessionTracer()
 
 
-__all__ = ["Frame", "ViewEngine", "binary_argv", "png_bytes", "project", "scene_inputs", "session_tracer"]
+__all__ = ["Frame", "ViewEngine", "binary_argv", "png_bytes", "preview_options", "project", "render_stages",
+           "scene_inputs", "session_tracer"]

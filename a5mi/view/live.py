@@ -18,10 +18,14 @@ from typing import Any
 from a5mi.errors import UserError
 
 from .controls import describe_controls
+from .engine import preview_options
 from .watcher import snapshot
 
 #: Seconds between two checks for a signal while no job waits.
 WAIT_SECONDS = 0.25
+#: The state of a frame that a preview, or a frame not compared yet, leaves as the last comparison set it (the
+#: page dims them meanwhile).
+COMPARED = ("metrics", "reference_error", "has_reference", "has_diff", "compared")
 
 
 def error_line(exc: BaseException) -> str:
@@ -37,7 +41,10 @@ def frame_state(engine: Any, frame: Any) -> dict[str, Any]:
     """The part of the page's state a rendered frame gives."""
     from a5mi.trace.core import pixel_grid
 
-    return {"frame": frame.version, "size": list(frame.size), "grid": list(pixel_grid(frame.options)),
+    compared = frame.metrics is not None or frame.reference_error is not None
+    return {"frame": frame.version, "preview": frame.preview, "kernels": frame.kernels,
+            "compared": frame.version if compared else None,
+            "size": list(frame.size), "grid": list(pixel_grid(frame.options)),
             "render_size": list(frame.options.render_size), "metrics": frame.metrics,
             "reference_error": frame.reference_error, "has_reference": frame.reference_png is not None,
             "has_diff": frame.diff_png is not None, "seconds": frame.seconds,
@@ -75,9 +82,11 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
         changes += reload
         hub.update(busy=True)
         t0 = time.monotonic()
-        state: dict[str, Any] = {"busy": False, "error": None, "changes": changes}
+        state: dict[str, Any] = {"busy": False, "error": None, "changes": changes, "preview": False, "comparing": False,
+                                 "saved_at": jobs.taken_reload_at if reload else None}
         images: dict[str, bytes | None] = {}
         try:
+            parse = 0.0
             if reload or engine.desc is None:
                 before = snapshot(engine.inputs)
                 hub.progress("parse", 0, 1)
@@ -87,10 +96,30 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
                 except BaseException:
                     watcher.watch(engine.watch_on_error(), before)
                     raise
-            frame = engine.render(current, progress=hub.progress)
+                parse = time.monotonic() - t0
+            quick = preview_options(current)
+            if quick is not None:
+                pv = engine.render(quick, progress=hub.progress, preview=True)
+                shown = {k: v for k, v in frame_state(engine, pv).items() if k not in COMPARED}  # the last stay
+                hub.update({"render": pv.render_png}, **{
+                    **state, **shown, "controls": describe_controls(current), "busy": True,
+                    "warnings": engine.warnings, "options_ok": True,
+                    "version": hub.state().get("version", 0) + 1, "published_at": time.time(),
+                    "seconds": {"parse": parse, **pv.seconds, "total": time.monotonic() - t0}})
+                if jobs.render_pending():  # a newer save or control: its render replaces this one's full image
+                    continue
+            frame = engine.render(current, progress=hub.progress, compare=False)
+            if engine.compares:  # the image first; its comparison follows (the page dims the last one meanwhile)
+                shown = {k: v for k, v in frame_state(engine, frame).items() if k not in COMPARED}
+                state["published_at"] = time.time()  # (of the image, also in the comparison's state)
+                hub.update({"render": frame.render_png}, **{
+                    **state, **shown, "busy": True, "comparing": True, "warnings": engine.warnings,
+                    "options_ok": True, "version": hub.state().get("version", 0) + 1,
+                    "seconds": {"parse": parse, **frame.seconds, "total": time.monotonic() - t0}})
+                engine.compare(frame, hub.progress)
             images = {"render": frame.render_png, "reference": frame.reference_png, "diff": frame.diff_png}
-            state.update(frame_state(engine, frame), warnings=engine.warnings, options_ok=True)
-            state["seconds"] = {**frame.seconds, "total": time.monotonic() - t0}
+            state.update(frame_state(engine, frame), warnings=engine.warnings, options_ok=True, comparing=False)
+            state["seconds"] = {"parse": parse, **frame.seconds, "total": time.monotonic() - t0}
         except UserError as exc:  # SceneError is a ValueError too: caught below
             state["error"] = error_line(exc)
         except ValueError as exc:
@@ -105,6 +134,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
             log(state["error"])
         state["version"] = hub.state().get("version", 0) + 1
         state["watching"] = [str(p) for p in watcher.paths]
+        state.setdefault("published_at", time.time())
         hub.update(images, **state)
 
 
@@ -125,4 +155,4 @@ def _trace(engine: Any, x: int, y: int) -> dict[str, Any]:
     return doc
 
 
-__all__ = ["WAIT_SECONDS", "error_line", "frame_state", "run_engine"]
+__all__ = ["COMPARED", "WAIT_SECONDS", "error_line", "frame_state", "run_engine"]

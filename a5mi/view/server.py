@@ -24,6 +24,7 @@ import hmac
 import json
 import queue
 import threading
+import time
 from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
@@ -119,13 +120,23 @@ class Jobs:
         self._traces: deque[tuple[int, int, Future[Any]]] = deque()
         self._reload = False
         self._options: Any = None
+        #: wall-clock time (``time.time()``) of the first reload request not yet taken, and of the last taken one
+        self.reload_at: float | None = None
+        self.taken_reload_at: float | None = None
 
     def render(self, options: Any = None, *, reload: bool = False) -> None:
         with self._cond:
+            if reload and not self._reload:
+                self.reload_at = time.time()
             self._reload = self._reload or reload
             if options is not None:
                 self._options = options
             self._cond.notify()
+
+    def render_pending(self) -> bool:
+        """Whether a render request waits (a newer save or control change than the render under way)."""
+        with self._cond:
+            return self._reload or self._options is not None
 
     def trace(self, x: int, y: int) -> Future[Any]:
         fut: Future[Any] = Future()
@@ -143,6 +154,7 @@ class Jobs:
                 return "trace", self._traces.popleft()
             if self._reload or self._options is not None:
                 job = (self._reload, self._options)
+                self.taken_reload_at, self.reload_at = self.reload_at, None
                 self._reload, self._options = False, None
                 return "render", job
         return None

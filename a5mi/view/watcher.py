@@ -13,8 +13,8 @@ import threading
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-#: Seconds between two polls (20 Hz: a save waits 25 ms for its poll on average; a poll is one stat() per file).
-POLL_SECONDS = 0.05
+#: Seconds between two polls (50 Hz: a save waits 10 ms for its poll on average; a poll is one stat() per file).
+POLL_SECONDS = 0.02
 
 Stamp = tuple[int, int, int] | None
 

@@ -5,6 +5,7 @@ const api = (path, extra) => path + "?token=" + encodeURIComponent(TOKEN) + (ext
 const $ = (id) => document.getElementById(id);
 let state = {};
 let shownFrame = 0;
+let shownCompared = null;
 let lastTrace = null;
 
 function el(tag, attrs, ...kids) {
@@ -56,28 +57,41 @@ async function sendControls() {
 function show(s) {
   state = s;
   $("scene").textContent = s.scene || "";
-  $("status").textContent = s.busy ? "rendering..." : (s.seconds ? "rendered in " + s.seconds.total.toFixed(3) + " s" : "");
+  $("status").textContent = s.preview ? "preview in " + s.seconds.total.toFixed(3) + " s; rendering the full image..."
+    : s.comparing ? "rendered in " + s.seconds.total.toFixed(3) + " s; comparing..."
+    : s.busy ? "rendering..." : (s.seconds ? "rendered in " + s.seconds.total.toFixed(3) + " s" : "");
   if (!s.busy) $("progress").value = 1;
   $("error").hidden = !s.error;
   $("error").textContent = s.error || "";
   if (s.controls) { buildControls(s.controls); setControls(s.controls); }
   $("warnings").textContent = (s.warnings || []).join("\n");
-  if (s.frame && s.frame !== shownFrame) {
+  const scale = s.size ? Math.max(1, Math.floor(384 / Math.max(s.size[0], s.size[1]))) : 1;
+  if (s.frame && s.frame !== shownFrame) {  // a new image: a preview, or the full render (compared or not yet)
     shownFrame = s.frame;
-    const scale = Math.max(1, Math.floor(384 / Math.max(s.size[0], s.size[1])));
-    for (const name of ["render", "reference", "diff"]) {
+    const img = $("render");
+    img.style.width = s.size[0] * scale + "px";
+    img.dataset.pending = s.frame;
+    img.dataset.pendingKind = s.preview ? "preview" : "final";
+    img.dataset.pendingChanges = s.changes || 0;
+    img.src = api("/api/image/render.png", "&v=" + s.frame);
+    $("render-info").textContent = s.size[0] + "x" + s.size[1];
+  }
+  if ((s.compared ?? null) !== shownCompared) {  // a new comparison: the frame it belongs to
+    shownCompared = s.compared ?? null;
+    for (const name of ["reference", "diff"]) {
       const img = $(name);
       img.style.width = s.size[0] * scale + "px";
-      if (name === "render" || (name === "reference" && s.has_reference) || (name === "diff" && s.has_diff)) {
-        img.dataset.pending = s.frame;
-        img.src = api("/api/image/" + name + ".png", "&v=" + s.frame);
+      if ((name === "reference" && s.has_reference) || (name === "diff" && s.has_diff)) {
+        img.dataset.pending = s.compared;
+        img.src = api("/api/image/" + name + ".png", "&v=" + s.compared);
       }
     }
-    $("render-info").textContent = s.size[0] + "x" + s.size[1];
     $("reference-panel").hidden = !s.has_reference;
     $("diff-panel").hidden = !s.has_diff;
     showMetrics(s);
   }
+  // the comparison shown is the last full render's while a preview, or a render not compared yet, is shown
+  for (const id of ["diff-panel", "compare"]) $(id).classList.toggle("stale", !!(s.preview || s.comparing));
 }
 function showMetrics(s) {
   const m = s.metrics;
@@ -107,8 +121,15 @@ for (const name of ["render", "reference", "diff"]) {
   $(name).addEventListener("load", () => {
     const img = $(name);
     img.dataset.frame = img.dataset.pending;
+    img.dataset.kind = img.dataset.pendingKind;
+    img.dataset.changes = img.dataset.pendingChanges;
     img.dataset.loadedAt = Date.now();
-    if (name === "render") { sizeOverlay(); drawMarks(null); }
+    if (name === "render") {
+      // a preview is labelled as one while it is the image shown; the compare panels are the last full render's
+      const preview = img.dataset.kind === "preview";
+      $("preview-badge").hidden = !preview;
+      sizeOverlay(); drawMarks(null);
+    }
   });
 }
 
