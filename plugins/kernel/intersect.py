@@ -124,11 +124,11 @@ def mirror_normal(planes: PlaneSet, on_plane: mi.Bool, plane: mi.UInt32, n: mi.V
 
 
 def visible(scene: mi.Scene, planes: PlaneSet, p: mi.Point3f, d_light: mi.Vector3f, tmin: mi.Float,
-            dist: mi.Float, far: mi.Bool, active: mi.Bool) -> mi.Bool:
+            dist: mi.Float, far: mi.Bool, active: mi.Bool, rules: RuleTable | None = None) -> mi.Bool:
     """SPEC B.3's ``S`` on the lanes of ``active``: no shape the binary sees (plugins/octree_rule.py) and no plane
     with ``tmin < t < dist`` on the ray ``p + t d_light``; ``far`` (a directional light): planes up to +∞."""
     seen = mi.Bool(active)
-    seen &= ~octree_rule.occluded(scene, p, d_light, tmin, dist, active)
+    seen &= ~octree_rule.occluded(scene, p, d_light, tmin, dist, active, rules)
     blocked, _, _ = intersect_planes(planes, p, d_light, tmin, dr.select(far, dr.inf, dist), seen)
     seen &= ~blocked
     return seen
