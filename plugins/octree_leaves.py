@@ -197,7 +197,9 @@ def sees(leaves: LeafTable, row: mi.UInt32, mesh: mi.UInt32, a: list[mi.Vector3f
     ok = mi.Bool(m)
     for k, bit in enumerate((4, 2, 1)):
         zero = dv[k] == 0.0
-        neg_zero = zero & ((dr.reinterpret_array(mi.UInt32, dv[k]) >> 31) == 1)
+        # After a Transform every zero is +0 (vecmath sums from +0; fast math may drop that +0 here, so the
+        # sign of a transformed zero is not read); an untransformed mesh sees d's own signed zeros.
+        neg_zero = zero & ~transformed & ((dr.reinterpret_array(mi.UInt32, dv[k]) >> 31) == 1)
         flip = ~zero & (dv[k] < 0.0)
         ok &= ~neg_zero & (~zero | ((mn[k] - ov[k] < 0.0) & (mx[k] - ov[k] > 0.0)))
         ok_k = dr.select(flip, (mn[k] + mx[k]) - ov[k], ov[k])
