@@ -23,7 +23,7 @@ world ray ``(o, d)`` and ``tmin``::
 
 with ``normalize(v) = v / sqrtf((x² + y²) + z²)`` and no fused multiply-add anywhere (Dr.Jit's ``dr.dot``
 and ``dr.norm`` fuse, so they are not used). Not modelled: the binary composes nested ``Transform`` levels
-one by one (here: one float32 product of the levels, inverted once with vecmath's float32 cofactors).
+one by one, and inverts M in float32 (here: the composed float64 inverse rounded once).
 
 Inside the render kernel the face data is not read through the mesh's ``eval_attribute_3`` (a virtual call
 per attribute: eight per evaluated hit) but from one :class:`RuleTable` per scene: the eleven vectors of
