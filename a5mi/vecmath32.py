@@ -1,5 +1,4 @@
-"""The sample solution's float32 vector operations (vecmath) that the parser, the camera and the plugins share
-(SPEC B.2; ``Matrix4f::inverse`` for its Transforms, SPEC A.6).
+"""The sample solution's float32 vector operations (vecmath) that the parser and the camera share (SPEC B.2).
 
 A leaf module (numpy only): :mod:`a5mi.converters` checks a camera with :func:`camera_basis` in the precision
 the renderer uses (``direction 1e-40 1e-40 -1e-40`` is zero in float32, ``1e20`` components overflow
@@ -9,7 +8,6 @@ the renderer uses (``direction 1e-40 1e-40 -1e-40`` is zero in float32, ``1e20``
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
@@ -51,30 +49,3 @@ def camera_basis(direction: Sequence[float], up: Sequence[float]) -> tuple[np.nd
 
 
 __all__ = ["camera_basis"]
-
-
-def _det3(m00: Any, m01: Any, m02: Any, m10: Any, m11: Any, m12: Any, m20: Any, m21: Any, m22: Any) -> Any:
-    return (m00 * (m11 * m22 - m12 * m21) - m01 * (m10 * m22 - m12 * m20)) + m02 * (m10 * m21 - m11 * m20)
-
-
-def inverse32(m: np.ndarray) -> np.ndarray:
-    """vecmath's ``Matrix4f::inverse`` of ``m`` rounded to float32, in float32: the cofactors as 3x3
-    determinants ``m00 (m11 m22 − m12 m21) − m01 (m10 m22 − m12 m20) + m02 (m10 m21 − m11 m20)``, the
-    determinant ``m00 c00 + m01 c01 + m02 c02 + m03 c03`` left to right, each cofactor times ``1/det``."""
-    e = m.astype(np.float32)
-    g = [[e[i, j] for j in range(4)] for i in range(4)]
-
-    def cof(i: int, j: int) -> np.float32:
-        rows = [r for r in range(4) if r != i]
-        cols = [c for c in range(4) if c != j]
-        # vecmath's cyclic argument order: rows i+1.., columns j+1.. (as Matrix4f.cpp writes them out)
-        rows = [(i + k) % 4 for k in (1, 2, 3)]
-        cols = [(j + k) % 4 for k in (1, 2, 3)]
-        sign = np.float32(1.0 if (i + j) % 2 == 0 else -1.0)
-        return sign * _det3(*[g[r][c] for r in rows for c in cols])
-
-    c = [[cof(i, j) for j in range(4)] for i in range(4)]
-    det = ((g[0][0] * c[0][0] + g[0][1] * c[0][1]) + g[0][2] * c[0][2]) + g[0][3] * c[0][3]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # det 0 in float32: inf/NaN, as the binary
-        r = np.float32(1.0) / det
-        return np.array([[c[j][i] * r for j in range(4)] for i in range(4)], dtype=np.float32)

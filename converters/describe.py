@@ -327,8 +327,7 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
     for p in placed:
         prim, m = p.primitive, p.to_world
         if isinstance(prim, TriangleMesh):
-            data = mesh_from_obj(meshes[prim.obj_file], m, normals, reach[prim.obj_file], p.transformed,
-                                 tf.binary_chain(p.levels))
+            data = mesh_from_obj(meshes[prim.obj_file], m, normals, reach[prim.obj_file], p.transformed)
             use_material(prim.material, data.has_uv, prim)
             check_float32(prim, data.positions, 0.0 if data.normals is None else data.normals)
             shapes.append(MeshShape(data, prim.material, prim.loc, obj_paths[prim.obj_file]))

@@ -34,8 +34,6 @@ from typing import Any
 
 import numpy as np
 
-from a5mi.vecmath32 import inverse32
-
 from . import transforms as tf
 from .errors import SceneSemanticError
 from .model import Placed, Plane, Sphere, Triangle
@@ -84,41 +82,32 @@ def _face_normals_flip(faces: np.ndarray, m: np.ndarray) -> np.ndarray:
     return faces[:, ::-1].copy() if np.linalg.det(m[:3, :3]) < 0 else faces
 
 
-def _inverse(m: np.ndarray, binary: np.ndarray | None) -> np.ndarray:
-    """``M⁻¹`` of the rule rows: vecmath's float32 ``Matrix4f::inverse`` of the binary's float32 matrix
-    ``binary`` (:func:`.transforms.binary_chain`) inside a ``Transform``, else the float64 inverse of ``M``."""
-    return np.linalg.inv(m) if binary is None else inverse32(binary).astype(np.float64)
-
-
-def octree_rows(reach: np.ndarray, m: np.ndarray, transformed: bool, binary: np.ndarray | None = None) -> np.ndarray:
+def octree_rows(reach: np.ndarray, m: np.ndarray, transformed: bool) -> np.ndarray:
     """The (F, 12) :attr:`MeshData.octree` rows for an OBJ with per-face reach masks ``reach`` (F, 2) placed
-    with ``M`` (``transformed``: inside some ``Transform``; ``binary``: its float32 matrix, :func:`_inverse`)."""
-    a = _inverse(m, binary)[:3, :3].astype(np.float32).ravel()
+    with ``M`` (``transformed``: inside some ``Transform``)."""
+    a = np.linalg.inv(m[:3, :3]).astype(np.float32).ravel()
     out = np.empty((len(reach), 12), dtype=np.float32)
     out[:, :9], out[:, 9:11], out[:, 11] = a, reach, 1.0 if transformed else 0.0
     return out
 
 
-def triangle_rows(obj: ObjMesh, m: np.ndarray, normals: NormalMode = "auto",
-                  binary: np.ndarray | None = None) -> np.ndarray:
+def triangle_rows(obj: ObjMesh, m: np.ndarray, normals: NormalMode = "auto") -> np.ndarray:
     """The (F, 21) :attr:`MeshData.triangles` rows of an OBJ placed with ``M``, in the binary's object space:
     the translation column of ``M⁻¹`` (3; its upper 3x3 are the :attr:`MeshData.octree` rows), the face's
     float32 vertices ``v0, v1, v2`` (9) and its corner normals ``n0, n1, n2`` (9,
-    :func:`.obj.binary_corner_normals`). ``M⁻¹``: :func:`_inverse` (the binary inverts its float32 matrix in
-    float32 with cofactors; two cubes whose top faces coincide through different transforms, 64 x 64: 19.7 dB
-    from a5soln with the float64 inverse rounded once, identical with the binary's)."""
+    :func:`.obj.binary_corner_normals`). ``M⁻¹`` is the float64 inverse rounded once to float32 (the binary
+    inverts in float32 with cofactors; equal on scene06's ``Translate``/``Scale``, checked with gdb)."""
     f = np.asarray(obj.faces, dtype=np.int64)
     v = np.asarray(obj.vertices, dtype=np.float32)[f].reshape(len(f), 9)
     n = binary_corner_normals(obj.vertices, f, normals).reshape(len(f), 9)
     out = np.empty((len(f), 21), dtype=np.float32)
-    out[:, :3] = _inverse(m, binary)[:3, 3].astype(np.float32)
+    out[:, :3] = np.linalg.inv(m)[:3, 3].astype(np.float32)
     out[:, 3:12], out[:, 12:] = v, n
     return out
 
 
 def mesh_from_obj(obj: ObjMesh, m: np.ndarray, normals: NormalMode = "auto",
-                  reach: np.ndarray | None = None, transformed: bool = True,
-                  binary: np.ndarray | None = None) -> MeshData:
+                  reach: np.ndarray | None = None, transformed: bool = True) -> MeshData:
     """World-space :class:`MeshData` for an OBJ placed with ``M`` (module docstring: normals, winding, uv);
     ``reach``: the OBJ's :func:`.octree.reach_masks` (face order is kept), for :attr:`MeshData.octree`."""
     vn = vertex_normals(obj.vertices, obj.faces, normals)
@@ -143,8 +132,8 @@ def mesh_from_obj(obj: ObjMesh, m: np.ndarray, normals: NormalMode = "auto",
         world_n = vn @ tf.normal_matrix(m).T  # A n, deliberately not renormalised
     else:
         faces = _face_normals_flip(faces, m)
-    rows = None if reach is None else octree_rows(reach, m, transformed, binary)
-    tris = None if reach is None else triangle_rows(obj, m, normals, binary)
+    rows = None if reach is None else octree_rows(reach, m, transformed)
+    tris = None if reach is None else triangle_rows(obj, m, normals)
     return MeshData(world, faces.astype(np.uint32), world_n, texcoords, rows, tris)
 
 

@@ -48,8 +48,6 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from a5mi.vecmath32 import inverse32
-
 from .syntax import syntax
 
 _KEY = re.compile(r"^plane_(.+?)_(normal|offset|bsdf_uv|bsdf|mirror_normal|center|radius|to_world)$")
@@ -198,6 +196,33 @@ IDENTITY = tuple(float(x) for x in np.eye(4).ravel())
 #: Entry kinds (:attr:`PlaneSet.kind`): a world-space plane, a sphere inside a ``Transform``, a sphere outside
 #: any, a plane inside a ``Transform`` (object space).
 PLANE, SPHERE, WORLD_SPHERE, PLACED_PLANE = 0, 1, 2, 3
+
+
+def _det3(m00: Any, m01: Any, m02: Any, m10: Any, m11: Any, m12: Any, m20: Any, m21: Any, m22: Any) -> Any:
+    return (m00 * (m11 * m22 - m12 * m21) - m01 * (m10 * m22 - m12 * m20)) + m02 * (m10 * m21 - m11 * m20)
+
+
+def inverse32(m: np.ndarray) -> np.ndarray:
+    """vecmath's ``Matrix4f::inverse`` of ``m`` rounded to float32, in float32: the cofactors as 3x3
+    determinants ``m00 (m11 m22 − m12 m21) − m01 (m10 m22 − m12 m20) + m02 (m10 m21 − m11 m20)``, the
+    determinant ``m00 c00 + m01 c01 + m02 c02 + m03 c03`` left to right, each cofactor times ``1/det``."""
+    e = m.astype(np.float32)
+    g = [[e[i, j] for j in range(4)] for i in range(4)]
+
+    def cof(i: int, j: int) -> np.float32:
+        rows = [r for r in range(4) if r != i]
+        cols = [c for c in range(4) if c != j]
+        # vecmath's cyclic argument order: rows i+1.., columns j+1.. (as Matrix4f.cpp writes them out)
+        rows = [(i + k) % 4 for k in (1, 2, 3)]
+        cols = [(j + k) % 4 for k in (1, 2, 3)]
+        sign = np.float32(1.0 if (i + j) % 2 == 0 else -1.0)
+        return sign * _det3(*[g[r][c] for r in rows for c in cols])
+
+    c = [[cof(i, j) for j in range(4)] for i in range(4)]
+    det = ((g[0][0] * c[0][0] + g[0][1] * c[0][1]) + g[0][2] * c[0][2]) + g[0][3] * c[0][3]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # det 0 in float32: inf/NaN, as the binary
+        r = np.float32(1.0) / det
+        return np.array([[c[j][i] * r for j in range(4)] for i in range(4)], dtype=np.float32)
 
 
 def inverse33(m: np.ndarray) -> np.ndarray:
