@@ -15,6 +15,10 @@ from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTO
 
 #: Blur kernels of SPEC B.5: the binary's stored taps (centre 0.2921) or the handout's (0.2931, a typo).
 KERNELS: tuple[str, ...] = ("binary", "handout")
+#: ``-quirks``: ``none`` (SPEC B.3 as written) or ``binary`` (docs/FIDELITY.md "Stale texture coordinates":
+#: a sphere or plane with a textured material, hit in front of a textured mesh tested before it, looks its
+#: texture up at that mesh's uv, as the sample solution's hit record keeps it)
+QUIRKS: tuple[str, ...] = ("none", "binary")
 #: Where ``-normals`` / ``-depth`` rays come from (SPEC B.6): the image's rays, or the binary's quadrant rays.
 AOV_MODES: tuple[str, ...] = ("main", "quadrant")
 #: AOV groups ``a5_whitted`` computes on request (its ``aovs`` parameter), in channel order:
@@ -103,6 +107,8 @@ class RenderOptions:
     #: docs/EXTENSIONS.md E.23: ``-integrator irradiancecache``'s error bound ``a`` and hemisphere rays per record
     ic_error: float = 0.3
     ic_samples: int = 256
+    #: ``-quirks`` (:data:`QUIRKS`): ``binary`` emulates the sample solution's stale texture coordinates
+    quirks: str = "none"
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -128,6 +134,8 @@ class RenderOptions:
             raise ValueError(f"subsurface must be one of {', '.join(SUBSURFACE_METHODS)}, got '{self.subsurface}'")
         if self.media_bounces < 0:
             raise ValueError(f"media_bounces must be >= 0, got {self.media_bounces}")
+        if self.quirks not in QUIRKS:
+            raise ValueError(f"quirks must be one of {', '.join(QUIRKS)}, got '{self.quirks}'")
         if self.tile_rays <= 0:
             raise ValueError(f"tile_rays must be positive, got {self.tile_rays}")
 

@@ -235,6 +235,10 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
         d["background"] = background_dict(bg)
     for shape, o in zip(desc.shapes, ids.objects, strict=True):
         bsdf = backend.bsdf(d, shape.material, shape.has_uv)
+        if options.quirks == "binary" and o.plane is not None and not shape.has_uv and \
+                isinstance(desc.materials[shape.material].kd, Image):
+            # the textured BSDF, looked up at a mesh's stale uv (plugins/planes.py, docs/FIDELITY.md)
+            d["integrator"][o.plane_param("bsdf_uv")] = backend.bsdf(d, shape.material, True)
         if isinstance(shape, SphereShape):
             sphere = {"type": "sphere", "center": list(shape.center), "radius": float(shape.radius), "bsdf": bsdf}
             if o.plane is not None:   # a5: the binary's sphere test inside a5_whitted (plugins/planes.py)

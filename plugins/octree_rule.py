@@ -22,7 +22,7 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from . import triangle_rule
+from . import octree_leaves, triangle_rule
 from .syntax import syntax
 
 #: Rays skipped past hits the binary does not see, at most, per query.
@@ -145,10 +145,33 @@ def intersect(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, a
     return si, offset, row
 
 
+def traversal_sees(table: triangle_rule.RuleTable, si: mi.SurfaceInteraction3f, o: mi.Point3f, d: mi.Vector3f,
+                   active: mi.Bool) -> mi.Bool:
+    """:func:`binary_sees` for one ray: on a rule mesh's face (not a ``Triangle``, which has no octree), whether
+    the binary's traversal of ``(o, d)`` reaches a leaf holding it (plugins/octree_leaves.py); the reach masks
+    elsewhere."""
+    row = triangle_rule.row_of(table, si, active)
+    at = (dr.maximum(row, 1) - 1) * triangle_rule.ROW_FLOATS
+    m = mi.Bool(active) & (row > 0)
+
+    def vec(name: str) -> mi.Vector3f:
+        k = at + 3 * triangle_rule.ROW_ATTRIBUTES.index(name)
+        return mi.Vector3f(*[dr.gather(mi.Float, table.rows, k + c, m) for c in range(3)])
+
+    kind = vec("face_a5_octree").z
+    mesh = mi.UInt32(dr.gather(mi.Float, table.rows, at + triangle_rule.MESH_SLOT, m))
+    walked = m & (kind != 2.0)
+    seen = octree_leaves.sees(table.leaves, row, mesh, [vec("face_a5_inv0"), vec("face_a5_inv1"),
+                              vec("face_a5_inv2")], vec("face_a5_inv_t"), kind == 1.0, o, d, walked)
+    return dr.select(walked, seen, binary_sees(si, d, active))
+
+
 @syntax
 def occluded(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, t_max: mi.Float,
-             active: mi.Bool) -> mi.Bool:
-    """SPEC B.3's shadow test against the Mitsuba scene: a hit the binary sees with ``t_min < t < t_max``."""
+             active: mi.Bool, table: triangle_rule.RuleTable | None = None) -> mi.Bool:
+    """SPEC B.3's shadow test against the Mitsuba scene: a hit the binary sees with ``t_min < t < t_max``;
+    with ``table`` (its octree leaves built) a rule-mesh hit of a ray with a zero component is decided by the
+    binary's traversal of that ray (:func:`traversal_sees`), else by the reach masks."""
     slow = active & has_zero(d)
     hit = scene.ray_test(mi.Ray3f(mi.Ray3f(o + t_min * d, d), t_max - t_min), active & ~slow)
     offset = mi.Float(t_min)
@@ -156,7 +179,10 @@ def occluded(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, t_
     while slow & (n < MAX_SKIPS):
         si = scene.ray_intersect(mi.Ray3f(mi.Ray3f(o + offset * d, d), t_max - offset), slow)
         found = si.is_valid()
-        seen = found & binary_sees(si, d, found)
+        if dr.hint(table is not None and table.leaves is not None, mode="scalar"):
+            seen = found & traversal_sees(table, si, o, d, found)
+        else:
+            seen = found & binary_sees(si, d, found)
         hit |= seen
         slow &= found & ~seen
         offset = offset + si.t + dr.maximum(1e-6, (offset + si.t) * 1e-6)

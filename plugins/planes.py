@@ -50,7 +50,7 @@ import numpy as np
 
 from .syntax import syntax
 
-_KEY = re.compile(r"^plane_(.+?)_(normal|offset|bsdf|mirror_normal|center|radius|to_world)$")
+_KEY = re.compile(r"^plane_(.+?)_(normal|offset|bsdf_uv|bsdf|mirror_normal|center|radius|to_world)$")
 
 
 @dataclass
@@ -78,6 +78,12 @@ class PlaneSet:
     centre: tuple[mi.Float, ...] = ()
     radius: mi.Float | None = None
     inv3: tuple[mi.Float, ...] = ()
+    #: ``plane_<id>_bsdf_uv`` (the sample solution's stale texture coordinates, docs/FIDELITY.md): per entry its
+    #: scene position (``order``, the id's number), whether it has a textured BSDF and that BSDF (else its own);
+    #: None when no entry has one
+    order: mi.UInt32 | None = None
+    textured: mi.Bool | None = None
+    bsdf_uv: mi.BSDFPtr | None = None
 
 
 def _vec3(value: Any, key: str) -> tuple[float, float, float]:
@@ -106,6 +112,8 @@ class Plane(NamedTuple):
     #: A plane inside a ``Transform``: its ``M`` (16 numbers row by row); ``normal``, ``offset`` are then the
     #: object-space plane as written, intersected in object space as the binary does.
     to_world: tuple[float, ...] | None = None
+    #: ``plane_<id>_bsdf_uv``: the material's textured BSDF, looked up at a mesh's stale uv (docs/FIDELITY.md)
+    bsdf_uv: Any = None
 
 
 def _order(pid: str) -> tuple[int, int | str]:
@@ -153,7 +161,8 @@ def planes_from_props(props: mi.Properties) -> list[Plane]:
         if "to_world" in parts and "normal" not in parts:
             if not isinstance(bsdf, mi.BSDF):
                 raise ValueError(f"a5_whitted: 'plane_{pid}_bsdf' must be a BSDF")
-            out.append(Plane(pid, (0.0, 0.0, 0.0), 0.0, bsdf, (0.0, 0.0, 0.0), _sphere(pid, parts)))
+            out.append(Plane(pid, (0.0, 0.0, 0.0), 0.0, bsdf, (0.0, 0.0, 0.0), _sphere(pid, parts),
+                             bsdf_uv=_bsdf_uv(pid, parts)))
             continue
         missing = [k for k in ("normal", "offset", "bsdf") if k not in parts]
         if missing:
@@ -170,8 +179,16 @@ def planes_from_props(props: mi.Properties) -> list[Plane]:
         mirror = _vec3(parts["mirror_normal"], f"plane_{pid}_mirror_normal") if "mirror_normal" in parts else \
             tuple(c / length for c in n)
         placed = _matrix(parts["to_world"], f"plane_{pid}_to_world") if "to_world" in parts else None
-        out.append(Plane(pid, n, float(off), bsdf, mirror, None, placed))  # type: ignore[arg-type]
+        out.append(Plane(pid, n, float(off), bsdf, mirror, None, placed,  # type: ignore[arg-type]
+                         _bsdf_uv(pid, parts)))
     return out
+
+
+def _bsdf_uv(pid: str, parts: dict[str, Any]) -> Any:
+    bsdf = parts.get("bsdf_uv")
+    if bsdf is not None and not isinstance(bsdf, mi.BSDF):
+        raise ValueError(f"a5_whitted: 'plane_{pid}_bsdf_uv' must be a BSDF, got {type(bsdf).__name__}")
+    return bsdf
 
 
 #: The 16 numbers of the identity: a sphere outside any ``Transform`` (its normal is not mapped).
@@ -261,6 +278,11 @@ def plane_set(planes: list[Plane]) -> PlaneSet:
         out.kind, out.a, out.tr = kind, tuple(sphere_arrays[:9]), tuple(sphere_arrays[9:12])
         out.centre, out.radius = tuple(sphere_arrays[12:15]), sphere_arrays[15]
         out.inv3 = tuple(sphere_arrays[16:])
+    if any(p.bsdf_uv is not None for p in planes):
+        out.order = mi.UInt32([_order(p.pid)[1] if _order(p.pid)[0] == 0 else 0xFFFFFFFF for p in planes])
+        out.textured = mi.Bool([p.bsdf_uv is not None for p in planes])
+        out.bsdf_uv = mi.BSDFPtr([p.bsdf if p.bsdf_uv is None else p.bsdf_uv for p in planes])
+        dr.make_opaque(out.order, out.textured, out.bsdf_uv)
     return out
 
 
@@ -303,10 +325,11 @@ def _sphere_t(ps: PlaneSet, k: mi.UInt32, o_obj: mi.Vector3f, d_obj: mi.Vector3f
 
 @syntax
 def intersect_planes(ps: PlaneSet, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, t_max: mi.Float,
-                     active: mi.Bool) -> tuple[mi.Bool, mi.Float, mi.UInt32]:
+                     active: mi.Bool, before: mi.UInt32 | None = None) -> tuple[mi.Bool, mi.Float, mi.UInt32]:
     """Nearest plane (or non-similarity sphere) hit with ``t_min < t < t_max`` (SPEC A.6; spheres by the
     binary's rule, module docstring): ``(hit, t, plane index)``; ``t = t_max`` and index 0 where nothing is
-    hit. Entries are tested in scene order with ``t < best``: of two coincident ones the first wins."""
+    hit. Entries are tested in scene order with ``t < best``: of two coincident ones the first wins.
+    ``before`` (a set with :attr:`PlaneSet.order`): only entries at scene positions ``< before``."""
     k = dr.zeros(mi.UInt32, dr.width(d))
     best = mi.Float(t_max)
     idx = dr.zeros(mi.UInt32, dr.width(d))
@@ -329,6 +352,8 @@ def intersect_planes(ps: PlaneSet, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Floa
             s_hit, s_t = _sphere_t(ps, k, o_k, d_k, t_min, active & is_sphere)
             t = dr.select(is_sphere, s_t, t)
             ok = dr.select(is_sphere, s_hit & (s_t < best), ok)
+        if dr.hint(before is not None, mode="scalar"):
+            ok &= dr.gather(mi.UInt32, ps.order, k) < before
         best = dr.select(ok, t, best)
         idx = dr.select(ok, k, idx)
         found |= ok

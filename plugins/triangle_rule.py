@@ -43,6 +43,7 @@ import numpy as np
 
 from a5mi.arrays import aligned_float32
 
+from . import octree_leaves
 from .common import dot32 as dot
 
 #: The face attribute that marks a mesh carrying the data above.
@@ -61,6 +62,8 @@ MESH_SLOT = 33
 #: coplanar faces searched for them.
 PARTNERS = 4
 MAX_GROUP = 4096
+#: :attr:`RuleTable.place` of a shape that is not a rule mesh of the converter's (no scene position).
+NO_PLACE = 0xFFFFFFFF
 
 
 @dataclass
@@ -79,6 +82,12 @@ class RuleTable:
     #: has one (:func:`coincident`); ``shapes``: the rule meshes, in row order.
     partners: mi.UInt32 | None = None
     shapes: mi.ShapePtr | None = None
+    #: Per registry ID like ``base``: a rule mesh's scene position (:data:`NO_PLACE` for other shapes) and
+    #: whether it has texture coordinates (the sample solution's stale texture coordinates, docs/FIDELITY.md).
+    place: mi.UInt32 | None = None
+    has_uv: mi.Bool | None = None
+    #: The binary's octree leaves of every face (plugins/octree_leaves.py; None past its budget).
+    leaves: octree_leaves.LeafTable | None = None
 
 
 def _shape_id(shape: mi.Shape) -> int:
@@ -98,7 +107,13 @@ def rule_table(scene: mi.Scene, cached: RuleTable | None = None) -> RuleTable | 
         return cached
     blocks, first = [], 1
     base = np.zeros(max(_shape_id(s) for s in scene.shapes()) + 2, dtype=np.uint32)
+    place = np.full_like(base, NO_PLACE)
+    has_uv = np.zeros(len(base), dtype=bool)
     for m, bufs in zip(meshes, buffers, strict=True):
+        order = _scene_order(m)
+        if order[0] == 0:
+            place[_shape_id(m)] = order[1]
+        has_uv[_shape_id(m)] = m.has_vertex_texcoords()
         faces = m.face_count()
         block = np.zeros((faces, ROW_FLOATS), dtype=np.float32)
         block[:, :3 * len(ROW_ATTRIBUTES)] = np.concatenate(
@@ -111,12 +126,30 @@ def rule_table(scene: mi.Scene, cached: RuleTable | None = None) -> RuleTable | 
     ids = mi.UInt32(base.tolist())   # a few entries: a Dr.Jit-owned copy, not numpy memory
     dr.make_opaque(rows, ids)
     table = RuleTable(rows, ids, dr.opaque(mi.UInt32, len(base) - 1), key)
+    if axis_lights(scene):   # only shadow rays toward such a light meet the octree's zero-component traversal
+        table.leaves = octree_leaves.build([np.stack([np.asarray(b, dtype=np.float32).reshape(-1, 3)
+                                                      for b in bufs[_SLOT["face_a5_v0"]:_SLOT["face_a5_v2"] + 1]],
+                                                     axis=1) for bufs in buffers])
+    table.place, table.has_uv = mi.UInt32(place.tolist()), mi.Bool(has_uv.tolist())
+    dr.make_opaque(table.place, table.has_uv)
     partners = coincident_faces(meshes)
     if partners is not None:
         table.partners = mi.UInt32(partners.ravel().tolist())
         table.shapes = mi.ShapePtr(meshes)
         dr.make_opaque(table.partners, table.shapes)
     return table
+
+
+def axis_lights(scene: mi.Scene) -> bool:
+    """Whether some directional light's direction toward the light (``ds.d``, what shadow rays follow) has an
+    exactly zero component: the rays for which :attr:`RuleTable.leaves` is built (plugins/octree_leaves.py)."""
+    for emitter in scene.emitters():
+        flags = emitter.flags()
+        if flags & int(mi.EmitterFlags.DeltaDirection) and flags & int(mi.EmitterFlags.Infinite):
+            ds, _ = emitter.sample_direction(dr.zeros(mi.Interaction3f, 1), mi.Point2f(0.5, 0.5), True)
+            if any(float(ds.d[k][0]) == 0.0 for k in range(3)):
+                return True
+    return False
 
 
 def _scene_order(shape: mi.Shape) -> tuple[int, int]:

@@ -9,6 +9,7 @@ No test runs the sample solution: expectations are computed here from the rule a
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -161,3 +162,74 @@ def test_the_camera_basis_is_the_binarys_to_the_last_bit(direction, up, want) ->
     got = camera_basis(direction, up)
     for vec, expected in zip(got, want, strict=True):
         assert vec.tolist() == np.array(expected, dtype=np.float32).tolist()
+
+
+STALE_SCENE = """PerspectiveCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 angle 40 }
+Lights { numLights 1 DirectionalLight { direction -0.3 -0.4 -1 color 1 1 1 } }
+Background { color 0.1 0.1 0.1 ambientLight 0.2 0.2 0.2 }
+Materials { numMaterials 2 PhongMaterial { diffuseColor 0.9 0.1 0.1 texture grey.bmp }
+            PhongMaterial { diffuseColor 0.1 0.9 0.1 texture grad.bmp } }
+Group { numObjects %d %s }
+"""
+#: scene positions: a blocking sphere, the textured quad (uv 0..1 over x, y in [-2, 2] at z = 0), the textured sphere
+STALE_OBJECTS = ("MaterialIndex 0 Sphere { center 0.3 0.2 -0.2 radius 0.8 }",
+                 "MaterialIndex 0 TriangleMesh { obj_file quad.obj }",
+                 "MaterialIndex 1 Sphere { center 0.6 0.3 1 radius 1.2 }")
+QUAD_OBJ = "v -2 -2 0\nv 2 -2 0\nv 2 2 0\nv -2 2 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n"
+
+
+def _bmp(path, size: int, colour) -> None:
+    """A 24-bit BMP whose pixel (x, y) (y = 0 the top row) is ``colour(x, y)``."""
+    import struct
+
+    row = (size * 3 + 3) // 4 * 4
+    data = b"".join(b"".join(bytes(colour(x, y)[::-1]) for x in range(size)) + b"\0" * (row - 3 * size)
+                    for y in range(size - 1, -1, -1))
+    path.write_bytes(b"BM" + struct.pack("<IHHI", 54 + len(data), 0, 0, 54)
+                     + struct.pack("<IiiHHIIiiII", 40, size, size, 1, 24, 0, len(data), 2835, 2835, 0, 0) + data)
+
+
+@pytest.fixture
+def stale_folder(tmp_path):
+    _bmp(tmp_path / "grad.bmp", 64, lambda x, y: (4 * x, 4 * y, 128))
+    _bmp(tmp_path / "grey.bmp", 8, lambda x, y: (90, 90, 90))
+    (tmp_path / "quad.obj").write_text(QUAD_OBJ)
+    return tmp_path
+
+
+def _stale_render(folder, objects: tuple[str, ...], quirks: str) -> np.ndarray:
+    text = STALE_SCENE % (len(objects), " ".join(objects))
+    model = parse_text(text, str(folder / "stale.txt"))
+    return quantize(render(describe(model), RenderOptions(width=40, height=40, quirks=quirks)).image).astype(int)
+
+
+def test_quirks_binary_reads_the_stale_texture_coordinates_of_the_mesh_behind(variant: str, stale_folder) -> None:
+    """``-quirks binary`` (docs/FIDELITY.md "Stale texture coordinates"): a sphere with a textured material in
+    front of a textured mesh tested before it is lit with its texture at the mesh's uv, except where a sphere
+    tested before the mesh is nearer than the mesh (the mesh never took the hit: the disc of plain green).
+    Golden: tests/data/stale_uv_a5soln.png is a5soln's own BMP of this scene (files as written by the fixture),
+    ``a5soln -input stale.txt -size 40 40 -output stale.bmp``, converted to PNG losslessly."""
+    from a5mi.imageio import read_uint8
+
+    golden = read_uint8(Path(__file__).parent / "data" / "stale_uv_a5soln.png").astype(int)
+    quirk = _stale_render(stale_folder, STALE_OBJECTS, "binary")
+    assert np.array_equal(quirk, golden)
+    plain = _stale_render(stale_folder, STALE_OBJECTS, "none")
+    changed = np.any(plain != quirk, axis=2)
+    assert 200 < changed.sum() < 700                        # the textured sphere's lit pixels over the quad
+    green = (plain[..., 1] > plain[..., 0] + 40) & (plain[..., 1] > plain[..., 2] + 40)
+    assert not np.any(changed & ~green)                     # only the sphere's pixels change
+    # the sphere tested first: the mesh never takes a hit there, and the flag changes nothing
+    swapped = (STALE_OBJECTS[2], STALE_OBJECTS[1])
+    assert np.array_equal(_stale_render(stale_folder, swapped, "binary"), _stale_render(stale_folder, swapped, "none"))
+
+
+def test_without_quirks_no_textured_sphere_bsdf_is_emitted(variant: str, stale_folder) -> None:
+    """Off by default: the scene dict of a5 renders is the one of before (no ``plane_<id>_bsdf_uv``), so the
+    default kernel is unchanged; with the flag each sphere with a textured material gets one."""
+    from a5mi.converters.to_mitsuba import to_dict
+
+    desc = describe(parse_text(STALE_SCENE % (3, " ".join(STALE_OBJECTS)), str(stale_folder / "stale.txt")))
+    for quirks, count in (("none", 0), ("binary", 2)):
+        d = to_dict(desc, RenderOptions(width=8, height=8, quirks=quirks))
+        assert sum(k.endswith("_bsdf_uv") for k in d["integrator"]) == count

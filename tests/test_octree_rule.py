@@ -1,4 +1,4 @@
-"""Issue 12: shadows of a triangle mesh as the binary's octree casts them (converters/octree.py,
+"""Shadows of a triangle mesh as the binary's octree casts them (converters/octree.py,
 plugins/octree_rule.py).
 
 Measured against a5soln (diamond.obj above a sphere, one directional light): with ``direction 0 -1 0.3``
@@ -180,3 +180,46 @@ def test_reach_equals_the_low_side_leaves(zmask: int, child_ok) -> None:
     got = octree.reachable_trigs(root, zmask, 0)
     want = _low_leaves(octree.build(v, f), child_ok)
     assert got == want and 0 < len(got) < 400
+
+
+def test_leaf_table_is_the_binarys_octree(a5_data) -> None:
+    """plugins/octree_leaves.py builds the octree a level at a time; its leaves (face, path, depth) are those of
+    the node-by-node builder of converters/octree.py (the binary's split rule) on the course's diamond."""
+    from a5mi.plugins.octree_leaves import MAX_REFS, mesh_leaves
+
+    mesh = load_obj(a5_data / "scenes" / "diamond.obj")
+    v, f = np.asarray(mesh.vertices, dtype=np.float32), np.asarray(mesh.faces, dtype=np.int64)
+    expected: set[tuple[int, int, int]] = set()
+    stack = [(octree.build(v, f), 0)]
+    while stack:
+        node, code = stack.pop()
+        if node.is_leaf:
+            expected |= {(int(t), code, node.level) for t in node.trigs}
+            continue
+        stack += [(child, code | (i << (3 * node.level))) for i, child in enumerate(node.children)]
+    _, _, levels = mesh_leaves(v[f], MAX_REFS)
+    got = {(int(t), int(c), depth) for faces, codes, depth in levels for t, c in zip(faces, codes, strict=True)}
+    assert len(expected) > 1000
+    assert got == expected
+
+
+def test_shadow_rays_follow_the_binarys_traversal_per_ray(variant: str, scenes_dir) -> None:
+    """A light straight down (``direction 0 -1 0``: the object-space shadow direction of a mesh under
+    ``ZRotate 30`` has z = +0.0) over the vase: the binary's traversal of each shadow ray reaches only some of
+    the leaves the reach masks allow, and leaves a patch lit that the masks shadowed (25.1 dB from a5soln before
+    the per-ray replay, plugins/octree_leaves.py). Golden: tests/data/octree_shadow_a5soln.png is
+    ``a5soln -input vase.txt -size 64 64 -shadows -output vase.bmp`` of this scene, converted to PNG losslessly."""
+    from pathlib import Path
+
+    from a5mi.imageio import read_uint8
+
+    text = ("PerspectiveCamera { center 0.3 2.5 2.5 direction -0.1 -1 -1 up 0 1 0 angle 35 }\n"
+            "Lights { numLights 1 DirectionalLight { direction 0 -1 0 color 0.9 0.9 0.9 } }\n"
+            "Background { color 0.1 0.1 0.2 ambientLight 0.1 0.1 0.1 }\n"
+            "Materials { numMaterials 2 Material { diffuseColor 0.9 0.9 0.9 } Material { diffuseColor 0.8 0.3 0.2 } }\n"
+            "Group { numObjects 2 MaterialIndex 0 Plane { normal 0 1 0 offset -0.6 }\n"
+            " MaterialIndex 1 Transform { ZRotate 30 Scale 0.4 0.4 0.4 TriangleMesh { obj_file vase.obj } } }\n")
+    model = parse_text(text, str(scenes_dir / "vase_shadow.txt"))
+    img = quantize(render(describe(model), RenderOptions(width=N, height=N, shadows=True)).image).astype(int)
+    golden = read_uint8(Path(__file__).parent / "data" / "octree_shadow_a5soln.png").astype(int)
+    assert np.array_equal(img, golden)

@@ -17,7 +17,7 @@ from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, real, size_flag, text
 from a5mi.errors import ExitStatus, UsageError
-from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, PHOTON_FILTERS, SUBSURFACE_METHODS, RenderOptions
+from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, PHOTON_FILTERS, QUIRKS, SUBSURFACE_METHODS, RenderOptions
 from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR
 
 #: Render-buffer samples (3W x 3H with -jitter) accepted at most (~16 GB by a5mi.resources' model); below it
@@ -120,6 +120,8 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          "a5", "MODE"),
     Flag(("-kernel", "--kernel"), "kernel", "blur kernel: binary (centre tap 0.2921) or handout (0.2931, a typo)",
          1, choice(KERNELS), "binary", "K"),
+    Flag(("-quirks", "--quirks"), "quirks", "none, or binary: a textured sphere or plane in front of a textured mesh "
+         "tested before it takes that mesh's uv, as a5soln (docs/FIDELITY.md)", 1, choice(QUIRKS), "none", "Q"),
     Flag(("-normals_mode", "--normals-mode"), "aov_mode", "main (-normals/-depth use the image's rays) or "
          "quadrant (a5soln's top-right-quadrant rays, SPEC B.6)", 1, choice(AOV_MODES), "main", "M"),
     Flag(("-v", "--verbose"), "verbose", "print stage timings, ray counts and peak memory on stderr",

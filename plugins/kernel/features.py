@@ -48,6 +48,8 @@ class Features(NamedTuple):
     triangle_rule  bool     some mesh carries the binary's triangle data (plugins/triangle_rule.py)
     record         bool     record mode: the ray tree's values are scattered into a recorder
     indirect       int      E.15: cosine-weighted rays gathered at each diffuse hit (0: none)
+    stale_uv       bool     ``-quirks binary``: some plane-set entry has a textured BSDF (``plane_<id>_bsdf_uv``)
+                            and a rule mesh exists: the sample solution's stale uv (docs/FIDELITY.md)
     stack_size     int      entries of the pending-ray stack (:func:`stack_size`)
     ============== ======== ===================================================================
     """
@@ -70,6 +72,7 @@ class Features(NamedTuple):
     record: bool = False
     stack_size: int = 8
     indirect: int = 0
+    stale_uv: bool = False
 
 
 class SceneData(NamedTuple):
@@ -127,4 +130,5 @@ def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, reco
         milled=uses_milled(scene, [p[3] for p in getattr(source, "planes", ())]),
         environment=scene.environment() is not None, triangle_rule=data.rules is not None, record=record,
         stack_size=size, indirect=indirect,
+        stale_uv=data.planes.bsdf_uv is not None and data.rules is not None,
     )

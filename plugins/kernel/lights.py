@@ -98,7 +98,7 @@ def sample(scene: mi.Scene, data: SceneData, f: Features, emitter: mi.EmitterPtr
     if dr.hint(f.shadows, mode="scalar"):
         dist = dr.select(is_area, ds.dist * (1.0 - 1e-4), ds.dist)   # not the light's own shape
         far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0   # directional: the binary's FLT_MAX
-        seen = visible(scene, data.planes, p, d_light, data.tmin, dist, far, hit)
+        seen = visible(scene, data.planes, p, d_light, data.tmin, dist, far, hit, data.rules)
     term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * kd
     if dr.hint(f.milled, mode="scalar"):
         term += milled.light_term(si.bsdf() if bsdf is None else bsdf, si, d_light, hit) * light_color

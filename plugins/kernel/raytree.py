@@ -78,7 +78,7 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
 
         # ---- nearest hit (meshes by the binary's rules, spheres, exact planes); background on a miss
         si, t_hit, p, n, hit, on_plane, plane_idx, row, bsdf = intersect(scene, data.planes, data.rules, o, d,
-                                                                         t_min, origin)
+                                                                         t_min, origin, f.stale_uv)
         bg = dr.zeros(mi.Color3f, width)
         if dr.hint(f.environment, mode="scalar"):
             bg = background(scene, d, ~hit)
