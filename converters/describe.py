@@ -319,8 +319,12 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
         if mat.noise is None and mat.solid is None:
             textures.setdefault(index, image)
             if not with_uv:
+                kind = type(shape).__name__
+                # docs/FIDELITY.md "Stale texture coordinates": a5soln may show it at a mesh's uv (-quirks binary)
+                stale = "; a5soln may show it at a textured mesh's stale uv (-quirks binary)" \
+                    if kind in ("Sphere", "Plane") else ""
                 warnings.append((shape.loc, f"texture '{mat.texture}' cannot show on this "  # type: ignore[attr-defined]
-                                 f"{type(shape).__name__}: it has no texture coordinates (SPEC B.3)"))
+                                 f"{kind}: it has no texture coordinates (SPEC B.3){stale}"))
 
     cam_c = np.asarray(scene.camera.center, dtype=np.float64)
     shapes: list[Shape] = []

@@ -233,3 +233,14 @@ def test_without_quirks_no_textured_sphere_bsdf_is_emitted(variant: str, stale_f
     for quirks, count in (("none", 0), ("binary", 2)):
         d = to_dict(desc, RenderOptions(width=8, height=8, quirks=quirks))
         assert sum(k.endswith("_bsdf_uv") for k in d["integrator"]) == count
+
+
+def test_the_no_uv_warning_of_a_textured_sphere_points_to_the_quirk(stale_folder) -> None:
+    """The warning at a textured sphere says where the sample solution can still show the texture (a textured
+    mesh's stale uv, ``-quirks binary``); a mesh without uv gets the plain SPEC B.3 warning."""
+    desc = describe(parse_text(STALE_SCENE % (3, " ".join(STALE_OBJECTS)), str(stale_folder / "stale.txt")))
+    texture_warnings = [msg for _loc, msg in desc.warnings if msg.startswith("texture ")]
+    assert texture_warnings
+    for msg in texture_warnings:
+        assert "cannot show on this Sphere" in msg or "cannot show on this Plane" in msg, msg
+        assert msg.endswith("(SPEC B.3); a5soln may show it at a textured mesh's stale uv (-quirks binary)"), msg
