@@ -16,7 +16,9 @@ values. This plugin therefore has two faces:
 
 2. **A sensible physical BSDF** for stock integrators (``path``, ``direct``...), a mixture of
 
-   * Lambert ``kd/π`` (front side only), and
+   * Lambert ``kd/π`` on both sides (docs/EXTENSIONS.md E.13's two-sided Lambert
+     ``f = kd/π · [ω on the side of N that wi is on]``: for ``cosθ_i < 0`` the local frame is mirrored,
+     ``z -> −z``, as Mitsuba's ``twosided`` adapter does), and
    * when ``|specular_color| > 0.001`` or ``refraction_index > 0``, a delta lobe weighted by
      ``specular_color``: an ideal mirror if ``refraction_index == 0``, else a smooth dielectric with
      interior index ``refraction_index`` (``n(550 nm)`` if ``cauchy_b ≠ 0``) and exterior 1 (exact Fresnel
@@ -24,8 +26,9 @@ values. This plugin therefore has two faces:
 
    The lobe is chosen with probability ``p_s = mean(specular_color) / (mean(kd) + mean(specular_color))``;
    sampled weights are ``kd / (1 - p_s)`` (diffuse) and ``specular_color / p_s`` (delta), and ``pdf`` is
-   ``(1 - p_s) cosθ/π`` for the diffuse lobe. This is *not* what the sample solution renders (its
-   "specular" is the recursive Whitted weight); it only makes the material usable elsewhere.
+   ``(1 - p_s) |cosθ_o|/π`` for the diffuse lobe (0 where ``wo`` is not on ``wi``'s side). This is *not* what
+   the sample solution renders (its "specular" is the recursive Whitted weight, SPEC B.3, and ``a5_whitted``
+   never calls ``sample`` / ``eval`` / ``pdf`` of this BSDF); it only makes the material usable elsewhere.
 
 Parameters (ARCHITECTURE.md):
 
@@ -133,7 +136,7 @@ class A5Material(mi.BSDF):
         spec_len = sum(c * c for c in specular) ** 0.5
         self._has_delta = spec_len > MIRROR_THRESHOLD or ior > 0.0
         self._dielectric = ior > 0.0
-        diffuse_flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
+        diffuse_flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
         components = [int(diffuse_flags)]
         if self._has_delta:
             if self._dielectric:
@@ -221,11 +224,12 @@ class A5Material(mi.BSDF):
         bs = dr.zeros(mi.BSDFSample3f)
         bs.eta = mi.Float(1.0)
         choose_delta = sample1 < p_s
-        # Diffuse lobe (front side only).
-        wo_d = mi.warp.square_to_cosine_hemisphere(sample2)
-        ok_d = active & ~choose_delta & (cos_i > 0.0)
+        # Diffuse lobe (E.13, two-sided): cosine-weighted about the side of N that wi is on.
+        wo_h = mi.warp.square_to_cosine_hemisphere(sample2)
+        wo_d = mi.Vector3f(wo_h.x, wo_h.y, dr.mulsign(wo_h.z, cos_i))
+        ok_d = active & ~choose_delta & (cos_i != 0.0)
         weight_d = kd / dr.maximum(1.0 - p_s, 1e-8)
-        pdf_d = (1.0 - p_s) * mi.warp.square_to_cosine_hemisphere_pdf(wo_d)
+        pdf_d = (1.0 - p_s) * mi.warp.square_to_cosine_hemisphere_pdf(wo_h)
         # Delta lobe: mirror, or dielectric with exact Fresnel.
         wo_r = mi.reflect(si.wi)
         weight_s = self.specular_color / dr.maximum(p_s, 1e-8)
@@ -265,26 +269,26 @@ class A5Material(mi.BSDF):
     def eval(
         self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, wo: mi.Vector3f, active: mi.Bool = True
     ) -> mi.Color3f:
-        """Lambert ``kd/π cosθ_o`` on the front side; the delta lobe evaluates to 0."""
-        kd, front = self._diffuse_lobe(ctx, si, wo, active)
-        return dr.select(front, kd * (dr.inv_pi * mi.Frame3f.cos_theta(wo)), 0.0)
+        """Lambert ``kd/π |cosθ_o|`` where ``wo`` is on ``wi``'s side (E.13); the delta lobe evaluates to 0."""
+        kd, same_side = self._diffuse_lobe(ctx, si, wo, active)
+        return dr.select(same_side, kd * (dr.inv_pi * dr.abs(mi.Frame3f.cos_theta(wo))), 0.0)
 
     def pdf(
         self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, wo: mi.Vector3f, active: mi.Bool = True
     ) -> mi.Float:
-        """``(1 - p_s) cosθ_o/π`` for the diffuse lobe (delta lobes have no density)."""
-        kd, front = self._diffuse_lobe(ctx, si, wo, active)
-        value = (1.0 - self._spec_probability(ctx, kd)) * mi.warp.square_to_cosine_hemisphere_pdf(wo)
-        return dr.select(front, value, 0.0)
+        """``(1 - p_s) |cosθ_o|/π`` for the diffuse lobe on ``wi``'s side (delta lobes have no density)."""
+        kd, same_side = self._diffuse_lobe(ctx, si, wo, active)
+        value = (1.0 - self._spec_probability(ctx, kd)) * (dr.inv_pi * dr.abs(mi.Frame3f.cos_theta(wo)))
+        return dr.select(same_side, value, 0.0)
 
     def _diffuse_lobe(
         self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, wo: mi.Vector3f, active: mi.Bool
     ) -> tuple[mi.Color3f, mi.Bool]:
-        """``(kd, mask)``: the Lambert colour and where the diffuse lobe exists (enabled in ``ctx``, both
-        directions in front)."""
+        """``(kd, mask)``: the Lambert colour and where the diffuse lobe exists (enabled in ``ctx``, ``wi`` and
+        ``wo`` strictly on the same side of the shading frame: ``cosθ_i cosθ_o > 0``, E.13's two-sided Lambert)."""
         enabled = ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0)
-        front = active & enabled & (mi.Frame3f.cos_theta(si.wi) > 0.0) & (mi.Frame3f.cos_theta(wo) > 0.0)
-        return self.eval_diffuse_reflectance(si, active), front
+        same_side = active & enabled & (mi.Frame3f.cos_theta(si.wi) * mi.Frame3f.cos_theta(wo) > 0.0)
+        return self.eval_diffuse_reflectance(si, active), same_side
 
     # ------------------------------------------------------------------ plumbing
 
