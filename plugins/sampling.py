@@ -8,8 +8,16 @@ so a render is reproducible for a given ``-seed`` whatever the tile size or thre
   ``tea_float(pass_key, counter)``, ``counter`` advancing by 2 per 2D draw);
 * a *dimension* ``dim`` (the camera lens, light k at ray-tree node t, the glossy lobe at node t) has ``M``
   samples per pixel (``M = spp · samples``); sample ``i`` of them (``i = pass · samples + j``) lies in
-  stratum ``s = (i + shift) mod M`` with the per-pixel shift ``shift = tea(pixel_key, dim) mod M``, a uniformly
-  random cyclic permutation, so each sample is uniform and the dimensions of one sample are independent;
+  stratum ``s = (π_dim(i) + shift) mod M``, with the per-pixel shift ``shift = tea(pixel_key, dim) mod M`` and
+  ``π_dim = permute(·, M, key_dim)`` Kensler's hashed permutation of ``[0, M)`` (Correlated Multi-Jittered
+  Sampling, Pixar TM 13-01, 2013: invertible integer mixing on the smallest power-of-two range ``2^b ≥ M``,
+  repeated while the result is ``≥ M``, a bijection of ``[0, M)``), ``key_dim`` the second word of
+  ``sample_tea_32(pixel_key, dim)``. Each dimension is stratified over the pixel's ``M`` samples and each sample
+  is uniform; two dimensions of one pixel are paired by the pseudo-random ``π_B ∘ π_A⁻¹`` (padded,
+  Latin-hypercube-like sampling), so a pixel's estimate converges to the pixel's value. (A cyclic shift alone
+  paired stratum ``s`` of one dimension with ``s + c`` of another for one per-pixel ``c``: the pixel converged
+  to a seed-dependent value wherever two dimensions interact, e.g. the lens and an area light in a defocused
+  soft shadow.) ``M = 1`` (``-spp 1``, one sample): ``π(0) = 0``, the plain jitter ``ξ``;
 * stratum ``s`` of ``M`` with ``q = floor(sqrt M)``: for ``s < q²`` the cell ``(s mod q, s div q)`` of a
   ``q x q`` grid, ``u = ((s mod q) + ξ1)/q``, ``v = ((s div q) + ξ2)/q``; the ``M - q²`` remaining samples are
   uniform on the square. Both are uniform densities, so the mixture is unbiased.
@@ -21,6 +29,8 @@ from typing import NamedTuple
 
 import drjit as dr
 import mitsuba as mi
+
+from .syntax import syntax
 
 #: ``dim`` of the thin-lens sample (EXTENSIONS E.3); ray-tree dimensions are ``node · 256 + slot`` < 2^24.
 LENS_DIM = 0xFFFFFFF0
@@ -39,12 +49,54 @@ def pixel_keys(pixel: mi.UInt32, seed: mi.UInt32, pass_index: mi.UInt32) -> tupl
     return pk, tea(pk, pass_index)
 
 
+def _mix(i: mi.UInt32, w: mi.UInt32, p: mi.UInt32) -> mi.UInt32:
+    """One round of Kensler's ``permute``: a bijection of ``[0, w]`` (``w + 1`` a power of two)."""
+    i = i ^ p
+    i = i * 0xE170893D
+    i = i ^ (p >> 16)
+    i = i ^ ((i & w) >> 4)
+    i = i ^ (p >> 8)
+    i = i * 0x0929EB3F
+    i = i ^ (p >> 23)
+    i = i ^ ((i & w) >> 1)
+    i = i * (1 | (p >> 27))
+    i = i * 0x6935FA69
+    i = i ^ ((i & w) >> 11)
+    i = i * 0x74DCB303
+    i = i ^ ((i & w) >> 2)
+    i = i * 0x9E501CC3
+    i = i ^ ((i & w) >> 2)
+    i = i * 0xC860A3DF
+    i = i & w
+    return i ^ (i >> 5)
+
+
+@syntax
+def permute(index: mi.UInt32, count: mi.UInt32, key: mi.UInt32) -> mi.UInt32:
+    """``π(index)`` for the permutation of ``[0, count)`` chosen by ``key`` (module docstring; cycle walking:
+    fewer than two rounds on average)."""
+    count = dr.maximum(mi.UInt32(count), 1)
+    w = count - 1
+    w = w | (w >> 1)
+    w = w | (w >> 2)
+    w = w | (w >> 4)
+    w = w | (w >> 8)
+    w = w | (w >> 16)
+    key = mi.UInt32(key)
+    i = _mix(mi.UInt32(index), w, key)
+    while i >= count:
+        i = _mix(i, w, key)
+    return (i + key) % count
+
+
 def stratified_2d(pixel_key: mi.UInt32, pass_key: mi.UInt32, dim: mi.UInt32, index: mi.UInt32,
                   count: mi.UInt32, counter: mi.UInt32) -> mi.Point2f:
-    """Sample ``index`` of ``count`` of dimension ``dim``, jittered by draw ``counter`` (module docstring)."""
+    """Sample ``index`` of ``count`` of dimension ``dim`` in stratum ``(π_dim(index) + shift) mod count``, jittered
+    by the draws ``counter``, ``counter + 1`` of ``pass_key`` (module docstring)."""
     count = dr.maximum(mi.UInt32(count), 1)
-    shift = tea(pixel_key, dim) % count
-    s = (mi.UInt32(index) + shift) % count
+    keys = mi.sample_tea_32(mi.UInt32(pixel_key), mi.UInt32(dim))
+    shift = keys[0] % count
+    s = (permute(mi.UInt32(index), count, keys[1]) + shift) % count
     q = mi.UInt32(dr.floor(dr.sqrt(mi.Float(count))))
     q = dr.select(q * q > count, q - 1, q)                      # guard sqrt rounding up
     xi1 = mi.sample_tea_float32(pass_key, mi.UInt32(counter))
