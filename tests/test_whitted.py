@@ -101,6 +101,25 @@ def test_b3_shadowed_point(mi, shadows):
     assert np.allclose(aovs["n_shadow"], 1.0 if shadows else 0.0)
 
 
+def test_b3_zero_term_casts_no_shadow_ray(mi):
+    """S only scales ``clamp(L·N) lightColor ⊙ kd``: a light behind the surface (term 0) or a black kd casts no
+    shadow ray (``n_shadow`` counts the rays cast) and the colour is the same as with every ray cast."""
+    floor = {"type": "rectangle", "bsdf": _material(diffuse_color=(0.5, 0.5, 0.5)),
+             "to_world": mi.ScalarTransform4f().translate([0, -1, 0]).rotate([1, 0, 0], -90).scale(50)}
+    black = {"type": "rectangle", "bsdf": _material(diffuse_color=(0.0, 0.0, 0.0)),
+             "to_world": mi.ScalarTransform4f().translate([0, -0.5, 20]).rotate([1, 0, 0], -90).scale(5)}
+    lights = {"up": {"type": "directional", "direction": [0, -1, 0], "irradiance": _rgb(1, 1, 1)},
+              "below": {"type": "directional", "direction": [0, 1, 0], "irradiance": _rgb(1, 1, 1)}}
+    scene = _scene(mi, floor=floor, black=black, **lights)
+    # a floor point (lit from above only), a point on the black patch, a miss
+    o, d = [(-4, 0, 0), (-4, 0, 20), (0, 0, 0)], [(4, -1, 0), (4, -1, 0), (0, 1, 0)]
+    color, aovs = _render(mi, scene, {"ambient": _rgb(0.1, 0.1, 0.1), "shadows": True}, o=o, d=d)
+    assert aovs["n_shadow"].tolist() == [1.0, 0.0, 0.0]
+    assert np.allclose(color[0], 0.1 * 0.5 + 0.5, atol=1e-6) and np.allclose(color[1], 0.0, atol=1e-7)
+    unshadowed, _ = _render(mi, scene, {"ambient": _rgb(0.1, 0.1, 0.1), "shadows": False}, o=o, d=d)
+    assert np.array_equal(color, unshadowed)
+
+
 def test_b3_occluder_beyond_the_point_light_casts_no_shadow(mi):
     """Shadow rays end at the light (0.001 < t < dist): a wall *behind* the point light must not block it.
 

@@ -71,8 +71,8 @@ def lights_of(scene: mi.Scene) -> Lights:
 class LightSample(NamedTuple):
     """One sample of one light at a hit (:func:`sample`): ``term`` (``clamp(L·N, 0) lightColor ⊙ kd``, plus the
     Phong highlight with ``phong``), ``seen`` (SPEC ``S``), ``d_light`` (SPEC ``L``), ``light_color``, ``dist``
-    (the light's distance), ``far`` (a directional light; only with ``shadows``) and ``highlight`` (only with
-    ``phong``)."""
+    (the light's distance), ``far`` (a directional light; only with ``shadows``), ``highlight`` (only with
+    ``phong``) and ``tested`` (only with ``shadows``: a shadow ray was cast, i.e. the term is not 0)."""
 
     term: mi.Color3f
     seen: mi.Bool
@@ -81,6 +81,7 @@ class LightSample(NamedTuple):
     dist: mi.Float
     far: mi.Bool | None
     highlight: mi.Float | None
+    tested: mi.Bool | None = None
 
 
 def sample(scene: mi.Scene, data: SceneData, f: Features, emitter: mi.EmitterPtr, is_area: mi.Bool,
@@ -93,12 +94,6 @@ def sample(scene: mi.Scene, data: SceneData, f: Features, emitter: mi.EmitterPtr
     (E.20) the term adds ``π ρs W(wi, L) cosθ_L lightColor`` of the hit's BSDF ``bsdf`` (default ``si.bsdf()``)."""
     ds, light_color = emitter.sample_direction(si, u, hit)
     d_light = ds.d                                               # SPEC L
-    seen = mi.Bool(hit)                                          # SPEC S
-    far = None
-    if dr.hint(f.shadows, mode="scalar"):
-        dist = dr.select(is_area, ds.dist * (1.0 - 1e-4), ds.dist)   # not the light's own shape
-        far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0   # directional: the binary's FLT_MAX
-        seen = visible(scene, data.planes, p, d_light, data.tmin, dist, far, hit, data.rules)
     term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * kd
     if dr.hint(f.milled, mode="scalar"):
         term += milled.light_term(si.bsdf() if bsdf is None else bsdf, si, d_light, hit) * light_color
@@ -107,7 +102,20 @@ def sample(scene: mi.Scene, data: SceneData, f: Features, emitter: mi.EmitterPtr
         l_dot_r = dr.maximum(dr.dot(d_light, dr.normalize(r_view)), 0.0)
         highlight = dr.select(shininess == 0.0, 1.0, dr.power(l_dot_r, shininess))
         term += highlight * light_color * specular
-    return LightSample(term, seen, d_light, light_color, ds.dist, far, highlight)
+    seen = mi.Bool(hit)                                          # SPEC S
+    far = None
+    tested = None
+    if dr.hint(f.shadows, mode="scalar"):
+        dist = dr.select(is_area, ds.dist * (1.0 - 1e-4), ds.dist)   # not the light's own shape
+        far = (emitter.flags() & int(mi.EmitterFlags.Infinite)) != 0   # directional: the binary's FLT_MAX
+        tested = mi.Bool(hit)
+        if dr.hint(not f.record, mode="scalar"):
+            # S only scales the term: where the term is exactly 0 in every channel (the light behind the surface,
+            # a black kd) the shadow ray is not cast and S reads 0, which adds the same 0 (a NaN term is still
+            # tested). Record mode (a5mi trace) tests every light, as the sample solution does.
+            tested &= dr.any(term != 0.0)
+        seen = visible(scene, data.planes, p, d_light, data.tmin, dist, far, tested, data.rules)
+    return LightSample(term, seen, d_light, light_color, ds.dist, far, highlight, tested)
 
 
 def sample_point(rng: Stochastic, node: mi.UInt32, k: mi.UInt32, j: mi.UInt32, n_samples: mi.UInt32,
@@ -143,7 +151,7 @@ def direct(scene: mi.Scene, data: SceneData, f: Features, si: mi.SurfaceInteract
             counter += 2
             ls = sample(scene, data, f, emitter, is_area, si, p, hit, n, kd, specular, shininess, r_view, u, bsdf)
             if dr.hint(f.shadows, mode="scalar"):
-                n_shadow += dr.select(hit, 1.0, 0.0)
+                n_shadow += dr.select(ls.tested, 1.0, 0.0)
             term = ls.term
             if dr.hint(f.media_light, mode="scalar"):   # E.8, E.9: the light attenuated on its way
                 tr, counter = media_light.shadow_transmittance(data.medium, p, ls.d_light, data.tmin, ls.dist,
