@@ -301,6 +301,16 @@ def _sphere_space(ps: PlaneSet, k: mi.UInt32, o: mi.Point3f, d: mi.Vector3f,
     return a, o_obj, d_obj
 
 
+def half_quotient(x: mi.Float, a: mi.Float) -> mi.Float:
+    """The binary's ``(float)((double)x / (2.0 (double)a))`` in float32 arithmetic, bit for bit: ``x / (a + a)``
+    (``a + a`` is exact, and a quotient of two floats rounded to double and then to float is the correctly
+    rounded float quotient, since 53 >= 2·24 + 2: double rounding is innocuous for division); where ``a + a``
+    overflows, ``(x / 2) / a`` (``x / 2`` exact, or the quotient underflows to the same signed 0)."""
+    two_a = a + a
+    finite = dr.isfinite(two_a) | dr.isnan(a)
+    return dr.select(finite, x, x * 0.5) / dr.select(finite, two_a, a)
+
+
 def _sphere_t(ps: PlaneSet, k: mi.UInt32, o_obj: mi.Vector3f, d_obj: mi.Vector3f, t_min: mi.Float,
               m: mi.Bool) -> tuple[mi.Bool, mi.Float]:
     """``(hit, t)`` of ``Sphere::intersect`` on sphere entry ``k`` for the object-space ray ``(o', d')``
@@ -314,9 +324,8 @@ def _sphere_t(ps: PlaneSet, k: mi.UInt32, o_obj: mi.Vector3f, d_obj: mi.Vector3f
     cc = _dot(q.x, q.y, q.z, q) - r * r
     disc = b * b - (4.0 * a2) * cc
     root = dr.sqrt(dr.maximum(disc, 0.0))
-    den = 2.0 * mi.Float64(a2)
-    t_far = mi.Float(mi.Float64(root - b) / den)
-    t_near = mi.Float(mi.Float64(-b - root) / den)
+    t_far = half_quotient(root - b, a2)
+    t_near = half_quotient(-b - root, a2)
     t = dr.select(t_min < t_near, t_near, 10000.0)
     t = dr.select(t_far > t_min, dr.select(t_near >= t_min, t, t_far), t)
     hit = m & (disc >= 0.0) & ~((t_min > t_far) & (t_min > t_near))     # NaN: a miss, as in the binary

@@ -1,0 +1,116 @@
+"""Where the a5_whitted render kernel spends its time: Embree's traversal against the kernel's own code.
+
+For each scene a child process loads it (the handout command: 300 x 300, ``-shadows -bounces 4 -jitter
+-filter``, so a 900 x 900 render of 810 000 camera rays), renders once to compile, then renders ``--renders``
+times while ``perf record -e cpu-clock`` samples it. ``perf report --sort dso,sym`` then splits the samples:
+Embree's ``intersect`` (nearest hit: camera, mirror and refracted rays) and ``occluded`` (shadow rays), the JIT
+code (the kernel's own shading, plane and sphere tests, the triangle rule, the stack: Dr.Jit's LLVM output, which
+perf shows as ``[JIT]``), and the rest (Dr.Jit, NumPy, Python: the jitter draw, the filter, copies). ``kernel``
+is the best ``execute`` of the renders (Dr.Jit's kernel history).
+
+Usage: ``.venv/bin/python benchmarks/kernel_profile.py [SCENE ...] [--renders N] [--threads N]`` (needs the
+``perf`` tool; scenes default to the four test scenes, from ``$A5_DATA/scenes``). Prints a Markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+SCENES = ("scene06_bunny_1k.txt", "scene10_sphere.txt", "scene11_cube.txt", "scene12_vase.txt")
+
+CHILD = r"""
+import os, sys, time
+from pathlib import Path
+os.chdir(sys.argv[1])
+from a5mi import variant
+variant.activate()
+from a5mi import driver
+from a5mi.converters.a5_parser import parse_file
+from a5mi.converters.describe import describe
+from a5mi.options import RenderOptions
+from a5mi.session import build_scene
+threads = int(sys.argv[4]) or None
+opts = RenderOptions(width=300, height=300, bounces=4, shadows=True, jitter=True, filter=True, threads=threads)
+desc = describe(parse_file(Path(sys.argv[2])))
+scene = build_scene(desc, opts)
+driver.render_scene(scene, desc.camera, opts)
+Path(sys.argv[3]).write_text("ready")
+while Path(sys.argv[3]).read_text() != "go":
+    time.sleep(0.01)
+best = min(driver.render_scene(scene, desc.camera, opts).timings["execute"] for _ in range(int(sys.argv[5])))
+print(f"KERNEL {best:.4f}", flush=True)
+"""
+
+
+def classify(report: str) -> dict[str, float]:
+    """Shares (%) of ``perf report --sort dso,sym -g none`` lines: embree intersect / occluded, JIT, other."""
+    out = {"intersect": 0.0, "occluded": 0.0, "embree other": 0.0, "jit": 0.0, "other": 0.0}
+    for line in report.splitlines():
+        parts = line.split()
+        if not parts or not parts[0].endswith("%") or line.lstrip().startswith("#"):
+            continue
+        share = float(parts[0].rstrip("%"))
+        if "libembree" in line:
+            key = "intersect" if "::intersect" in line else "occluded" if "::occluded" in line else "embree other"
+        elif "[JIT]" in line:
+            key = "jit"
+        else:
+            key = "other"
+        out[key] += share
+    total = sum(out.values()) or 1.0          # perf's column can add up to a little over 100: normalise
+    return {k: 100.0 * v / total for k, v in out.items()}
+
+
+def profile(scene_dir: Path, scene: str, renders: int, threads: int) -> tuple[float, dict[str, float]]:
+    """``(best kernel execute s, shares)`` of ``renders`` renders of ``scene`` under perf (module docstring)."""
+    with tempfile.TemporaryDirectory(prefix="a5prof-") as tmp:
+        flag, data = Path(tmp) / "flag", Path(tmp) / "perf.data"
+        flag.write_text("")
+        child = subprocess.Popen([sys.executable, "-c", CHILD, str(scene_dir), scene, str(flag), str(threads),
+                                  str(renders)], stdout=subprocess.PIPE, text=True)
+        while flag.read_text() != "ready":
+            if child.poll() is not None:
+                raise RuntimeError(f"{scene}: the render process exited {child.returncode}")
+            time.sleep(0.05)
+        perf = subprocess.Popen(["perf", "record", "-q", "-e", "cpu-clock", "-p", str(child.pid), "-o", str(data)],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(0.5)                       # perf attached before the first timed render
+        flag.write_text("go")
+        out, _ = child.communicate()
+        perf.wait()
+        kernel = float(next(line.split()[1] for line in out.splitlines() if line.startswith("KERNEL")))
+        report = subprocess.run(["perf", "report", "-i", str(data), "--no-children", "--sort", "dso,sym", "-g", "none",
+                                 "--stdio"], capture_output=True, text=True, check=True).stdout
+        return kernel, classify(report)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scenes", nargs="*", default=list(SCENES))
+    ap.add_argument("--renders", type=int, default=6)
+    ap.add_argument("--threads", type=int, default=0, help="Dr.Jit threads (0: all cores)")
+    args = ap.parse_args()
+    if shutil.which("perf") is None:
+        print("kernel_profile: needs the perf tool (Debian: linux-perf)", file=sys.stderr)
+        return 2
+    scene_dir = Path(os.environ.get("A5_DATA", Path(__file__).resolve().parents[2] / "shared" / "a5")) / "scenes"
+    print(f"load average before: {os.getloadavg()[0]:.2f}")
+    print("| scene | kernel s | Embree intersect | Embree occluded | Embree other | JIT code | other |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for scene in args.scenes:
+        kernel, s = profile(scene_dir, scene, args.renders, args.threads)
+        print(f"| {Path(scene).stem} | {kernel:.3f} | {s['intersect']:.1f}% | {s['occluded']:.1f}% | "
+              f"{s['embree other']:.1f}% | {s['jit']:.1f}% | {s['other']:.1f}% |", flush=True)
+    print(f"load average after: {os.getloadavg()[0]:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
