@@ -225,9 +225,12 @@ def logged(variant: str, scenes_dir: Path) -> dict[str, object]:
 
 
 def test16_ray_log_holds_every_ray_the_counts_aov_counts(logged: dict) -> None:
+    from a5mi.plugins.kernel.raylog import NODE_FIELDS, SHADOW_FIELDS
+
     counts = logged["counts"]
     width = counts["shadow"].size
     log, _res, nodes, shadows = logged["logs"][0]
+    assert tuple(nodes) == NODE_FIELDS and tuple(shadows) == SHADOW_FIELDS
     assert counts["shadow"].sum() > 0 and counts["refraction"].sum() > 0
     assert log.nodes == width + counts["reflection"].sum() + counts["refraction"].sum() == nodes["o"].shape[1]
     assert log.shadows == counts["shadow"].sum() == shadows["p"].shape[1]
