@@ -17,6 +17,7 @@ from a5mi.spec import FRESNEL_MODES, TMIN
 from . import media, subsurface, triangle_rule
 from .kernel.features import SceneData, build_features
 from .kernel.lights import lights_of
+from .kernel.raylog import RayLog
 from .kernel.raytree import TreeResult, trace_tree
 from .planes import plane_set, planes_from_props
 from .sampling import SamplePass, stochastic
@@ -168,23 +169,25 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
 
     def trace(
         self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True, sampler: mi.Sampler | None = None,
-        record: TreeRecorder | None = None, sample_pass: SamplePass | None = None,
+        record: TreeRecorder | None = None, sample_pass: SamplePass | None = None, ray_log: RayLog | None = None,
     ) -> TreeResult:
         """SPEC B.3 for camera rays: ``(colour, normal, t, class, n_reflection, n_refraction, n_shadow)``.
 
         Parameter ``sample_pass`` (:class:`~.sampling.SamplePass`): which samples the lanes are (E.5); None: keys
         from ``sampler``. Parameter ``record`` (``a5mi trace``): fill this recorder with every node of each
-        lane's ray tree (a kernel with the recording calls)."""
+        lane's ray tree (a kernel with the recording calls). Parameter ``ray_log`` (``a5mi bench``'s traversal
+        floor): write every node ray and shadow ray the kernel casts into this
+        :class:`~.kernel.raylog.RayLog` (a kernel with the logging calls; the colour is the same)."""
         data = SceneData(dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, self.ambient),
                          dr.opaque(mi.Float, self.tmin), lights_of(scene), self._planes, self._rule_table(scene),
                          self._medium)
-        features = build_features(self, scene, data, record=record is not None)
+        features = build_features(self, scene, data, record=record is not None, ray_log=ray_log is not None)
         width = _width(ray, active)
         # Every loop variable must be full width (a width-1 stack pointer makes lanes loop forever).
         o = mi.Point3f(ray.o) + dr.zeros(mi.Point3f, width)
         d = mi.Vector3f(ray.d) + dr.zeros(mi.Vector3f, width)
         rng = stochastic(sample_pass, sampler, width, self.glossy_samples)
-        return trace_tree(scene, o, d, dr.full(mi.Bool, True, width) & active, data, rng, features, record)
+        return trace_tree(scene, o, d, dr.full(mi.Bool, True, width) & active, data, rng, features, record, ray_log)
 
     def sample(
         self, scene: mi.Scene, sampler: mi.Sampler | None, ray: mi.Ray3f, medium: mi.Medium | None = None,

@@ -145,8 +145,19 @@ def test13_floor_replays_the_render_ray_counts(
     assert result.rays == {"camera": 60 * 60, **counted.ray_counts}
     assert result.rays["shadow"] > 0 and result.rays["reflection"] > 0 and result.rays["refraction"] > 0
     assert result.lights == 2
-    assert set(result.floor) == set(bench.RAY_KINDS) and all(v > 0 for v in result.floor.values())
+    # the floor traverses every logged ray: as many as the render cast, each kind timed
+    assert result.logged == {"nodes": 3600 + result.rays["reflection"] + result.rays["refraction"],
+                             "shadow": result.rays["shadow"]}
+    assert set(result.floor) == {"camera", "secondary", "shadow"} and all(v > 0 for v in result.floor.values())
+    assert set(result.floor_first_hits) == set(bench.RAY_KINDS)
+    assert all(v > 0 for v in result.floor_first_hits.values())
     assert set(bench.STAGES) <= set(result.stages)
+    text = bench.report([bench.SceneResult(name="scene10_sphere", path="x", inproc=result)], {}, {})
+    header, _, row = text.split("Rays and the traversal floor")[1].split("\n\n")[1].splitlines()
+    names = [c.strip() for c in header.strip("|").split("|")]
+    cells = dict(zip(names, (c.strip() for c in row.strip("|").split("|")), strict=True))
+    assert float(cells["kernel/floor"]) == pytest.approx(result.kernel_execute / result.floor_total, abs=1e-3)
+    assert float(cells["floor (first hits)"]) == pytest.approx(sum(result.floor_first_hits.values()), abs=1e-3)
 
 
 def test14_report_has_the_process_stage_table() -> None:
@@ -172,3 +183,113 @@ def test14_report_has_the_process_stage_table() -> None:
 def test15_negative_verbose_runs_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
     assert run_a5mi(["bench", "--verbose-runs", "-1", "scene10"]) == 2
     assert "a5mi bench: error:" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------------------------------------
+# The kernel's ray-log mode (plugins/kernel/raylog.py), which the floor traverses
+# --------------------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def logged(variant: str, scenes_dir: Path) -> dict[str, object]:
+    """scene10 (two plane-set spheres, a plane, a cube; a point and a directional light) at 16x16 (48x48 camera
+    rays): the counting kernel's colour and counts, then two ray-log launches of the same rays."""
+    import contextlib
+
+    import drjit as dr
+
+    from a5mi.bench.floor import _camera_rays_for, _count_pass
+    from a5mi.options import RenderOptions
+    from a5mi.plugins.kernel.raylog import RayLog
+    from a5mi.session import build_scene, describe_file
+
+    with contextlib.chdir(scenes_dir):
+        desc = describe_file("scene10_sphere.txt")[0]
+        options = RenderOptions(width=16, height=16, bounces=4, shadows=True, jitter=True, count_rays=True)
+        scene = build_scene(desc, options)
+    rw, rh = options.render_size
+    ray = _camera_rays_for(desc, rw, rh)
+    dr.eval(ray)
+    counts = _count_pass(scene, ray, rw * rh)
+    integrator = scene.integrator()
+    plain = integrator.trace(scene, ray, True)
+    dr.eval(plain)
+    out: dict[str, object] = {"counts": counts, "plain": [np.asarray(v) for v in plain], "ray": ray, "logs": []}
+    for _ in range(2):
+        log = RayLog(rw * rh + int(counts["reflection"].sum() + counts["refraction"].sum()),
+                     int(counts["shadow"].sum()))
+        res = integrator.trace(scene, ray, True, ray_log=log)
+        dr.eval(res)
+        out["logs"].append((log, [np.asarray(v) for v in res], *log.read()))  # type: ignore[attr-defined]
+    return out
+
+
+def test16_ray_log_holds_every_ray_the_counts_aov_counts(logged: dict) -> None:
+    from a5mi.plugins.kernel.raylog import NODE_FIELDS, SHADOW_FIELDS
+
+    counts = logged["counts"]
+    width = counts["shadow"].size
+    log, _res, nodes, shadows = logged["logs"][0]
+    assert tuple(nodes) == NODE_FIELDS and tuple(shadows) == SHADOW_FIELDS
+    assert counts["shadow"].sum() > 0 and counts["refraction"].sum() > 0
+    assert log.nodes == width + counts["reflection"].sum() + counts["refraction"].sum() == nodes["o"].shape[1]
+    assert log.shadows == counts["shadow"].sum() == shadows["p"].shape[1]
+    # per lane: node ordinals 0 .. 1 + n_reflection + n_refraction - 1, shadow ordinals 0 .. n_shadow - 1
+    per_lane = np.bincount(nodes["lane"], minlength=width)
+    assert per_lane.tolist() == (1 + counts["reflection"] + counts["refraction"]).astype(int).tolist()
+    assert np.bincount(shadows["lane"], minlength=width).tolist() == counts["shadow"].astype(int).tolist()
+    for fields, per in ((nodes, per_lane), (shadows, counts["shadow"].astype(int))):
+        order = np.lexsort((fields["ordinal"], fields["lane"]))
+        assert fields["ordinal"][order].tolist() == [k for c in per for k in range(c)]  # each once
+    # the camera nodes are the camera rays themselves (tmin 0); secondary and shadow rays start at tmin
+    cam = nodes["ordinal"] == 0
+    ray = logged["ray"]
+    lanes = nodes["lane"][cam]
+    assert np.array_equal(nodes["o"][:, cam], np.asarray(ray.o)[:, lanes])
+    assert np.array_equal(nodes["d"][:, cam], np.asarray(ray.d)[:, lanes])
+    assert (nodes["tmin"][cam] == 0).all() and (nodes["tmin"][~cam] == np.float32(0.001)).all()
+    assert (shadows["tmin"] == np.float32(0.001)).all() and (shadows["dist"] > shadows["tmin"]).all()
+    assert 0 < shadows["far"].sum() < shadows["far"].size  # scene10: a directional and a point light
+
+
+def test17_ray_log_is_deterministic(logged: dict) -> None:
+    """The entries (keyed by lane and ordinal) are the same in every launch; only the packets' order may vary
+    with the threads."""
+    def ordered(fields: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        order = np.lexsort((fields["ordinal"], fields["lane"]))
+        return {k: v[..., order] for k, v in fields.items()}
+
+    (_, _, n1, s1), (_, _, n2, s2) = logged["logs"]
+    for a, b in ((n1, n2), (s1, s2)):
+        a, b = ordered(a), ordered(b)
+        assert a.keys() == b.keys()
+        for k in a:
+            assert a[k].tobytes() == b[k].tobytes(), k
+
+
+def test18_ray_log_mode_renders_the_same_bits(logged: dict) -> None:
+    """The log mode's colour, normal, t, class and counts equal the plain kernel's, bit for bit."""
+    for _log, res, _n, _s in logged["logs"]:
+        for plain, with_log in zip(logged["plain"], res, strict=True):
+            assert plain.tobytes() == with_log.tobytes()
+
+
+def test19_logged_floor_times_each_ray_kind_on_the_stock_scene(logged: dict, scenes_dir: Path) -> None:
+    """The logged rays traverse the stock conversion, where scene10's spheres and plane are shapes."""
+    import contextlib
+
+    import mitsuba as mi
+
+    from a5mi.bench.floor import logged_floor
+    from a5mi.converters.a5_parser import parse_file
+    from a5mi.converters.describe import describe
+    from a5mi.converters.to_mitsuba import to_dict
+    from a5mi.options import RenderOptions
+
+    with contextlib.chdir(scenes_dir):
+        model = parse_file("scene10_sphere.txt")
+        stock = mi.load_dict(to_dict(describe(model, stock=True), RenderOptions(width=16, height=16), stock=True))
+    assert len(stock.shapes()) == 4  # cube, two spheres, the plane's rectangle
+    _log, _res, nodes, shadows = logged["logs"][0]
+    floor = logged_floor(stock, nodes, shadows, repeat=1)
+    assert set(floor) == {"camera", "secondary", "shadow"} and all(v > 0 for v in floor.values())

@@ -16,13 +16,22 @@ at the assignment's test command ``-size 300 300 -shadows -bounces 4 -jitter -fi
   and execution (``dr.kernel_history()`` via the driver), filter, write; ``startup`` = warm process wall
   minus those (interpreter start, imports, variant activation, exit). Ray counts come from ``a5_whitted``'s
   ``counts`` AOVs.
-* **floor**: in this process, the same Mitsuba scene and the render's exact camera rays (glibc jitter,
-  SPEC B.2/B.5) replayed through ``scene.ray_intersect`` (evaluating ``t`` and the shading normal), plus
-  secondary and shadow rays in the render's counts per camera ray, re-cast from that camera ray's first hit
-  (reflection: ``reflect(d, N)``; refraction: straight on, ``d``; shadow: ``ray_test`` towards each light in
-  turn, ``tmax = dist - tmin``) -- a pure traversal pass, timed by ``dr.kernel_history()`` execution time
-  (best of ``repeat``). ``kernel / floor`` = the render's kernel execution time (same process, warm) over
-  the floor.
+* **floor**: in this process, Mitsuba's traversal of exactly the rays the render kernel casts. The kernel
+  runs once more in its ray-log mode (plugins/kernel/raylog.py; buffers sized by the ``counts`` AOV), on the
+  render's exact camera rays (glibc jitter, SPEC B.2/B.5), and writes every node of the SPEC B.3 ray tree it
+  pops (camera, reflection, refraction: ``(o, d, t_min)``) and every shadow ray it casts (``(p, L, tmin,
+  dist, far)``; a light whose term is exactly 0 casts none) in the order its SIMD packets cast them. Those
+  rays are then traversed on the ``stock=True`` conversion of the scene, where spheres are Mitsuba spheres and
+  planes rectangles, so every primitive the kernel intersects is a shape: node rays by ``ray_intersect`` of
+  ``o + t_min d`` along ``d`` (evaluating ``t`` and the shading normal), camera (the nodes of ordinal 0) and
+  secondary as two wavefronts; shadow rays by ``ray_test`` of ``p + tmin L`` along ``L`` up to ``dist - tmin``
+  (unbounded for a directional light, whose planes the kernel tests up to +inf). Each wavefront is timed by
+  ``dr.kernel_history()`` execution time (best of ``repeat``); ``floor`` is their sum and ``kernel / floor``
+  = the render's kernel execution time (same process, warm) over it. ``floor (first hits)`` is the former
+  estimate, kept so earlier runs compare: the camera rays plus, per camera ray, as many secondary and shadow
+  rays as its tree cast, all re-cast from its first hit (reflection ``reflect(d, N)``, refraction straight on,
+  shadow towards each light in turn), on the a5 scene (which lacks the plane-set spheres and planes); its
+  packets hold copies of one ray, so it is optimistic.
 * **stock**: the same scene converted with ``stock=True`` and rendered by Mitsuba's C++ integrators at the
   render resolution (``3W x 3H``), 1 sample per pixel, so the camera-ray count is identical: ``direct``
   with one emitter sample per light (the camera rays + one shadow ray per light per first hit: a lower
@@ -111,6 +120,7 @@ class SceneResult:
                 d[key]["startup"] = getattr(self, key).startup
         if self.inproc is not None:
             d["inproc"]["floor_total"] = self.inproc.floor_total
+            d["inproc"]["floor_first_hits_total"] = self.inproc.floor_first_hits_total
         return d
 
 

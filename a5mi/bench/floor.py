@@ -1,4 +1,13 @@
-"""In-process measurements: stages of one render, the traversal floor of the same rays, stock Mitsuba."""
+"""In-process measurements: stages of one render, the traversal floor of the same rays, stock Mitsuba.
+
+The traversal floor (:func:`logged_floor`) is Mitsuba's traversal of exactly the rays the render kernel casts:
+the kernel runs once in ray-log mode (plugins/kernel/raylog.py), which writes every node ray ``(o, d, t_min)``
+and every shadow ray ``(p, L, tmin, dist, far)`` it casts, in the order its SIMD packets cast them; those rays
+are then traversed as wavefronts on the ``stock=True`` conversion of the scene (spheres as Mitsuba spheres,
+planes as rectangles: every primitive the kernel intersects is a Mitsuba shape there). The former estimate,
+:func:`first_hit_floor` (each camera ray's first-hit secondary and shadow rays, repeated per lane by the
+counts), is kept beside it for comparison with earlier runs.
+"""
 
 from __future__ import annotations
 
@@ -78,8 +87,10 @@ class InProcess:
 
     kernel_execute: float  # s, the a5 render's kernels (warm, best of repeat)
     rays: dict[str, int]
-    floor: dict[str, float]  # s per ray kind
+    floor: dict[str, float]  # s per ray kind of the logged rays: camera, secondary, shadow (logged_floor)
     lights: int
+    floor_first_hits: dict[str, float] = field(default_factory=dict)  # s per ray kind (first_hit_floor)
+    logged: dict[str, int] = field(default_factory=dict)  # rays in the log: nodes, shadow
     stages: dict[str, float] = field(default_factory=dict)  # first render in this process (s)
     recompiles: int = 0  # of the ``renders`` repeated renders of one loaded scene, how many compiled a kernel
     renders: int = 0
@@ -87,6 +98,10 @@ class InProcess:
     @property
     def floor_total(self) -> float:
         return sum(self.floor.values())
+
+    @property
+    def floor_first_hits_total(self) -> float | None:
+        return sum(self.floor_first_hits.values()) if self.floor_first_hits else None
 
 
 def _camera_rays_for(model: Any, rw: int, rh: int) -> Any:
@@ -117,45 +132,64 @@ def _full_ray(o: Any, d: Any, maxt: Any) -> Any:
     return ray
 
 
-def _floor_passes(
-    scene: Any, model: Any, rw: int, rh: int, repeat: int
-) -> tuple[dict[str, int], dict[str, float], int]:
-    """Per-lane ray counts from the counting integrator, then the timed traversal passes (module docstring)."""
+def _count_pass(scene: Any, ray: Any, width: int) -> dict[str, npt.NDArray[np.float32]]:
+    """Per-lane ray counts by kind from the counting integrator's ``counts`` AOV (one launch)."""
+    import mitsuba as mi
+
+    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
+    sampler.seed(0, width)
+    integrator = scene.integrator()
+    _rgb, _valid, aovs = integrator.sample(scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
+    named = dict(zip(integrator.aov_names(), aovs, strict=True))
+    return {name: np.asarray(named[f"n_{name}"]) for name in ("reflection", "refraction", "shadow")}
+
+
+def _cast_timed(scene: Any, o: npt.NDArray[np.float32], d: npt.NDArray[np.float32], maxt: Any, repeat: int,
+                test: bool = False) -> float:
+    """Best kernel time of one wavefront: ``ray_intersect`` (evaluating ``t`` and the shading normal) or, with
+    ``test``, ``ray_test`` of the rays ``(o, d)`` (columns, in order) up to ``maxt`` (None: unbounded)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    if not o.shape[1]:
+        return 0.0
+    ray = _full_ray(mi.Point3f(o), mi.Vector3f(d), None if maxt is None else mi.Float(maxt))
+    dr.eval(ray)
+
+    def cast() -> Any:
+        if test:
+            b = scene.ray_test(ray)
+            dr.eval(b)
+            return b
+        s = scene.ray_intersect(ray)
+        dr.eval(s.t, s.sh_frame.n)
+        return s.t
+
+    return _timed_kernels(cast, repeat)[0]
+
+
+def first_hit_floor(scene: Any, ray: Any, counts: dict[str, npt.NDArray[np.float32]],
+                    repeat: int) -> tuple[dict[str, float], int]:
+    """The former floor estimate on the render's own scene: the camera rays, then per camera ray as many
+    reflection (``reflect(d, N)``), refraction (straight on, ``d``) and shadow rays (``ray_test`` towards each
+    delta light in turn, ``tmax = dist - tmin``) as its tree cast, all re-cast from its first hit. Returns
+    ``(seconds by ray kind, delta lights)``. Optimistic: a packet holds copies of one ray, the rays are not the
+    tree's deeper ones, and plane-set spheres and planes are not shapes of that scene."""
     import drjit as dr
     import mitsuba as mi
 
     from a5mi.plugins.common import reflect
 
-    ray = _camera_rays_for(model, rw, rh)
-    dr.eval(ray)
-    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
-    sampler.seed(0, rw * rh)
-    integrator = scene.integrator()
-    _rgb, _valid, aovs = integrator.sample(scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
-    named = dict(zip(integrator.aov_names(), aovs, strict=True))
-    counts = {name: np.asarray(named[f"n_{name}"]) for name in ("reflection", "refraction", "shadow")}
     si = scene.ray_intersect(ray)
     o, d = np.asarray(ray.o), np.asarray(ray.d)
     t, n = np.asarray(si.t), np.asarray(si.sh_frame.n)
     hit_p = o + np.where(np.isfinite(t), t, 0.0) * d
-
-    def floor_intersect(ro: npt.NDArray[np.float32], rd: npt.NDArray[np.float32]) -> float:
-        r = _full_ray(mi.Point3f(ro), mi.Vector3f(rd), None)
-        dr.eval(r)
-
-        def cast() -> Any:
-            s = scene.ray_intersect(r)
-            dr.eval(s.t, s.sh_frame.n)
-            return s.t
-
-        return _timed_kernels(cast, repeat)[0] if ro.shape[1] else 0.0
-
-    floor = {"camera": floor_intersect(o, d)}
+    floor = {"camera": _cast_timed(scene, o, d, None, repeat)}
     lanes = lane_repeat(counts["reflection"])
     refl = np.asarray(reflect(mi.Vector3f(d[:, lanes]), mi.Vector3f(n[:, lanes])))
-    floor["reflection"] = floor_intersect(hit_p[:, lanes] + TMIN * refl, refl)
+    floor["reflection"] = _cast_timed(scene, hit_p[:, lanes] + TMIN * refl, refl, None, repeat)
     lanes = lane_repeat(counts["refraction"])
-    floor["refraction"] = floor_intersect(hit_p[:, lanes] + TMIN * d[:, lanes], d[:, lanes])
+    floor["refraction"] = _cast_timed(scene, hit_p[:, lanes] + TMIN * d[:, lanes], d[:, lanes], None, repeat)
 
     # shadow rays: from the first hit towards light (rank mod n_lights), tmax = dist - tmin
     emitters = [e for e in scene.emitters() if mi.has_flag(e.flags(), mi.EmitterFlags.Delta)]
@@ -167,8 +201,7 @@ def _floor_passes(
             sel = lanes[which == k]
             if not sel.size:
                 continue
-            sub = mi.Ray3f(mi.Point3f(o[:, sel]), mi.Vector3f(d[:, sel]))
-            s = scene.ray_intersect(sub)
+            s = scene.ray_intersect(mi.Ray3f(mi.Point3f(o[:, sel]), mi.Vector3f(d[:, sel])))
             ds, _ = emitter.sample_direction(s, mi.Point2f(0.5, 0.5))
             p = s.p
             dr.eval(p, ds.d, ds.dist)
@@ -176,23 +209,51 @@ def _floor_passes(
             ld = np.broadcast_to(np.asarray(ds.d).reshape(3, -1), (3, sel.size))
             dist = np.broadcast_to(np.asarray(ds.dist), (sel.size,))
             parts.append((np.asarray(p) + TMIN * ld, ld, dist - TMIN))
+    floor["shadow"] = 0.0
     if parts:
-        so = np.concatenate([q[0] for q in parts], axis=1)
-        sd = np.concatenate([q[1] for q in parts], axis=1)
-        st = np.concatenate([q[2] for q in parts])
-        sray = _full_ray(mi.Point3f(so), mi.Vector3f(sd), mi.Float(st))
-        dr.eval(sray)
+        floor["shadow"] = _cast_timed(scene, np.concatenate([q[0] for q in parts], axis=1),
+                                      np.concatenate([q[1] for q in parts], axis=1),
+                                      np.concatenate([q[2] for q in parts]), repeat, test=True)
+    return floor, len(emitters)
 
-        def cast_shadow() -> Any:
-            b = scene.ray_test(sray)
-            dr.eval(b)
-            return b
 
-        floor["shadow"] = _timed_kernels(cast_shadow, repeat)[0]
-    else:
-        floor["shadow"] = 0.0
-    rays = {"camera": rw * rh} | {k: int(np.rint(v).sum()) for k, v in counts.items()}
-    return rays, floor, len(emitters)
+def ray_log(scene: Any, ray: Any, counts: dict[str, npt.NDArray[np.float32]]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Every ray the ``a5_whitted`` kernel of ``scene`` casts for the camera rays ``ray`` (its ray-log mode,
+    plugins/kernel/raylog.py), with buffers sized by the counting pass's ``counts``: ``(nodes, shadows)``, numpy
+    fields by name in the kernel's packet order. ``RuntimeError`` if the kernel cast more rays than counted."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from a5mi.plugins.kernel.raylog import RayLog
+
+    width = dr.width(ray.d)
+    n_nodes = width + int(np.rint(counts["reflection"]).sum() + np.rint(counts["refraction"]).sum())
+    log = RayLog(n_nodes, int(np.rint(counts["shadow"]).sum()))
+    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
+    sampler.seed(0, width)
+    out = scene.integrator().trace(scene, ray, mi.Bool(True), sampler, ray_log=log)
+    dr.eval(out)
+    if log.nodes > log.max_nodes or log.shadows > log.max_shadows:
+        raise RuntimeError(f"ray log: {log.nodes} node rays and {log.shadows} shadow rays cast, "
+                           f"{log.max_nodes} and {log.max_shadows} counted")
+    return log.read()
+
+
+def logged_floor(stock: Any, nodes: dict[str, Any], shadows: dict[str, Any], repeat: int) -> dict[str, float]:
+    """Traversal time of the logged rays (:func:`ray_log`) on the ``stock=True`` scene ``stock``, in logged
+    order, best of ``repeat``: ``camera`` (nodes of ordinal 0) and ``secondary`` (the other nodes) by
+    ``ray_intersect`` of ``o + t_min d`` along ``d`` (``t`` and the shading normal evaluated, as the kernel's
+    intersect), ``shadow`` by ``ray_test`` of ``p + tmin L`` along ``L`` up to ``dist - tmin`` (``far``, a
+    directional light: unbounded, as the kernel tests planes up to +inf)."""
+    start = nodes["o"] + nodes["tmin"] * nodes["d"]
+    cam = nodes["ordinal"] == 0
+    floor = {"camera": _cast_timed(stock, start[:, cam], nodes["d"][:, cam], None, repeat),
+             "secondary": _cast_timed(stock, start[:, ~cam], nodes["d"][:, ~cam], None, repeat)}
+    big = np.float32(np.finfo(np.float32).max)
+    maxt = np.where(shadows["far"], big, shadows["dist"] - shadows["tmin"]).astype(np.float32)
+    floor["shadow"] = _cast_timed(stock, shadows["p"] + shadows["tmin"] * shadows["d"], shadows["d"], maxt, repeat,
+                                  test=True)
+    return floor
 
 
 def measure_in_process(scene_file: Path, options: Any, repeat: int = 3) -> InProcess:
@@ -230,13 +291,29 @@ def measure_in_process(scene_file: Path, options: Any, repeat: int = 3) -> InPro
     del scene, res
     _free()
 
-    # 2. per-lane ray counts and first hits with the counting integrator, then the floor passes
+    # 2. per-lane ray counts (the counting integrator), the former first-hit estimate, the ray log
+    import drjit as dr
+    import mitsuba as mi
+
+    from a5mi.converters.to_mitsuba import to_dict
+
     scene = build_scene(desc, replace(options, count_rays=True))
-    rays, floor, n_lights = _floor_passes(scene, desc, rw, rh, repeat)
+    ray = _camera_rays_for(desc, rw, rh)
+    dr.eval(ray)
+    counts = _count_pass(scene, ray, rw * rh)
+    first_hits, n_lights = first_hit_floor(scene, ray, counts, repeat)
+    nodes, shadows = ray_log(scene, ray, counts)
     del scene
     _free()
+    # 3. the logged rays on the stock conversion, where every primitive the kernel intersects is a shape
+    stock = mi.load_dict(to_dict(describe(model, stock=True), options, stock=True))
+    floor = logged_floor(stock, nodes, shadows, repeat)
+    del stock
+    _free()
+    rays = {"camera": rw * rh} | {k: int(np.rint(v).sum()) for k, v in counts.items()}
     return InProcess(kernel_execute=best, rays=rays, floor=floor, lights=n_lights, stages=stages,
-                     recompiles=int(recompiles), renders=repeat)
+                     recompiles=int(recompiles), renders=repeat, floor_first_hits=first_hits,
+                     logged={"nodes": int(nodes["ordinal"].size), "shadow": int(shadows["ordinal"].size)})
 
 
 def measure_stock(model: Any, options: Any, repeat: int = 3) -> dict[str, float]:

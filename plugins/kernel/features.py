@@ -47,6 +47,8 @@ class Features(NamedTuple):
     environment    bool     the scene has an environment emitter (else misses are black)
     triangle_rule  bool     some mesh carries the binary's triangle data (plugins/triangle_rule.py)
     record         bool     record mode: the ray tree's values are scattered into a recorder
+    ray_log        bool     ray-log mode: every node ray and shadow ray cast is written to a
+                            :class:`~.raylog.RayLog` (``a5mi bench``'s traversal floor)
     indirect       int      E.15: cosine-weighted rays gathered at each diffuse hit (0: none)
     stale_uv       bool     ``-quirks binary``: some plane-set entry has a textured BSDF (``plane_<id>_bsdf_uv``)
                             and a rule mesh exists: the sample solution's stale uv (docs/FIDELITY.md)
@@ -73,6 +75,7 @@ class Features(NamedTuple):
     stack_size: int = 8
     indirect: int = 0
     stale_uv: bool = False
+    ray_log: bool = False
 
 
 class SceneData(NamedTuple):
@@ -113,10 +116,11 @@ def stack_size(max_depth: int, glossy_samples: int = 1) -> int:
     return max(8, max_depth + 2 * glossy_samples - 1)
 
 
-def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, record: bool = False) -> Features:
+def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, record: bool = False,
+                   ray_log: bool = False) -> Features:
     """The :class:`Features` of a kernel call: the integrator's flags, what ``scene`` holds (area lights, an
     environment) and what ``data`` carries (a triangle-rule table, a medium); ``indirect`` (E.15) is read where
-    the integrator has it."""
+    the integrator has it; ``record`` and ``ray_log``: the call hands a recorder / a ray log to the kernel."""
     indirect = int(getattr(source, "indirect", 0))
     size = stack_size(source.max_depth, source.glossy_samples)
     if indirect > 0:
@@ -130,5 +134,5 @@ def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, reco
         milled=uses_milled(scene, [p[3] for p in getattr(source, "planes", ())]),
         environment=scene.environment() is not None, triangle_rule=data.rules is not None, record=record,
         stack_size=size, indirect=indirect,
-        stale_uv=data.planes.bsdf_uv is not None and data.rules is not None,
+        stale_uv=data.planes.bsdf_uv is not None and data.rules is not None, ray_log=ray_log,
     )

@@ -25,6 +25,7 @@ from .intersect import visible
 if TYPE_CHECKING:
     from ..whitted_record import TreeRecorder
     from .features import Features, SceneData
+    from .raylog import RayLog
 
 
 class Lights(NamedTuple):
@@ -131,11 +132,12 @@ def direct(scene: mi.Scene, data: SceneData, f: Features, si: mi.SurfaceInteract
            hit: mi.Bool, n: mi.Vector3f, kd: mi.Color3f, specular: mi.Color3f, shininess: mi.Float,
            r_view: mi.Vector3f, local: mi.Color3f, rng: Stochastic, node: mi.UInt32, counter: mi.UInt32,
            n_shadow: mi.Float, rec: TreeRecorder | None = None,
-           at: mi.UInt32 | None = None, bsdf: mi.BSDFPtr | None = None) -> tuple[mi.Color3f, mi.UInt32, mi.Float]:
+           at: mi.UInt32 | None = None, bsdf: mi.BSDFPtr | None = None,
+           log: RayLog | None = None) -> tuple[mi.Color3f, mi.UInt32, mi.Float]:
     """The light loop of SPEC B.3 at a hit (module docstring): ``local + Σ_lights (1/S) Σ_samples S·term``, with
     ``counter`` advanced by two draws per light sample and ``n_shadow`` by the shadow rays traced; returns
     ``(local, counter, n_shadow)``. Arguments as :func:`sample`; ``node``: the ray-tree node (E.5 dimensions);
-    ``rec`` / ``at``: record mode's recorder and node number."""
+    ``rec`` / ``at``: record mode's recorder and node number; ``log``: ray-log mode's :class:`~.raylog.RayLog`."""
     k = dr.zeros(mi.UInt32, dr.width(p))
     while hit & (k < data.lights.count):
         emitter = dr.gather(mi.EmitterPtr, data.lights.emitters, k, hit)
@@ -150,6 +152,9 @@ def direct(scene: mi.Scene, data: SceneData, f: Features, si: mi.SurfaceInteract
                 u = sample_point(rng, node, k, j, n_samples, counter)
             counter += 2
             ls = sample(scene, data, f, emitter, is_area, si, p, hit, n, kd, specular, shininess, r_view, u, bsdf)
+            if dr.hint(f.ray_log and f.shadows, mode="scalar"):   # ray-log mode: the shadow ray as cast
+                log.shadow(ls.tested, p, ls.d_light, data.tmin, dr.select(is_area, ls.dist * (1.0 - 1e-4), ls.dist),
+                           ls.far, n_shadow)
             if dr.hint(f.shadows, mode="scalar"):
                 n_shadow += dr.select(ls.tested, 1.0, 0.0)
             term = ls.term

@@ -25,6 +25,7 @@ from . import gloss, lights, pbr_gather
 from . import stack as ray_stack
 from .features import Features, SceneData
 from .intersect import intersect, mirror_normal
+from .raylog import RayLog
 from .surfaces import background, surface_at
 
 #: Values of the ``class`` AOV: the camera ray misses; the SPEC B.3 ray tree never hits a material with
@@ -37,14 +38,16 @@ TreeResult = tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Flo
 
 @syntax
 def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: mi.Bool, data: SceneData,
-               rng: Stochastic, f: Features, rec: TreeRecorder | None = None) -> TreeResult:
+               rng: Stochastic, f: Features, rec: TreeRecorder | None = None,
+               log: RayLog | None = None) -> TreeResult:
     """SPEC B.3 for camera rays (unit ``ray_d``, tmin 0, index 1.0, budget ``data.max_depth``).
 
     Returns ``(colour, first-hit normal, first-hit t, class, n_reflection, n_refraction, n_shadow)``, with
     ``class = GLASS`` if some node of the ray tree hits a material with ``refraction_index > 0``, else
     ``OPAQUE`` if the camera ray hits, else ``MISS`` (the tree is the one the colour walks). Only ``f`` is
     baked into the kernel; ``data`` and ``rng`` are opaque. ``rec`` (with ``f.record``): the
-    :class:`~..whitted_record.TreeRecorder` that each node's values are scattered into.
+    :class:`~..whitted_record.TreeRecorder` that each node's values are scattered into. ``log`` (with
+    ``f.ray_log``): the :class:`~.raylog.RayLog` that each node ray and shadow ray is written to.
     """
     width = dr.width(ray_d)
     stack = ray_stack.create(f.stack_size, width, ray_o, ray_d, data.max_depth, weighted=f.dispersion)
@@ -75,6 +78,8 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
         at = None
         if dr.hint(f.record, mode="scalar"):
             at = rec.index(n_refl, n_refr, top)
+        if dr.hint(f.ray_log, mode="scalar"):        # ray-log mode: the node's ray, as intersect casts it
+            log.node(o, d, t_min, mi.UInt32(n_refl + n_refr) - top)
 
         # ---- nearest hit (meshes by the binary's rules, spheres, exact planes); background on a miss
         si, t_hit, p, n, hit, on_plane, plane_idx, row, bsdf = intersect(scene, data.planes, data.rules, o, d,
@@ -94,7 +99,7 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
         if dr.hint(f.subsurface != "none", mode="scalar"):   # E.18: light under the surface replaces Lambert
             kd, local, counter = subsurface.shade(scene, data, f, bsdf, si, p, d, n, hit, kd, local, rng, counter)
         local, counter, n_shadow = lights.direct(scene, data, f, si, p, hit, n, kd, specular, shininess, r_view,
-                                                 local, rng, node, counter, n_shadow, rec, at, bsdf)
+                                                 local, rng, node, counter, n_shadow, rec, at, bsdf, log)
         if dr.hint(f.area_lights, mode="scalar"):   # E.2: an area light seen directly
             on_shape = hit & ~on_plane
             if dr.hint(f.indirect > 0, mode="scalar"):   # E.15: not by a gathered ray (the light loop has it)
