@@ -6,7 +6,9 @@ times while ``perf record -e cpu-clock`` samples it. ``perf report --sort dso,sy
 Embree's ``intersect`` (nearest hit: camera, mirror and refracted rays) and ``occluded`` (shadow rays), the JIT
 code (the kernel's own shading, plane and sphere tests, the triangle rule, the stack: Dr.Jit's LLVM output, which
 perf shows as ``[JIT]``), and the rest (Dr.Jit, NumPy, Python: the jitter draw, the filter, copies). ``kernel``
-is the best ``execute`` of the renders (Dr.Jit's kernel history).
+is the best ``execute`` of the renders (Dr.Jit's kernel history). A second table gives the render kernel's IR
+operation count (a 16 x 16 render of the same command: the same kernel), and without ``-shadows``, refraction
+or reflection: what each block adds to every loop iteration, which every lane of a packet executes (masked).
 
 Usage: ``.venv/bin/python benchmarks/kernel_profile.py [SCENE ...] [--renders N] [--threads N]`` (needs the
 ``perf`` tool; scenes default to the four test scenes, from ``$A5_DATA/scenes``). Prints a Markdown table.
@@ -47,6 +49,40 @@ while Path(sys.argv[3]).read_text() != "go":
 best = min(driver.render_scene(scene, desc.camera, opts).timings["execute"] for _ in range(int(sys.argv[5])))
 print(f"KERNEL {best:.4f}", flush=True)
 """
+
+
+OPS = r"""
+import os, sys
+from pathlib import Path
+os.chdir(sys.argv[1])
+from a5mi import variant
+variant.activate()
+import drjit as dr
+import a5mi.render_pass as rp
+from a5mi import driver
+from a5mi.converters.a5_parser import parse_file
+from a5mi.converters.describe import describe
+from a5mi.options import RenderOptions
+from a5mi.session import build_scene
+seen = []
+rp.account_kernels = lambda kernels, timings: seen.extend(dr.kernel_history())
+desc = describe(parse_file(Path(sys.argv[2])))
+for label, extra in (("full", {}), ("no -shadows", {"shadows": False}), ("no refraction", {"refraction": False}),
+                     ("no reflection", {"reflection": False})):
+    opts = RenderOptions(**{"width": 16, "height": 16, "bounces": 4, "shadows": True, "jitter": True,
+                            "filter": True, **extra})
+    seen.clear()
+    driver.render_scene(build_scene(desc, opts), desc.camera, opts)
+    print(label, max(e.get("operation_count", 0) for e in seen), flush=True)
+"""
+
+
+def operation_counts(scene_dir: Path, scene: str) -> dict[str, int]:
+    """The render kernel's IR operation count (Dr.Jit's kernel history; vcall bodies are separate functions)
+    for the command and with one block left out: -shadows, refraction, reflection."""
+    out = subprocess.run([sys.executable, "-c", OPS, str(scene_dir), scene], capture_output=True, text=True,
+                         check=True).stdout
+    return {line.rsplit(" ", 1)[0]: int(line.rsplit(" ", 1)[1]) for line in out.splitlines() if line.strip()}
 
 
 def classify(report: str) -> dict[str, float]:
@@ -109,6 +145,15 @@ def main() -> int:
         print(f"| {Path(scene).stem} | {kernel:.3f} | {s['intersect']:.1f}% | {s['occluded']:.1f}% | "
               f"{s['embree other']:.1f}% | {s['jit']:.1f}% | {s['other']:.1f}% |", flush=True)
     print(f"load average after: {os.getloadavg()[0]:.2f}")
+    print()
+    print("Render kernel IR operations (the command; and without one block)")
+    print()
+    print("| scene | ops | without -shadows | without refraction | without reflection |")
+    print("| --- | ---: | ---: | ---: | ---: |")
+    for scene in args.scenes:
+        o = operation_counts(scene_dir, scene)
+        print(f"| {Path(scene).stem} | {o['full']} | {o['no -shadows']} | {o['no refraction']} | "
+              f"{o['no reflection']} |", flush=True)
     return 0
 
 
