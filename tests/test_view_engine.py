@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from view_scenes import a5_png, time_limit, write_scene
+from view_scenes import a5_png, scene_text, time_limit, write_scene
 
 from a5mi.options import RenderOptions
 
@@ -161,6 +161,84 @@ def test_a_reload_decodes_only_the_images_that_changed(tmp_path: Path, monkeypat
     engine.load()
     up = next(f for f in engine.desc.background.faces if f.path.name == "up.png")
     assert reads == ["up.png"] and int(up.pixels[0, 0, 0]) == int(np.float32(0.9) * np.float32(255))
+
+
+#: a mesh with a quad (its first triangle kept, with a warning at the OBJ line) and a second triangle
+QUAD_OBJ = "v -1.5 -1 -2\nv 0 -1 -2.5\nv -0.8 0.6 -2.2\nv -0.7 -0.2 -2.3\nf 1 2 3 4\nf 1 4 3\n"
+
+
+def test_a_reload_reads_a_mesh_again_only_when_its_file_changed(tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001
+    """OBJ meshes and their octree reach masks are kept across descriptions (``describe(meshes=...)``) while the
+    file's identity stays: a second description reads no OBJ and computes no masks, and gives the same mesh and
+    warnings as a fresh one; an edited OBJ is read again; a file written just before its read is not kept."""
+    import os
+    from types import SimpleNamespace
+
+    from a5mi.converters import describe as describe_module
+    from a5mi.converters import files
+    from a5mi.converters.a5_parser import parse_file
+    from a5mi.converters.describe import describe
+    from a5mi.view.engine import ViewEngine
+
+    text = scene_text().replace("numObjects 3", "numObjects 4")
+    end = text.rindex("}")
+    scene = tmp_path / "s.txt"
+    body = "    MaterialIndex 2\n    TriangleMesh {\n        obj_file m.obj\n    }\n"
+    scene.write_text(text[:end] + body + text[end:])
+    mesh = tmp_path / "m.obj"
+
+    def write_obj(body: str, age_s: float) -> None:
+        mesh.write_text(body)
+        then = time.time_ns() - int(age_s * 1e9)
+        os.utime(mesh, ns=(then, then))
+
+    write_obj(QUAD_OBJ, 10.0)
+    reads: list[str] = []
+    masks: list[int] = []
+    real_load, real_reach = files.objfile.load_obj, describe_module.octree.reach_masks
+    monkeypatch.setattr(files.objfile, "load_obj",
+                        lambda p, loc=None: (reads.append(Path(p).name), real_load(p, loc))[1])
+    monkeypatch.setattr(describe_module.octree, "reach_masks",
+                        lambda v, f, **kw: (masks.append(len(f)), real_reach(v, f, **kw))[1])
+
+    def positions(desc) -> np.ndarray:  # noqa: ANN001
+        (shape,) = [s for s in desc.shapes if getattr(s, "obj_file", None)]
+        return shape.mesh.positions
+
+    kept: dict = {}
+    first = describe(parse_file(str(scene)), meshes=kept)
+    assert reads == ["m.obj"] and masks == [2] and list(kept) == [mesh.resolve()]
+    assert any("m.obj:5:" in str(loc) for loc, _ in first.warnings)  # the quad's warning
+    scene.write_text(scene.read_text().replace("0.2 0.1 0.6", "0.3 0.1 0.6"))
+    again = describe(parse_file(str(scene)), meshes=kept)
+    assert reads == ["m.obj"] and masks == [2]  # nothing read or computed again
+    fresh = describe(parse_file(str(scene)))
+    assert [str(w) for w in again.warnings] == [str(w) for w in fresh.warnings] == [str(w) for w in first.warnings]
+    assert np.array_equal(positions(again), positions(fresh))
+    (sa,), (sf,) = ([s for s in d.shapes if getattr(s, "obj_file", None)] for d in (again, fresh))
+    assert np.array_equal(sa.mesh.octree, sf.mesh.octree) and np.array_equal(sa.mesh.faces, sf.mesh.faces)
+    reads.clear()
+    masks.clear()
+    write_obj(QUAD_OBJ.replace("v -0.7 -0.2 -2.3", "v -0.5 -0.1 -2.4"), 5.0)  # edited: read again
+    edited = describe(parse_file(str(scene)), meshes=kept)
+    assert reads == ["m.obj"] and masks == [2]
+    assert np.array_equal(positions(edited), positions(describe(parse_file(str(scene)))))
+    assert not np.array_equal(positions(edited), positions(fresh))
+    reads.clear()
+    write_obj(QUAD_OBJ, 0.0)  # just written: read, not kept
+    describe(parse_file(str(scene)), meshes=kept)
+    describe(parse_file(str(scene)), meshes=kept)
+    assert reads == ["m.obj", "m.obj"] and kept == {}
+    # the view's loads pass their own cache; a scene that no longer names the mesh lets it go
+    write_obj(QUAD_OBJ, 10.0)
+    reads.clear()
+    engine = ViewEngine(str(scene), session=SimpleNamespace(forget=lambda desc: None))
+    engine.load()
+    engine.load()
+    assert reads == ["m.obj"] and list(engine._meshes) == [mesh.resolve()]
+    write_scene(scene)
+    engine.load()
+    assert engine._meshes == {}
 
 
 def test_binary_reference_runs_sandboxed_and_trace_diff_names_a_term(tmp_path: Path, session) -> None:  # noqa: ANN001

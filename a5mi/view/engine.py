@@ -1,7 +1,8 @@
 """What the live page shows, computed on the one thread that owns Mitsuba (docs/VIEW.md).
 
 :class:`ViewEngine` holds a warm :class:`a5mi.session.RenderSession` and the scene file. :meth:`~ViewEngine.load`
-parses and describes the scene (SPEC A; every mesh, texture and cube-map face read once) and lists the files it
+parses and describes the scene (SPEC A; every mesh, texture and cube-map face read once, and read again on a
+later load only when its file changed) and lists the files it
 read for :mod:`a5mi.view.watcher`; :meth:`~ViewEngine.render` renders it with a :class:`~a5mi.options.RenderOptions`
 (SPEC B.1-B.5) and returns a :class:`Frame`:
 
@@ -155,6 +156,8 @@ class ViewEngine:
         #: images decoded by earlier loads (resolved path -> converters.files.Image) and their files' stamps
         self._decoded: dict[Path, Any] = {}
         self._image_stamps: dict[Path, Any] = {}
+        #: OBJ meshes read by earlier loads (converters.files.Meshes: kept while the file's identity stays)
+        self._meshes: dict[Path, Any] = {}
         self._binary_cache: dict[tuple[int, tuple[str, ...]], np.ndarray] = {}
         self._scratch = tempfile.mkdtemp(prefix="a5mi-view-")
 
@@ -181,9 +184,12 @@ class ViewEngine:
             raise UserError(f"cannot read '{self.scene}': {exc.strerror or exc}") from None
         bump = self.bump if bump is None else bump
         try:
-            desc = describe(model, bump=bump, decoded=self._decoded)
+            desc = describe(model, bump=bump, decoded=self._decoded, meshes=self._meshes)
         finally:
             self._stamp_images(started)
+        used = {getattr(s, "obj_file", None) for s in desc.shapes}
+        for path in [p for p in self._meshes if p not in used]:  # a mesh the scene no longer names is let go
+            del self._meshes[path]
         self.inputs = list(dict.fromkeys([*self.inputs, *scene_inputs(desc, model)]))
         if self.desc is not None:
             self.session.forget(self.desc)
