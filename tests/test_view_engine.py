@@ -120,6 +120,35 @@ def test_scene_error_keeps_the_last_good_image_and_a_save_re_renders(tmp_path: P
         assert done.is_set()
 
 
+def test_page_png_is_write_images_file_without_its_checks(tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001
+    """``png_bytes`` gives the bytes ``write_image`` (``a5``'s writer) puts in a PNG file, for float images (out of
+    range, NaN, 1, 3 and 4 channels, opaque: write_image refuses what PNG's alpha would change) and ``uint8``
+    levels, without fsync or decoding anything back."""
+    import os
+
+    from a5mi import imageio
+    from a5mi.view.png import png_bytes
+
+    rng = np.random.default_rng(7)
+    floats = rng.uniform(-0.2, 1.3, (37, 53, 3)).astype(np.float32)
+    floats[3, 4] = np.nan
+    images = [floats, floats[..., :1], floats[..., 0], np.concatenate([floats, np.ones_like(floats[..., :1])], axis=2),
+              rng.integers(0, 256, (20, 30, 3), dtype=np.uint8)]
+    want = []
+    for k, img in enumerate(images):
+        imageio.write_image(tmp_path / f"{k}.png", img)
+        want.append((tmp_path / f"{k}.png").read_bytes())
+
+    def refused(*args, **kw) -> None:  # noqa: ANN002, ANN003
+        raise AssertionError("the page's PNG is not verified on disk")
+
+    monkeypatch.setattr(os, "fsync", refused)
+    monkeypatch.setattr(imageio, "_decode", refused)
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    assert [png_bytes(img, scratch) for img in images] == want
+
+
 def test_binary_argv_is_the_spec_flags() -> None:
     from a5mi.view.engine import binary_argv
 

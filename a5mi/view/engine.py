@@ -6,8 +6,9 @@ later load only when its file changed) and lists the files it
 read for :mod:`a5mi.view.watcher`; :meth:`~ViewEngine.render` renders it with a :class:`~a5mi.options.RenderOptions`
 (SPEC B.1-B.5) and returns a :class:`Frame`:
 
-* ``render_png``: the PNG file ``a5 -output X.png`` writes for the same flags (:func:`a5mi.imageio.write_image`
-  of the saved image: SPEC B.1 quantisation ``clamp(int(255 c), 0, 255)``, float32 product truncated), byte for byte;
+* ``render_png``: the PNG file ``a5 -output X.png`` writes for the same flags (:func:`a5mi.view.png.png_bytes`:
+  the encoder of :func:`a5mi.imageio.write_image` on the saved image, SPEC B.1 quantisation
+  ``clamp(int(255 c), 0, 255)``, float32 product truncated, without writing a checked file), byte for byte;
 * the reference: ``--reference IMG`` (read once), or ``--binary PATH``'s render of the same scene with the same
   SPEC B.1 flags, run sandboxed as ``a5mi difftest`` runs it (:func:`a5mi.difftest.runner.run_binary`);
 * ``compare``'s metrics of the pair (:func:`a5mi.compare.compare_arrays`: PSNR ``10 log10(255² / MSE)``, mean
@@ -36,6 +37,8 @@ import numpy as np
 
 from a5mi.errors import UserError
 from a5mi.options import RenderOptions
+
+from .png import png_bytes
 
 #: Largest render buffer (samples) rendered without per-tile progress: each progress step re-traces the
 #: integrator (about 50 ms), so small renders report their stages only.
@@ -83,17 +86,6 @@ def render_stages(timings: dict[str, float]) -> dict[str, float]:
     out = {k: timings.get(k, 0.0) for k in ("build", "compile", "execute", "filter")}
     out["trace"] = max(0.0, timings.get("render", 0.0) - out["compile"] - out["execute"])
     return out
-
-
-def png_bytes(img: np.ndarray, folder: str) -> bytes:
-    """The bytes of ``img`` written as a PNG file by :func:`a5mi.imageio.write_image` (what ``a5`` writes)."""
-    from a5mi.imageio import write_image
-
-    path = os.path.join(folder, "frame.png")
-    write_image(path, img)
-    data = Path(path).read_bytes()
-    os.unlink(path)
-    return data
 
 
 def scene_inputs(desc: Any, model: Any) -> list[Path]:
