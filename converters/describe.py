@@ -235,8 +235,9 @@ def describe(scene: Scene, *, stock: bool = False, normals: NormalMode = "auto",
     floating-point warnings are silenced here: such overflows are checked and reported as errors instead.
     ``decoded``: images already decoded by the caller, by resolved path (a caller that re-describes an edited
     scene, ``a5mi view``, keeps the decoded images whose files did not change); new decodes are added to it.
-    ``meshes``: the same for OBJ meshes and their octree reach masks (:func:`.files.load_mesh`: kept while the
-    file's identity stays; the masks' warnings are given again at this description's ``obj_file``)."""
+    ``meshes``: the same for OBJ meshes, their octree reach masks and world-space placements
+    (:func:`.files.load_mesh`: kept while the file's identity stays; the masks' warnings are given again at this
+    description's ``obj_file``)."""
     with np.errstate(all="ignore"):
         return _describe(scene, stock=stock, normals=normals, bump=bump, decoded=decoded, kept=meshes)
 
@@ -257,6 +258,26 @@ def mesh_reach(mesh: ObjMesh, entry: files.KeptMesh | None, warnings: list[Scene
     if loc is not None:
         warnings.extend((loc, msg) for msg in notes)
     return masks
+
+
+#: World-space placements kept per mesh (:func:`placed_mesh`); more are dropped all at once.
+MAX_PLACED = 8
+
+
+def placed_mesh(obj: ObjMesh, entry: files.KeptMesh | None, m: np.ndarray, normals: NormalMode,
+                reach: np.ndarray | None, transformed: bool) -> MeshData:
+    """:func:`.geometry.mesh_from_obj` of ``obj`` placed with ``m``, taken from ``entry`` when it kept this
+    placement (the same ``m`` bit for bit, normal rule, reach masks or none, and ``transformed``), else made and
+    kept there (a pure function of those: its arrays are read-only, so one object serves every description)."""
+    if entry is None or entry.mesh is not obj:
+        return mesh_from_obj(obj, m, normals, reach, transformed)
+    key = (np.asarray(m, dtype=np.float64).tobytes(), normals, reach is None, transformed)
+    data = entry.placed.get(key)
+    if data is None:
+        if len(entry.placed) >= MAX_PLACED:
+            entry.placed.clear()
+        data = entry.placed[key] = mesh_from_obj(obj, m, normals, reach, transformed)
+    return data
 
 
 def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = False,
@@ -351,7 +372,8 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
     for p in placed:
         prim, m = p.primitive, p.to_world
         if isinstance(prim, TriangleMesh):
-            data = mesh_from_obj(meshes[prim.obj_file], m, normals, reach[prim.obj_file], p.transformed)
+            data = placed_mesh(meshes[prim.obj_file], (kept or {}).get(obj_paths[prim.obj_file]), m, normals,
+                               reach[prim.obj_file], p.transformed)
             use_material(prim.material, data.has_uv, prim)
             check_float32(prim, data.positions, 0.0 if data.normals is None else data.normals)
             shapes.append(MeshShape(data, prim.material, prim.loc, obj_paths[prim.obj_file]))

@@ -15,8 +15,9 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -81,11 +82,14 @@ SETTLE_NS = 100_000_000
 @dataclass(eq=False)
 class KeptMesh:
     """An OBJ mesh read by an earlier description: the file's :data:`Identity` when it was read, the parsed mesh
-    (its arrays read-only) and, once computed, its :func:`.octree.reach_masks` and their warning messages."""
+    (its arrays read-only), once computed its :func:`.octree.reach_masks` and their warning messages, and the
+    world-space :class:`~.geometry.MeshData` of its recent placements (read-only arrays; keyed by the
+    description, :func:`.describe.placed_mesh`)."""
 
     identity: Identity
     mesh: objfile.ObjMesh
     reach: tuple[np.ndarray, tuple[str, ...]] | None = None
+    placed: dict[tuple[Any, ...], Any] = field(default_factory=dict)
 
 
 #: OBJ meshes of earlier descriptions by resolved absolute path (``a5mi view`` keeps them across saves).

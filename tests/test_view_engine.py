@@ -245,7 +245,22 @@ def test_a_reload_reads_a_mesh_again_only_when_its_file_changed(tmp_path: Path, 
     assert [str(w) for w in again.warnings] == [str(w) for w in fresh.warnings] == [str(w) for w in first.warnings]
     assert np.array_equal(positions(again), positions(fresh))
     (sa,), (sf,) = ([s for s in d.shapes if getattr(s, "obj_file", None)] for d in (again, fresh))
-    assert np.array_equal(sa.mesh.octree, sf.mesh.octree) and np.array_equal(sa.mesh.faces, sf.mesh.faces)
+    (s1,) = [s for s in first.shapes if getattr(s, "obj_file", None)]
+    assert sa.mesh is s1.mesh  # the same placement: its world-space data kept too
+    for field in ("positions", "faces", "normals", "texcoords", "octree", "triangles"):
+        a, b = getattr(sa.mesh, field), getattr(sf.mesh, field)
+        assert (a is None and b is None) or np.array_equal(a, b), field
+    text = scene.read_text()
+    scene.write_text(text.replace("    TriangleMesh {\n        obj_file m.obj\n    }\n",
+                                  "    Transform {\n        Translate 0 0.1 0\n        TriangleMesh {\n"
+                                  "            obj_file m.obj\n        }\n    }\n"))
+    reads.clear()
+    masks.clear()
+    moved = describe(parse_file(str(scene)), meshes=kept)
+    assert reads == [] and masks == []  # placed anew, not read again
+    assert np.array_equal(positions(moved), positions(describe(parse_file(str(scene)))))
+    assert np.allclose(positions(moved), positions(fresh) + [0, 0.1, 0])
+    scene.write_text(text)
     reads.clear()
     masks.clear()
     write_obj(QUAD_OBJ.replace("v -0.7 -0.2 -2.3", "v -0.5 -0.1 -2.4"), 5.0)  # edited: read again
