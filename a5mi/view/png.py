@@ -5,8 +5,8 @@ beside it, fsyncs it, decodes it again and compares the pixels, then renames it 
 only the bytes, so :func:`png_bytes` runs the same encoder on the same pixels with the same settings (OpenImageIO's
 PNG writer, 8-bit levels ``clamp(int(255 c), 0, 255)`` of SPEC B.1 by :func:`a5mi.imageio.quantize` for a float
 image, a ``uint8`` image as it is, zlib level :data:`a5mi.imageio.PNG_COMPRESSION`) into one scratch file of the
-view's own folder and reads it back as bytes: no fsync, no decode, no rename. That the bytes equal ``a5``'s file
-is tested (tests/test_view_engine.py).
+view's own folder, reads it back as bytes and removes it: no fsync, no decode, no rename. That the bytes equal
+``a5``'s file is tested (tests/test_view_engine.py).
 """
 
 from __future__ import annotations
@@ -49,7 +49,9 @@ def png_bytes(img: np.ndarray, folder: str | os.PathLike[str]) -> bytes:
         ok = out.close() and ok
     if not ok:
         raise ImageWriteError(f"the page's PNG: {err or out.geterror() or (printed or ['unknown error'])[0]}")
-    return path.read_bytes()
+    data = path.read_bytes()
+    path.unlink()  # (a file truncated and written again would be flushed early by ext4's auto_da_alloc)
+    return data
 
 
 __all__ = ["SCRATCH_NAME", "png_bytes"]
