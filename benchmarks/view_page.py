@@ -2,7 +2,7 @@
 per stage, and the README's screenshot.
 
     .venv/bin/python benchmarks/view_page.py [--saves N] [--baseline A5MI] [--rounds R] [--a5] [--shots DIR]
-                                             [SCENE ...]
+                                             [--modes plain,jitter-filter] [--this-args ARGS] [SCENE ...]
 
 For each scene (default: the handout's four test scenes) a copy of the scene file is served (the meshes and the
 cube map linked from the course folder) by the real ``a5mi view`` command at 300 x 300, once with
@@ -23,6 +23,7 @@ Times, from just before the write (``t0``):
   its ``load``: server-sent event, fetch, PNG decode). Kernel
   launches compiled (not found in Dr.Jit's cache) are summed over the saves.
 
+``--this-args ARGS``: more ``a5mi view`` arguments for this checkout's server (``--no-preview``).
 ``--baseline A5MI`` runs another ``a5mi`` executable (an older checkout's) on its own copy of the scene at the same
 time, the saves alternating between the two pages (``ABBA``...), so both are measured under the same load (its
 stages are those it reports). ``--a5`` adds the
@@ -35,6 +36,7 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import shlex
 import shutil
 import statistics
 import subprocess
@@ -55,8 +57,9 @@ RECORD_LOADS = """() => { window.__loads = []; const img = document.getElementBy
     kind: img.dataset.kind || 'final', t: Number(img.dataset.loadedAt)})); }"""
 
 
-def start(a5mi: Path, scene: Path, flags: list[str], reference: Path | None) -> tuple[subprocess.Popen[str], str]:
-    argv = [str(a5mi), "view", str(scene), "-size", "300", "300", *flags]
+def start(a5mi: Path, scene: Path, flags: list[str], reference: Path | None,
+          extra: list[str] | None = None) -> tuple[subprocess.Popen[str], str]:
+    argv = [str(a5mi), "view", str(scene), "-size", "300", "300", *flags, *(extra or [])]
     if reference is not None:
         argv += ["--reference", str(reference)]
     proc = subprocess.Popen(argv, cwd=scene.parent, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
@@ -170,6 +173,7 @@ def main() -> None:
     ap.add_argument("--modes", default=",".join(MODES))
     ap.add_argument("--a5", action="store_true", help="also time one a5 process per row")
     ap.add_argument("--shots", type=Path)
+    ap.add_argument("--this-args", default="", help="more a5mi view arguments for this code (e.g. --no-preview)")
     args = ap.parse_args()
     from playwright.sync_api import sync_playwright
 
@@ -196,7 +200,8 @@ def main() -> None:
                 try:  # every code serves its own copy at once; their saves alternate (the same load for both)
                     for code in codes:
                         scenes[code] = stage(name, data, Path(tmp) / code)
-                        servers[code] = start(codes[code], scenes[code], flags, ref)
+                        servers[code] = start(codes[code], scenes[code], flags, ref,
+                                              shlex.split(args.this_args) if code == "this" else None)
                         pages[code] = browser.new_page(viewport={"width": 1480, "height": 1000})
                         pages[code].goto(servers[code][1])
                     for code in codes:

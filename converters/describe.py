@@ -225,7 +225,7 @@ class SceneDescription:
 
 
 def describe(scene: Scene, *, stock: bool = False, normals: NormalMode = "auto", bump: bool = False,
-             decoded: files.Decoded | None = None) -> SceneDescription:
+             decoded: files.Decoded | None = None, meshes: files.Meshes | None = None) -> SceneDescription:
     """The :class:`SceneDescription` of ``scene``: every file read once, geometry in world space.
 
     Raises :class:`SceneSemanticError` for missing or unreadable meshes, textures or cube-map faces, at the
@@ -234,13 +234,54 @@ def describe(scene: Scene, *, stock: bool = False, normals: NormalMode = "auto",
     conversion's approximations (:mod:`.to_mitsuba`). ``normals``: :func:`.obj.vertex_normals`' rule. numpy's
     floating-point warnings are silenced here: such overflows are checked and reported as errors instead.
     ``decoded``: images already decoded by the caller, by resolved path (a caller that re-describes an edited
-    scene, ``a5mi view``, keeps the decoded images whose files did not change); new decodes are added to it."""
+    scene, ``a5mi view``, keeps the decoded images whose files did not change); new decodes are added to it.
+    ``meshes``: the same for OBJ meshes, their octree reach masks and world-space placements
+    (:func:`.files.load_mesh`: kept while the file's identity stays; the masks' warnings are given again at this
+    description's ``obj_file``)."""
     with np.errstate(all="ignore"):
-        return _describe(scene, stock=stock, normals=normals, bump=bump, decoded=decoded)
+        return _describe(scene, stock=stock, normals=normals, bump=bump, decoded=decoded, kept=meshes)
+
+
+def mesh_reach(mesh: ObjMesh, entry: files.KeptMesh | None, warnings: list[SceneWarning],
+               loc: FileLoc | None) -> np.ndarray:
+    """:func:`.octree.reach_masks` of ``mesh`` (its warnings appended at ``loc``), taken from ``entry`` when it
+    kept them for this mesh, else computed and kept there."""
+    if entry is not None and entry.mesh is mesh and entry.reach is not None:
+        masks, notes = entry.reach
+    else:
+        found: list[SceneWarning] = []
+        masks = octree.reach_masks(mesh.vertices, mesh.faces, warnings=found, loc=loc)
+        notes = tuple(msg for _, msg in found)
+        if entry is not None and entry.mesh is mesh:
+            masks.flags.writeable = False
+            entry.reach = (masks, notes)
+    if loc is not None:
+        warnings.extend((loc, msg) for msg in notes)
+    return masks
+
+
+#: World-space placements kept per mesh (:func:`placed_mesh`); more are dropped all at once.
+MAX_PLACED = 8
+
+
+def placed_mesh(obj: ObjMesh, entry: files.KeptMesh | None, m: np.ndarray, normals: NormalMode,
+                reach: np.ndarray | None, transformed: bool) -> MeshData:
+    """:func:`.geometry.mesh_from_obj` of ``obj`` placed with ``m``, taken from ``entry`` when it kept this
+    placement (the same ``m`` bit for bit, normal rule, reach masks or none, and ``transformed``), else made and
+    kept there (a pure function of those: its arrays are read-only, so one object serves every description)."""
+    if entry is None or entry.mesh is not obj:
+        return mesh_from_obj(obj, m, normals, reach, transformed)
+    key = (np.asarray(m, dtype=np.float64).tobytes(), normals, reach is None, transformed)
+    data = entry.placed.get(key)
+    if data is None:
+        if len(entry.placed) >= MAX_PLACED:
+            entry.placed.clear()
+        data = entry.placed[key] = mesh_from_obj(obj, m, normals, reach, transformed)
+    return data
 
 
 def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = False,
-              decoded: files.Decoded | None = None) -> SceneDescription:
+              decoded: files.Decoded | None = None, kept: files.Meshes | None = None) -> SceneDescription:
     warnings: list[SceneWarning] = []
     if stock and any(scene.ambient):
         warnings.append((scene.background.loc or scene.camera.loc,  # type: ignore[arg-type]
@@ -256,10 +297,10 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
         prim = p.primitive
         if isinstance(prim, TriangleMesh) and prim.obj_file not in meshes:
             obj_paths[prim.obj_file], meshes[prim.obj_file] = files.load_mesh(scene, prim.obj_file,
-                                                                               prim.obj_file_loc)
+                                                                               prim.obj_file_loc, kept)
             warnings.extend(meshes[prim.obj_file].warnings)
-            reach[prim.obj_file] = None if stock else octree.reach_masks(  # stock: no a5 rule attributes
-                meshes[prim.obj_file].vertices, meshes[prim.obj_file].faces, warnings=warnings, loc=prim.obj_file_loc)
+            reach[prim.obj_file] = None if stock else mesh_reach(  # stock: no a5 rule attributes
+                meshes[prim.obj_file], (kept or {}).get(obj_paths[prim.obj_file]), warnings, prim.obj_file_loc)
     centre = geometry_centre(placed, meshes)
 
     decoded = {} if decoded is None else decoded  # each image file decoded once, even when several materials name it
@@ -331,7 +372,8 @@ def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = Fa
     for p in placed:
         prim, m = p.primitive, p.to_world
         if isinstance(prim, TriangleMesh):
-            data = mesh_from_obj(meshes[prim.obj_file], m, normals, reach[prim.obj_file], p.transformed)
+            data = placed_mesh(meshes[prim.obj_file], (kept or {}).get(obj_paths[prim.obj_file]), m, normals,
+                               reach[prim.obj_file], p.transformed)
             use_material(prim.material, data.has_uv, prim)
             check_float32(prim, data.positions, 0.0 if data.normals is None else data.normals)
             shapes.append(MeshShape(data, prim.material, prim.loc, obj_paths[prim.obj_file]))

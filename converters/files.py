@@ -6,13 +6,18 @@ working directory) and checked here, so a bad file is a :class:`SceneSemanticErr
 it, before Mitsuba is imported. Images are decoded whole, once, with the project's one OpenImageIO reader
 (:func:`a5mi.imageio.read_uint8`, 8 bits per channel, row 0 = the top row: SPEC A.4 uses the file's bytes as
 they are); the pixels travel in the scene description (:class:`Image`) to the plugins, which never read the
-file again on the ``mi.load_dict`` path.
+file again on the ``mi.load_dict`` path. A caller that describes an edited scene again (``a5mi view``) passes the
+images (:data:`Decoded`) and OBJ meshes (:data:`Meshes`) of the earlier descriptions; a mesh is kept while its
+file's identity (:func:`file_identity`) stays the same.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import os
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -65,12 +70,64 @@ def read_image(path: Path, loc: FileLoc, what: str, decoded: Decoded | None = No
     return image
 
 
-def load_mesh(scene: Scene, name: str, loc: FileLoc) -> tuple[Path, objfile.ObjMesh]:
+#: A file's identity: ``(st_mtime_ns, st_size, st_ino)`` (following links); a save, in place or by rename,
+#: changes it.
+Identity = tuple[int, int, int]
+#: A mesh file modified less than this many nanoseconds before it was read is not kept (it may still have been
+#: being written, and file times come from the kernel's coarse clock, some milliseconds behind): the next
+#: description reads it again.
+SETTLE_NS = 100_000_000
+
+
+@dataclass(eq=False)
+class KeptMesh:
+    """An OBJ mesh read by an earlier description: the file's :data:`Identity` when it was read, the parsed mesh
+    (its arrays read-only), once computed its :func:`.octree.reach_masks` and their warning messages, and the
+    world-space :class:`~.geometry.MeshData` of its recent placements (read-only arrays; keyed by the
+    description, :func:`.describe.placed_mesh`)."""
+
+    identity: Identity
+    mesh: objfile.ObjMesh
+    reach: tuple[np.ndarray, tuple[str, ...]] | None = None
+    placed: dict[tuple[Any, ...], Any] = field(default_factory=dict)
+
+
+#: OBJ meshes of earlier descriptions by resolved absolute path (``a5mi view`` keeps them across saves).
+Meshes = dict[Path, KeptMesh]
+
+
+def file_identity(path: Path) -> Identity | None:
+    """:data:`Identity` of ``path``, None when it cannot be stat'ed."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_mtime_ns, st.st_size, st.st_ino
+
+
+def load_mesh(scene: Scene, name: str, loc: FileLoc, kept: Meshes | None = None) -> tuple[Path, objfile.ObjMesh]:
     """The OBJ file ``name`` of a ``TriangleMesh`` (SPEC A.6): its resolved absolute path and the mesh parsed by
     :func:`.obj.load_obj` (which reports errors at the OBJ line at fault; a missing file is an error at
-    ``loc``)."""
+    ``loc``). With ``kept``: the mesh kept there for this path is returned unread while the file's identity is
+    the one it was read with (and the scene names it with the same text); a mesh read is kept there unless its
+    file changed during the read or within :data:`SETTLE_NS` before it."""
     path = resolve_path(name, scene.base_dir, loc, "obj_file")
-    return path.resolve(), objfile.load_obj(path, loc)
+    key = path.resolve()
+    if kept is None:
+        return key, objfile.load_obj(path, loc)
+    before = file_identity(key)
+    entry = kept.get(key)
+    if entry is not None and before is not None and entry.identity == before and entry.mesh.path == str(path):
+        return key, entry.mesh
+    kept.pop(key, None)
+    started = time.time_ns()
+    mesh = objfile.load_obj(path, loc)
+    if before is not None and before[0] < started - SETTLE_NS and file_identity(key) == before:
+        for a in (mesh.vertices, mesh.faces, mesh.texcoords, mesh.face_texcoords):
+            if a is not None:
+                a.flags.writeable = False
+        kept[key] = KeptMesh(before, mesh)
+    return key, mesh
 
 
 def texture_image(scene: Scene, mat: Material, decoded: Decoded | None = None) -> Image:

@@ -104,8 +104,9 @@ def test_every_edit_renders_as_a5_reusing_what_did_not_change(tmp_path: Path, se
             assert frame.render_png == a5_png(scene, tmp_path / f"a5-{k}.png", *FLAGS), what
 
 
-def run_loop(engine, options: RenderOptions, drive) -> None:  # noqa: ANN001
-    """``run_engine`` on this thread, as ``a5mi view`` runs it, ``drive(hub)`` beside it; re-raises its failure."""
+def run_loop(engine, options: RenderOptions, drive, **loop) -> None:  # noqa: ANN001, ANN003
+    """``run_engine`` on this thread, as ``a5mi view`` runs it (``loop``: its keyword arguments), ``drive(hub)``
+    beside it; re-raises its failure."""
     from a5mi.view.live import run_engine
     from a5mi.view.server import Hub, Jobs
     from a5mi.view.watcher import Watcher
@@ -132,7 +133,7 @@ def run_loop(engine, options: RenderOptions, drive) -> None:  # noqa: ANN001
 
     checker = threading.Thread(target=checks)
     checker.start()
-    run_engine(engine, hub, jobs, watcher, options, stop=stop)
+    run_engine(engine, hub, jobs, watcher, options, stop=stop, **loop)
     checker.join(timeout=10)
     watcher.stop()
     if errors:
@@ -167,8 +168,8 @@ def test_an_edited_mesh_file_reloads_and_the_page_shows_a5s_image(tmp_path: Path
 
 def test_jitter_filter_shows_a_labelled_preview_then_a5s_full_image_then_its_comparison(
         tmp_path: Path, session) -> None:  # noqa: ANN001
-    """Three updates per save: the preview (the last comparison kept), the full image (compared next), the
-    comparison of that image."""
+    """Three updates per save when the last full image was slow (here: any time, ``preview_after=0``): the preview
+    (the last comparison kept), the full image (compared next), the comparison of that image."""
     from a5mi.view.engine import ViewEngine, preview_options
 
     jf = dataclasses.replace(OPTS, jitter=True, filter=True)
@@ -193,4 +194,26 @@ def test_jitter_filter_shows_a_labelled_preview_then_a5s_full_image_then_its_com
 
         ref = tmp_path / "ref.png"
         a5_png(scene, ref, *FLAGS)  # without -jitter -filter: not the same image
-        run_loop(ViewEngine(str(scene), session, reference=str(ref)), jf, drive)
+        run_loop(ViewEngine(str(scene), session, reference=str(ref)), jf, drive, preview_after=0.0)
+
+
+@pytest.mark.parametrize("loop", [{"preview_after": float("inf")}, {"preview": False}])
+def test_a_fast_full_image_or_no_preview_skips_the_preview(tmp_path: Path, session, loop) -> None:  # noqa: ANN001
+    """The first render shows its preview (no full render timed yet) unless ``--no-preview``; a save after a full
+    image faster than ``preview_after`` (here: any) goes straight to the full image, ``a5``'s bytes."""
+    from a5mi.view.engine import ViewEngine
+
+    jf = dataclasses.replace(OPTS, jitter=True, filter=True)
+    with time_limit(300):
+        scene = mesh_scene(tmp_path)
+
+        def drive(hub, states) -> None:  # noqa: ANN001
+            first = wait_for(states, lambda s: s.get("frame") and not s["busy"], "first frame")
+            assert any(s.get("preview") for s in states) == loop.get("preview", True)
+            edit(scene, "ambientLight 0.2 0.2 0.2", "ambientLight 0.3 0.2 0.2")
+            final = wait_for(states, lambda s: (s.get("frame") or 0) > first["frame"] and not s["busy"], "final")
+            assert [s for s in states if (s.get("frame") or 0) > first["frame"]] == [final]  # no preview
+            assert not final["preview"] and final["error"] is None and final["frame"] == first["frame"] + 1
+            assert final["png"] == a5_png(scene, tmp_path / "jf.png", *FLAGS, "-jitter", "-filter")
+
+        run_loop(ViewEngine(str(scene), session), jf, drive, **loop)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from view_scenes import a5_png, time_limit, write_scene
+from view_scenes import a5_png, scene_text, time_limit, write_scene
 
 from a5mi.options import RenderOptions
 
@@ -120,6 +120,35 @@ def test_scene_error_keeps_the_last_good_image_and_a_save_re_renders(tmp_path: P
         assert done.is_set()
 
 
+def test_page_png_is_write_images_file_without_its_checks(tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001
+    """``png_bytes`` gives the bytes ``write_image`` (``a5``'s writer) puts in a PNG file, for float images (out of
+    range, NaN, 1, 3 and 4 channels, opaque: write_image refuses what PNG's alpha would change) and ``uint8``
+    levels, without fsync or decoding anything back."""
+    import os
+
+    from a5mi import imageio
+    from a5mi.view.png import png_bytes
+
+    rng = np.random.default_rng(7)
+    floats = rng.uniform(-0.2, 1.3, (37, 53, 3)).astype(np.float32)
+    floats[3, 4] = np.nan
+    images = [floats, floats[..., :1], floats[..., 0], np.concatenate([floats, np.ones_like(floats[..., :1])], axis=2),
+              rng.integers(0, 256, (20, 30, 3), dtype=np.uint8)]
+    want = []
+    for k, img in enumerate(images):
+        imageio.write_image(tmp_path / f"{k}.png", img)
+        want.append((tmp_path / f"{k}.png").read_bytes())
+
+    def refused(*args, **kw) -> None:  # noqa: ANN002, ANN003
+        raise AssertionError("the page's PNG is not verified on disk")
+
+    monkeypatch.setattr(os, "fsync", refused)
+    monkeypatch.setattr(imageio, "_decode", refused)
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    assert [png_bytes(img, scratch) for img in images] == want
+
+
 def test_binary_argv_is_the_spec_flags() -> None:
     from a5mi.view.engine import binary_argv
 
@@ -161,6 +190,99 @@ def test_a_reload_decodes_only_the_images_that_changed(tmp_path: Path, monkeypat
     engine.load()
     up = next(f for f in engine.desc.background.faces if f.path.name == "up.png")
     assert reads == ["up.png"] and int(up.pixels[0, 0, 0]) == int(np.float32(0.9) * np.float32(255))
+
+
+#: a mesh with a quad (its first triangle kept, with a warning at the OBJ line) and a second triangle
+QUAD_OBJ = "v -1.5 -1 -2\nv 0 -1 -2.5\nv -0.8 0.6 -2.2\nv -0.7 -0.2 -2.3\nf 1 2 3 4\nf 1 4 3\n"
+
+
+def test_a_reload_reads_a_mesh_again_only_when_its_file_changed(tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001
+    """OBJ meshes and their octree reach masks are kept across descriptions (``describe(meshes=...)``) while the
+    file's identity stays: a second description reads no OBJ and computes no masks, and gives the same mesh and
+    warnings as a fresh one; an edited OBJ is read again; a file written just before its read is not kept."""
+    import os
+    from types import SimpleNamespace
+
+    from a5mi.converters import describe as describe_module
+    from a5mi.converters import files
+    from a5mi.converters.a5_parser import parse_file
+    from a5mi.converters.describe import describe
+    from a5mi.view.engine import ViewEngine
+
+    text = scene_text().replace("numObjects 3", "numObjects 4")
+    end = text.rindex("}")
+    scene = tmp_path / "s.txt"
+    body = "    MaterialIndex 2\n    TriangleMesh {\n        obj_file m.obj\n    }\n"
+    scene.write_text(text[:end] + body + text[end:])
+    mesh = tmp_path / "m.obj"
+
+    def write_obj(body: str, age_s: float) -> None:
+        mesh.write_text(body)
+        then = time.time_ns() - int(age_s * 1e9)
+        os.utime(mesh, ns=(then, then))
+
+    write_obj(QUAD_OBJ, 10.0)
+    reads: list[str] = []
+    masks: list[int] = []
+    real_load, real_reach = files.objfile.load_obj, describe_module.octree.reach_masks
+    monkeypatch.setattr(files.objfile, "load_obj",
+                        lambda p, loc=None: (reads.append(Path(p).name), real_load(p, loc))[1])
+    monkeypatch.setattr(describe_module.octree, "reach_masks",
+                        lambda v, f, **kw: (masks.append(len(f)), real_reach(v, f, **kw))[1])
+
+    def positions(desc) -> np.ndarray:  # noqa: ANN001
+        (shape,) = [s for s in desc.shapes if getattr(s, "obj_file", None)]
+        return shape.mesh.positions
+
+    kept: dict = {}
+    first = describe(parse_file(str(scene)), meshes=kept)
+    assert reads == ["m.obj"] and masks == [2] and list(kept) == [mesh.resolve()]
+    assert any("m.obj:5:" in str(loc) for loc, _ in first.warnings)  # the quad's warning
+    scene.write_text(scene.read_text().replace("0.2 0.1 0.6", "0.3 0.1 0.6"))
+    again = describe(parse_file(str(scene)), meshes=kept)
+    assert reads == ["m.obj"] and masks == [2]  # nothing read or computed again
+    fresh = describe(parse_file(str(scene)))
+    assert [str(w) for w in again.warnings] == [str(w) for w in fresh.warnings] == [str(w) for w in first.warnings]
+    assert np.array_equal(positions(again), positions(fresh))
+    (sa,), (sf,) = ([s for s in d.shapes if getattr(s, "obj_file", None)] for d in (again, fresh))
+    (s1,) = [s for s in first.shapes if getattr(s, "obj_file", None)]
+    assert sa.mesh is s1.mesh  # the same placement: its world-space data kept too
+    for field in ("positions", "faces", "normals", "texcoords", "octree", "triangles"):
+        a, b = getattr(sa.mesh, field), getattr(sf.mesh, field)
+        assert (a is None and b is None) or np.array_equal(a, b), field
+    text = scene.read_text()
+    scene.write_text(text.replace("    TriangleMesh {\n        obj_file m.obj\n    }\n",
+                                  "    Transform {\n        Translate 0 0.1 0\n        TriangleMesh {\n"
+                                  "            obj_file m.obj\n        }\n    }\n"))
+    reads.clear()
+    masks.clear()
+    moved = describe(parse_file(str(scene)), meshes=kept)
+    assert reads == [] and masks == []  # placed anew, not read again
+    assert np.array_equal(positions(moved), positions(describe(parse_file(str(scene)))))
+    assert np.allclose(positions(moved), positions(fresh) + [0, 0.1, 0])
+    scene.write_text(text)
+    reads.clear()
+    masks.clear()
+    write_obj(QUAD_OBJ.replace("v -0.7 -0.2 -2.3", "v -0.5 -0.1 -2.4"), 5.0)  # edited: read again
+    edited = describe(parse_file(str(scene)), meshes=kept)
+    assert reads == ["m.obj"] and masks == [2]
+    assert np.array_equal(positions(edited), positions(describe(parse_file(str(scene)))))
+    assert not np.array_equal(positions(edited), positions(fresh))
+    reads.clear()
+    write_obj(QUAD_OBJ, 0.0)  # just written: read, not kept
+    describe(parse_file(str(scene)), meshes=kept)
+    describe(parse_file(str(scene)), meshes=kept)
+    assert reads == ["m.obj", "m.obj"] and kept == {}
+    # the view's loads pass their own cache; a scene that no longer names the mesh lets it go
+    write_obj(QUAD_OBJ, 10.0)
+    reads.clear()
+    engine = ViewEngine(str(scene), session=SimpleNamespace(forget=lambda desc: None))
+    engine.load()
+    engine.load()
+    assert reads == ["m.obj"] and list(engine._meshes) == [mesh.resolve()]
+    write_scene(scene)
+    engine.load()
+    assert engine._meshes == {}
 
 
 def test_binary_reference_runs_sandboxed_and_trace_diff_names_a_term(tmp_path: Path, session) -> None:  # noqa: ANN001

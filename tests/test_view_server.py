@@ -180,3 +180,30 @@ def test_command_line_errors_are_one_line_before_anything_serves(tmp_path: Path,
             assert cli.run_a5mi(["view", str(scene), *argv]) == 2
             err = capsys.readouterr().err.strip()
             assert len(err.splitlines()) == 1 and message in err, err
+
+
+def test_preview_rule_and_no_preview_flag(tmp_path: Path, monkeypatch, capsys) -> None:  # noqa: ANN001
+    """The preview comes first when there is no full render yet with these options, or the last took longer than
+    PREVIEW_AFTER_SECONDS; ``--no-preview`` reaches the loop as ``preview=False`` (the default: True)."""
+    from a5mi import cli
+    from a5mi.cli import view as view_cli
+    from a5mi.view import build, live
+    from a5mi.view.live import PREVIEW_AFTER_SECONDS, wants_preview
+
+    a, b = RenderOptions(jitter=True), RenderOptions(jitter=True, filter=True)
+    assert wants_preview(None, a) and wants_preview((b, 0.01), a)
+    assert not wants_preview((a, PREVIEW_AFTER_SECONDS), a) and wants_preview((a, PREVIEW_AFTER_SECONDS + 0.01), a)
+    assert not wants_preview((a, 2.0), a, after=3.0) and wants_preview((a, 0.1), a, after=0.0)
+    (flag,) = [f for f in view_cli.FLAGS if "--no-preview" in f.names]
+    assert f"over {PREVIEW_AFTER_SECONDS} s" in flag.help
+    seen: list[dict] = []
+    monkeypatch.setattr(view_cli, "activate_variant", lambda variant: None)
+    monkeypatch.setattr(build, "ViewSession", lambda *args: object())  # no Mitsuba: the loop is not run
+    monkeypatch.setattr(live, "run_engine", lambda *args, **kw: seen.append(kw))
+    scene = tmp_path / "s.txt"
+    scene.write_text("")
+    with time_limit(60):
+        for argv in ([], ["--no-preview"]):
+            assert cli.run_a5mi(["view", str(scene), "-jitter", *argv]) == 0
+    assert [kw["preview"] for kw in seen] == [True, False]
+    assert capsys.readouterr().out.count("a5mi view: http://127.0.0.1:") == 2

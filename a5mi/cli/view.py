@@ -1,4 +1,5 @@
-"""``a5mi view SCENE.txt [a5 flags] [--reference IMG | --binary PATH] [--port N] [--open]``: the live page.
+"""``a5mi view SCENE.txt [a5 flags] [--reference IMG | --binary PATH] [--port N] [--open] [--no-preview]``: the
+live page.
 
 Starts a local web server on 127.0.0.1 (a free port unless ``--port``) whose URL, with a one-time token, is
 printed on stdout; the page (:mod:`a5mi.view`, docs/VIEW.md) shows the render, the reference, the heatmap and
@@ -27,6 +28,8 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--timeout",), "timeout", "with --binary: seconds one of its runs may take", 1, real, 60.0, "S"),
     Flag(("--port",), "port", "port on 127.0.0.1 (0: a free one)", 1, integer(0, 65535), 0, "N"),
     Flag(("--open",), "open", "open the page in the default browser", default=False, show_default=False),
+    Flag(("--no-preview",), "no_preview", "never show the one-ray preview before a -jitter/-filter/-spp image (by "
+         "default it shows when the last full image took over 0.5 s)", default=False, show_default=False),
 )
 
 
@@ -90,7 +93,7 @@ def _serve(args: Args, console: Console, options: object, binary: object) -> int
             import webbrowser
 
             webbrowser.open(server.url)
-        run_engine(engine, hub, jobs, watcher, options, log=console.error)
+        run_engine(engine, hub, jobs, watcher, options, log=console.error, preview=not args.no_preview)
     finally:
         watcher.stop()
         server.stop()

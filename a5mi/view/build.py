@@ -29,6 +29,7 @@ for bit (tests/test_view_build.py compares with ``a5`` after geometry, material 
 from __future__ import annotations
 
 import hashlib
+import weakref
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -81,11 +82,23 @@ def freeze(value: Any, keep: list[Any]) -> Hashable:
     return ("object", id(value))
 
 
+#: :func:`mesh_digest` of each live MeshData (its arrays are read-only: a placement kept across descriptions,
+#: :func:`a5mi.converters.describe.placed_mesh`, is hashed once).
+_DIGESTS: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
+
+
 def mesh_digest(shape: MeshShape) -> str:
     """BLAKE2b of every array of the shape's world-space :class:`~a5mi.converters.geometry.MeshData` (dtype,
-    shape and bytes; a missing array counts as such)."""
-    h = hashlib.blake2b(digest_size=20)
+    shape and bytes; a missing array counts as such), computed once per MeshData object."""
     data = shape.mesh
+    known = _DIGESTS.get(data)
+    if known is None:
+        known = _DIGESTS[data] = _digest(data)
+    return known
+
+
+def _digest(data: Any) -> str:
+    h = hashlib.blake2b(digest_size=20)
     for a in (data.positions, data.faces, data.normals, data.texcoords, data.octree, data.triangles):
         if a is None:
             h.update(b"-")

@@ -1,12 +1,14 @@
 """What the live page shows, computed on the one thread that owns Mitsuba (docs/VIEW.md).
 
 :class:`ViewEngine` holds a warm :class:`a5mi.session.RenderSession` and the scene file. :meth:`~ViewEngine.load`
-parses and describes the scene (SPEC A; every mesh, texture and cube-map face read once) and lists the files it
+parses and describes the scene (SPEC A; every mesh, texture and cube-map face read once, and read again on a
+later load only when its file changed) and lists the files it
 read for :mod:`a5mi.view.watcher`; :meth:`~ViewEngine.render` renders it with a :class:`~a5mi.options.RenderOptions`
 (SPEC B.1-B.5) and returns a :class:`Frame`:
 
-* ``render_png``: the PNG file ``a5 -output X.png`` writes for the same flags (:func:`a5mi.imageio.write_image`
-  of the saved image: SPEC B.1 quantisation ``clamp(int(255 c), 0, 255)``, float32 product truncated), byte for byte;
+* ``render_png``: the PNG file ``a5 -output X.png`` writes for the same flags (:func:`a5mi.view.png.png_bytes`:
+  the encoder of :func:`a5mi.imageio.write_image` on the saved image, SPEC B.1 quantisation
+  ``clamp(int(255 c), 0, 255)``, float32 product truncated, without writing a checked file), byte for byte;
 * the reference: ``--reference IMG`` (read once), or ``--binary PATH``'s render of the same scene with the same
   SPEC B.1 flags, run sandboxed as ``a5mi difftest`` runs it (:func:`a5mi.difftest.runner.run_binary`);
 * ``compare``'s metrics of the pair (:func:`a5mi.compare.compare_arrays`: PSNR ``10 log10(255² / MSE)``, mean
@@ -35,6 +37,8 @@ import numpy as np
 
 from a5mi.errors import UserError
 from a5mi.options import RenderOptions
+
+from .png import png_bytes
 
 #: Largest render buffer (samples) rendered without per-tile progress: each progress step re-traces the
 #: integrator (about 50 ms), so small renders report their stages only.
@@ -82,17 +86,6 @@ def render_stages(timings: dict[str, float]) -> dict[str, float]:
     out = {k: timings.get(k, 0.0) for k in ("build", "compile", "execute", "filter")}
     out["trace"] = max(0.0, timings.get("render", 0.0) - out["compile"] - out["execute"])
     return out
-
-
-def png_bytes(img: np.ndarray, folder: str) -> bytes:
-    """The bytes of ``img`` written as a PNG file by :func:`a5mi.imageio.write_image` (what ``a5`` writes)."""
-    from a5mi.imageio import write_image
-
-    path = os.path.join(folder, "frame.png")
-    write_image(path, img)
-    data = Path(path).read_bytes()
-    os.unlink(path)
-    return data
 
 
 def scene_inputs(desc: Any, model: Any) -> list[Path]:
@@ -155,6 +148,8 @@ class ViewEngine:
         #: images decoded by earlier loads (resolved path -> converters.files.Image) and their files' stamps
         self._decoded: dict[Path, Any] = {}
         self._image_stamps: dict[Path, Any] = {}
+        #: OBJ meshes read by earlier loads (converters.files.Meshes: kept while the file's identity stays)
+        self._meshes: dict[Path, Any] = {}
         self._binary_cache: dict[tuple[int, tuple[str, ...]], np.ndarray] = {}
         self._scratch = tempfile.mkdtemp(prefix="a5mi-view-")
 
@@ -181,9 +176,12 @@ class ViewEngine:
             raise UserError(f"cannot read '{self.scene}': {exc.strerror or exc}") from None
         bump = self.bump if bump is None else bump
         try:
-            desc = describe(model, bump=bump, decoded=self._decoded)
+            desc = describe(model, bump=bump, decoded=self._decoded, meshes=self._meshes)
         finally:
             self._stamp_images(started)
+        used = {getattr(s, "obj_file", None) for s in desc.shapes}
+        for path in [p for p in self._meshes if p not in used]:  # a mesh the scene no longer names is let go
+            del self._meshes[path]
         self.inputs = list(dict.fromkeys([*self.inputs, *scene_inputs(desc, model)]))
         if self.desc is not None:
             self.session.forget(self.desc)

@@ -3,7 +3,8 @@
 :func:`run_engine` runs on the thread that owns Mitsuba until ``stop`` is set or a signal's
 :class:`~a5mi.interrupts.Interrupted` ends it (it waits for jobs in steps of :data:`WAIT_SECONDS` and calls
 :func:`a5mi.interrupts.check` between them). A render job reloads the scene when a watched file changed
-(:mod:`a5mi.view.watcher`), renders, compares and publishes the new state and images. A scene error (the
+(:mod:`a5mi.view.watcher`), renders (first the one-ray preview where :func:`wants_preview` says the full image is
+slow), compares and publishes the new state and images. A scene error (the
 positioned one-line ``FILE:LINE:COL: error: ...``) or another user error is published as ``error`` and the last
 good images stay; an unexpected exception is published as an internal error and the loop goes on.
 """
@@ -23,6 +24,11 @@ from .watcher import snapshot
 
 #: Seconds between two checks for a signal while no job waits.
 WAIT_SECONDS = 0.25
+#: The one-ray preview (:func:`~a5mi.view.engine.preview_options`) is shown before a full image only when the
+#: last full render with the same options took longer than this many seconds, or there is none yet
+#: (:func:`wants_preview`): the preview's own render and PNG (a W x H render, about a ninth of the full one's
+#: samples) delay the full image, worth it only when the full image is slow to come.
+PREVIEW_AFTER_SECONDS = 0.5
 #: The state of a frame that a preview, or a frame not compared yet, leaves as the last comparison set it (the
 #: page dims them meanwhile).
 COMPARED = ("metrics", "reference_error", "has_reference", "has_diff", "compared")
@@ -51,14 +57,24 @@ def frame_state(engine: Any, frame: Any) -> dict[str, Any]:
             "controls": describe_controls(frame.options)}
 
 
+def wants_preview(last_full: tuple[Any, float] | None, options: Any, after: float = PREVIEW_AFTER_SECONDS) -> bool:
+    """Whether a render with ``options`` shows its preview first: ``last_full`` is ``(options, seconds)`` of the
+    last full render (None before the first); yes when there is none with these options or it took longer than
+    ``after`` seconds (:data:`PREVIEW_AFTER_SECONDS`)."""
+    return last_full is None or last_full[0] != options or last_full[1] > after
+
+
 def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
-               stop: threading.Event | None = None, log: Callable[[str], None] | None = None) -> None:
-    """Serve jobs (module docstring) starting with a render of ``options``."""
+               stop: threading.Event | None = None, log: Callable[[str], None] | None = None,
+               preview: bool = True, preview_after: float = PREVIEW_AFTER_SECONDS) -> None:
+    """Serve jobs (module docstring) starting with a render of ``options``. ``preview``: show the one-ray preview
+    first where :func:`wants_preview` says so (``after=preview_after``); False: never (``--no-preview``)."""
     from a5mi import interrupts
 
     stop = stop or threading.Event()
     current = options
     changes = 0
+    last_full: tuple[Any, float] | None = None  # (options, seconds) of the last full render
     hub.update(scene=engine.scene, controls=describe_controls(options), busy=True,
                reference=("image" if engine.reference else "binary" if engine.binary else None),
                reference_name=engine.reference or (str(engine.binary.path) if engine.binary else None))
@@ -97,7 +113,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
                     watcher.watch(engine.watch_on_error(), before)
                     raise
                 parse = time.monotonic() - t0
-            quick = preview_options(current)
+            quick = preview_options(current) if preview and wants_preview(last_full, current, preview_after) else None
             if quick is not None:
                 pv = engine.render(quick, progress=hub.progress, preview=True)
                 shown = {k: v for k, v in frame_state(engine, pv).items() if k not in COMPARED}  # the last stay
@@ -108,7 +124,9 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
                     "seconds": {"parse": parse, **pv.seconds, "total": time.monotonic() - t0}})
                 if jobs.render_pending():  # a newer save or control: its render replaces this one's full image
                     continue
+            t_full = time.monotonic()
             frame = engine.render(current, progress=hub.progress, compare=False)
+            last_full = (current, time.monotonic() - t_full)
             if engine.compares:  # the image first; its comparison follows (the page dims the last one meanwhile)
                 shown = {k: v for k, v in frame_state(engine, frame).items() if k not in COMPARED}
                 state["published_at"] = time.time()  # (of the image, also in the comparison's state)
@@ -155,4 +173,5 @@ def _trace(engine: Any, x: int, y: int) -> dict[str, Any]:
     return doc
 
 
-__all__ = ["COMPARED", "WAIT_SECONDS", "error_line", "frame_state", "run_engine"]
+__all__ = ["COMPARED", "PREVIEW_AFTER_SECONDS", "WAIT_SECONDS", "error_line", "frame_state", "run_engine",
+           "wants_preview"]
