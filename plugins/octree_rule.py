@@ -172,8 +172,13 @@ def occluded(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, t_
     """SPEC B.3's shadow test against the Mitsuba scene: a hit the binary sees with ``t_min < t < t_max``;
     with ``table`` (its octree leaves built) a rule-mesh hit of a ray with a zero component is decided by the
     binary's traversal of that ray (:func:`traversal_sees`), else by the reach masks."""
+    # One any-hit query for every lane: it decides the lanes without a zero component, and a zero-component
+    # lane that meets nothing at all (most shadow rays) needs no nearest-hit walk to ask which hits the binary
+    # sees. Embree's any-hit and nearest-hit queries run the same triangle test on the same interval.
+    anything = scene.ray_test(mi.Ray3f(mi.Ray3f(o + t_min * d, d), t_max - t_min), active)
     slow = active & has_zero(d)
-    hit = scene.ray_test(mi.Ray3f(mi.Ray3f(o + t_min * d, d), t_max - t_min), active & ~slow)
+    hit = anything & ~slow
+    slow &= anything
     offset = mi.Float(t_min)
     n = mi.UInt32(0)
     while slow & (n < MAX_SKIPS):
