@@ -8,7 +8,9 @@ code (the kernel's own shading, plane and sphere tests, the triangle rule, the s
 perf shows as ``[JIT]``), and the rest (Dr.Jit, NumPy, Python: the jitter draw, the filter, copies). ``kernel``
 is the best ``execute`` of the renders (Dr.Jit's kernel history). A second table gives the render kernel's IR
 operation count (a 16 x 16 render of the same command: the same kernel), and without ``-shadows``, refraction
-or reflection: what each block adds to every loop iteration, which every lane of a packet executes (masked).
+or reflection: what each block adds to every loop iteration, which every lane of a packet executes (masked). A
+third table gives how busy the packets are: the lanes' ray-tree nodes (``counts`` AOV) against the iterations
+their 16-lane packets loop (each packet loops until its largest tree is done).
 
 Usage: ``.venv/bin/python benchmarks/kernel_profile.py [SCENE ...] [--renders N] [--threads N]`` (needs the
 ``perf`` tool; scenes default to the four test scenes, from ``$A5_DATA/scenes``). Prints a Markdown table.
@@ -75,6 +77,40 @@ for label, extra in (("full", {}), ("no -shadows", {"shadows": False}), ("no ref
     driver.render_scene(build_scene(desc, opts), desc.camera, opts)
     print(label, max(e.get("operation_count", 0) for e in seen), flush=True)
 """
+
+
+LANES = r"""
+import os, sys
+from pathlib import Path
+import numpy as np
+os.chdir(sys.argv[1])
+from a5mi import variant
+variant.activate()
+import drjit as dr, mitsuba as mi
+from a5mi.bench.floor import _camera_rays_for
+from a5mi.converters.a5_parser import parse_file
+from a5mi.converters.describe import describe
+from a5mi.options import RenderOptions
+from a5mi.session import build_scene
+opts = RenderOptions(width=300, height=300, bounces=4, shadows=True, jitter=True, filter=True, count_rays=True)
+desc = describe(parse_file(Path(sys.argv[2])))
+scene = build_scene(desc, opts)
+ray = _camera_rays_for(desc, 900, 900)
+integrator = scene.integrator()
+_, _, aovs = integrator.sample(scene, None, mi.RayDifferential3f(ray), None, mi.Bool(True))
+named = dict(zip(integrator.aov_names(), aovs))
+nodes = 1 + np.asarray(named["n_reflection"]) + np.asarray(named["n_refraction"])
+busiest = nodes.reshape(-1, 16).max(axis=1)
+print(int(nodes.sum()), int(16 * busiest.sum()), int(nodes.max()))
+"""
+
+
+def utilisation(scene_dir: Path, scene: str) -> tuple[int, int, int]:
+    """``(nodes, lane iterations, largest tree)``: the ray-tree nodes of the 900 x 900 render's lanes, and the
+    loop iterations its 16-lane packets run (16 x the packet's largest tree), from the ``counts`` AOV."""
+    out = subprocess.run([sys.executable, "-c", LANES, str(scene_dir), scene], capture_output=True, text=True,
+                         check=True).stdout.split()
+    return int(out[0]), int(out[1]), int(out[2])
 
 
 def operation_counts(scene_dir: Path, scene: str) -> dict[str, int]:
@@ -154,6 +190,16 @@ def main() -> int:
         o = operation_counts(scene_dir, scene)
         print(f"| {Path(scene).stem} | {o['full']} | {o['no -shadows']} | {o['no refraction']} | "
               f"{o['no reflection']} |", flush=True)
+    print()
+    print("Packets: ray-tree nodes against the loop iterations of their 16-lane packets (a packet loops until its")
+    print("largest tree is done; utilisation = nodes / lane iterations)")
+    print()
+    print("| scene | nodes | lane iterations | utilisation | mean tree | largest tree |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: |")
+    for scene in args.scenes:
+        nodes, lanes, largest = utilisation(scene_dir, scene)
+        print(f"| {Path(scene).stem} | {nodes:,} | {lanes:,} | {nodes / lanes:.3f} | {nodes / 810000:.2f} | "
+              f"{largest} |", flush=True)
     return 0
 
 
