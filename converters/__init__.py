@@ -5,7 +5,7 @@ lexing, parsing, the model and the scene description (:func:`a5mi.converters.des
 read once) are pure Python, so scene and file errors never wait for a JIT backend.
 """
 
-from .a5_parser import parse_file, parse_text
-from .errors import FileLoc, SceneError, SceneSemanticError, SceneSyntaxError
+from a5mi.converters.a5_parser import parse_file, parse_text
+from a5mi.converters.errors import FileLoc, SceneError, SceneSemanticError, SceneSyntaxError
 
 __all__ = ["FileLoc", "SceneError", "SceneSemanticError", "SceneSyntaxError", "parse_file", "parse_text"]

@@ -32,15 +32,13 @@ from typing import Final
 
 import numpy as np
 
-from a5mi.vecmath32 import camera_basis
-
-from . import ext_parser, keyframes
-from .builders import BackgroundBuilder, MaterialBuilder, NoiseBuilder, PointLightBuilder, SceneBuilder
-from .errors import FileLoc, SceneSyntaxError, shown
-from .group_parser import MAX_NESTING, parse_group
-from .lexer import Token, read_source
-from .model import Background, Camera, DirectionalLight, Light, Material, Noise, PointLight, Scene, Vec3
-from .tokens import (
+from a5mi.converters import ext_parser, keyframes
+from a5mi.converters.builders import BackgroundBuilder, MaterialBuilder, NoiseBuilder, PointLightBuilder, SceneBuilder
+from a5mi.converters.errors import FileLoc, SceneSyntaxError, shown
+from a5mi.converters.group_parser import MAX_NESTING, parse_group
+from a5mi.converters.lexer import Token, read_source
+from a5mi.converters.model import Background, Camera, DirectionalLight, Light, Material, Noise, PointLight, Scene, Vec3
+from a5mi.converters.tokens import (
     Rule,
     TokenStream,
     counted_block,
@@ -51,6 +49,7 @@ from .tokens import (
     unknown_keyword,
     vector_then,
 )
+from a5mi.vecmath32 import camera_basis
 
 __all__ = ["MAX_NESTING", "TOP_LEVEL", "parse_file", "parse_text", "parse_tokens"]
 

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .errors import FileLoc
-from .lexer import Token
-from .model import (
+from a5mi.converters.errors import FileLoc
+from a5mi.converters.lexer import Token
+from a5mi.converters.model import (
     BUMP_SCALE,
     Animation,
     Background,
@@ -28,8 +28,8 @@ from .model import (
     Track,
     Vec3,
 )
-from .subsurface import Subsurface
-from .surface_model import Btf, Milled
+from a5mi.converters.subsurface import Subsurface
+from a5mi.converters.surface_model import Btf, Milled
 
 _ZERO: Vec3 = (0.0, 0.0, 0.0)
 

@@ -25,13 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from a5mi.spec import CENTRE_WAVELENGTH_NM
-
-from . import files, octree, volgrid
-from . import transforms as tf
-from .errors import FileLoc, SceneSemanticError
-from .files import Image
-from .geometry import (
+from a5mi.converters import files, octree, volgrid
+from a5mi.converters import transforms as tf
+from a5mi.converters.errors import FileLoc, SceneSemanticError
+from a5mi.converters.files import Image
+from a5mi.converters.geometry import (
     MeshData,
     check_float32,
     check_placement,
@@ -41,10 +39,24 @@ from .geometry import (
     plane_rectangle_to_world,
     world_plane,
 )
-from .model import Camera, Fog, Light, Noise, Plane, Scene, Solid, Sphere, Triangle, TriangleMesh, Vec3, Volume
-from .obj import NormalMode, ObjMesh
-from .subsurface import Subsurface
-from .surface_ext import STOCK_BTF_WARNING, STOCK_WARNING, BtfImages, Milled, describe_btf
+from a5mi.converters.model import (
+    Camera,
+    Fog,
+    Light,
+    Noise,
+    Plane,
+    Scene,
+    Solid,
+    Sphere,
+    Triangle,
+    TriangleMesh,
+    Vec3,
+    Volume,
+)
+from a5mi.converters.obj import NormalMode, ObjMesh
+from a5mi.converters.subsurface import Subsurface
+from a5mi.converters.surface_ext import STOCK_BTF_WARNING, STOCK_WARNING, BtfImages, Milled, describe_btf
+from a5mi.spec import CENTRE_WAVELENGTH_NM
 
 SceneWarning = tuple[FileLoc, str]
 

@@ -40,9 +40,8 @@ from typing import Any
 
 import numpy as np
 
+from a5mi.converters.model import AreaLight, Fog, SphereLight, SpotLight
 from a5mi.spec import CENTRE_WAVELENGTH_NM
-
-from .model import AreaLight, Fog, SphereLight, SpotLight
 
 ExtLight = SpotLight | AreaLight | SphereLight
 

@@ -16,15 +16,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Final
 
+from a5mi.converters.builders import MaterialBuilder, SolidBuilder
+from a5mi.converters.errors import FileLoc
+from a5mi.converters.lexer import Token
+from a5mi.converters.model import AreaLight, Fog, Light, Medium, Solid, SphereLight, SpotLight, Vec3, Volume
+from a5mi.converters.subsurface import parse_subsurface
+from a5mi.converters.surface_ext import MATERIAL_RULES as SURFACE_RULES
+from a5mi.converters.tokens import Rule, TokenStream, keyword_block, quoted_raw
 from a5mi.spec import DISPERSION_RANGE_NM
-
-from .builders import MaterialBuilder, SolidBuilder
-from .errors import FileLoc
-from .lexer import Token
-from .model import AreaLight, Fog, Light, Medium, Solid, SphereLight, SpotLight, Vec3, Volume
-from .subsurface import parse_subsurface
-from .surface_ext import MATERIAL_RULES as SURFACE_RULES
-from .tokens import Rule, TokenStream, keyword_block, quoted_raw
 
 #: Upper bound of ``samples`` / ``glossySamples`` (one kernel loop bound / stack size, EXTENSIONS E.5).
 MAX_LIGHT_SAMPLES: Final = 4096

@@ -22,12 +22,11 @@ from typing import Any
 import numpy as np
 
 from a5mi import imageio
+from a5mi.converters import obj as objfile
+from a5mi.converters.errors import FileLoc, SceneSemanticError
+from a5mi.converters.model import Material, Scene, resolve_path
 from a5mi.errors import ImageReadError
 from a5mi.spec import CUBE_FACES, find_cube_face
-
-from . import obj as objfile
-from .errors import FileLoc, SceneSemanticError
-from .model import Material, Scene, resolve_path
 
 #: Largest file followed as a text "link" (a git symlink checked out as a file) for ``cubeMap``.
 LINK_FILE_MAX_BYTES = 4096

@@ -34,10 +34,10 @@ from typing import Any
 
 import numpy as np
 
-from . import transforms as tf
-from .errors import SceneSemanticError
-from .model import Placed, Plane, Sphere, Triangle
-from .obj import FLOAT32_MAX, NormalMode, ObjMesh, binary_corner_normals, vertex_normals
+from a5mi.converters import transforms as tf
+from a5mi.converters.errors import SceneSemanticError
+from a5mi.converters.model import Placed, Plane, Sphere, Triangle
+from a5mi.converters.obj import FLOAT32_MAX, NormalMode, ObjMesh, binary_corner_normals, vertex_normals
 
 #: Half-size of the ``--stock`` rectangle standing in for an infinite plane (scene units; module docstring).
 PLANE_HALF_SIZE = 4096.0

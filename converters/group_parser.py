@@ -18,12 +18,12 @@ from typing import Final
 
 import numpy as np
 
-from . import transforms
-from .builders import GroupState
-from .errors import shown
-from .lexer import Token
-from .model import Group, Node, Plane, Sphere, Transform, TransformOp, Triangle, TriangleMesh, Vec3
-from .tokens import (
+from a5mi.converters import transforms
+from a5mi.converters.builders import GroupState
+from a5mi.converters.errors import shown
+from a5mi.converters.lexer import Token
+from a5mi.converters.model import Group, Node, Plane, Sphere, Transform, TransformOp, Triangle, TriangleMesh, Vec3
+from a5mi.converters.tokens import (
     TokenStream,
     block_count,
     check_count,

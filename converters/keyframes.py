@@ -33,14 +33,13 @@ from typing import Final
 
 import numpy as np
 
+from a5mi.converters import transforms, volgrid
+from a5mi.converters.builders import AnimationBuilder
+from a5mi.converters.errors import FileLoc, SceneSemanticError
+from a5mi.converters.lexer import Token
+from a5mi.converters.model import Animation, Camera, Fog, Group, Node, Scene, Track, Transform, Volume
+from a5mi.converters.tokens import Rule, TokenStream, keyword_block, quoted_raw
 from a5mi.vecmath32 import camera_basis
-
-from . import transforms, volgrid
-from .builders import AnimationBuilder
-from .errors import FileLoc, SceneSemanticError
-from .lexer import Token
-from .model import Animation, Camera, Fog, Group, Node, Scene, Track, Transform, Volume
-from .tokens import Rule, TokenStream, keyword_block, quoted_raw
 
 __all__ = ["Animation", "Track", "check", "evaluate", "parse_animation", "scene_at", "transform_blocks"]
 

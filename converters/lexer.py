@@ -27,10 +27,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Final
 
+from a5mi.converters.errors import FileLoc, SceneSyntaxError, shown
 from a5mi.errors import FileReadError
 from a5mi.paths import read_regular
-
-from .errors import FileLoc, SceneSyntaxError, shown
 
 WHITESPACE: Final = frozenset(" \t\r\n\v\f")
 BRACES: Final = frozenset("{}")

@@ -41,13 +41,12 @@ from typing import Any
 
 import numpy as np
 
+from a5mi.converters.describe import MaterialDescription
+from a5mi.converters.ext_mitsuba import centre_index, rough
+from a5mi.converters.files import Image
+from a5mi.converters.model import Noise, Solid
+from a5mi.converters.surface_ext import BtfImages, btf_texture, milled_bsdf, stock_milled
 from a5mi.spec import MIRROR_THRESHOLD
-
-from .describe import MaterialDescription
-from .ext_mitsuba import centre_index, rough
-from .files import Image
-from .model import Noise, Solid
-from .surface_ext import BtfImages, btf_texture, milled_bsdf, stock_milled
 
 #: ``(image) -> the image parameters of a bitmap texture`` (``{'filename': ...}`` or ``{'bitmap': ...}``).
 ImageParams = Callable[[Image], dict[str, Any]]

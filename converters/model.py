@@ -22,11 +22,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import FileLoc, SceneSemanticError, shown
+from a5mi.converters.errors import FileLoc, SceneSemanticError, shown
 
 if TYPE_CHECKING:
-    from .subsurface import Subsurface
-    from .surface_model import Btf, Milled
+    from a5mi.converters.subsurface import Subsurface
+    from a5mi.converters.surface_model import Btf, Milled
 
 Vec3 = tuple[float, float, float]
 #: A 4x4 matrix as hashable row-major tuples (``m[row][col]``); :func:`.transforms.as_array` gives numpy.

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
 
-from .describe import MeshShape, PlaneShape, SceneDescription, SphereShape
-from .model import AreaLight, SphereLight
+from a5mi.converters.describe import MeshShape, PlaneShape, SceneDescription, SphereShape
+from a5mi.converters.model import AreaLight, SphereLight
 
 
 @dataclass(frozen=True)

@@ -33,10 +33,9 @@ from typing import Literal
 
 import numpy as np
 
+from a5mi.converters.errors import FileLoc, SceneSemanticError
 from a5mi.errors import FileReadError
 from a5mi.paths import read_regular
-
-from .errors import FileLoc, SceneSemanticError
 
 #: The largest OBJ file read (1 GiB: ~15 M triangles; the course meshes are under 100 KB).
 MAX_OBJ_BYTES = 1 << 30

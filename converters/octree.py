@@ -48,8 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from a5mi import cache_dir
-
-from .errors import FileLoc
+from a5mi.converters.errors import FileLoc
 
 MAX_TRIG = 7
 MAX_LEVEL = 8

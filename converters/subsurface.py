@@ -21,9 +21,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Final
 
-from .errors import FileLoc
-from .lexer import Token
-from .tokens import TokenStream, quoted_raw
+from a5mi.converters.errors import FileLoc
+from a5mi.converters.lexer import Token
+from a5mi.converters.tokens import TokenStream, quoted_raw
 
 Vec3 = tuple[float, float, float]
 

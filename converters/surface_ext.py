@@ -22,15 +22,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Final
 
-from .errors import FileLoc, SceneSemanticError
-from .surface_model import PATTERNS, Btf, Milled
-from .tokens import FLOAT_RE, Rule, TokenStream, quoted_raw
+from a5mi.converters.errors import FileLoc, SceneSemanticError
+from a5mi.converters.surface_model import PATTERNS, Btf, Milled
+from a5mi.converters.tokens import FLOAT_RE, Rule, TokenStream, quoted_raw
 
 if TYPE_CHECKING:
-    from .builders import MaterialBuilder
-    from .files import Decoded, Image
-    from .lexer import Token
-    from .model import Material, Scene
+    from a5mi.converters.builders import MaterialBuilder
+    from a5mi.converters.files import Decoded, Image
+    from a5mi.converters.lexer import Token
+    from a5mi.converters.model import Material, Scene
 
 #: ``%d`` / ``%02d`` conversions (and ``%%``) of an ``images`` pattern.
 _CONVERSION: Final = re.compile(r"%(?:%|0?[0-9]*d)")
@@ -136,8 +136,8 @@ def describe_btf(scene: Scene, mat: Material, decoded: Decoded) -> BtfImages:
     """The images of ``mat.btf``, resolved like a texture (the scene's folder, then the working directory) and
     decoded once (:func:`.files.read_image`, errors at the ``images`` name); a Material with ``btf`` and another
     colour source (``texture``, ``Noise``, a solid) is an error at ``btf``."""
-    from .files import read_image
-    from .model import resolve_path
+    from a5mi.converters.files import read_image
+    from a5mi.converters.model import resolve_path
 
     def read(name: str) -> Image:
         return read_image(resolve_path(name, scene.base_dir, btf.images_loc, "btf image"), btf.images_loc,

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Final
 
-from .errors import FileLoc
+from a5mi.converters.errors import FileLoc
 
 Vec3 = tuple[float, float, float]
 PATTERNS: Final = ("straight", "circular")

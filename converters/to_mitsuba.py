@@ -55,12 +55,9 @@ from typing import Any
 
 import numpy as np
 
-from a5mi.options import RenderOptions
-from a5mi.spec import CUBE_FACES
-
-from . import materials
-from . import transforms as tf
-from .describe import (
+from a5mi.converters import materials
+from a5mi.converters import transforms as tf
+from a5mi.converters.describe import (
     ColorBackground,
     CubeMapBackground,
     Light,
@@ -70,7 +67,7 @@ from .describe import (
     SphereShape,
     VolumeDescription,
 )
-from .ext_mitsuba import (
+from a5mi.converters.ext_mitsuba import (
     baked_solid,
     grid_volume,
     light_entry,
@@ -80,11 +77,13 @@ from .ext_mitsuba import (
     stock_medium,
     thinlens_params,
 )
-from .files import Image
-from .geometry import MeshData
-from .materials import rgb
-from .model import AreaLight, DirectionalLight, SphereLight, SpotLight
-from .names import binary_spheres, scene_ids
+from a5mi.converters.files import Image
+from a5mi.converters.geometry import MeshData
+from a5mi.converters.materials import rgb
+from a5mi.converters.model import AreaLight, DirectionalLight, SphereLight, SpotLight
+from a5mi.converters.names import binary_spheres, scene_ids
+from a5mi.options import RenderOptions
+from a5mi.spec import CUBE_FACES
 
 #: Face attributes carrying :attr:`.geometry.MeshData.octree` (name -> its columns).
 OCTREE_ATTRIBUTES = {"face_a5_inv0": [0, 1, 2], "face_a5_inv1": [3, 4, 5], "face_a5_inv2": [6, 7, 8],

@@ -45,14 +45,13 @@ from typing import Any
 import numpy as np
 
 from a5mi import interrupts
+from a5mi.converters import materials
+from a5mi.converters.describe import CubeMapBackground, MeshShape, SceneDescription, VolumeDescription
+from a5mi.converters.files import Image
+from a5mi.converters.to_mitsuba import Backend, bake_cubemap_envmap, make_mesh, scene_entries
 from a5mi.options import RenderOptions
 from a5mi.paths import remove_stale, temp_prefix
 from a5mi.spec import CUBE_FACES
-
-from . import materials
-from .describe import CubeMapBackground, MeshShape, SceneDescription, VolumeDescription
-from .files import Image
-from .to_mitsuba import Backend, bake_cubemap_envmap, make_mesh, scene_entries
 
 PLUGIN_TAGS: dict[str, str] = {
     **dict.fromkeys(("a5_whitted", "path", "direct", "volpath"), "integrator"),
@@ -141,7 +140,7 @@ class _XmlBackend(Backend):
     def grid_source(self, vol: VolumeDescription) -> dict[str, Any]:
         """``{'filename': '{stem}_images/grid_{name}.vol'}``: the decoded grid written back as a Mitsuba ``.vol``
         (E.9; the source file is not read again), relative to the XML like every other file."""
-        from .volgrid import write_vol
+        from a5mi.converters.volgrid import write_vol
 
         rel = f"{self.image_dir.name}/grid_{vol.path.stem}.vol"
         target = self.xml_path.parent / rel
@@ -152,7 +151,7 @@ class _XmlBackend(Backend):
 
     def solid_grid(self, grid: np.ndarray, material: int) -> dict[str, Any]:
         """``{'filename': '{stem}_images/solid_NNN.vol'}``: a baked solid's RGB grid (E.6, ``--stock``)."""
-        from .volgrid import write_vol
+        from a5mi.converters.volgrid import write_vol
 
         rel = f"{self.image_dir.name}/solid_{material:03d}.vol"
         target = self.xml_path.parent / rel

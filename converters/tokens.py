@@ -22,8 +22,8 @@ import re
 from collections.abc import Callable, Mapping
 from typing import Final, TypeVar
 
-from .errors import FileLoc, SceneSemanticError, SceneSyntaxError, shown
-from .lexer import NUMBER, Token, split_lines, tokenize
+from a5mi.converters.errors import FileLoc, SceneSemanticError, SceneSyntaxError, shown
+from a5mi.converters.lexer import NUMBER, Token, split_lines, tokenize
 
 #: ``F``: ``%f`` accepts more (hex floats, "nan", "inf"); the grammar takes plain decimal numbers only.
 FLOAT_RE: Final = re.compile(NUMBER)  # ASCII digits, linear (converters/lexer.py)

@@ -21,7 +21,7 @@ from typing import Final
 
 import numpy as np
 
-from .model import Matrix4
+from a5mi.converters.model import Matrix4
 
 
 def as_array(m: Matrix4 | np.ndarray) -> np.ndarray:

@@ -63,9 +63,8 @@ from collections.abc import Sequence
 import drjit as dr
 import mitsuba as mi
 
+from a5mi.plugins.bump import perturb
 from a5mi.spec import CENTRE_WAVELENGTH_NM, MIRROR_THRESHOLD
-
-from .bump import perturb
 
 #: Attributes served through ``eval_attribute_3`` / ``eval_attribute_1`` (and ``has_attribute``).
 COLOR_ATTRIBUTES: tuple[str, ...] = ("diffuse_color", "specular_color", "shading_normal")

@@ -25,7 +25,7 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from .point_light import _vec3_param, attenuation, light_sample
+from a5mi.plugins.point_light import _vec3_param, attenuation, light_sample
 
 
 class A5AreaLight(mi.Emitter):

@@ -24,7 +24,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .imagedata import ImageAtlas, bitmap_rgb8, load_rgb8, resolve
+from a5mi.plugins.imagedata import ImageAtlas, bitmap_rgb8, load_rgb8, resolve
 
 
 def _angles(props: mi.Properties, name: str, hi: float, hi_open: bool) -> list[float]:

@@ -25,7 +25,7 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from .imagedata import ImageAtlas
+from a5mi.plugins.imagedata import ImageAtlas
 
 
 def height_gradient(atlas: ImageAtlas, uv: mi.Point2f, active: mi.Bool | bool = True) -> tuple[mi.Float, mi.Float]:

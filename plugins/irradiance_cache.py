@@ -33,17 +33,16 @@ import mitsuba as mi
 import numpy as np
 
 from a5mi.arrays import aligned_float32
+from a5mi.plugins import irradiance_cache_math as icm
+from a5mi.plugins import triangle_rule
+from a5mi.plugins.irradiance_cache_grid import RecordSet
+from a5mi.plugins.irradiance_cache_kernel import camera_tree, gather, node_buffers
+from a5mi.plugins.kernel.features import Features, SceneData, stack_size
+from a5mi.plugins.kernel.lights import has_area_lights, lights_of
+from a5mi.plugins.kernel.pbr_lights import lights_of as pbr_lights_of
+from a5mi.plugins.planes import plane_set, planes_from_props
+from a5mi.plugins.sampling import SamplePass, Stochastic, pixel_keys, stochastic
 from a5mi.spec import FRESNEL_MODES, TMIN
-
-from . import irradiance_cache_math as icm
-from . import triangle_rule
-from .irradiance_cache_grid import RecordSet
-from .irradiance_cache_kernel import camera_tree, gather, node_buffers
-from .kernel.features import Features, SceneData, stack_size
-from .kernel.lights import has_area_lights, lights_of
-from .kernel.pbr_lights import lights_of as pbr_lights_of
-from .planes import plane_set, planes_from_props
-from .sampling import SamplePass, Stochastic, pixel_keys, stochastic
 
 AOV_CHANNELS: dict[str, tuple[str, ...]] = {
     "normal": ("nx", "ny", "nz"), "depth": ("t",), "counts": ("n_reflection", "n_refraction", "n_shadow")}

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from .irradiance_cache_math import EPS_MIN, epsilon, extrapolate, in_front
+from a5mi.plugins.irradiance_cache_math import EPS_MIN, epsilon, extrapolate, in_front
 
 F = npt.NDArray[np.float64]
 I = npt.NDArray[np.int64]  # noqa: E741 - the index-array alias

@@ -27,14 +27,14 @@ from typing import NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from .kernel import stack as ray_stack
-from .kernel.features import Features, SceneData
-from .kernel.intersect import intersect, mirror_normal
-from .kernel.pbr import lobes, power_heuristic, sample
-from .kernel.pbr_lights import PbrLights, direct, emission, environment, light_point
-from .kernel.surfaces import background, surface_at
-from .sampling import Stochastic
-from .syntax import syntax
+from a5mi.plugins.kernel import stack as ray_stack
+from a5mi.plugins.kernel.features import Features, SceneData
+from a5mi.plugins.kernel.intersect import intersect, mirror_normal
+from a5mi.plugins.kernel.pbr import lobes, power_heuristic, sample
+from a5mi.plugins.kernel.pbr_lights import PbrLights, direct, emission, environment, light_point
+from a5mi.plugins.kernel.surfaces import background, surface_at
+from a5mi.plugins.sampling import Stochastic
+from a5mi.plugins.syntax import syntax
 
 #: the E.5 slot of the BSDF sample at a vertex of a hemisphere path (``a5_path``'s)
 BSDF_SLOT = 255

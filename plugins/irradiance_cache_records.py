@@ -16,9 +16,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from a5mi.plugins.irradiance_cache_grid import RecordSet
 from a5mi.vecmath32 import camera_basis
-
-from .irradiance_cache_grid import RecordSet
 
 F32 = npt.NDArray[np.float32]
 

@@ -36,13 +36,13 @@ from typing import TYPE_CHECKING
 import drjit as dr
 import mitsuba as mi
 
-from .media_light import box_span
-from .media_walk import PHASE, light_at, scattered
-from .sampling import Stochastic, stratified_2d
-from .syntax import syntax
+from a5mi.plugins.media_light import box_span
+from a5mi.plugins.media_walk import PHASE, light_at, scattered
+from a5mi.plugins.sampling import Stochastic, stratified_2d
+from a5mi.plugins.syntax import syntax
 
 if TYPE_CHECKING:
-    from .kernel.features import SceneData
+    from a5mi.plugins.kernel.features import SceneData
 
 #: Sampling dimensions of the medium: ``MEDIUM_DIM + node·256 + k`` for light k, ``+ 255`` for the jitter ξ.
 MEDIUM_DIM = 0x80000000

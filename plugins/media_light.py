@@ -28,11 +28,11 @@ from typing import TYPE_CHECKING
 import drjit as dr
 import mitsuba as mi
 
-from .syntax import syntax
+from a5mi.plugins.syntax import syntax
 
 if TYPE_CHECKING:
-    from .media import MediumParams
-    from .sampling import Stochastic
+    from a5mi.plugins.media import MediumParams
+    from a5mi.plugins.sampling import Stochastic
 
 
 def box_span(box_min: mi.Point3f, box_max: mi.Point3f, o: mi.Point3f, d: mi.Vector3f, t0: mi.Float,

@@ -26,17 +26,17 @@ from typing import TYPE_CHECKING
 import drjit as dr
 import mitsuba as mi
 
-from .kernel.intersect import intersect, visible
-from .media_light import box_span, shadow_transmittance
-from .sampling import stratified_2d
-from .syntax import syntax
+from a5mi.plugins.kernel.intersect import intersect, visible
+from a5mi.plugins.media_light import box_span, shadow_transmittance
+from a5mi.plugins.sampling import stratified_2d
+from a5mi.plugins.syntax import syntax
 
 if TYPE_CHECKING:
-    from .kernel.features import SceneData
-    from .kernel.lights import Lights
-    from .media import MediumParams
-    from .planes import PlaneSet
-    from .sampling import Stochastic
+    from a5mi.plugins.kernel.features import SceneData
+    from a5mi.plugins.kernel.lights import Lights
+    from a5mi.plugins.media import MediumParams
+    from a5mi.plugins.planes import PlaneSet
+    from a5mi.plugins.sampling import Stochastic
 
 #: ``π · 1/(4π)``: the isotropic phase function on the a5 lights' scale (E.8).
 PHASE = 0.25

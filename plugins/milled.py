@@ -39,7 +39,7 @@ from typing import Any
 import drjit as dr
 import mitsuba as mi
 
-from .params import vec3_param
+from a5mi.plugins.params import vec3_param
 
 PATTERNS: tuple[str, ...] = ("straight", "circular")
 _vec3 = partial(vec3_param, "a5_milled")

@@ -35,7 +35,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .syntax import syntax
+from a5mi.plugins.syntax import syntax
 
 MAX_TRIG = 7
 MAX_LEVEL = 8

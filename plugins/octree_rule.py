@@ -22,8 +22,8 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from . import octree_leaves, triangle_rule
-from .syntax import syntax
+from a5mi.plugins import octree_leaves, triangle_rule
+from a5mi.plugins.syntax import syntax
 
 #: Rays skipped past hits the binary does not see, at most, per query.
 MAX_SKIPS = 16

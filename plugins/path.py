@@ -31,21 +31,20 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
+from a5mi.plugins import triangle_rule
+from a5mi.plugins.kernel.features import Features, SceneData
+from a5mi.plugins.kernel.intersect import intersect, mirror_normal
+from a5mi.plugins.kernel.lights import has_area_lights, lights_of
+from a5mi.plugins.kernel.pbr import lobes, power_heuristic, sample
+from a5mi.plugins.kernel.pbr_lights import PbrLights, direct, emission, environment, light_point
+from a5mi.plugins.kernel.pbr_lights import lights_of as pbr_lights_of
+from a5mi.plugins.kernel.pbr_record import PathRecorder, lobe_code
+from a5mi.plugins.kernel.surfaces import surface_at
+from a5mi.plugins.planes import plane_set, planes_from_props
+from a5mi.plugins.sampling import SamplePass, Stochastic, stochastic
+from a5mi.plugins.syntax import syntax
+from a5mi.plugins.whitted_record import shape_id
 from a5mi.spec import FRESNEL_MODES, TMIN
-
-from . import triangle_rule
-from .kernel.features import Features, SceneData
-from .kernel.intersect import intersect, mirror_normal
-from .kernel.lights import has_area_lights, lights_of
-from .kernel.pbr import lobes, power_heuristic, sample
-from .kernel.pbr_lights import PbrLights, direct, emission, environment, light_point
-from .kernel.pbr_lights import lights_of as pbr_lights_of
-from .kernel.pbr_record import PathRecorder, lobe_code
-from .kernel.surfaces import surface_at
-from .planes import plane_set, planes_from_props
-from .sampling import SamplePass, Stochastic, stochastic
-from .syntax import syntax
-from .whitted_record import shape_id
 
 #: AOV groups ``a5_path`` computes (``aovs`` parameter), as ``a5_whitted``'s: first-hit normal and distance.
 #: ``counts``: rays traced per camera ray: scattered to the side the ray came from (diffuse and mirror), through

@@ -18,7 +18,7 @@ from functools import cache
 import drjit as dr
 import mitsuba as mi
 
-from .syntax import syntax
+from a5mi.plugins.syntax import syntax
 
 #: The 256-entry permutation of Perlin's 2002 reference (``ImprovedNoise.permutation``).
 PERMUTATION: tuple[int, ...] = (

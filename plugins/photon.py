@@ -32,20 +32,19 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from a5mi.plugins import triangle_rule
+from a5mi.plugins.kernel import pbr, pbr_lights
+from a5mi.plugins.kernel.features import SceneData, build_features
+from a5mi.plugins.kernel.intersect import intersect, mirror_normal
+from a5mi.plugins.kernel.lights import lights_of
+from a5mi.plugins.kernel.surfaces import surface_at
+from a5mi.plugins.photon_emit import emit, light_powers, specular_targets, split_counts, to_np3
+from a5mi.plugins.photon_maps import FILTERS, PhotonMap
+from a5mi.plugins.photon_trace import CAUSTIC, INDIRECT, PhotonSet, first_distance, trace_photons
+from a5mi.plugins.photon_walk import camera_step, facing
+from a5mi.plugins.planes import plane_set, planes_from_props
+from a5mi.plugins.sampling import SamplePass, stochastic
 from a5mi.spec import FRESNEL_MODES, TMIN
-
-from . import triangle_rule
-from .kernel import pbr, pbr_lights
-from .kernel.features import SceneData, build_features
-from .kernel.intersect import intersect, mirror_normal
-from .kernel.lights import lights_of
-from .kernel.surfaces import surface_at
-from .photon_emit import emit, light_powers, specular_targets, split_counts, to_np3
-from .photon_maps import FILTERS, PhotonMap
-from .photon_trace import CAUSTIC, INDIRECT, PhotonSet, first_distance, trace_photons
-from .photon_walk import camera_step, facing
-from .planes import plane_set, planes_from_props
-from .sampling import SamplePass, stochastic
 
 
 class Maps(NamedTuple):

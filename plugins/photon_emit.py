@@ -36,10 +36,10 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .area_light import A5AreaLight
-from .kernel.lights import is_light
-from .point_light import A5PointLight
-from .spot_light import A5SpotLight, profile
+from a5mi.plugins.area_light import A5AreaLight
+from a5mi.plugins.kernel.lights import is_light
+from a5mi.plugins.point_light import A5PointLight
+from a5mi.plugins.spot_light import A5SpotLight, profile
 
 
 class PhotonRays(NamedTuple):

@@ -28,13 +28,13 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .kernel.intersect import intersect, mirror_normal
-from .kernel.surfaces import surface_at
-from .photon_emit import PhotonRays, first_hit_factor, scene_ball, to_np3
-from .photon_walk import photon_step
+from a5mi.plugins.kernel.intersect import intersect, mirror_normal
+from a5mi.plugins.kernel.surfaces import surface_at
+from a5mi.plugins.photon_emit import PhotonRays, first_hit_factor, scene_ball, to_np3
+from a5mi.plugins.photon_walk import photon_step
 
 if TYPE_CHECKING:
-    from .kernel.features import Features, SceneData
+    from a5mi.plugins.kernel.features import Features, SceneData
 
 DIRECT, CAUSTIC, INDIRECT = 0, 1, 2
 

@@ -20,7 +20,7 @@ from typing import NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from .kernel import pbr
+from a5mi.plugins.kernel import pbr
 
 
 class Step(NamedTuple):

@@ -48,7 +48,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .syntax import syntax
+from a5mi.plugins.syntax import syntax
 
 _KEY = re.compile(r"^plane_(.+?)_(normal|offset|bsdf_uv|bsdf|mirror_normal|center|radius|to_world)$")
 

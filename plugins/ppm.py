@@ -24,9 +24,9 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .photon import A5PhotonIntegrator, Maps, _dr3, _float, _int, _width
-from .photon_emit import scene_ball
-from .sampling import SamplePass
+from a5mi.plugins.photon import A5PhotonIntegrator, Maps, _dr3, _float, _int, _width
+from a5mi.plugins.photon_emit import scene_ball
+from a5mi.plugins.sampling import SamplePass
 
 
 def radius_at(r1: float, alpha: float, i: int) -> float:

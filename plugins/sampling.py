@@ -30,7 +30,7 @@ from typing import NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from .syntax import syntax
+from a5mi.plugins.syntax import syntax
 
 #: ``dim`` of the thin-lens sample (EXTENSIONS E.3); ray-tree dimensions are ``node · 256 + slot`` < 2^24.
 LENS_DIM = 0xFFFFFFF0

@@ -29,9 +29,8 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from a5mi.plugins.sampling import Stochastic, tea
 from a5mi.spec import DISPERSION_RANGE_NM
-
-from .sampling import Stochastic, tea
 
 #: Sampling dimension of the wavelength (E.5's scheme; ray-tree dimensions are < 2^24, the lens 0xFFFFFFF0).
 WAVELENGTH_DIM = 0xFFFFFFF1

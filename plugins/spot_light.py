@@ -19,7 +19,7 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from .point_light import A5PointLight, _vec3_param, attenuation
+from a5mi.plugins.point_light import A5PointLight, _vec3_param, attenuation
 
 
 def profile(cos_theta: mi.Float, angle_rad: mi.Float, beam_rad: mi.Float) -> mi.Float:

@@ -41,16 +41,16 @@ from typing import TYPE_CHECKING
 import drjit as dr
 import mitsuba as mi
 
-from .common import snell
-from .kernel import lights
-from .kernel.surfaces import background
-from .media_walk import hg_direction
-from .subsurface_dipole import Dipole, dipole, profile
-from .syntax import syntax
+from a5mi.plugins.common import snell
+from a5mi.plugins.kernel import lights
+from a5mi.plugins.kernel.surfaces import background
+from a5mi.plugins.media_walk import hg_direction
+from a5mi.plugins.subsurface_dipole import Dipole, dipole, profile
+from a5mi.plugins.syntax import syntax
 
 if TYPE_CHECKING:
-    from .kernel.features import Features, SceneData
-    from .sampling import Stochastic
+    from a5mi.plugins.kernel.features import Features, SceneData
+    from a5mi.plugins.sampling import Stochastic
 
 METHODS = ("none", "dipole", "walk")
 #: Hits of one probe chord considered; events of one walk; Russian roulette from this event on.

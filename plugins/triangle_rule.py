@@ -42,9 +42,8 @@ import mitsuba as mi
 import numpy as np
 
 from a5mi.arrays import aligned_float32
-
-from . import octree_leaves
-from .common import dot32 as dot
+from a5mi.plugins import octree_leaves
+from a5mi.plugins.common import dot32 as dot
 
 #: The face attribute that marks a mesh carrying the data above.
 MARKER = "face_a5_v0"

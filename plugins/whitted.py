@@ -12,16 +12,15 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
+from a5mi.plugins import media, subsurface, triangle_rule
+from a5mi.plugins.kernel.features import SceneData, build_features
+from a5mi.plugins.kernel.lights import lights_of
+from a5mi.plugins.kernel.raylog import RayLog
+from a5mi.plugins.kernel.raytree import TreeResult, trace_tree
+from a5mi.plugins.planes import plane_set, planes_from_props
+from a5mi.plugins.sampling import SamplePass, stochastic
+from a5mi.plugins.whitted_record import TreeRecorder
 from a5mi.spec import FRESNEL_MODES, TMIN
-
-from . import media, subsurface, triangle_rule
-from .kernel.features import SceneData, build_features
-from .kernel.lights import lights_of
-from .kernel.raylog import RayLog
-from .kernel.raytree import TreeResult, trace_tree
-from .planes import plane_set, planes_from_props
-from .sampling import SamplePass, stochastic
-from .whitted_record import TreeRecorder
 
 #: AOV groups of the ``aovs`` parameter (a5mi.options.AOV_GROUPS) and the channels each adds, in order:
 #: first-hit shading normal and distance (SPEC B.6), the ray-tree class (``MISS``, ``OPAQUE``, ``GLASS`` of

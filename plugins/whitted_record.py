@@ -23,8 +23,8 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from . import octree_rule
-from .planes import PlaneSet, intersect_planes
+from a5mi.plugins import octree_rule
+from a5mi.plugins.planes import PlaneSet, intersect_planes
 
 #: Per-node fields and their widths, in buffer order.
 NODE_FIELDS: tuple[tuple[str, int], ...] = (

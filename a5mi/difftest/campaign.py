@@ -23,9 +23,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from .generate import GenScene, random_scene
-from .minimise import Minimised, minimise
-from .runner import DEFAULT_TIMEOUT, Outcome, compare_scene, stage
+from a5mi.difftest.generate import GenScene, random_scene
+from a5mi.difftest.minimise import Minimised, minimise
+from a5mi.difftest.runner import DEFAULT_TIMEOUT, Outcome, compare_scene, stage
 
 
 @dataclass(frozen=True)

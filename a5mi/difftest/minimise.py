@@ -20,8 +20,8 @@ import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 
-from .generate import GenScene, Obj
-from .runner import Outcome
+from a5mi.difftest.generate import GenScene, Obj
+from a5mi.difftest.runner import Outcome
 
 Check = Callable[[GenScene], Outcome]
 

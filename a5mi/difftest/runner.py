@@ -26,11 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from a5mi.compare import Metrics, compare_arrays
+from a5mi.difftest.generate import GenScene
 from a5mi.errors import UserError
 from a5mi.sandbox import Limits, OutputRefused, run_sandboxed
 from a5mi.sandbox_outputs import TOO_LARGE, decode_levels, open_output
-
-from .generate import GenScene
 
 #: Seconds a single run of the other executable may take.
 DEFAULT_TIMEOUT = 60.0

@@ -27,8 +27,7 @@ import numpy as np
 from a5mi.errors import UsageError
 from a5mi.options import RenderOptions
 from a5mi.spec import JITTER_FACTOR
-
-from .tree import RayTree, build_trees
+from a5mi.trace.tree import RayTree, build_trees
 
 #: Most nodes recorded per camera ray (a full tree of 9 bounces); deeper trees are reported as cut.
 MAX_NODES = 1023

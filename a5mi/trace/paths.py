@@ -22,9 +22,8 @@ from typing import Any
 import numpy as np
 
 from a5mi.options import RenderOptions
-
-from .core import TraceError, Tracer
-from .tree import SceneObject, object_names
+from a5mi.trace.core import TraceError, Tracer
+from a5mi.trace.tree import SceneObject, object_names
 
 
 @dataclass

@@ -29,9 +29,8 @@ from typing import Any
 import numpy as np
 
 from a5mi.imageio import quantize
-
-from .core import PixelTrace
-from .tree import RayNode, RayTree, fresnel_text
+from a5mi.trace.core import PixelTrace
+from a5mi.trace.tree import RayNode, RayTree, fresnel_text
 
 
 def v3(v: Any, digits: int = 6) -> str:

@@ -37,8 +37,7 @@ import numpy as np
 
 from a5mi.errors import UserError
 from a5mi.options import RenderOptions
-
-from .png import png_bytes
+from a5mi.view.png import png_bytes
 
 #: Largest render buffer (samples) rendered without per-tile progress: each progress step re-traces the
 #: integrator (about 50 ms), so small renders report their stages only.
@@ -191,7 +190,7 @@ class ViewEngine:
 
     def _keep_unchanged_images(self) -> None:
         """Drop the decoded images whose file changed (or vanished) since it was decoded."""
-        from .watcher import stamp
+        from a5mi.view.watcher import stamp
 
         for path, was in list(self._image_stamps.items()):
             if stamp(path) != was:
@@ -201,7 +200,7 @@ class ViewEngine:
     def _stamp_images(self, started: int) -> None:
         """Remember the state of each newly decoded image file; one modified since the load ``started`` (ns) is
         not kept: it may have been decoded half-written."""
-        from .watcher import stamp
+        from a5mi.view.watcher import stamp
 
         for path in list(self._decoded):
             if path not in self._image_stamps:

@@ -17,10 +17,9 @@ from collections.abc import Callable
 from typing import Any
 
 from a5mi.errors import UserError
-
-from .controls import describe_controls
-from .engine import preview_options
-from .watcher import snapshot
+from a5mi.view.controls import describe_controls
+from a5mi.view.engine import preview_options
+from a5mi.view.watcher import snapshot
 
 #: Seconds between two checks for a signal while no job waits.
 WAIT_SECONDS = 0.25

@@ -13,14 +13,14 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import mitsuba as mi
 
-from ..milled import uses_milled
-from . import pbr_gather
-from .lights import Lights, has_area_lights
+from a5mi.plugins.kernel import pbr_gather
+from a5mi.plugins.kernel.lights import Lights, has_area_lights
+from a5mi.plugins.milled import uses_milled
 
 if TYPE_CHECKING:
-    from ..media import MediumParams
-    from ..planes import PlaneSet
-    from ..triangle_rule import RuleTable
+    from a5mi.plugins.media import MediumParams
+    from a5mi.plugins.planes import PlaneSet
+    from a5mi.plugins.triangle_rule import RuleTable
 
 
 class Features(NamedTuple):

@@ -12,8 +12,8 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from ..common import reflect
-from ..sampling import GLOSSY_SLOT, Stochastic, ggx_normal, stratified_2d
+from a5mi.plugins.common import reflect
+from a5mi.plugins.sampling import GLOSSY_SLOT, Stochastic, ggx_normal, stratified_2d
 
 
 def facet(d: mi.Vector3f, n_side: mi.Vector3f, r_view: mi.Vector3f, alpha: mi.Float, glossy: mi.Bool,

@@ -18,10 +18,10 @@ from typing import NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from .. import octree_rule
-from ..planes import PlaneSet, intersect_planes, plane_bsdf, plane_mirror_normal, plane_normal
-from ..syntax import syntax
-from ..triangle_rule import NO_PLACE, RuleTable
+from a5mi.plugins import octree_rule
+from a5mi.plugins.planes import PlaneSet, intersect_planes, plane_bsdf, plane_mirror_normal, plane_normal
+from a5mi.plugins.syntax import syntax
+from a5mi.plugins.triangle_rule import NO_PLACE, RuleTable
 
 #: Mesh hits walked front to back, at most, to find the stale uv (:func:`stale`).
 STALE_WALK = 6

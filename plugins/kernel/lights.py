@@ -17,15 +17,15 @@ from typing import TYPE_CHECKING, NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from .. import media_light, milled
-from ..sampling import Stochastic, stratified_2d
-from ..syntax import syntax
-from .intersect import visible
+from a5mi.plugins import media_light, milled
+from a5mi.plugins.kernel.intersect import visible
+from a5mi.plugins.sampling import Stochastic, stratified_2d
+from a5mi.plugins.syntax import syntax
 
 if TYPE_CHECKING:
-    from ..whitted_record import TreeRecorder
-    from .features import Features, SceneData
-    from .raylog import RayLog
+    from a5mi.plugins.kernel.features import Features, SceneData
+    from a5mi.plugins.kernel.raylog import RayLog
+    from a5mi.plugins.whitted_record import TreeRecorder
 
 
 class Lights(NamedTuple):

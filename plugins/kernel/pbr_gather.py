@@ -19,10 +19,10 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from ..sampling import Stochastic
-from ..syntax import syntax
-from . import stack as ray_stack
-from .pbr_sampling import padded_2d
+from a5mi.plugins.kernel import stack as ray_stack
+from a5mi.plugins.kernel.pbr_sampling import padded_2d
+from a5mi.plugins.sampling import Stochastic
+from a5mi.plugins.syntax import syntax
 
 #: the E.5 slot of the gathered rays at a node (light k uses slot k, the glossy lobe 255)
 GATHER_SLOT = 254

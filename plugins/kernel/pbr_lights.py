@@ -36,16 +36,16 @@ from typing import TYPE_CHECKING, NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from ..sampling import Stochastic
-from ..syntax import syntax
-from .intersect import visible
-from .lights import area_samples
-from .pbr import Lobes, eval_diffuse, power_heuristic
-from .pbr_sampling import padded_2d
-from .surfaces import background
+from a5mi.plugins.kernel.intersect import visible
+from a5mi.plugins.kernel.lights import area_samples
+from a5mi.plugins.kernel.pbr import Lobes, eval_diffuse, power_heuristic
+from a5mi.plugins.kernel.pbr_sampling import padded_2d
+from a5mi.plugins.kernel.surfaces import background
+from a5mi.plugins.sampling import Stochastic
+from a5mi.plugins.syntax import syntax
 
 if TYPE_CHECKING:
-    from ..planes import PlaneSet
+    from a5mi.plugins.planes import PlaneSet
 
 #: kinds of :class:`PbrLights`: a delta light, an emitter on a shape, an ``a5_area`` without a shape (E.2)
 DELTA, SURFACE, POINTS = 0, 1, 2

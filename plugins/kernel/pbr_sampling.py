@@ -21,8 +21,10 @@ from __future__ import annotations
 
 import mitsuba as mi
 
-from ..sampling import Stochastic, stratified_2d
-from ..sampling import permute as permute  # re-exported: the permutation of the strata (tests)
+from a5mi.plugins.sampling import (
+    Stochastic,
+    stratified_2d,
+)
 
 
 def padded_2d(rng: Stochastic, dim: mi.UInt32, index: mi.UInt32, count: mi.UInt32,

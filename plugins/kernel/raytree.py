@@ -14,19 +14,18 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
+from a5mi.plugins import media, spectral, subsurface
+from a5mi.plugins.common import fresnel_weight, reflect, snell
+from a5mi.plugins.kernel import gloss, lights, pbr_gather
+from a5mi.plugins.kernel import stack as ray_stack
+from a5mi.plugins.kernel.features import Features, SceneData
+from a5mi.plugins.kernel.intersect import intersect, mirror_normal
+from a5mi.plugins.kernel.raylog import RayLog
+from a5mi.plugins.kernel.surfaces import background, surface_at
+from a5mi.plugins.sampling import Stochastic
+from a5mi.plugins.syntax import syntax
+from a5mi.plugins.whitted_record import TreeRecorder, shape_id
 from a5mi.spec import MIRROR_THRESHOLD
-
-from .. import media, spectral, subsurface
-from ..common import fresnel_weight, reflect, snell
-from ..sampling import Stochastic
-from ..syntax import syntax
-from ..whitted_record import TreeRecorder, shape_id
-from . import gloss, lights, pbr_gather
-from . import stack as ray_stack
-from .features import Features, SceneData
-from .intersect import intersect, mirror_normal
-from .raylog import RayLog
-from .surfaces import background, surface_at
 
 #: Values of the ``class`` AOV: the camera ray misses; the SPEC B.3 ray tree never hits a material with
 #: ``refraction_index > 0``; some node of the tree (the last level included) hits one.

@@ -16,11 +16,11 @@ from typing import TYPE_CHECKING, NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from .. import spectral
-from ..bump import shading_normal
+from a5mi.plugins import spectral
+from a5mi.plugins.bump import shading_normal
 
 if TYPE_CHECKING:
-    from .features import Features
+    from a5mi.plugins.kernel.features import Features
 
 
 class Surface(NamedTuple):
