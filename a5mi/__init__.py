@@ -1,8 +1,9 @@
 """a5mi: the MIT 6.837 Assignment 5 ray tracer as Mitsuba 3 plugins.
 
 Data flows one way: scene text -> :mod:`a5mi.converters` (tokens, typed model, scene description, Mitsuba
-dict) -> :mod:`a5mi.session` (``mi.load_dict``: :mod:`a5mi.plugins` objects, the integrator, BSDFs, textures,
-emitters) -> :mod:`a5mi.driver` (camera rays, jitter, tiles, filter) -> :mod:`a5mi.imageio` (image file). Only
+dict) -> :mod:`a5mi.render.session` (``mi.load_dict``: :mod:`a5mi.plugins` objects, the integrator, BSDFs, textures,
+emitters) -> :mod:`a5mi.render.driver` (camera rays, jitter, tiles, filter) -> :mod:`a5mi.platform.imageio` (image
+file). Only
 :mod:`a5mi.cli` prints.
 """
 
@@ -48,9 +49,9 @@ def data_dir() -> Path:
 
 
 def require_data_dir() -> Path:
-    """:func:`data_dir` if it holds the course data (``SPEC.md``), else a :class:`~a5mi.errors.UserError`
+    """:func:`data_dir` if it holds the course data (``SPEC.md``), else a :class:`~a5mi.platform.errors.UserError`
     naming where it looked and ``A5_DATA``."""
-    from a5mi.errors import UserError
+    from a5mi.platform.errors import UserError
 
     root = data_dir()
     if not (root / "SPEC.md").is_file():

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from a5mi import bitmapfont
-from a5mi.errors import UserError
+from a5mi.platform.errors import UserError
 
 DEFAULT_THRESHOLD = 2.0
 
@@ -290,8 +290,8 @@ def montage(a: np.ndarray, b: np.ndarray, caption: str, scale: float = DEFAULT_S
 
 def write_diff(a: np.ndarray, b: np.ndarray, metrics: Metrics, path: str | Path, labels: tuple[str, str],
                scale: float = DEFAULT_SCALE) -> None:
-    """Write the montage atomically (:func:`a5mi.imageio.write_image`), mode as the umask says."""
-    from a5mi.imageio import write_image
+    """Write the montage atomically (:func:`a5mi.platform.imageio.write_image`), mode as the umask says."""
+    from a5mi.platform.imageio import write_image
 
     caption = (f"{labels[0]} | {labels[1]} | |A-B|, largest channel, colour bar 0..{scale:g}/255\n"
                f"{metrics.summary()}")

@@ -1,12 +1,12 @@
-"""The console scripts ``a5`` and ``a5mi``: signals first (:mod:`a5mi.interrupts`), then the command layer.
+"""The console scripts ``a5`` and ``a5mi``: signals first (:mod:`a5mi.platform.interrupts`), then the command layer.
 
 The scripts import this small module instead of :mod:`a5mi.cli` so that SIGINT, SIGTERM and SIGHUP are routed
 before the ~50 ms of imports of the command layer: a handler that only records the signal is this module's
 first statement (the console-script wrapper's ``from a5mi.entry import ...`` is its first statement after
-``import sys``; only the package's ``__init__`` runs before it), the full handlers of :mod:`a5mi.interrupts`
+``import sys``; only the package's ``__init__`` runs before it), the full handlers of :mod:`a5mi.platform.interrupts`
 follow and raise a recorded signal at their first check, so a Ctrl-C at any moment after that ends with one
 line and ``128 + signal``
-(:meth:`a5mi.errors.ExitStatus.signal`; docs/CLI.md "Exit status"), never a traceback. Earlier moments belong
+(:meth:`a5mi.platform.errors.ExitStatus.signal`; docs/CLI.md "Exit status"), never a traceback. Earlier moments belong
 to the interpreter: before it installs its own SIGINT handler the signal's default action ends the process
 (the shell reports 130, nothing is written); while it imports ``site`` (the ``.pth`` files of the
 environment) a SIGINT is ``Fatal Python error: init_import_site``, which no code of this package can reach.
@@ -26,7 +26,7 @@ _EARLY: list[int] = []
 
 
 def _early(signum: int, frame: object) -> None:
-    _EARLY.append(signum)  # held until :mod:`a5mi.interrupts` is installed, then raised at its first check
+    _EARLY.append(signum)  # held until :mod:`a5mi.platform.interrupts` is installed, then raised at its first check
 
 
 for _sig in (_signal.SIGINT, _signal.SIGTERM, _signal.SIGHUP):  # first thing: before any other import
@@ -37,7 +37,7 @@ import os  # noqa: E402 - after the handlers above
 import signal  # noqa: E402
 import sys  # noqa: E402
 
-from a5mi import interrupts  # noqa: E402
+from a5mi.platform import interrupts  # noqa: E402
 
 _PROG = {"name": "a5" if os.path.basename(sys.argv[0] if sys.argv else "") == "a5" else "a5mi"}
 
@@ -81,7 +81,7 @@ def _run(prog: str) -> int:
     try:
         from a5mi import cli
         from a5mi.cli.app import standard_streams
-        from a5mi.errors import ExitStatus, UserError
+        from a5mi.platform.errors import ExitStatus, UserError
 
         standard_streams(_CLOSED)
         interrupts.check()  # a signal that arrived during the imports

@@ -16,7 +16,7 @@ import numpy as np
 
 from a5mi import data_dir
 from a5mi.compare import Metrics, compare_arrays
-from a5mi.imageio import read_levels
+from a5mi.platform.imageio import read_levels
 
 #: reference suffix -> driver flags (reference/README.md)
 SUFFIX_FLAGS: dict[str, dict[str, object]] = {
@@ -74,9 +74,9 @@ def render_reference(case: ReferenceCase) -> np.ndarray:
     """Our render of ``case`` in levels (H, W, 3), row 0 = top, quantised as the binary does (SPEC B.1)."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
-    from a5mi.imageio import quantize
-    from a5mi.options import RenderOptions
-    from a5mi.session import render
+    from a5mi.platform.imageio import quantize
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
 
     model = parse_file(case.scene_file)
     flags = SUFFIX_FLAGS[case.suffix]

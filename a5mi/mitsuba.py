@@ -1,4 +1,5 @@
-"""``python -m a5mi.mitsuba SCENE.xml -o IMG [-D NAME=VALUE ...]``: ``a5mi render-xml`` (:mod:`a5mi.cli.render_xml`)
+"""``python -m a5mi.mitsuba SCENE.xml -o IMG [-D NAME=VALUE ...]``: ``a5mi render-xml``
+(:mod:`a5mi.commands.render_xml`)
 for Mitsuba users: renders any Mitsuba 3 XML with the a5mi plugins registered."""
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 A leaf module (numpy only): :mod:`a5mi.converters` checks a camera with :func:`camera_basis` in the precision
 the renderer uses (``direction 1e-40 1e-40 -1e-40`` is zero in float32, ``1e20`` components overflow
-``x·x``), :mod:`a5mi.plugins.camera` builds its rays from it.
+``x·x``), :mod:`a5mi.plugins.sensors.camera` builds its rays from it.
 """
 
 from __future__ import annotations

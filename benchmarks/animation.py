@@ -19,7 +19,7 @@ from pathlib import Path
 
 from a5mi.animate import batch
 from a5mi.cli import parse_a5_args
-from a5mi.cli.render import render_options
+from a5mi.commands.render import render_options
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -22,8 +22,8 @@ from pathlib import Path
 from a5mi import require_data_dir
 from a5mi.compare import compare_arrays
 from a5mi.fidelity import SIZE, cases
-from a5mi.imageio import read_levels
-from a5mi.variant import cuda_available
+from a5mi.platform.imageio import read_levels
+from a5mi.runtime.variant import cuda_available
 
 TOLERANCE_DB = 0.5
 TEST_SCENES = ("scene06_bunny_1k", "scene10_sphere", "scene11_cube", "scene12_vase")

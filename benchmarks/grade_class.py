@@ -26,13 +26,13 @@ import time
 from pathlib import Path
 
 from a5mi import PROJECT_ROOT, require_data_dir
-from a5mi.cli.grade import _options_of
-from a5mi.cluster import start_client
+from a5mi.commands.grade import _options_of
 from a5mi.grade.batch import GradeSettings, grade_class, run_plain
 from a5mi.grade.cases import DEFAULT_COMMANDS, load_cases
 from a5mi.grade.references import build_reference
 from a5mi.grade.run import Task
-from a5mi.sandbox import Limits
+from a5mi.runtime.cluster import start_client
+from a5mi.sandbox.bwrap import Limits
 
 A5 = str(Path(sys.executable).with_name("a5"))
 #: defect -> what the wrapper adds to / removes from the a5 command line ("" = none, None = no a5 run)

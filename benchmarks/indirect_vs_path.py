@@ -8,7 +8,7 @@ Reference: ``a5_path -bounces 1`` at ``REF`` passes per pixel centre, traced man
 (``A5PathIntegrator.trace(..., rng=)``, tests/test_irradiance_cache_bench.py's ``reference``), seed 99 (no
 render below uses it). Error: mean |image − reference| over pixels and channels / the reference's mean; the
 reference's own share of it is printed (its standard error).
-Time: the render's wall time through :func:`a5mi.driver.render_scene` after a first render of the same options
+Time: the render's wall time through :func:`a5mi.render.driver.render_scene` after a first render of the same options
 (kernels compiled). Rays: every ray the render cast (camera, reflected / gathered, refracted, shadow; for the
 cache its camera trees plus every ray of its hemisphere paths; for ``-spp S`` pass 0's count times ``S``, the
 driver reports the AOVs of pass 0). ``-indirect N`` with ``N`` a square: E.5 stratifies a ``q x q`` grid,
@@ -39,18 +39,18 @@ def main() -> None:
     width = int(sys.argv[1]) if len(sys.argv) > 1 else 32
     passes = int(sys.argv[2]) if len(sys.argv) > 2 else 8192
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-    from a5mi.variant import activate
+    from a5mi.runtime.variant import activate
 
     activate()
     import mitsuba as mi
     import numpy as np
     from test_irradiance_cache_bench import reference
 
-    from a5mi import session
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
-    from a5mi.driver import render_scene
-    from a5mi.options import RenderOptions
+    from a5mi.render import session
+    from a5mi.render.driver import render_scene
+    from a5mi.render.options import RenderOptions
 
     print(f"{width}x{width}, reference {passes} passes, load average {os.getloadavg()[0]:.1f}\n")
     desc = describe(parse_file(str(SCENE)))

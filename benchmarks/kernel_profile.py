@@ -38,8 +38,8 @@ variant.activate()
 from a5mi import driver
 from a5mi.converters.a5_parser import parse_file
 from a5mi.converters.describe import describe
-from a5mi.options import RenderOptions
-from a5mi.session import build_scene
+from a5mi.render.options import RenderOptions
+from a5mi.render.session import build_scene
 threads = int(sys.argv[4]) or None
 opts = RenderOptions(width=300, height=300, bounces=4, shadows=True, jitter=True, filter=True, threads=threads)
 desc = describe(parse_file(Path(sys.argv[2])))
@@ -60,12 +60,12 @@ os.chdir(sys.argv[1])
 from a5mi import variant
 variant.activate()
 import drjit as dr
-import a5mi.render_pass as rp
+import a5mi.render.render_pass as rp
 from a5mi import driver
 from a5mi.converters.a5_parser import parse_file
 from a5mi.converters.describe import describe
-from a5mi.options import RenderOptions
-from a5mi.session import build_scene
+from a5mi.render.options import RenderOptions
+from a5mi.render.session import build_scene
 seen = []
 rp.account_kernels = lambda kernels, timings: seen.extend(dr.kernel_history())
 desc = describe(parse_file(Path(sys.argv[2])))
@@ -90,8 +90,8 @@ import drjit as dr, mitsuba as mi
 from a5mi.bench.floor import _camera_rays_for
 from a5mi.converters.a5_parser import parse_file
 from a5mi.converters.describe import describe
-from a5mi.options import RenderOptions
-from a5mi.session import build_scene
+from a5mi.render.options import RenderOptions
+from a5mi.render.session import build_scene
 opts = RenderOptions(width=300, height=300, bounces=4, shadows=True, jitter=True, filter=True, count_rays=True)
 desc = describe(parse_file(Path(sys.argv[2])))
 scene = build_scene(desc, opts)

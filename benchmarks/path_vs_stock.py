@@ -4,7 +4,7 @@ E.13 reading), one run, on whatever else the machine is doing (the load average 
 
 Both render W x H pixel centres (SPEC B.2) with ``spp`` samples each, ``-bounces 4`` (stock ``max_depth`` 6),
 Russian roulette from 5, after one warm-up render each (kernels compiled and cached), then REPEATS renders of
-each, alternating, the medians compared: a5mi through :func:`a5mi.driver.render_scene` (the E.5 wavefront: up
+each, alternating, the medians compared: a5mi through :func:`a5mi.render.driver.render_scene` (the E.5 wavefront: up
 to 2^20 samples of many ``-spp`` passes per launch, as ``a5`` renders), stock through
 :func:`a5mi.crosscheck.render_path` (up to 2^20 samples per launch). Prints a markdown table.
 
@@ -24,7 +24,7 @@ def main() -> None:
     spp = int(sys.argv[2]) if len(sys.argv) > 2 else 64
     repeats = int(sys.argv[3]) if len(sys.argv) > 3 else 3
     sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
-    from a5mi.variant import activate
+    from a5mi.runtime.variant import activate
 
     activate()
     import mitsuba as mi
@@ -32,7 +32,7 @@ def main() -> None:
     from test_path_stock import SCENE
 
     from a5mi.crosscheck import render_path
-    from a5mi.driver import render_scene
+    from a5mi.render.driver import render_scene
 
     desc, scene, ro = load(mi, SCENE, integrator="path", bounces=4, fresnel="exact", width=width, height=width,
                            spp=spp)

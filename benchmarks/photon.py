@@ -43,16 +43,16 @@ def main() -> None:
     if args.scene10:
         scene10(args.scene10, args.size, args.passes, args.json)
         return
-    from a5mi.variant import activate
+    from a5mi.runtime.variant import activate
 
     activate()
     import mitsuba as mi
     from scipy.spatial import cKDTree
     from test_photon_caustic import SIZE, _caustic_region, _dicts, _ptracer
 
-    from a5mi.options import RenderOptions
-    from a5mi.plugins.photon_maps import PhotonMap
-    from a5mi.plugins.photon_trace import CAUSTIC, DIRECT, INDIRECT
+    from a5mi.plugins.integrators.photon.maps import PhotonMap
+    from a5mi.plugins.integrators.photon.trace import CAUSTIC, DIRECT, INDIRECT
+    from a5mi.render.options import RenderOptions
 
     out: dict = {"load_average": os.getloadavg()}
     base = RenderOptions(width=SIZE, height=SIZE, shadows=True, fresnel="exact", integrator="photon",
@@ -129,11 +129,11 @@ def main() -> None:
 
 def scene10(out_png: str, size: int, passes: int, json_out: str | None) -> None:
     """The scene10 figure and figures (module docstring)."""
-    from a5mi import imageio
-    from a5mi.options import RenderOptions
     from a5mi.photons import versus
-    from a5mi.session import describe_file
-    from a5mi.variant import activate
+    from a5mi.platform import imageio
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import describe_file
+    from a5mi.runtime.variant import activate
 
     activate()
     import mitsuba as mi

@@ -1,9 +1,9 @@
-"""Speed-up of a split render (docs/EXTENSIONS.md E.24, a5mi/bands.py) on a local 2-worker Dask cluster against
+"""Speed-up of a split render (docs/EXTENSIONS.md E.24, a5mi/render/bands.py) on a local 2-worker Dask cluster against
 one process, the same render, one run on whatever else the machine does (the load average is printed).
 
-* one process: :func:`a5mi.session.render` after a warm-up render (scene loaded, kernels cached): the
+* one process: :func:`a5mi.render.session.render` after a warm-up render (scene loaded, kernels cached): the
   in-process cost of the samples;
-* split, cold: :func:`a5mi.bands.render_split` with ``workers=2`` as ``a5 -workers 2`` runs it (cluster start,
+* split, cold: :func:`a5mi.render.bands.render_split` with ``workers=2`` as ``a5 -workers 2`` runs it (cluster start,
   each worker's scene load and kernel cache, the bands);
 * split, warm: a second render on the same client (workers keep their scene): the bands alone.
 
@@ -28,11 +28,11 @@ def main() -> None:
                                                                  "colour_bleeding.txt")
     width = int(sys.argv[2]) if len(sys.argv) > 2 else 96
     spp = int(sys.argv[3]) if len(sys.argv) > 3 else 256
-    from a5mi import cluster
-    from a5mi.bands import render_split
-    from a5mi.options import RenderOptions
-    from a5mi.session import describe_file, render
-    from a5mi.variant import activate
+    from a5mi.render.bands import render_split
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import describe_file, render
+    from a5mi.runtime import cluster
+    from a5mi.runtime.variant import activate
 
     activate()
     options = RenderOptions(width=width, height=width, integrator="path", bounces=4, spp=spp, seed=1)

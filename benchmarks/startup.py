@@ -29,7 +29,7 @@ def mark(name):
     global c0
     c = time.process_time(); marks.append((name, c - c0)); c0 = c
 import numpy; mark("numpy")
-import a5mi.cli, a5mi.cli.render; mark("a5mi.cli")
+import a5mi.cli, a5mi.commands.render; mark("a5mi.cli")
 from a5mi.converters.a5_parser import parse_file; from a5mi.converters.describe import describe; mark("converters")
 d = describe(parse_file(scene)); mark("parse + describe (files read)")
 import drjit, mitsuba as mi; mark("import drjit + mitsuba")
@@ -38,10 +38,10 @@ from a5mi.plugins.syntax import cached_drjit_syntax
 with cached_drjit_syntax(): mi.set_variant("llvm_ad_rgb")
 drjit.llvm.Float(0.0); llvm.check_loaded(); mark("set_variant + LLVM backend")
 from a5mi.plugins import register_all; register_all(); mark("plugin imports + registration")
-from a5mi.session import build_scene; from a5mi.options import RenderOptions
+from a5mi.render.session import build_scene; from a5mi.render.options import RenderOptions
 o = RenderOptions(width=300, height=300, shadows=True, bounces=4, jitter=True, filter=True)
 s = build_scene(d, o); mark("build (mi.load_dict)")
-from a5mi.driver import render_scene
+from a5mi.render.driver import render_scene
 r = render_scene(s, d.camera, o); mark("render (+ jitter, filter)")
 from a5mi import imageio; imageio.write_images([(out, r.image)]); mark("write")
 print(json.dumps(marks))

@@ -14,7 +14,7 @@ of a PointLight does), so ``a5mi crosscheck`` compares like with like there and 
 * SphereLight -> a ``sphere`` carrying ``a5_area`` (``shape = sphere``) | stock ``area`` on the sphere with
   ``radiance = color·D² / (π r² (1 + falloff·D²))``;
 * camera ``aperture A > 0`` -> stock ``thinlens`` with ``aperture_radius = A/2``, ``focus_distance = F``
-  (a5 mode: the driver's thin lens, a5mi/passes.py);
+  (a5 mode: the driver's thin lens, a5mi/render/passes.py);
 * ``roughness α > 0`` -> ``roughconductor`` / ``roughdielectric`` (GGX, ``alpha = α``) in place of the mirror /
   dielectric of the stock material (converters/materials.py); not ``roughplastic``, whose Fresnel-weighted
   coat cannot reproduce the a5 sum ``kd·D + ks·M``;

@@ -4,7 +4,7 @@ Every file name of the scene (``obj_file``, ``texture``, ``cubeMap``) is resolve
 :func:`.model.resolve_path` (scene folder first, then the working directory; SPEC A.0 used only the
 working directory) and checked here, so a bad file is a :class:`SceneSemanticError` at the keyword that named
 it, before Mitsuba is imported. Images are decoded whole, once, with the project's one OpenImageIO reader
-(:func:`a5mi.imageio.read_uint8`, 8 bits per channel, row 0 = the top row: SPEC A.4 uses the file's bytes as
+(:func:`a5mi.platform.imageio.read_uint8`, 8 bits per channel, row 0 = the top row: SPEC A.4 uses the file's bytes as
 they are); the pixels travel in the scene description (:class:`Image`) to the plugins, which never read the
 file again on the ``mi.load_dict`` path. A caller that describes an edited scene again (``a5mi view``) passes the
 images (:data:`Decoded`) and OBJ meshes (:data:`Meshes`) of the earlier descriptions; a mesh is kept while its
@@ -21,11 +21,11 @@ from typing import Any
 
 import numpy as np
 
-from a5mi import imageio
 from a5mi.converters import obj as objfile
 from a5mi.converters.errors import FileLoc, SceneSemanticError
 from a5mi.converters.model import Material, Scene, resolve_path
-from a5mi.errors import ImageReadError
+from a5mi.platform import imageio
+from a5mi.platform.errors import ImageReadError
 from a5mi.spec import CUBE_FACES, find_cube_face
 
 #: Largest file followed as a text "link" (a git symlink checked out as a file) for ``cubeMap``.
@@ -51,7 +51,7 @@ Decoded = dict[Path, Image]
 
 
 def read_image(path: Path, loc: FileLoc, what: str, decoded: Decoded | None = None) -> Image:
-    """Decode the whole image at ``path`` (SPEC A.4: 8 bits per channel) with :func:`a5mi.imageio.read_uint8`,
+    """Decode the whole image at ``path`` (SPEC A.4: 8 bits per channel) with :func:`a5mi.platform.imageio.read_uint8`,
     unless ``decoded`` holds it already (then that :class:`Image`; a new one is added to it). Raises
     :class:`SceneSemanticError` at ``loc``: ``{what} '{path}' is not a readable image: {reason}`` (empty,
     unreadable, not an image, truncated)."""

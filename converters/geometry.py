@@ -14,7 +14,7 @@
 * **Triangles**: a one-face mesh, as flat meshes above, with the binary's triangle-test rows.
 * **Planes** (infinite in the assignment: ``P·n = offset``, n not normalised): the world plane is
   ``π_w = M⁻ᵀ (n, −offset)`` (:func:`world_plane`). a5 renders intersect it exactly, analytically, inside
-  ``a5_whitted`` (``plugins/planes.py``): no geometry stands in for it. Plain Mitsuba (``--stock``) needs a
+  ``a5_whitted`` (``plugins/emulation/planes.py``): no geometry stands in for it. Plain Mitsuba (``--stock``) needs a
   finite stand-in: a ``rectangle`` of half-size :data:`PLANE_HALF_SIZE` = 4096 scene units
   (:func:`plane_rectangle_to_world`), centred on the foot of the perpendicular from the camera centre, with
   its frame's z axis along the plane's unit normal. Mitsuba inverts its ``to_world`` in float32, so the hit
@@ -64,7 +64,7 @@ class MeshData:
     #: :func:`mesh_from_triangle`).
     octree: np.ndarray | None = None
     #: (F, 21) float32 per face for the binary's triangle test and shading normal (:func:`triangle_rows`,
-    #: plugins/triangle_rule.py); None where :attr:`octree` is None.
+    #: plugins/emulation/triangle_rule.py); None where :attr:`octree` is None.
     triangles: np.ndarray | None = None
 
     def __post_init__(self) -> None:
@@ -143,7 +143,7 @@ ALL_REACHED = float((1 << 24) - 1)
 
 def mesh_from_triangle(tri: Triangle, m: np.ndarray) -> MeshData:
     """One-face world-space mesh with a flat normal (winding reversed when det M < 0), carrying the binary's
-    triangle-test rows (plugins/triangle_rule.py: ``Triangle::intersect`` is the test meshes use) and octree
+    triangle-test rows (plugins/emulation/triangle_rule.py: ``Triangle::intersect`` is the test meshes use) and octree
     rows that every ray reaches (a ``Triangle`` has no octree); the octree row's last number is 2.0 for a
     triangle outside any ``Transform`` (``M`` = I: its rays are not mapped, and a ``-0.0`` direction component
     does not hide it), else 1.0."""

@@ -12,7 +12,7 @@ byte-order mark included).
 
 Limits (SPEC A.0): a token has at most :data:`MAX_TOKEN` characters (SPEC A.0: the sample solution's token
 buffer, 1024 bytes in later versions) and a scene file at most :data:`MAX_SCENE_BYTES`; the scene is read only
-if it is a regular file (:func:`a5mi.paths.read_regular`: a FIFO or ``/dev/zero`` is refused). Tokens are
+if it is a regular file (:func:`a5mi.platform.paths.read_regular`: a FIFO or ``/dev/zero`` is refused). Tokens are
 found with one C-level regular expression per line and every pattern is linear in the token length, so
 hostile input costs time proportional to its size.
 
@@ -28,8 +28,8 @@ from pathlib import Path
 from typing import Final
 
 from a5mi.converters.errors import FileLoc, SceneSyntaxError, shown
-from a5mi.errors import FileReadError
-from a5mi.paths import read_regular
+from a5mi.platform.errors import FileReadError
+from a5mi.platform.paths import read_regular
 
 WHITESPACE: Final = frozenset(" \t\r\n\v\f")
 BRACES: Final = frozenset("{}")

@@ -108,7 +108,7 @@ class SceneIds:
 def scene_ids(desc: SceneDescription, *, stock: bool = False, binary_spheres: bool = True) -> SceneIds:
     """The names of ``desc``'s objects and lights in the dict of :func:`.to_mitsuba.to_dict` (and the XML of
     :mod:`.to_xml`) made with the same ``stock``: the parameter id ``NNN`` for a sphere (intersected by
-    ``a5_whitted`` as the binary does, plugins/planes.py; with ``stock`` ``sphere_NNN``, and
+    ``a5_whitted`` as the binary does, plugins/emulation/planes.py; with ``stock`` ``sphere_NNN``, and
     ``sphere_NNN_group`` holding ``sphere_NNN_shape`` when its transform is no similarity), ``plane_NNN``
     (``--stock`` rectangle) or the parameter id ``NNN`` (exact plane), ``triangle_NNN``, ``mesh_NNN``,
     ``light_NNN``; ``NNN`` the index, three digits at least. ``binary_spheres = False`` (the physically based
@@ -131,7 +131,8 @@ def scene_ids(desc: SceneDescription, *, stock: bool = False, binary_spheres: bo
 
 
 def binary_spheres(integrator: str, subsurface: str) -> bool:
-    """Whether spheres are intersected by the binary's test inside ``a5_whitted`` (SPEC B.3, plugins/planes.py):
+    """Whether spheres are intersected by the binary's test inside ``a5_whitted`` (SPEC B.3,
+    plugins/emulation/planes.py):
     for the sample solution's tracing (``-integrator whitted``) without ``-subsurface``; the physically based
     integrators (docs/EXTENSIONS.md E.13-E.17) and the E.18 probes and walks trace Mitsuba's sphere shape."""
     return integrator == "whitted" and subsurface == "none"

@@ -34,8 +34,8 @@ from typing import Literal
 import numpy as np
 
 from a5mi.converters.errors import FileLoc, SceneSemanticError
-from a5mi.errors import FileReadError
-from a5mi.paths import read_regular
+from a5mi.platform.errors import FileReadError
+from a5mi.platform.paths import read_regular
 
 #: The largest OBJ file read (1 GiB: ~15 M triangles; the course meshes are under 100 KB).
 MAX_OBJ_BYTES = 1 << 30
@@ -412,7 +412,7 @@ def binary_corner_normals(vertices: np.ndarray, faces: np.ndarray, normals: Norm
       ``n_{f0}, n_{f1}, n_{f2}``;
     * flat: all three corners get ``c_f / |c_f|``.
 
-    The binary interpolates these with its own barycentrics (plugins/triangle_rule.py). A degenerate face or
+    The binary interpolates these with its own barycentrics (plugins/emulation/triangle_rule.py). A degenerate face or
     an unused vertex gives NaN components, as in the binary.
     """
     v = np.asarray(vertices, dtype=np.float32)

@@ -31,7 +31,7 @@ is not entered (the reach set is the union of the reachable leaves' triangles, a
 its ancestors'), and the work has a budget: :data:`MAX_REFS` triangle references held by split nodes,
 :data:`MAX_STATES` traversal states and :data:`MAX_NODES` nodes. Over budget every face is marked as reached
 by every pattern (the mesh is intersected exactly, except that a ``-0.0`` component still hides it,
-plugins/octree_rule.py) and :func:`reach_masks` reports the fallback, which the converter turns into one
+plugins/emulation/octree_rule.py) and :func:`reach_masks` reports the fallback, which the converter turns into one
 warning at the mesh's ``obj_file`` (SPEC A.6, TriangleMesh).
 """
 
@@ -302,7 +302,7 @@ def _load_masks(path: Path, n_faces: int) -> tuple[np.ndarray, bool] | None:
 
 
 def _save_masks(path: Path, masks: np.ndarray, exact: bool) -> None:
-    from a5mi.imageio import atomic_file
+    from a5mi.platform.imageio import atomic_file
 
     body = np.concatenate([masks.astype(np.uint32).ravel(), np.array([int(exact)], dtype=np.uint32)])
     words = np.concatenate([body, np.array([zlib.crc32(body.tobytes())], dtype=np.uint32)])

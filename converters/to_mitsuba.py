@@ -14,8 +14,8 @@ table (object or light -> its Mitsuba ids) that :func:`scene_entries` names the 
 Camera, integrator, lights and background:
 
 * integrator ``a5_whitted`` with ``ambient`` (the description's ambient term) and
-  :meth:`a5mi.options.RenderOptions.integrator_params`; sensor ``a5_camera`` (B.2) with an ``hdrfilm`` of
-  :attr:`~a5mi.options.RenderOptions.render_size`, a ``box`` filter, the jittered ``stratified`` sampler and
+  :meth:`a5mi.render.options.RenderOptions.integrator_params`; sensor ``a5_camera`` (B.2) with an ``hdrfilm`` of
+  :attr:`~a5mi.render.options.RenderOptions.render_size`, a ``box`` filter, the jittered ``stratified`` sampler and
   ``pixel_centres`` (every sample through its pixel's centre, as ``a5 -spp N``: the sampler's positions only
   choose the pixel), and the E.3 ``aperture`` / ``focus_distance`` of a thin-lens camera;
 * ``directional`` (stock; ``irradiance`` = colour, the direction it travels); ``a5_point``;
@@ -82,7 +82,7 @@ from a5mi.converters.geometry import MeshData
 from a5mi.converters.materials import rgb
 from a5mi.converters.model import AreaLight, DirectionalLight, SphereLight, SpotLight
 from a5mi.converters.names import binary_spheres, scene_ids
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 from a5mi.spec import CUBE_FACES
 
 #: Face attributes carrying :attr:`.geometry.MeshData.octree` (name -> its columns).
@@ -236,11 +236,11 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
         bsdf = backend.bsdf(d, shape.material, shape.has_uv)
         if options.quirks == "binary" and o.plane is not None and not shape.has_uv and \
                 isinstance(desc.materials[shape.material].kd, Image):
-            # the textured BSDF, looked up at a mesh's stale uv (plugins/planes.py, docs/FIDELITY.md)
+            # the textured BSDF, looked up at a mesh's stale uv (plugins/emulation/planes.py, docs/FIDELITY.md)
             d["integrator"][o.plane_param("bsdf_uv")] = backend.bsdf(d, shape.material, True)
         if isinstance(shape, SphereShape):
             sphere = {"type": "sphere", "center": list(shape.center), "radius": float(shape.radius), "bsdf": bsdf}
-            if o.plane is not None:   # a5: the binary's sphere test inside a5_whitted (plugins/planes.py)
+            if o.plane is not None:   # a5: the binary's sphere test inside a5_whitted (plugins/emulation/planes.py)
                 to_world, centre, radius = shape.binary or (np.eye(4), shape.center, shape.radius)
                 d["integrator"].update({o.plane_param("center"): [float(x) for x in centre],
                                         o.plane_param("radius"): float(radius),
@@ -254,7 +254,7 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
         elif isinstance(shape, PlaneShape):
             if o.plane is None:  # --stock: plain Mitsuba has no infinite plane, the finite stand-in of .geometry
                 d[o.entry] = {"type": "rectangle", "to_world": shape.rectangle, "bsdf": bsdf}
-            else:      # exact: intersected analytically by a5_whitted (plugins/planes.py)
+            else:      # exact: intersected analytically by a5_whitted (plugins/emulation/planes.py)
                 mirror = shape.n_w if shape.mirror_normal is None else shape.mirror_normal
                 n, off = (shape.n_w, shape.offset_w) if shape.binary is None else shape.binary[1:]
                 if shape.binary is not None:   # in object space, as the binary's Transform does
@@ -287,10 +287,10 @@ def make_mesh(name: str, data: MeshData, bsdf: Any = None) -> Any:
     if data.texcoords is not None:
         params["vertex_texcoords"] = mi.Float(np.ascontiguousarray(data.texcoords, dtype=np.float32).ravel())
     params.update()
-    if data.octree is not None:  # the binary's octree rule, read by a5_whitted (plugins/octree_rule.py)
+    if data.octree is not None:  # the binary's octree rule, read by a5_whitted (plugins/emulation/octree_rule.py)
         for name, cols in OCTREE_ATTRIBUTES.items():
             mesh.add_attribute(name, len(cols), np.ascontiguousarray(data.octree[:, cols]).ravel().tolist())
-    if data.triangles is not None:  # the binary's triangle test, read by a5_whitted (plugins/triangle_rule.py)
+    if data.triangles is not None:  # the binary's triangle test (plugins/emulation/triangle_rule.py)
         for name, cols in TRIANGLE_ATTRIBUTES.items():
             mesh.add_attribute(name, len(cols), np.ascontiguousarray(data.triangles[:, cols]).ravel().tolist())
     return mesh

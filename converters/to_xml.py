@@ -27,10 +27,10 @@ and ``{stem}_envmap.exr`` are written into a fresh hidden staging folder beside 
 symlink already there instead of writing through it; an earlier ``{stem}_meshes/`` or ``{stem}_images/`` is
 replaced whole (no stale file stays) only when a conversion made it: each folder a conversion writes holds the
 marker file :data:`MARKER`, and a folder without it that is not empty is the user's and is never replaced
-(:func:`check_replaceable` raises :class:`~a5mi.errors.UsageError`, before anything is written); and an
+(:func:`check_replaceable` raises :class:`~a5mi.platform.errors.UsageError`, before anything is written); and an
 earlier ``{stem}_envmap.exr`` that this conversion does not write
 is removed. The XML is renamed last. Any failure before the moves leaves every existing file as it was and
-removes the staging folder; signals wait for the moves (:func:`a5mi.interrupts.protected`).
+removes the staging folder; signals wait for the moves (:func:`a5mi.platform.interrupts.protected`).
 """
 
 from __future__ import annotations
@@ -44,13 +44,13 @@ from typing import Any
 
 import numpy as np
 
-from a5mi import interrupts
 from a5mi.converters import materials
 from a5mi.converters.describe import CubeMapBackground, MeshShape, SceneDescription, VolumeDescription
 from a5mi.converters.files import Image
 from a5mi.converters.to_mitsuba import Backend, bake_cubemap_envmap, make_mesh, scene_entries
-from a5mi.options import RenderOptions
-from a5mi.paths import remove_stale, temp_prefix
+from a5mi.platform import interrupts
+from a5mi.platform.paths import remove_stale, temp_prefix
+from a5mi.render.options import RenderOptions
 from a5mi.spec import CUBE_FACES
 
 PLUGIN_TAGS: dict[str, str] = {
@@ -88,7 +88,7 @@ class _XmlBackend(Backend):
         self.textures: dict[Path, str] = {}  # source path -> its copy, relative to the XML
 
     def _write_png(self, relative: str, image: Image) -> None:
-        from a5mi.imageio import write_image
+        from a5mi.platform.imageio import write_image
 
         target = self.xml_path.parent / relative
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -259,9 +259,9 @@ MARKER = ".a5mi-convert"
 
 
 def check_replaceable(folder: str | os.PathLike[str]) -> None:
-    """Raise :class:`~a5mi.errors.UsageError` when ``folder`` is a folder (not a symlink) a conversion did not
+    """Raise :class:`~a5mi.platform.errors.UsageError` when ``folder`` is a folder (not a symlink) a conversion did not
     write (no :data:`MARKER`) and holds anything: replacing it would delete the user's files."""
-    from a5mi.errors import UsageError
+    from a5mi.platform.errors import UsageError
 
     p = Path(folder)
     if p.is_symlink() or not p.is_dir() or (p / MARKER).is_file():

@@ -4,7 +4,7 @@ Each module holds one plugin and registers it at its bottom through a ``register
 this package only after ``mi.set_variant`` has selected a JIT variant (``llvm_ad_rgb`` or ``cuda_ad_rgb``),
 then call :func:`register_all`; after that ``mi.load_dict({'type': 'a5_whitted', ...})`` and the XML form
 work like any stock plugin. (``syntax.py`` is the one module that needs no variant: the ``@dr.syntax``
-cache the plugins decorate with, which :func:`a5mi.variant.activate` also applies to ``mi.set_variant``.)
+cache the plugins decorate with, which :func:`a5mi.runtime.variant.activate` also applies to ``mi.set_variant``.)
 """
 
 from __future__ import annotations
@@ -13,22 +13,22 @@ import importlib
 
 # Explicit list, in dependency order (textures before the BSDF that nests them).
 PLUGIN_MODULES: tuple[str, ...] = (
-    "marble",           # a5_marble texture (noise functions in perlin.py)
-    "bitmap",           # a5_bitmap texture
-    "solids",           # a5_solid textures: wood, turbulence, veins (docs/EXTENSIONS.md E.6)
-    "btf",              # a5_btf view-dependent texture (docs/EXTENSIONS.md E.19)
-    "point_light",      # a5_point emitter
-    "spot_light",       # a5_spot emitter (docs/EXTENSIONS.md E.1)
-    "area_light",       # a5_area emitter (docs/EXTENSIONS.md E.2)
-    "cubemap",          # a5_cubemap emitter
-    "camera",           # a5_camera sensor
-    "a5_material",      # a5_material BSDF
-    "milled",           # a5_milled BSDF: Ward on a milling tangent field (docs/EXTENSIONS.md E.20)
-    "whitted",          # a5_whitted integrator
-    "path",             # a5_path integrator (docs/EXTENSIONS.md E.13, E.14)
-    "photon",           # a5_photon integrator (docs/EXTENSIONS.md E.16)
-    "ppm",              # a5_ppm integrator (docs/EXTENSIONS.md E.17)
-    "irradiance_cache", # a5_irradiancecache integrator (docs/EXTENSIONS.md E.23)
+    "textures.marble",           # a5_marble texture (noise functions in perlin.py)
+    "textures.bitmap",           # a5_bitmap texture
+    "textures.solids",           # a5_solid textures: wood, turbulence, veins (docs/EXTENSIONS.md E.6)
+    "textures.btf",              # a5_btf view-dependent texture (docs/EXTENSIONS.md E.19)
+    "emitters.point_light",      # a5_point emitter
+    "emitters.spot_light",       # a5_spot emitter (docs/EXTENSIONS.md E.1)
+    "emitters.area_light",       # a5_area emitter (docs/EXTENSIONS.md E.2)
+    "emitters.cubemap",          # a5_cubemap emitter
+    "sensors.camera",           # a5_camera sensor
+    "materials.a5_material",      # a5_material BSDF
+    "materials.milled",           # a5_milled BSDF: Ward on a milling tangent field (docs/EXTENSIONS.md E.20)
+    "integrators.whitted.integrator",          # a5_whitted integrator
+    "integrators.path",             # a5_path integrator (docs/EXTENSIONS.md E.13, E.14)
+    "integrators.photon.integrator",           # a5_photon integrator (docs/EXTENSIONS.md E.16)
+    "integrators.photon.ppm",              # a5_ppm integrator (docs/EXTENSIONS.md E.17)
+    "integrators.irradiance_cache.integrator", # a5_irradiancecache integrator (docs/EXTENSIONS.md E.23)
 )
 
 def register_all() -> None:

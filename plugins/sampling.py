@@ -122,7 +122,7 @@ def ggx_normal(n: mi.Vector3f, alpha: mi.Float, u: mi.Point2f) -> mi.Vector3f:
 
 class SamplePass(NamedTuple):
     """Which samples a batch of camera rays is (docs/EXTENSIONS.md E.5), handed to ``a5_whitted``'s ``sample`` /
-    ``trace`` with each call (``a5mi.passes.sample_passes``): lane ``i`` is render-buffer sample
+    ``trace`` with each call (``a5mi.render.passes.sample_passes``): lane ``i`` is render-buffer sample
     ``first_pixel + i``, in pass ``index`` of ``count`` (``-spp``), with ``seed``. Without one (``mi.render``) a
     lane's key comes from the sampler and every pass is independent."""
 

@@ -29,7 +29,7 @@ run. Another local account, or a program this user runs with fewer rights (the s
 Out of scope: code running as this user, which could edit the plugins themselves.
 
 :func:`cached_drjit_syntax` makes ``dr.syntax`` itself this function for the duration of a ``with`` block:
-:func:`a5mi.variant.activate` wraps ``mi.set_variant`` in it, so that Mitsuba's integrators are decorated
+:func:`a5mi.runtime.variant.activate` wraps ``mi.set_variant`` in it, so that Mitsuba's integrators are decorated
 from the cache too; ``dr.syntax`` is restored afterwards.
 """
 
@@ -132,7 +132,7 @@ def _load(path: Path, f: types.FunctionType, key: bytes) -> types.CodeType | Non
 
 
 def _save(path: Path, code: types.CodeType, key: bytes) -> None:
-    from a5mi.imageio import atomic_file
+    from a5mi.platform.imageio import atomic_file
 
     payload = marshal.dumps(code)
     try:

@@ -95,10 +95,10 @@ def render(size: int, spp: int, droplets: int, seed: int = 0) -> tuple[np.ndarra
     """The float image (H, W, 3) of the cloud at ``size`` x ``size``, ``spp`` passes, and :func:`angles`."""
     from a5mi.converters.a5_parser import parse_text
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
     from a5mi.plugins import register_all
-    from a5mi.session import render as render_scene
-    from a5mi.variant import activate
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render as render_scene
+    from a5mi.runtime.variant import activate
 
     activate()
     register_all()
@@ -173,7 +173,7 @@ def model_profile(samples: int = 4_000_000, seed: int = 0) -> tuple[np.ndarray, 
 
 def write_png(img: np.ndarray, path: Path, exposure: float) -> None:
     """``img`` scaled by ``exposure``, gamma 1/2.2, quantised (a picture, not a measurement)."""
-    from a5mi.imageio import write_images
+    from a5mi.platform.imageio import write_images
 
     out = np.clip(np.clip(img * exposure, 0.0, 1.0) ** (1 / 2.2) * 255.0 + 0.5, 0, 255).astype(np.uint8)
     write_images([(path, out)])

@@ -115,7 +115,7 @@ def scenes_dir(a5_data: Path) -> Path:
 @pytest.fixture(scope="session")
 def variant() -> str:
     """Activate the JIT variant once per session and register the a5mi plugins."""
-    from a5mi.variant import activate
+    from a5mi.runtime.variant import activate
 
     return activate()
 
@@ -135,7 +135,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             item.add_marker(pytest.mark.course_data)
 
 
-#: Files that start sandboxed runs (user ids in a5mi.sandbox's range) run on one worker, one after the other:
+#: Files that start sandboxed runs (user ids in a5mi.sandbox.bwrap's range) run on one worker, one after the other:
 #: test_grade_sandbox and test_hostile_class check that no process of that range is left after a run, which
 #: another file's run in progress would break.
 XDIST_GROUPS = {name: "sandbox" for name in ("test_grade_sandbox.py", "test_grade_class.py", "test_hostile_class.py",
@@ -163,7 +163,7 @@ _SESSION_CACHE: str | None = None
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """Keep the glibc rand() prefix cache (a5mi.glibc_rand) of this test session out of the user's home."""
+    """Keep the glibc rand() prefix cache (a5mi.render.glibc_rand) of this test session out of the user's home."""
     global _SESSION_CACHE
     if "A5MI_CACHE_DIR" not in os.environ:
         _SESSION_CACHE = tempfile.mkdtemp(prefix="a5mi-test-cache-")

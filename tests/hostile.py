@@ -56,9 +56,9 @@ def png_bomb(side: int = 20000) -> bytes:
 
 
 def sandbox_processes() -> list[int]:
-    """Live (non-zombie) processes whose real uid is in the sandbox's uid range (a5mi.sandbox UID_BASE ..
+    """Live (non-zombie) processes whose real uid is in the sandbox's uid range (a5mi.sandbox.bwrap UID_BASE ..
     UID_BASE + UID_SPAN): after a run, none may be left."""
-    from a5mi.sandbox import UID_BASE, UID_SPAN
+    from a5mi.sandbox.bwrap import UID_BASE, UID_SPAN
 
     out = []
     for entry in os.listdir("/proc"):

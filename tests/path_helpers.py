@@ -16,7 +16,7 @@ def load(mi: Any, text: str, *, stock: bool = False, **options: Any) -> tuple[An
     from a5mi.converters.a5_parser import parse_text
     from a5mi.converters.describe import describe
     from a5mi.converters.to_mitsuba import to_dict
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     ro = RenderOptions(**options)
     desc = describe(parse_text(text), stock=stock)

@@ -18,7 +18,7 @@ import pytest
 from a5mi.converters import keyframes
 from a5mi.converters.a5_parser import parse_text
 from a5mi.converters.errors import SceneError
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 ROOT = Path(__file__).resolve().parents[1]
 BOX = ROOT / "scenes" / "meshes" / "box.obj"
@@ -155,7 +155,7 @@ def test_warm_frames_equal_fresh_still_renders_and_compile_nothing(mi) -> None:
     scene_at(k / fps); after the first frame no kernel is compiled or even loaded from the disk cache."""
     from a5mi.animate.warm import FrameTiming, WarmScene
     from a5mi.converters.describe import describe
-    from a5mi.session import render
+    from a5mi.render.session import render
 
     scene = parse_text(animated())
     opts = RenderOptions(width=20, height=20, spp=2, shadows=True)
@@ -234,8 +234,8 @@ SMALL = animated().replace("frames 12 fps 12", "frames 6 fps 6")
 
 
 def test_resume_renders_only_missing_and_damaged_frames(mi, tmp_path: Path) -> None:
-    from a5mi import imageio
     from a5mi.animate import batch, frames
+    from a5mi.platform import imageio
 
     scene = tmp_path / "anim.txt"
     scene.write_text(SMALL)
@@ -260,8 +260,8 @@ def test_resume_renders_only_missing_and_damaged_frames(mi, tmp_path: Path) -> N
 def test_frames_on_two_dask_workers_match_one_process_even_with_a_worker_killed(mi, tmp_path: Path) -> None:
     from distributed import Client, LocalCluster
 
-    from a5mi import imageio
     from a5mi.animate import batch, frames
+    from a5mi.platform import imageio
 
     scene = tmp_path / "anim.txt"
     scene.write_text(animated().replace("frames 12 fps 12", "frames 10 fps 10"))
@@ -331,7 +331,7 @@ def test_bump_flag_reaches_the_warm_scene(mi, tmp_path: Path) -> None:
     from a5mi.animate.warm import WarmScene
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
-    from a5mi.session import render
+    from a5mi.render.session import render
 
     still = (ROOT / "scenes" / "bumps.txt").read_text()
     still = still.replace("tex/", f"{ROOT / 'scenes' / 'tex'}/").replace("meshes/", f"{ROOT / 'scenes' / 'meshes'}/")

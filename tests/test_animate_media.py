@@ -11,7 +11,7 @@ import pytest
 from a5mi.converters import keyframes
 from a5mi.converters.a5_parser import parse_text
 from a5mi.converters.errors import SceneError
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 AREA = """PerspectiveCamera { center 0 1 8 direction 0 -0.1 -1 up 0 1 0 angle 35 }
 Lights { numLights 2
@@ -37,7 +37,7 @@ def test_area_and_sphere_light_colour_tracks_animate(mi, light: int) -> None:
     render of scene_at(1) (the light at its last key) and differs from frame 0; no kernel is compiled."""
     from a5mi.animate.warm import FrameTiming, WarmScene
     from a5mi.converters.describe import describe
-    from a5mi.session import render
+    from a5mi.render.session import render
 
     text = AREA.replace(f"  Track {{ Light {1 - light}", "  # Track { Light")  # only this light's track
     text = "\n".join(line for line in text.splitlines() if not line.startswith("  # Track"))
@@ -89,7 +89,7 @@ def test_fog_density_and_colour_tracks_animate(mi) -> None:
     """E.8 keyframed: ``Track { Fog density ... }`` and ``Fog color``; frame 2 (after 0 and 1) equals the fresh
     still render of scene_at(2) and differs from frame 0, with no kernel compiled after the first frame."""
     from a5mi.converters.describe import describe
-    from a5mi.session import render
+    from a5mi.render.session import render
 
     tracks = ("Track { Fog density linear key 0 0.05 key 2 0.4 } "
               "Track { Fog color linear key 0 1 1 1 key 2 0.2 0.4 0.9 }")
@@ -128,7 +128,7 @@ def test_volume_grid_per_frame_and_density_track(mi, tmp_path: Path) -> None:
     frame's file), frames differ, nothing is compiled after the first; the still scene is frame 0's grid."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
-    from a5mi.session import render
+    from a5mi.render.session import render
 
     _grids(tmp_path, 3)
     volume = "Volume { grid puff_%03d.vol density 3 min -2 -1 -2 max 2 3 2 steps 8 }"

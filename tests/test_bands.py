@@ -1,4 +1,4 @@
-"""A render split into row bands across Dask workers (a5mi/bands.py, docs/EXTENSIONS.md E.24):
+"""A render split into row bands across Dask workers (a5mi/render/bands.py, docs/EXTENSIONS.md E.24):
 bit for bit the one-process image with the same seed (jitter + filter, spp, path), also when a worker is
 killed mid-render (its band re-run elsewhere)."""
 
@@ -12,14 +12,14 @@ import threading
 import numpy as np
 import pytest
 
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 SCENES = os.path.join(os.path.dirname(__file__), "..", "scenes")
 
 
 def _one_process(name: str, options: RenderOptions) -> np.ndarray:
-    from a5mi.session import describe_file, render
-    from a5mi.variant import activate
+    from a5mi.render.session import describe_file, render
+    from a5mi.runtime.variant import activate
 
     activate()
     desc, _ = describe_file(os.path.join(SCENES, name))
@@ -27,7 +27,7 @@ def _one_process(name: str, options: RenderOptions) -> np.ndarray:
 
 
 def test_split_rows_cover_the_buffer_on_packet_boundaries() -> None:
-    from a5mi.bands import split_rows
+    from a5mi.render.bands import split_rows
 
     for rw, rh, parts in ((48, 30, 4), (21, 13, 3), (64, 5, 8), (7, 100, 1)):
         bands = split_rows(rw, rh, parts)
@@ -38,10 +38,10 @@ def test_split_rows_cover_the_buffer_on_packet_boundaries() -> None:
 
 def test_bands_in_this_process_are_the_whole_render() -> None:
     """The stitching alone (no Dask): bands rendered one by one and assembled, -jitter -filter -normals."""
-    from a5mi.bands import split_rows
-    from a5mi.driver import assemble, render_band, render_scene
-    from a5mi.session import build_scene, describe_file
-    from a5mi.variant import activate
+    from a5mi.render.bands import split_rows
+    from a5mi.render.driver import assemble, render_band, render_scene
+    from a5mi.render.session import build_scene, describe_file
+    from a5mi.runtime.variant import activate
 
     activate()
     desc, _ = describe_file(os.path.join(SCENES, "soft_shadows.txt"))
@@ -64,7 +64,7 @@ def test_bands_in_this_process_are_the_whole_render() -> None:
 def test_split_render_on_two_workers_is_bit_identical_even_with_a_worker_killed(name: str, extra: dict) -> None:
     from distributed import Client, LocalCluster
 
-    from a5mi.bands import render_split
+    from a5mi.render.bands import render_split
 
     options = RenderOptions(width=32, height=20, shadows=True, spp=4, seed=7, **extra)
     reference = _one_process(name, options)
@@ -95,7 +95,7 @@ def test_split_render_on_two_workers_is_bit_identical_even_with_a_worker_killed(
 
 
 def test_split_refuses_integrators_with_state() -> None:
-    from a5mi.bands import render_split, splittable
+    from a5mi.render.bands import render_split, splittable
 
     options = RenderOptions(width=8, height=8, integrator="ppm")
     assert splittable(options) is not None
@@ -105,7 +105,7 @@ def test_split_refuses_integrators_with_state() -> None:
 
 
 def test_cli_workers_writes_the_one_process_image(tmp_path) -> None:
-    """``a5 ... -workers 2`` (a local TLS cluster, a5mi.cluster.start_client): the same PNG bytes as without."""
+    """``a5 ... -workers 2`` (a local TLS cluster, a5mi.runtime.cluster.start_client): the same PNG bytes as without."""
     from a5mi.cli import run
 
     scene = os.path.join(SCENES, "soft_shadows.txt")

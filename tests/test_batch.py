@@ -1,5 +1,5 @@
 """Batch renders: ``a5mi render`` with several scenes or ``--jobs`` in one process, through
-:class:`a5mi.session.RenderSession`: images bit-identical to separate ``a5`` runs, a failing job reported in
+:class:`a5mi.render.session.RenderSession`: images bit-identical to separate ``a5`` runs, a failing job reported in
 one line without stopping the others, and kernels reused across scenes of the same kind."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from a5mi import cli
-from a5mi.imageio import read_uint8
+from a5mi.platform.imageio import read_uint8
 
 FLAGS = ["-size", "24", "24", "-shadows", "-bounces", "3", "-jitter", "-filter"]
 
@@ -120,8 +120,8 @@ def test_second_scene_of_the_same_kind_compiles_no_kernel(tmp_path: Path, varian
     """Other light direction, colours and plane offset, same shapes and flags: the second scene's render
     launches only kernels already in this process's cache (dr.kernel_history, via RenderResult.kernels).
     (Mitsuba's own sphere bakes its centre into the kernel as a literal: moving a sphere compiles again.)"""
-    from a5mi.options import RenderOptions
-    from a5mi.session import RenderSession, describe_file
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import RenderSession, describe_file
 
     session = RenderSession()
     options = RenderOptions(width=20, height=20, shadows=True, bounces=3, jitter=True, filter=True)
@@ -170,13 +170,13 @@ Group {{ numObjects 2
 
 def test_mesh_scenes_of_the_same_kind_share_the_kernel_with_the_triangle_rule(tmp_path: Path, scenes_dir: Path,
                                                                                variant: str) -> None:
-    """The binary's triangle test reads a per-scene table (plugins/triangle_rule.py) whose values and length
+    """The binary's triangle test reads a per-scene table (plugins/emulation/triangle_rule.py) whose values and length
     are kernel inputs: another placement of the mesh and another light position launch the cached kernel;
     the images are those of separate ``a5`` runs. (Not the same kind, measured: another number of shapes,
     whose vcalls Mitsuba compiles per shape; and, in mesh scenes only, another *directional* light, which
     compiles again without the triangle rule too.)"""
-    from a5mi.options import RenderOptions
-    from a5mi.session import RenderSession, describe_file
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import RenderSession, describe_file
 
     shutil.copy(scenes_dir / "cube.obj", tmp_path / "cube.obj")
     a_txt, b_txt = tmp_path / "a.txt", tmp_path / "b.txt"
@@ -187,7 +187,7 @@ def test_mesh_scenes_of_the_same_kind_share_the_kernel_with_the_triangle_rule(tm
     a = session.render(describe_file(str(a_txt))[0], options)
     b = session.render(describe_file(str(b_txt))[0], options)
     assert b.kernels["compiled"] == 0 and b.kernels["disk"] == 0 and b.kernels["memory"] > 0, b.kernels
-    from a5mi.imageio import write_images
+    from a5mi.platform.imageio import write_images
 
     for txt, result in ((a_txt, a), (b_txt, b)):
         out, ours = tmp_path / f"{txt.stem}.png", tmp_path / f"{txt.stem}.session.png"

@@ -134,8 +134,8 @@ def test13_floor_replays_the_render_ray_counts(
     variant: str, scenes_dir: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The in-process pass casts exactly as many rays of each kind as the driver counts for the same render."""
-    from a5mi.options import RenderOptions
-    from a5mi.session import describe_file, render
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import describe_file, render
 
     monkeypatch.chdir(scenes_dir)
     options = RenderOptions(width=20, height=20, bounces=4, shadows=True, jitter=True, filter=True)
@@ -199,9 +199,9 @@ def logged(variant: str, scenes_dir: Path) -> dict[str, object]:
     import drjit as dr
 
     from a5mi.bench.floor import _camera_rays_for, _count_pass
-    from a5mi.options import RenderOptions
     from a5mi.plugins.kernel.raylog import RayLog
-    from a5mi.session import build_scene, describe_file
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import build_scene, describe_file
 
     with contextlib.chdir(scenes_dir):
         desc = describe_file("scene10_sphere.txt")[0]
@@ -284,7 +284,7 @@ def test19_logged_floor_times_each_ray_kind_on_the_stock_scene(logged: dict, sce
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
     from a5mi.converters.to_mitsuba import to_dict
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     with contextlib.chdir(scenes_dir):
         model = parse_file("scene10_sphere.txt")

@@ -125,9 +125,9 @@ def test_render_kernel_looks_up_with_the_view_direction(mi: Any, tmp_path: Path)
     import drjit as dr
 
     from a5mi.converters.describe import describe
-    from a5mi.imageio import read_uint8
-    from a5mi.options import RenderOptions
-    from a5mi.session import build_scene
+    from a5mi.platform.imageio import read_uint8
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import build_scene
 
     model = parse_text(_scene_text(), str(SCENES / "btf_test.txt"))
     scene = build_scene(describe(model), RenderOptions())

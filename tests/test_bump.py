@@ -27,7 +27,7 @@ Group {{ numObjects 2
 
 
 def _write(tmp_path: Path, maps: str, images: dict[str, np.ndarray]) -> Path:
-    from a5mi import imageio
+    from a5mi.platform import imageio
 
     (tmp_path / "quad.obj").write_text(QUAD_OBJ)
     for name, pixels in images.items():
@@ -43,8 +43,8 @@ def _render(scene: Path, bump: bool, **kw: object) -> np.ndarray:
 
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import build_scene
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import build_scene
 
     options = RenderOptions(**{"width": W, "height": W, "bump": bump, "normals": True, "shadows": True, "bounces": 2,
                                **kw})
@@ -124,7 +124,7 @@ def test_bump_keywords_and_errors(tmp_path: Path) -> None:
     assert f"s.txt:7:{line.index('missing.png') + 1}:" in str(exc.value)
     assert "bump file 'missing.png' not found" in str(exc.value)
     (tmp_path / "tex").mkdir()
-    from a5mi import imageio
+    from a5mi.platform import imageio
 
     imageio.write_image(tmp_path / "tex" / "kd.png", np.ones((4, 4, 3), dtype=np.float32))
     imageio.write_image(tmp_path / "tex" / "kamen-bump.png", np.zeros((4, 4, 3), dtype=np.float32))
@@ -144,7 +144,7 @@ def test_stock_mapping_wraps_the_bsdf(tmp_path: Path, variant: str) -> None:
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
     from a5mi.converters.to_mitsuba import to_dict
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     flat = np.full((8, 8, 3), 128, dtype=np.uint8)
     scene = _write(tmp_path, "bump ramp.png normalMap flat.png bumpScale 0.02",
@@ -222,7 +222,7 @@ def test_mirror_rays_leave_about_the_perturbed_normal(tmp_path: Path, variant: s
     """A mirror quad facing the camera with a normal map tilted 45° towards +x: with -bump the mirror ray of
     d = −z is reflect(d, N') = +x and sees the green sphere there (no lights: ambient 1, SPEC A.1, so its colour
     is exactly (0, 1, 0)); without -bump it goes back to the black background."""
-    from a5mi import imageio
+    from a5mi.platform import imageio
 
     (tmp_path / "quad.obj").write_text(QUAD_OBJ)
     tilt = np.full((8, 8, 3), 128, dtype=np.uint8)

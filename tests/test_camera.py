@@ -42,7 +42,7 @@ def ref_rays(center, direction, up, angle_deg, xp, yp, W, H) -> tuple[np.ndarray
 def _rays(center, direction, up, angle, xp, yp, W, H):
     import mitsuba as mi
 
-    from a5mi.plugins.camera import camera_rays
+    from a5mi.plugins.sensors.camera import camera_rays
 
     ray = camera_rays(center, direction, up, angle, mi.Float(np.asarray(xp, F32)), mi.Float(np.asarray(yp, F32)), W, H)
     return np.asarray(ray.o).T, np.asarray(ray.d).T
@@ -106,7 +106,7 @@ def test_b2_single_pixel_axis(variant: str) -> None:
 
 
 def test_b2_bad_basis(variant: str) -> None:
-    from a5mi.plugins.camera import camera_basis, focal_factor
+    from a5mi.plugins.sensors.camera import camera_basis, focal_factor
 
     with pytest.raises(ValueError, match="basis"):
         camera_basis((0, 1, 0), (0, 2, 0))
@@ -181,7 +181,7 @@ def test_e3_sensor_thin_lens_is_the_driver_lens(variant: str) -> None:
     of radius A/2 around the centre and it passes through the pinhole ray's point on the focus plane."""
     import mitsuba as mi
 
-    from a5mi.passes import thin_lens
+    from a5mi.render.passes import thin_lens
     from a5mi.vecmath32 import camera_basis
 
     W, H = 7, 5

@@ -13,10 +13,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from a5mi import cli, driver, imageio, session
-from a5mi.errors import ExitStatus, UsageError
-from a5mi.filters import postprocess
-from a5mi.options import RenderOptions
+from a5mi import cli
+from a5mi.platform import imageio
+from a5mi.platform.errors import ExitStatus, UsageError
+from a5mi.render import driver, session
+from a5mi.render.filters import postprocess
+from a5mi.render.options import RenderOptions
 
 
 @pytest.fixture
@@ -44,7 +46,7 @@ def fake_render(monkeypatch):
         )
 
     monkeypatch.setattr(session, "render", render)
-    monkeypatch.setattr("a5mi.variant.activate", lambda requested=None: "stand-in")
+    monkeypatch.setattr("a5mi.runtime.variant.activate", lambda requested=None: "stand-in")
     return calls
 
 
@@ -153,7 +155,7 @@ def test_b1_internal_error_keeps_old_outputs(tmp_path, scene, monkeypatch, capsy
         raise RuntimeError("kernel exploded\nsecond line")
 
     monkeypatch.setattr(session, "render", broken)
-    monkeypatch.setattr("a5mi.variant.activate", lambda requested=None: "stand-in")
+    monkeypatch.setattr("a5mi.runtime.variant.activate", lambda requested=None: "stand-in")
     assert cli.run(["-input", scene, "-output", str(out)]) == ExitStatus.SOFTWARE == 70
     line = _one_error_line(capsys.readouterr().err)
     assert line == "a5: internal error: RuntimeError: kernel exploded (re-run with --debug for the traceback)"
@@ -273,7 +275,7 @@ def test_a5mi_convert_real(tmp_path, scenes_dir, monkeypatch, variant) -> None:
 
 @pytest.mark.parametrize("name", ["a5", *cli.SUBCOMMANDS])
 def test_every_command_has_help_with_one_line_per_flag(name: str, capsys) -> None:
-    command = cli.command(name) if name != "a5" else __import__("a5mi.cli.render", fromlist=["A5"]).A5
+    command = cli.command(name) if name != "a5" else __import__("a5mi.commands.render", fromlist=["A5"]).A5
     rc = cli.run(["-h"]) if name == "a5" else cli.run_a5mi([name, "--help"])
     out = capsys.readouterr().out
     assert rc == 0 and out.startswith(f"usage: {command.prog}")
@@ -299,7 +301,7 @@ def test_help_command_prints_that_commands_help(capsys) -> None:
 def test_trace_offers_no_image_outputs(capsys) -> None:
     """trace writes no image: -h offers neither -output nor -normals / -depth / -normals_mode, and they are
     refused as unknown flags."""
-    from a5mi.cli.trace import TRACE
+    from a5mi.commands.trace import TRACE
 
     names = {n for f in TRACE.all_flags for n in f.names}
     assert names.isdisjoint({"-output", "--output", "-normals", "-depth", "-normals_mode"})
@@ -315,7 +317,7 @@ def test_shared_flags_mean_one_thing(capsys) -> None:
     from a5mi.spec import MAX_SIZE
 
     for name in ["a5", *cli.SUBCOMMANDS]:
-        cmd = __import__("a5mi.cli.render", fromlist=["A5"]).A5 if name == "a5" else cli.command(name)
+        cmd = __import__("a5mi.commands.render", fromlist=["A5"]).A5 if name == "a5" else cli.command(name)
         for f in cmd.all_flags:
             if "--size" in f.names:
                 assert (f.nargs, f.dests, f.metavar) == (2, ("width", "height"), "W H"), name
@@ -341,7 +343,7 @@ def test_version_from_the_one_version_source(capsys) -> None:
 
 
 def test_gnu_flags_with_a5_aliases_and_errors_named_by_sub_command(capsys) -> None:
-    from a5mi.cli.render import RENDER
+    from a5mi.commands.render import RENDER
 
     a = RENDER.parse(["--input=s.txt", "-output", "o.png", "--size", "7", "5", "--bounces=2", "-jitter"])
     assert (a.input, a.output, a.width, a.height, a.bounces, a.jitter) == ("s.txt", "o.png", 7, 5, 2, True)
@@ -357,7 +359,7 @@ def test_render_options_come_from_the_flag_table_without_hand_copying() -> None:
     """Every RenderOptions field a flag can set is set by the flag of that name (one options object)."""
     import dataclasses
 
-    from a5mi.cli.render import RENDER_FLAGS, render_options
+    from a5mi.commands.render import RENDER_FLAGS, render_options
 
     args = cli.parse_a5_args(["-input", "s.txt", "-output", "o.png", "-size", "6", "3", "-shadows", "-bounces", "7",
                               "-jitter", "-filter", "-seed", "5", "-phong", "-fresnel", "exact", "-kernel", "handout",

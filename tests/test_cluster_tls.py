@@ -57,7 +57,7 @@ def test_the_local_cluster_refuses_whoever_lacks_the_runs_credentials() -> None:
     from distributed import Client
     from distributed.security import Security
 
-    from a5mi.cluster import start_client
+    from a5mi.runtime.cluster import start_client
 
     no_cert = ssl.create_default_context()
     no_cert.check_hostname = False
@@ -102,8 +102,8 @@ def test_the_local_cluster_refuses_whoever_lacks_the_runs_credentials() -> None:
 ])
 def test_check_scheduler_refuses_unauthenticated_clusters(address: str, tls: tuple[str, str, str] | None,
                                                           insecure: bool, message: str) -> None:
-    from a5mi.cluster import check_scheduler
-    from a5mi.errors import UsageError
+    from a5mi.platform.errors import UsageError
+    from a5mi.runtime.cluster import check_scheduler
 
     with pytest.raises(UsageError, match=message.replace("(", r"\(").replace(")", r"\)")):
         check_scheduler(address, tls, insecure)
@@ -112,7 +112,7 @@ def test_check_scheduler_refuses_unauthenticated_clusters(address: str, tls: tup
 def test_check_scheduler_accepts_tls_files_and_named_insecurity(tmp_path) -> None:
     from distributed.security import Security
 
-    from a5mi.cluster import check_scheduler
+    from a5mi.runtime.cluster import check_scheduler
 
     assert check_scheduler("tcp://10.0.0.1:8786", None, True) is None
     sec = Security.temporary()
@@ -128,7 +128,7 @@ def test_animate_renders_on_the_tls_cluster(variant: str, tmp_path) -> None:
     """``a5mi animate --workers 2`` runs its frames on the same TLS cluster: they equal the in-process frames."""
     from a5mi import PROJECT_ROOT
     from a5mi.cli import run_a5mi
-    from a5mi.imageio import read_uint8
+    from a5mi.platform.imageio import read_uint8
 
     scene = str(PROJECT_ROOT / "scenes" / "animation.txt")
     common = ["--frames", "0:3", "-size", "16", "16"]

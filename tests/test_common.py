@@ -1,4 +1,4 @@
-"""SPEC B.3 helpers (plugins/common.py): mirror direction, Snell, and the three Fresnel weights, in closed form."""
+"""SPEC B.3 helpers (plugins/optics.py): mirror direction, Snell, and the three Fresnel weights, in closed form."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 @pytest.fixture(scope="module")
 def common(variant):
-    from a5mi.plugins import common
+    from a5mi.plugins import optics as common
 
     return common
 

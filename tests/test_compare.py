@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from a5mi.compare import CompareError, compare_arrays, write_diff
-from a5mi.errors import ImageReadError
-from a5mi.imageio import read_levels
+from a5mi.platform.errors import ImageReadError
+from a5mi.platform.imageio import read_levels
 
 
 def _img(h: int = 4, w: int = 5, value: float = 100.0) -> np.ndarray:
@@ -83,7 +83,7 @@ def test_cli_compare_prints_metrics_json_and_writes_diff(tmp_path, capsys) -> No
     import json
 
     from a5mi.cli import run_a5mi
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     a = np.zeros((4, 5, 3), dtype=np.float32)
     b = a.copy()
@@ -117,7 +117,7 @@ def test_cli_subcommand_misuse_is_one_line_exit_2(args, message, tmp_path, capsy
 
 
 def _write_pair(tmp_path, b_levels):
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     a = np.full(b_levels.shape, 100.0)
     write_image(tmp_path / "a.png", (a + 0.5) / 255)
@@ -139,7 +139,7 @@ def test_cli_compare_exit_status_is_the_verdict(tmp_path, capsys) -> None:
     _write_pair(tmp_path, b)
     assert run_a5mi(["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png")]) == 1
     assert "verdict: close" in capsys.readouterr().out
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     write_image(tmp_path / "c.png", np.zeros((5, 20, 3)))
     assert run_a5mi(["compare", str(tmp_path / "a.png"), str(tmp_path / "c.png"), "--json"]) == 1
@@ -291,7 +291,7 @@ def test_cli_bad_scale_is_a_usage_error(tmp_path, value, capsys) -> None:
 # ------------------------------------------------------------------------------- non-finite pixels
 def _exr_pair(tmp_path, size: int = 20):
     """Two float images (EXR) equal but for one NaN and one +inf pixel in B: 2 of size^2 pixels."""
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     a = np.full((size, size, 3), 0.5, np.float32)
     b = a.copy()

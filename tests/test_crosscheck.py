@@ -314,7 +314,7 @@ def test12_crosscheck_dicts_table_and_montage(mi, tmp_path):
     assert js["pixels"]["glass"] == int(r.glass.sum()) and len(js["pairs"]) == 12
     out = tmp_path / "m.png"
     xc.write_montage(r, out)
-    from a5mi.imageio import read_image
+    from a5mi.platform.imageio import read_image
 
     img = read_image(out)
     assert img.shape[1] == 4 * 40 + 3 * 4 and img.shape[0] == 3 * (40 + 18 + 4)

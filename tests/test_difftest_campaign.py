@@ -15,7 +15,7 @@ from a5mi.compare import Metrics
 from a5mi.difftest import campaign
 from a5mi.difftest.generate import random_scene
 from a5mi.difftest.runner import Outcome
-from a5mi.errors import ExitStatus
+from a5mi.platform.errors import ExitStatus
 
 
 def _row(i: int, psnr: float | None) -> campaign.Row:

@@ -89,7 +89,7 @@ def test_wavelength_weights_average_to_one(mi: Any) -> None:
     is Mitsuba's CIE 1931 through its own XYZ -> sRGB conversion, up to one scale per channel."""
     import drjit as dr
 
-    from a5mi.plugins import spectral
+    from a5mi.plugins.materials import spectral
     from a5mi.plugins.sampling import pixel_keys
 
     table = spectral.rgb_table()
@@ -119,7 +119,7 @@ def test_wavelengths_are_stratified_over_the_passes(mi: Any) -> None:
     """The N passes of a pixel put one wavelength in each of N equal strata of 400-700 nm."""
     import drjit as dr
 
-    from a5mi.plugins import spectral
+    from a5mi.plugins.materials import spectral
     from a5mi.plugins.sampling import pixel_keys
 
     n = 16
@@ -147,11 +147,11 @@ def test_prism_exit_angles_follow_snell_with_cauchy_index(mi: Any) -> None:
     import drjit as dr
 
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.plugins import spectral
+    from a5mi.plugins.integrators.whitted.record import NODE_LAYOUT, TreeRecorder
+    from a5mi.plugins.materials import spectral
     from a5mi.plugins.sampling import SamplePass, pixel_keys
-    from a5mi.plugins.whitted_record import NODE_LAYOUT, TreeRecorder
-    from a5mi.session import build_scene
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import build_scene
 
     text = _scene_text(f"dispersion {A} {B}", _prism_text(), 9)
     scene = build_scene(describe(parse_text(text)), RenderOptions(reflection=False, bounces=4))
@@ -202,8 +202,8 @@ def test_prism_exit_angles_follow_snell_with_cauchy_index(mi: Any) -> None:
 # ------------------------------------------------------------------------------------------------ B = 0, paths
 def _render(text: str, **opts: Any) -> np.ndarray:
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import render
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
 
     return np.asarray(render(describe(parse_text(text)), RenderOptions(width=32, height=32, shadows=True, bounces=4,
                                                              **opts)).image)
@@ -213,7 +213,7 @@ def test_b_zero_renders_the_non_dispersive_image_bit_for_bit(mi: Any) -> None:
     """``dispersion A 0`` compiles the dispersion kernel, yet every pixel equals ``refractionIndex A``."""
     from a5mi.converters.describe import describe
     from a5mi.converters.to_mitsuba import integrator_dict
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     objects = "Sphere { center 0.3 0 0 radius 1 } MaterialIndex 0 Sphere { center -1.2 0.5 -2 radius 0.7 }"
     zero = _scene_text("dispersion 1.5 0", objects, 3)
@@ -229,8 +229,8 @@ def test_paths_without_a_dispersive_refraction_are_unchanged(mi: Any) -> None:
     """With a dispersive prism in the scene, every pixel whose ray tree never meets glass (class AOV < 2) is
     bit for bit the render without dispersion: only dispersively refracted paths carry w(λ)."""
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import render
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
 
     objects = _prism_text() + " MaterialIndex 0 Sphere { center -2.2 0.4 0 radius 0.6 }"
     opts = RenderOptions(width=40, height=40, shadows=True, bounces=4, spp=2, classes=True)
@@ -277,7 +277,7 @@ def test_prism_demo_converts_both_ways(mi: Any, tmp_path: Any) -> None:
     from a5mi.converters.describe import describe
     from a5mi.converters.to_mitsuba import to_dict
     from a5mi.converters.to_xml import write_xml
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     desc = describe(parse_file(Path(__file__).resolve().parent.parent / "scenes" / "prism.txt"), stock=True)
     options = RenderOptions(width=24, height=24, spp=4)
@@ -299,9 +299,9 @@ def test_one_lane_launch_without_passes(mi: Any) -> None:
     table is built before the kernel's loop: built inside it, this launch aborted the process) and gives the
     colour of a lane of a wider launch with the same keys."""
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.plugins.whitted_record import TreeRecorder
-    from a5mi.session import build_scene
+    from a5mi.plugins.integrators.whitted.record import TreeRecorder
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import build_scene
 
     text = _scene_text(f"dispersion {A} {B}", _prism_text(), 9)
     scene = build_scene(describe(parse_text(text)), RenderOptions(bounces=4))

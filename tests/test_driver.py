@@ -1,6 +1,6 @@
 """The driver's sample order, jitter, tiling, orientation and AOVs (SPEC B.2, B.5, B.6); its modules
-(:mod:`a5mi.driver`, :mod:`a5mi.render_pass`, :mod:`a5mi.tiles`) and the scene build beside it
-(:mod:`a5mi.session`).
+(:mod:`a5mi.render.driver`, :mod:`a5mi.render.render_pass`, :mod:`a5mi.render.tiles`) and the scene build beside it
+(:mod:`a5mi.render.session`).
 
 Stand-ins: ``_probe_rays`` encodes each sample's ``(x_pix, y_pix)`` into the ray origin, and ``_Probe``
 (an integrator with the ``a5_whitted.sample`` signature) returns it as the colour, so the tests see exactly
@@ -14,19 +14,19 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from a5mi import driver, tiles
-from a5mi.arrays import aligned_float32
-from a5mi.driver import depth_gray, render_scene
-from a5mi.filters import postprocess
-from a5mi.glibc_rand import GlibcRand, jitter_offsets
-from a5mi.options import TILE_RAYS, RenderOptions
-from a5mi.tiles import tile_rows
+from a5mi.platform.arrays import aligned_float32
+from a5mi.render import driver, tiles
+from a5mi.render.driver import depth_gray, render_scene
+from a5mi.render.filters import postprocess
+from a5mi.render.glibc_rand import GlibcRand, jitter_offsets
+from a5mi.render.options import TILE_RAYS, RenderOptions
+from a5mi.render.tiles import tile_rows
 
 
 @pytest.fixture
 def unaligned(monkeypatch) -> None:
     """Tiles of exactly ``tile_rays // width`` rows: the stand-in integrator has no SIMD packets to keep aligned
-    (:data:`a5mi.tiles.PACKET_ALIGN`), and these tests count tiles of a few rows."""
+    (:data:`a5mi.render.tiles.PACKET_ALIGN`), and these tests count tiles of a few rows."""
     monkeypatch.setattr(tiles, "PACKET_ALIGN", 1)
 
 
@@ -328,7 +328,7 @@ def test_the_driver_builds_no_scene() -> None:
             elif isinstance(node, ast.Import):
                 imported |= {a.name for a in node.names}
         bad = {m for m in imported if (m.startswith("a5mi.converters") and m != "a5mi.converters.model")
-               or m == "a5mi.session"}
+               or m == "a5mi.render.session"}
         assert not bad, (name, bad)
 
 
@@ -396,7 +396,7 @@ def _ball_scene(color, light):
 
 
 def _coords_at_alignment(coords, misaligned: bool):
-    """Wrap :func:`a5mi.tiles.pixel_coords`: arrays on a 64-byte boundary, or with ``misaligned`` every other
+    """Wrap :func:`a5mi.render.tiles.pixel_coords`: arrays on a 64-byte boundary, or with ``misaligned`` every other
     tile's arrays 4 bytes past one (what numpy's allocator did at random)."""
     calls = []
 
@@ -444,7 +444,7 @@ def test_real_scene_bit_identical_for_any_tile_size(variant, scenes_dir) -> None
     """SPEC B.5 tiles: scene10 (Embree-traced cube mesh, glass sphere, cube map) at 30x30 -jitter, a 90-sample-wide
     buffer. With tiles of 1 or 5 rows starting anywhere (PACKET_ALIGN = 1) pixels changed by up to 2.8e-5;
     aligned tiles give the one-launch image bit for bit."""
-    from a5mi.session import describe_file, render
+    from a5mi.render.session import describe_file, render
 
     desc, _ = describe_file(str(scenes_dir / "scene10_sphere.txt"))
     kw = dict(width=30, height=30, jitter=True, bounces=4, shadows=True)

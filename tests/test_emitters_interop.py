@@ -26,8 +26,8 @@ def _ptracer_scene(mi, extra: dict | None = None, spp: int = 4, size: int = 16) 
 def test_stock_ptracer_renders_while_an_a5_scene_is_alive(mi, scene: str, scenes_dir: Path) -> None:
     """Before: 'tried to call a pure virtual function' (a5_point / a5_area sample_wavelengths, a5_cubemap
     sample_position / sample_ray) as soon as an a5 scene was loaded in the process."""
-    from a5mi import session
-    from a5mi.options import RenderOptions
+    from a5mi.render import session
+    from a5mi.render.options import RenderOptions
 
     path = scenes_dir / scene.split("/", 1)[1] if scene.startswith("COURSE/") else Path(__file__).parents[1] / scene
     desc, _ = session.describe_file(str(path))

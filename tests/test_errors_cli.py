@@ -74,7 +74,7 @@ def bmp_bytes(size: int = 8) -> bytes:
     """A valid 24-bit BMP (``size`` x ``size``, grey) written by the project's own writer."""
     import tempfile
 
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     with tempfile.TemporaryDirectory() as d:
         p = Path(d) / "t.bmp"
@@ -389,7 +389,7 @@ def test_quirks_accepted_as_the_sample_solution_did_warn_and_exit_0(tmp_path: Pa
     brace = f"{brace.split(':')[0]}:{int(brace.split(':')[1]) + 2}"
     assert proc.stderr.splitlines() == [f"s.txt:{brace}: warning: '}}' glued to the number before it: read as two "
                                         "tokens, as the sample solution's %f does (SPEC A.0 asks for whitespace)"]
-    from a5mi.imageio import read_image
+    from a5mi.platform.imageio import read_image
 
     assert read_image(tmp_path / "out.png").shape == (4, 6, 3)
 
@@ -412,7 +412,7 @@ def test_internal_error_exit_70_short_message_and_debug_traceback(tmp_path: Path
     prints the traceback. A pre-existing output stays as it was."""
     from a5mi import cli
     from a5mi.converters import a5_parser
-    from a5mi.errors import ExitStatus
+    from a5mi.platform.errors import ExitStatus
 
     def buggy(path: object) -> None:
         raise ZeroDivisionError("float division by zero\nTraceback (most recent call last):\n  File ...")

@@ -13,9 +13,9 @@ import numpy as np
 
 from a5mi.converters.a5_parser import parse_text
 from a5mi.converters.describe import describe
-from a5mi.imageio import quantize
-from a5mi.options import RenderOptions
-from a5mi.session import render
+from a5mi.platform.imageio import quantize
+from a5mi.render.options import RenderOptions
+from a5mi.render.session import render
 
 N = 64
 SCENE = """PerspectiveCamera { center 0 2 8 direction 0 -0.3 -1 up 0 1 0 angle 40 }
@@ -30,7 +30,7 @@ Group { numObjects 2 MaterialIndex 0 Plane { normal 0 1 0.05 offset -1 }
 def _camera_rays(model) -> tuple[np.ndarray, np.ndarray]:
     import mitsuba as mi
 
-    from a5mi.plugins.camera import camera_rays
+    from a5mi.plugins.sensors.camera import camera_rays
 
     jj, ii = np.meshgrid(np.arange(N), np.arange(N), indexing="ij")
     c = model.camera
@@ -120,7 +120,6 @@ def test_sphere_quotient_is_the_binarys_double_division_bit_for_bit(mi) -> None:
     overflows): the same bits as the double expression, against NumPy for normal floats and against the kernel's
     own double arithmetic for every class of input (random bit patterns: subnormals, infinities, NaN)."""
     import drjit as dr
-
     from plugins.planes import half_quotient
 
     rng = np.random.default_rng(7)

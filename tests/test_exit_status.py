@@ -1,4 +1,4 @@
-"""The one exit-status policy (:class:`a5mi.errors.ExitStatus`, docs/CLI.md "Exit status") for every command.
+"""The one exit-status policy (:class:`a5mi.platform.errors.ExitStatus`, docs/CLI.md "Exit status") for every command.
 
 For ``a5`` and every sub-command of :data:`a5mi.cli.SUBCOMMANDS`, in process through the command layer's entry
 functions (``cli.run`` / ``cli.run_a5mi``): ``-h`` is 0 and prints one ``Exit status:`` paragraph made from the
@@ -24,14 +24,14 @@ import pytest
 from a5mi import cli
 from a5mi.cli.app import EXIT_STATUS_TABLE, exit_status_help
 from a5mi.compare import Metrics
-from a5mi.errors import ExitStatus, UserError
+from a5mi.platform.errors import ExitStatus, UserError
 
 ROOT = Path(__file__).resolve().parents[1]
 COMMANDS = ["a5", *cli.SUBCOMMANDS]
 
 
 def _command(name: str) -> Any:
-    from a5mi.cli.render import A5
+    from a5mi.commands.render import A5
 
     return A5 if name == "a5" else cli.command(name)
 
@@ -108,24 +108,24 @@ def test_usage_error_is_2_with_one_line(name: str, capsys) -> None:
 # ------------------------------------------------------------------------------------------ internal errors
 def _internal_cases(tmp: Path, scene: str) -> dict[str, tuple[list[str], str]]:
     """Per command: an argument list that gets past the checks, and a function it calls (patched to raise)."""
-    render = (["-input", scene, "-output", str(tmp / "o.png"), "-size", "4", "4"], "a5mi.cli.render.load_scene")
+    render = (["-input", scene, "-output", str(tmp / "o.png"), "-size", "4", "4"], "a5mi.commands.render.load_scene")
     return {
         "a5": render,
         "render": render,
-        "convert": ([scene, "-o", str(tmp / "s.xml")], "a5mi.cli.convert.load_scene"),
-        "compare": ([str(tmp / "a.png"), str(tmp / "b.png")], "a5mi.imageio.read_levels"),
+        "convert": ([scene, "-o", str(tmp / "s.xml")], "a5mi.commands.convert.load_scene"),
+        "compare": ([str(tmp / "a.png"), str(tmp / "b.png")], "a5mi.platform.imageio.read_levels"),
         "fidelity": ([], "a5mi.fidelity.cases"),
-        "crosscheck": ([scene, "-o", str(tmp / "m.png")], "a5mi.cli.crosscheck.load_scene"),
-        "converge": ([scene], "a5mi.cli.converge.load_scene"),
+        "crosscheck": ([scene, "-o", str(tmp / "m.png")], "a5mi.commands.crosscheck.load_scene"),
+        "converge": ([scene], "a5mi.commands.converge.load_scene"),
         "bench": (["--no-process", "--no-inprocess"], "a5mi.bench.resolve_scenes"),
-        "grade": ([str(tmp / "subs"), "-o", str(tmp / "report")], "a5mi.cli.grade.settings_of"),
-        "render-xml": ([str(tmp / "s.xml"), "-o", str(tmp / "o.png")], "a5mi.imageio.check_output_path"),
+        "grade": ([str(tmp / "subs"), "-o", str(tmp / "report")], "a5mi.commands.grade.settings_of"),
+        "render-xml": ([str(tmp / "s.xml"), "-o", str(tmp / "o.png")], "a5mi.platform.imageio.check_output_path"),
         "completion": (["bash"], "a5mi.cli.completion.bash_script"),
         "difftest": (["--binary", str(tmp / "a5")], "a5mi.difftest.runner.check_binary"),
-        "trace": (["-input", scene, "-size", "4", "4", "-pixel", "0", "0"], "a5mi.cli.trace.load_scene"),
+        "trace": (["-input", scene, "-size", "4", "4", "-pixel", "0", "0"], "a5mi.commands.trace.load_scene"),
         "animate": ([scene, "-o", str(tmp / "frames")], "a5mi.cli.app.load_scene"),
-        "photons": ([scene, "-o", str(tmp / "m.png")], "a5mi.cli.photons.load_scene"),
-        "view": ([scene, "-size", "4", "4"], "a5mi.cli.view.activate_variant"),
+        "photons": ([scene, "-o", str(tmp / "m.png")], "a5mi.commands.photons.load_scene"),
+        "view": ([scene, "-size", "4", "4"], "a5mi.commands.view.activate_variant"),
         "simulate": (["smoke", "-o", str(tmp / "grids"), "--frames", "1"], "a5mi.simulate.smoke.write_frames"),
     }
 
@@ -152,7 +152,7 @@ def test_internal_error_is_70_with_one_line(name: str, tmp_path: Path, scenes_di
 
 def test_console_script_exits_with_the_status(tmp_path: Path) -> None:
     """The ``a5mi`` console script (:mod:`a5mi.entry`) exits with the command layer's status, 70 included."""
-    code = ("import sys, a5mi.imageio as io\n"
+    code = ("import sys, a5mi.platform.imageio as io\n"
             "def boom(*a, **k): raise RuntimeError('induced failure')\n"
             "io.read_levels = boom\n"
             "sys.argv = ['a5mi', 'compare', 'a.png', 'b.png']\n"
@@ -171,7 +171,7 @@ def test_render_batch_ends_with_its_worst_failure(tmp_path: Path, monkeypatch, c
         raise RuntimeError("induced failure")
 
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("a5mi.cli.render.load_scene", load)
+    monkeypatch.setattr("a5mi.commands.render.load_scene", load)
     session = SimpleNamespace(variant="stand-in", render=_raise)
     monkeypatch.setattr("a5mi.cli.batch._session", lambda holder, args: session)
     (tmp_path / "jobs.txt").write_text("-input bad.txt -output b.png\n-input bad.txt -output c.png\n")
@@ -184,7 +184,7 @@ def test_render_batch_ends_with_its_worst_failure(tmp_path: Path, monkeypatch, c
 
 # ------------------------------------------------------------------------------------------ verdicts
 def test_compare_same_0_differ_1(tmp_path: Path) -> None:
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     a = np.full((6, 6, 3), 100.5 / 255)
     b = a.copy()
@@ -213,8 +213,8 @@ def test_crosscheck_fresnel_modes_off_glass(pairs: list[tuple[str, str, str, flo
     import a5mi.crosscheck as xc
 
     result = SimpleNamespace(pairs=[_pair(*p) for p in pairs])
-    monkeypatch.setattr("a5mi.cli.crosscheck.load_scene", lambda *a, **k: "scene")
-    monkeypatch.setattr("a5mi.cli.crosscheck.activate_variant", lambda *a: "stand-in")
+    monkeypatch.setattr("a5mi.commands.crosscheck.load_scene", lambda *a, **k: "scene")
+    monkeypatch.setattr("a5mi.commands.crosscheck.activate_variant", lambda *a: "stand-in")
     monkeypatch.setattr(xc, "crosscheck", lambda desc, options: result)
     monkeypatch.setattr(xc, "write_montage", lambda r, out: None)
     monkeypatch.setattr(xc, "table", lambda r: "the table")
@@ -231,7 +231,7 @@ def _fidelity(monkeypatch, metrics: list[Metrics]) -> None:
     monkeypatch.setattr(fidelity, "cases", lambda: iter(names))
     monkeypatch.setattr(fidelity, "measure", lambda case: (by_name[case], None, None))
     monkeypatch.setattr(fidelity, "table", lambda rows: "the table")
-    monkeypatch.setattr("a5mi.cli.fidelity.activate_variant", lambda *a: "stand-in")
+    monkeypatch.setattr("a5mi.commands.fidelity.activate_variant", lambda *a: "stand-in")
 
 
 def test_fidelity_floor(a5_data: Path, monkeypatch, capsys) -> None:
@@ -268,7 +268,7 @@ def test_animate_missing_frames_is_1(missing: list[int], status: int, tmp_path: 
     monkeypatch.setattr("a5mi.cli.app.load_scene", lambda *a, **k: "scene")
     monkeypatch.setattr("a5mi.converters.a5_parser.parse_file",
                         lambda path: SimpleNamespace(animation=SimpleNamespace(frames=2, fps=2)))
-    monkeypatch.setattr("a5mi.cli.animate.activate_variant", lambda *a: "stand-in")
+    monkeypatch.setattr("a5mi.commands.animate.activate_variant", lambda *a: "stand-in")
     monkeypatch.setattr(batch, "render_animation", lambda *a, **k: outcome)
     monkeypatch.setattr(framefiles, "missing_frames", lambda out, frames: list(missing))
     assert cli.run_a5mi(["animate", "s.txt", "-o", str(tmp_path / "frames")]) == status

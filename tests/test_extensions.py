@@ -30,8 +30,8 @@ Group {{ numObjects {n} MaterialIndex 0 Plane {{ normal 0 1 0 offset 0 }} {extra
 
 def _scene(mi: Any, text: str, **opts: Any) -> Any:
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import build_scene
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import build_scene
 
     return build_scene(describe(parse_text(text)), RenderOptions(shadows=True, **opts))
 
@@ -140,8 +140,8 @@ Group {{ numObjects 1 MaterialIndex 0 Sphere {{ center 0 0 -{z} radius 0.01 }} }
 
 def _render_dof(mi: Any, lens: str, z: float, spp: int, size: int = 121) -> np.ndarray:
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import render
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
 
     desc = describe(parse_text(DOF_SCENE.format(lens=lens, z=z)))
     return render(desc, RenderOptions(width=size, height=size, spp=spp, seed=3)).image[..., 0]
@@ -185,8 +185,8 @@ Group {{ numObjects 3 MaterialIndex 0 Plane {{ normal 0 0 1 offset -2 }}
 
 def _render_glossy(mi: Any, gloss: str, bg: str = "0.2 0.3 0.5", spp: int = 16) -> np.ndarray:
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import render
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
 
     return render(describe(parse_text(GLOSSY_SCENE.format(gloss=gloss, bg=bg))),
                   RenderOptions(width=64, height=64, spp=spp, seed=1, bounces=2)).image
@@ -206,8 +206,8 @@ def test_glossy_white_mirror_returns_constant_background(mi: Any) -> None:
     microfacets with θm > 45°: ``P = α²/(1 + α²)``, so the mirror returns ``B/(1 + α²)`` (1 %: the camera
     rays are up to 15° off normal)."""
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import render
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
 
     for alpha in (0.05, 0.2):
         text = GLOSSY_SCENE.format(gloss=f"roughness {alpha} glossySamples 8", bg="0.5 0.5 0.5")
@@ -256,7 +256,7 @@ def test_stock_mapping_loads_and_renders(mi: Any, scene: str, a5_types: set[str]
     from a5mi.converters.describe import describe
     from a5mi.converters.to_mitsuba import to_dict
     from a5mi.converters.to_xml import write_xml
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     desc = describe(parse_file(ROOT / "scenes" / f"{scene}.txt"), stock=True)
     options = RenderOptions(width=24, height=24, spp=4)

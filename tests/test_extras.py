@@ -1,4 +1,5 @@
-"""Optional dependencies (a5mi/extras.py, pyproject.toml): ``a5`` runs on the core packages alone; a command that
+"""Optional dependencies (a5mi/runtime/extras.py, pyproject.toml): ``a5`` runs on the core packages alone; a command
+that
 needs an extra's module says which extra in one line, exit status 2, before it renders or writes anything; the
 extras named in the code are the ones pyproject.toml declares. A missing module is simulated by
 ``sys.modules[name] = None`` (the import system then raises ModuleNotFoundError for it)."""
@@ -17,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from a5mi.errors import ExitStatus, MissingExtraError, UserError
-from a5mi.extras import require
+from a5mi.platform.errors import ExitStatus, MissingExtraError, UserError
+from a5mi.runtime.extras import require
 
 ROOT = Path(__file__).resolve().parent.parent
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
@@ -95,7 +96,7 @@ def test_other_import_failures_are_not_called_a_missing_extra(tmp_path: Path, mo
 
 # ------------------------------------------------------------------------------------------- the commands
 def _images(tmp_path: Path) -> tuple[str, str]:
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     a, b = tmp_path / "a.png", tmp_path / "b.png"
     img = np.full((6, 8, 3), 0.5, np.float32)
@@ -191,7 +192,7 @@ SOURCES = sorted(p for folder in ("a5mi", "plugins", "converters") for p in (ROO
 
 
 def test_the_code_imports_only_core_packages_directly() -> None:
-    """Any other package is imported through :func:`a5mi.extras.require`, which names its extra."""
+    """Any other package is imported through :func:`a5mi.runtime.extras.require`, which names its extra."""
     direct = {str(p.relative_to(ROOT)): _third_party_imports(p) - CORE_MODULES for p in SOURCES}
     assert {k: v for k, v in direct.items() if v} == {}
 

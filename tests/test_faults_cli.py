@@ -13,9 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from a5mi import cli, imageio, session
+from a5mi import cli
 from a5mi.cli.app import Console, load_scene
-from a5mi.options import RenderOptions
+from a5mi.platform import imageio
+from a5mi.render import session
+from a5mi.render.options import RenderOptions
 
 HEAD = ("PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 20 }\n"
         "Lights { numLights 1 DirectionalLight { direction -0.2 -0.2 -1 color 1 1 1 } }\n"
@@ -373,7 +375,7 @@ XML_MESH = """<scene version="3.0.0">
      "zero.xml:2:23: error: '/dev/zero' is not a regular file (character device)"),
 ])
 def test_special_files_are_refused_not_waited_on(tmp_path: Path, argv: list[str], match: str) -> None:
-    """As ``a5 -input``: inputs are read only if they are regular files (:func:`a5mi.paths.read_regular`);
+    """As ``a5 -input``: inputs are read only if they are regular files (:func:`a5mi.platform.paths.read_regular`);
     a FIFO or a device named as the noise band, the jobs file or an XML scene's mesh is one line, exit 2."""
     os.mkfifo(tmp_path / "fifo")
     imageio.write_image(tmp_path / "a.png", np.zeros((2, 2, 3), np.float32))

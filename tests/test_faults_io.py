@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from a5mi import imageio, paths
-from a5mi.errors import ImageWriteError, UserError
+from a5mi.platform import imageio, paths
+from a5mi.platform.errors import ImageWriteError, UserError
 
 
 @pytest.fixture
@@ -125,7 +125,7 @@ def test_output_that_is_a_fifo_or_device_is_refused(tmp_path: Path) -> None:
 
 def test_texture_too_large_for_memory_is_refused_before_decoding(tmp_path: Path, monkeypatch) -> None:
     """Item 9: the header is read first; an image whose decoded pixels would not fit is refused by size."""
-    from a5mi import resources
+    from a5mi.platform import resources
 
     img = np.zeros((2000, 3000, 3), np.uint8)
     imageio.write_image(tmp_path / "t.png", img)
@@ -138,9 +138,9 @@ def test_texture_too_large_for_memory_is_refused_before_decoding(tmp_path: Path,
 
 
 def test_render_memory_model() -> None:
-    """Item 9: the model of a5mi.resources (figures measured with a5 -v, BENCHMARKS.md): 16384^2 is ~16 GB,
+    """Item 9: the model of a5mi.platform.resources (figures measured with a5 -v, BENCHMARKS.md): 16384^2 is ~16 GB,
     -jitter -filter keeps only the W x H result."""
-    from a5mi import resources
+    from a5mi.platform import resources
 
     big = resources.render_bytes(16384, 16384, width=16384, height=16384, aovs=False, jitter=False,
                                  filtered=False, tile_rays=1 << 20)
@@ -225,7 +225,7 @@ def test_available_memory_counts_the_address_space_limit(tmp_path: Path) -> None
     """``ulimit -v``: available() is at most the RLIMIT_AS soft limit less the reserve."""
     import sys
 
-    from a5mi import resources
+    from a5mi.platform import resources
 
     limit = 3 << 30
     p = subprocess.run([sys.executable, "-c", "from a5mi import resources; print(resources.available())"],
@@ -271,7 +271,7 @@ def test_an_image_bomb_is_refused_by_its_header_under_ulimit_v(tmp_path: Path, r
 
 def test_levels_count_their_float64_copies(tmp_path: Path, monkeypatch) -> None:
     """read_levels converts to float64 (two copies) and replicates grey: its estimate includes them."""
-    from a5mi import resources
+    from a5mi.platform import resources
 
     imageio.write_image(tmp_path / "g.png", np.zeros((100, 100, 1), np.uint8))
     need = resources.image_bytes(100, 100, 1) + 100 * 100 * (16 + 24)

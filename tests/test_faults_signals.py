@@ -111,7 +111,7 @@ def test_signal_during_the_atomic_write_leaves_no_temporary(tmp_path: Path, name
     assert all(not n.startswith(".") for n in names), names
     for path in out:
         if os.path.exists(path):
-            from a5mi import imageio
+            from a5mi.platform import imageio
 
             assert imageio.read_image(path).shape == (3000, 3000, 3)
 
@@ -187,9 +187,9 @@ if sys.argv[1] == "ignored":  # a shell's background job (cmd &) starts with SIG
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-class SignalOnImport:  # the signal arrives while a5mi.entry imports a5mi.interrupts
+class SignalOnImport:  # the signal arrives while a5mi.entry imports a5mi.platform.interrupts
     def find_spec(self, name, path, target=None):
-        if name == "a5mi.interrupts":
+        if name == "a5mi.platform.interrupts":
             os.kill(os.getpid(), signal.SIGINT)
         return None
 
@@ -203,7 +203,7 @@ a5()
 
 @pytest.mark.parametrize("start", ["default", "ignored"])
 def test_sigint_during_the_first_imports_is_130(tmp_path: Path, start: str) -> None:
-    """A Ctrl-C while the console script imports its first modules (before a5mi.interrupts is installed):
+    """A Ctrl-C while the console script imports its first modules (before a5mi.platform.interrupts is installed):
     recorded by the handler that is a5mi.entry's first statement and raised at the first check: one line,
     130, nothing written; also for a background job (SIGINT ignored at start, which a5 overrides)."""
     (tmp_path / "s.txt").write_text(SMALL)

@@ -17,9 +17,9 @@ import pytest
 from a5mi.converters.a5_parser import parse_text
 from a5mi.converters.describe import describe
 from a5mi.converters.transforms import binary_matrix
-from a5mi.imageio import quantize
-from a5mi.options import RenderOptions
-from a5mi.session import render
+from a5mi.platform.imageio import quantize
+from a5mi.render.options import RenderOptions
+from a5mi.render.session import render
 
 N = 48
 HEAD = """PerspectiveCamera { center 1.5 2 4 direction -0.35 -0.45 -1 up 0 1 0 angle 45 }
@@ -63,7 +63,7 @@ def test_coincident_objects_tie_in_the_binarys_group_order(variant: str, scenes_
 def _camera(text: str, size: int) -> tuple[np.ndarray, np.ndarray]:
     import mitsuba as mi
 
-    from a5mi.plugins.camera import camera_rays
+    from a5mi.plugins.sensors.camera import camera_rays
 
     c = parse_text(text, "cam.txt").camera
     jj, ii = np.meshgrid(np.arange(size), np.arange(size), indexing="ij")
@@ -72,9 +72,9 @@ def _camera(text: str, size: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _binary_sphere_t(o: np.ndarray, d: np.ndarray, m: np.ndarray, tmin: float = 0.0) -> np.ndarray:
-    """The binary's unit-sphere test in the object space of ``m`` (plugins/planes.py docstring), float32 with
+    """The binary's unit-sphere test in the object space of ``m`` (plugins/emulation/planes.py docstring), float32 with
     the float64 divisions; inf on a miss."""
-    from a5mi.plugins.planes import inverse32
+    from a5mi.plugins.emulation.planes import inverse32
 
     f = np.float32
     inv = inverse32(m.astype(np.float64))
@@ -209,7 +209,7 @@ def test_quirks_binary_reads_the_stale_texture_coordinates_of_the_mesh_behind(va
     tested before the mesh is nearer than the mesh (the mesh never took the hit: the disc of plain green).
     Golden: tests/data/stale_uv_a5soln.png is a5soln's own BMP of this scene (files as written by the fixture),
     ``a5soln -input stale.txt -size 40 40 -output stale.bmp``, converted to PNG losslessly."""
-    from a5mi.imageio import read_uint8
+    from a5mi.platform.imageio import read_uint8
 
     golden = read_uint8(Path(__file__).parent / "data" / "stale_uv_a5soln.png").astype(int)
     quirk = _stale_render(stale_folder, STALE_OBJECTS, "binary")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from a5mi.filters import FilterStream, blur, downsample3, kernel_taps, output_size, postprocess
+from a5mi.render.filters import FilterStream, blur, downsample3, kernel_taps, output_size, postprocess
 
 
 def _blur_loop(img: np.ndarray, taps: np.ndarray) -> np.ndarray:

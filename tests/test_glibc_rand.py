@@ -9,7 +9,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from a5mi.glibc_rand import GlibcRand, glibc_jitter, jitter_offsets
+from a5mi.render.glibc_rand import GlibcRand, glibc_jitter, jitter_offsets
 
 # rand() with glibc's default seed (no srand): the well-known first ten values.
 FIRST_TEN = [1804289383, 846930886, 1681692777, 1714636915, 1957747793,
@@ -85,7 +85,7 @@ def test_b5_first_call_is_y() -> None:
 
 def test_b5_cached_stream_equals_computed_stream_across_the_prefix_end(tmp_path, monkeypatch) -> None:
     """The cached prefix and the computed continuation after it give exactly glibc's stream."""
-    from a5mi import glibc_rand as g
+    from a5mi.render import glibc_rand as g
 
     monkeypatch.setattr(g, "PREFIX_VALUES", 3 * 4096)
     built = g.glibc_stream(folder=tmp_path)  # computes and stores the prefix
@@ -104,7 +104,7 @@ def test_b5_cached_stream_equals_computed_stream_across_the_prefix_end(tmp_path,
 def test_b5_damaged_cache_is_rejected_and_rebuilt(tmp_path, monkeypatch, damage) -> None:
     """Any damage to the cache files is caught on load (CRC-32s of values and state, fresh head values,
     shapes); the stream is then rebuilt and still exactly glibc's."""
-    from a5mi import glibc_rand as g
+    from a5mi.render import glibc_rand as g
 
     monkeypatch.setattr(g, "PREFIX_VALUES", 2 * 4096)
     monkeypatch.setattr(g, "_CHECK_VALUES", 100)
@@ -141,7 +141,7 @@ def test_b5_damaged_cache_is_rejected_and_rebuilt(tmp_path, monkeypatch, damage)
 
 
 def test_b5_small_draws_and_unwritable_cache_compute_the_stream(tmp_path) -> None:
-    from a5mi import glibc_rand as g
+    from a5mi.render import glibc_rand as g
 
     assert isinstance(g.glibc_stream(folder=tmp_path, need=100), g.GlibcRand)
     assert list(tmp_path.iterdir()) == []  # a small render never touches the cache

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from a5mi.compare import compare_arrays, write_diff
-from a5mi.imageio import read_levels
+from a5mi.platform.imageio import read_levels
 
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN = Path(__file__).resolve().parent / "golden"
@@ -33,7 +33,7 @@ SCENES = ("demo", "gallery")
 @pytest.mark.parametrize("suffix", list(CASES))
 @pytest.mark.parametrize("scene", SCENES)
 def test_golden(scene: str, suffix: str, variant: str, tmp_path: Path) -> None:
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     _check_golden(scene, f"{scene}.{suffix}", RenderOptions(width=SIZE, height=SIZE, **CASES[suffix]), tmp_path)
 
@@ -41,8 +41,8 @@ def test_golden(scene: str, suffix: str, variant: str, tmp_path: Path) -> None:
 def _check_golden(scene: str, name: str, options, tmp_path: Path) -> None:
     """Render ``scenes/{scene}.txt`` with ``options`` and compare with ``tests/golden/{name}.png``: PSNR >= 60 dB
     and at most 0.1% of pixels off by more than 2/255 (``A5MI_UPDATE_GOLDEN=1`` rewrites the golden image)."""
-    from a5mi.imageio import quantize, write_image
-    from a5mi.session import describe_file, render
+    from a5mi.platform.imageio import quantize, write_image
+    from a5mi.render.session import describe_file, render
 
     result = render(describe_file(str(ROOT / "scenes" / f"{scene}.txt"), bump=options.bump)[0], options)
     ours = quantize(result.image).astype(np.float64)
@@ -64,7 +64,7 @@ EXT_SCENES = ("soft_shadows", "dof", "spot", "glossy", "prism")
 
 @pytest.mark.parametrize("scene", EXT_SCENES)
 def test_golden_extension(scene: str, variant: str, tmp_path: Path) -> None:
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     options = RenderOptions(width=SIZE, height=SIZE, shadows=True, bounces=4, spp=4, seed=1)
     _check_golden(scene, f"{scene}.ext-spp4", options, tmp_path)
@@ -76,7 +76,7 @@ PART2 = {"solids": ("solids.b4", {}), "bumps": ("bumps.b4-bump", {"bump": True})
 
 @pytest.mark.parametrize("scene", list(PART2))
 def test_golden_part2(scene: str, variant: str, tmp_path: Path) -> None:
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     name, extra = PART2[scene]
     _check_golden(scene, name, RenderOptions(width=64, height=64, shadows=True, bounces=4, **extra), tmp_path)
@@ -84,7 +84,7 @@ def test_golden_part2(scene: str, variant: str, tmp_path: Path) -> None:
 
 def test_golden_fog(variant: str, tmp_path: Path) -> None:
     """The fog demo (docs/EXTENSIONS.md E.8): 64 x 64, -shadows -bounces 4 -spp 2 -seed 1."""
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     options = RenderOptions(width=64, height=64, shadows=True, bounces=4, spp=2, seed=1)
     _check_golden("fog_shafts", "fog_shafts.fog-spp2", options, tmp_path)
@@ -93,7 +93,7 @@ def test_golden_fog(variant: str, tmp_path: Path) -> None:
 def test_golden_volume(variant: str, tmp_path: Path) -> None:
     """The Volume demo (docs/EXTENSIONS.md E.9, grid ``scenes/volumes/cloud.vol``): 64 x 64, -shadows -bounces 2
     -spp 2 -seed 1."""
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     options = RenderOptions(width=64, height=64, shadows=True, bounces=2, spp=2, seed=1)
     _check_golden("volume", "volume.vol-spp2", options, tmp_path)

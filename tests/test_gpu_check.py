@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from a5mi.variant import cuda_available
+from a5mi.runtime.variant import cuda_available
 
 SCRIPT = Path(__file__).resolve().parent.parent / "benchmarks" / "gpu_check.py"
 

@@ -85,10 +85,10 @@ def klass(tmp_path_factory, scenes_dir):
     subs = root / "subs"
     subs.mkdir()
     (root / "cases.toml").write_text(CASES)
-    from a5mi.cli.grade import _options_of
+    from a5mi.commands.grade import _options_of
     from a5mi.grade.cases import load_cases
     from a5mi.grade.references import build_reference, render_levels
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     cases = load_cases(root / "cases.toml", _options_of)
     cwd = os.getcwd()
@@ -257,7 +257,7 @@ def test_cases_file_errors_carry_their_position(tmp_path) -> None:
 
 
 def test_journal_ignores_a_torn_last_line(tmp_path) -> None:
-    from a5mi.cluster import Journal
+    from a5mi.runtime.cluster import Journal
 
     j = Journal(tmp_path / "j.jsonl")
     j.append({"key": "a/1", "verdict": "match"})
@@ -295,10 +295,10 @@ def test_joins_an_existing_cluster_and_reads_given_references(tmp_path, scenes_d
     the workers; --reference DIR supplies the reference images (a5mi's noise band is still rendered for them);
     the identical image's PSNR is "inf" in the JSON and the CSV."""
     from a5mi.cli import run_a5mi
-    from a5mi.cli.grade import _options_of
+    from a5mi.commands.grade import _options_of
     from a5mi.grade.cases import load_cases
     from a5mi.grade.references import render_levels
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     toml = tmp_path / "cases.toml"
     toml.write_text('[[case]]\ncommand = "-input scene11_cube.txt -size 20 20 -output 11f.png -shadows -bounces 4 '

@@ -14,7 +14,7 @@ import pytest
 from a5mi.grade.cases import make_case
 from a5mi.grade.report import write_all
 from a5mi.grade.verdict import VERDICTS, points_for
-from a5mi.imageio import write_image
+from a5mi.platform.imageio import write_image
 
 CHROMIUM = shutil.which("chromium")
 CASES = [make_case("-input scene10_sphere.txt -size 8 8 -output 10f.png", points=40),

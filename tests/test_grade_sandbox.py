@@ -1,4 +1,4 @@
-"""a5mi.sandbox (the sandbox of grade and difftest): every guarantee proved by a hostile fake submission.
+"""a5mi.sandbox.bwrap (the sandbox of grade and difftest): every guarantee proved by a hostile fake submission.
 
 Each fake is a small script in tmp_path graded through :func:`a5mi.grade.run.grade_one` against a tiny
 reference (no rendering): it must end in its verdict within seconds, with nothing written outside its private
@@ -22,8 +22,8 @@ from hostile import sandbox_processes
 
 from a5mi.grade.cases import make_case
 from a5mi.grade.run import Task, grade_one
-from a5mi.imageio import write_image
-from a5mi.sandbox import NOT_SANDBOXED, Limits, SandboxUnavailable, isolation, run_sandboxed
+from a5mi.platform.imageio import write_image
+from a5mi.sandbox.bwrap import NOT_SANDBOXED, Limits, SandboxUnavailable, isolation, run_sandboxed
 
 LIMITS = Limits(timeout=3.0, memory_mb=512, nproc=48, keep_bytes=4096)
 

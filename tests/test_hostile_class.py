@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from hostile import Expect, host_tmp, make_class, sandbox_processes
 
-from a5mi.sandbox import UID_BASE, isolation
+from a5mi.sandbox.bwrap import UID_BASE, isolation
 
 pytestmark = pytest.mark.skipif(shutil.which("bwrap") is None, reason="make setup installs bubblewrap")
 
@@ -68,10 +68,10 @@ def klass(scenes_dir):
     root = Path(tempfile.mkdtemp(prefix="a5mi-hostile-", dir="/tmp"))
     root.chmod(0o755)
     (root / "cases.toml").write_text(CASES)
-    from a5mi.cli.grade import _options_of
+    from a5mi.commands.grade import _options_of
     from a5mi.grade.cases import load_cases
     from a5mi.grade.references import build_reference
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     case = load_cases(root / "cases.toml", _options_of)[0]
     ref = build_reference(scenes_dir / case.scene, case.options, root / "cache")

@@ -7,8 +7,8 @@ import os
 import numpy as np
 import pytest
 
-from a5mi import imageio
-from a5mi.errors import ImageReadError, ImageWriteError
+from a5mi.platform import imageio
+from a5mi.platform.errors import ImageReadError, ImageWriteError
 
 
 def test_b1_quantize_truncates() -> None:

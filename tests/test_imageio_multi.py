@@ -1,4 +1,4 @@
-"""SPEC B.1 outputs: a5mi.imageio.write_images is all-or-nothing for several images (-output, -normals,
+"""SPEC B.1 outputs: a5mi.platform.imageio.write_images is all-or-nothing for several images (-output, -normals,
 -depth): every temporary is written before any target is replaced."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import os
 import numpy as np
 import pytest
 
-from a5mi import imageio
-from a5mi.errors import ImageWriteError
+from a5mi.platform import imageio
+from a5mi.platform.errors import ImageWriteError
 
 
 def _failing_create_for(monkeypatch, marker: str) -> list[str]:

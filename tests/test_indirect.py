@@ -52,7 +52,7 @@ def test_indirect_equals_path_in_mean(mi: Any) -> None:
 def test_indirect_brightens_and_stays_off_by_default(mi: Any) -> None:
     """Without -indirect the environment lights nothing (black spheres and plane, SPEC B.3); with it they
     show the sky. The dict of a course render carries no ``indirect`` key."""
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     assert "indirect" not in RenderOptions().integrator_params()
     assert RenderOptions(indirect=2).integrator_params()["indirect"] == 2

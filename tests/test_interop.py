@@ -13,7 +13,7 @@ import pytest
 from conftest import QUAD_OBJ
 
 from a5mi.cli import run, run_a5mi
-from a5mi.imageio import read_levels
+from a5mi.platform.imageio import read_levels
 
 ROOT = Path(__file__).resolve().parent.parent
 

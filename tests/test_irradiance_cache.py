@@ -16,11 +16,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-from a5mi import cli, imageio, session
+from a5mi import cli
 from a5mi.converters.a5_parser import parse_file
 from a5mi.converters.describe import describe
-from a5mi.driver import render_scene
-from a5mi.options import RenderOptions
+from a5mi.platform import imageio
+from a5mi.render import session
+from a5mi.render.driver import render_scene
+from a5mi.render.options import RenderOptions
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
@@ -34,7 +36,7 @@ def _load(path: Path) -> Any:
 
 
 def _rays(mi: Any, desc: Any, w: int, h: int) -> Any:
-    from a5mi.plugins.camera import camera_rays
+    from a5mi.plugins.sensors.camera import camera_rays
 
     c = desc.camera
     i, j = np.tile(np.arange(w), h), np.repeat(np.arange(h), w)
@@ -114,8 +116,8 @@ def test03_mi_render_of_the_converted_scene(mi: Any) -> None:
 
 def test04_records_picture(mi: Any) -> None:
     """The picture marks each record's projection (SPEC B.2 inverted) with a dot and its reach with a ring."""
-    from a5mi.plugins.irradiance_cache_grid import RecordSet
-    from a5mi.plugins.irradiance_cache_records import DOT, RING, RING_ALPHA, picture, project
+    from a5mi.plugins.integrators.irradiance_cache.grid import RecordSet
+    from a5mi.plugins.integrators.irradiance_cache.records import DOT, RING, RING_ALPHA, picture, project
 
     desc = _load(SCENES / "ic_bleed.txt")
     cam = desc.camera

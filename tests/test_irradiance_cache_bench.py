@@ -21,11 +21,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from a5mi import session
 from a5mi.converters.a5_parser import parse_file
 from a5mi.converters.describe import describe
-from a5mi.driver import render_scene
-from a5mi.options import RenderOptions
+from a5mi.render import session
+from a5mi.render.driver import render_scene
+from a5mi.render.options import RenderOptions
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "ic_sky.txt"
 SIZE, REFERENCE_PASSES = 32, 16384

@@ -12,8 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from a5mi.plugins import irradiance_cache_math as icm
-from a5mi.plugins.irradiance_cache_grid import RecordSet, cell_keys
+from a5mi.plugins.integrators.irradiance_cache import formulas as icm
+from a5mi.plugins.integrators.irradiance_cache.grid import RecordSet, cell_keys
 
 
 def _hemisphere(n: np.ndarray, m: int, nn: int, seed: int) -> np.ndarray:

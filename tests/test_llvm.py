@@ -1,4 +1,4 @@
-"""a5mi.llvm: an LLVM older than 16 is refused with one line naming the fix, before Dr.Jit can abort."""
+"""a5mi.runtime.llvm: an LLVM older than 16 is refused with one line naming the fix, before Dr.Jit can abort."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from a5mi import llvm
+from a5mi.runtime import llvm
 
 
 @pytest.mark.parametrize(
@@ -62,7 +62,7 @@ def test_variant_activation_refuses_old_llvm_in_a_subprocess(tmp_path: Path) -> 
     fake.write_bytes(b"\x7fELF")
     code = (
         "import sys\n"
-        "from a5mi.variant import activate, VariantError\n"
+        "from a5mi.runtime.variant import activate, VariantError\n"
         "try:\n    activate('llvm')\n"
         "except VariantError as e:\n    print('a5: error:', e, file=sys.stderr); sys.exit(2)\n"
     )

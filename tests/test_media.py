@@ -36,8 +36,8 @@ Group {{ numObjects {n} MaterialIndex 0 Plane {{ normal 0 0 1 offset 0 }} {extra
 
 def _scene(text: str, path: str = "<string>", **opts: Any) -> Any:
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import build_scene
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import build_scene
 
     return build_scene(describe(parse_text(text, path)), RenderOptions(**{"shadows": True, **opts}))
 
@@ -156,8 +156,8 @@ def test_umbra_gains_no_light(mi: Any) -> None:
 def test_zero_density_is_the_course_image(mi: Any, scenes_dir: Path, name: str) -> None:
     """``Fog { density 0 }`` compiles the medium code and still renders the course scene bit for bit."""
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import render
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
 
     text = (scenes_dir / name).read_text()
     opts = RenderOptions(width=24, height=24, shadows=True, bounces=4)

@@ -138,8 +138,8 @@ def test_zero_density_is_the_course_image(mi: Any, scenes_dir: Path, tmp_path: P
     """``density 0`` with ``-media_bounces 1``: the transmittance code runs (``T = 1``) and the course scene
     renders bit for bit."""
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import render
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
 
     volgrid.write_vol(tmp_path / "z.vol", np.full((2, 2, 2), 0.5, dtype=np.float32))
     text = (scenes_dir / name).read_text()

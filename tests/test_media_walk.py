@@ -54,7 +54,7 @@ def test_phase_g_reaches_both_conversions() -> None:
 def _volpath(mi: Any, text: str, path: str, bounces: int, o: np.ndarray, d: np.ndarray) -> np.ndarray:
     from a5mi.converters.describe import describe
     from a5mi.converters.to_mitsuba import to_dict
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     scene = mi.load_dict(to_dict(describe(parse_text(text, path)), RenderOptions(shadows=True), stock=True))
     integ = mi.load_dict({"type": "volpath", "max_depth": bounces + 1})

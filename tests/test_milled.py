@@ -129,8 +129,8 @@ def test_light_loop_adds_pi_times_the_ward_lobe(mi: Any) -> None:
     """Rays traced by ``a5_whitted``: colour = ambient ⊙ diffuseColor + (kd + π ρs W(−d, L)) max(L·N, 0)
     lightColor, W evaluated here in numpy from the E.20 formula (grooves along x: t = +x, b = n × t = −z)."""
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import build_scene
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import build_scene
 
     scene = build_scene(describe(parse_text(_text(), str(SCENES / "t.txt"))), RenderOptions())
     rng = np.random.default_rng(6)
@@ -154,8 +154,8 @@ def test_light_loop_adds_pi_times_the_ward_lobe(mi: Any) -> None:
 
 def _render(text: str, size: int = 64) -> np.ndarray:
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import render
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
 
     img = render(describe(parse_text(text, str(SCENES / "t.txt"))), RenderOptions(width=size, height=size))
     return np.asarray(img.image, dtype=np.float64)
@@ -258,8 +258,8 @@ def test_xml_conversion_loads_and_renders_as_the_dict(mi: Any, tmp_path: Path) -
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
     from a5mi.converters.to_xml import write_xml
-    from a5mi.options import RenderOptions
-    from a5mi.session import render
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
 
     for name in ("milled", "btf"):
         desc = describe(parse_file(SCENES / f"{name}.txt"))

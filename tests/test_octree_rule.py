@@ -1,5 +1,5 @@
 """Shadows of a triangle mesh as the binary's octree casts them (converters/octree.py,
-plugins/octree_rule.py).
+plugins/emulation/octree_rule.py).
 
 Measured against a5soln (diamond.obj above a sphere, one directional light): with ``direction 0 -1 0.3``
 the shadow ray direction ``L = -normalize(direction)`` has ``L_x = -0.0`` and the binary's octree never
@@ -18,9 +18,9 @@ from a5mi.converters import octree
 from a5mi.converters.a5_parser import parse_text
 from a5mi.converters.describe import describe
 from a5mi.converters.obj import load_obj
-from a5mi.imageio import quantize
-from a5mi.options import RenderOptions
-from a5mi.session import render
+from a5mi.platform.imageio import quantize
+from a5mi.render.options import RenderOptions
+from a5mi.render.session import render
 
 N = 64
 
@@ -42,7 +42,7 @@ def _expected(model, scenes_dir, direction: tuple[float, float, float]) -> tuple
     """(sphere pixel mask, lit-by-the-exact-test mask, Lambert levels if lit) for the B.2 rays."""
     import mitsuba as mi
 
-    from a5mi.plugins.camera import camera_rays
+    from a5mi.plugins.sensors.camera import camera_rays
 
     jj, ii = np.meshgrid(np.arange(N), np.arange(N), indexing="ij")
     c = model.camera
@@ -183,9 +183,10 @@ def test_reach_equals_the_low_side_leaves(zmask: int, child_ok) -> None:
 
 
 def test_leaf_table_is_the_binarys_octree(a5_data) -> None:
-    """plugins/octree_leaves.py builds the octree a level at a time; its leaves (face, path, depth) are those of
+    """plugins/emulation/octree_leaves.py builds the octree a level at a time; its leaves (face, path, depth) are
+    those of
     the node-by-node builder of converters/octree.py (the binary's split rule) on the course's diamond."""
-    from a5mi.plugins.octree_leaves import MAX_REFS, mesh_leaves
+    from a5mi.plugins.emulation.octree_leaves import MAX_REFS, mesh_leaves
 
     mesh = load_obj(a5_data / "scenes" / "diamond.obj")
     v, f = np.asarray(mesh.vertices, dtype=np.float32), np.asarray(mesh.faces, dtype=np.int64)
@@ -207,11 +208,11 @@ def test_shadow_rays_follow_the_binarys_traversal_per_ray(variant: str, scenes_d
     """A light straight down (``direction 0 -1 0``: the object-space shadow direction of a mesh under
     ``ZRotate 30`` has z = +0.0) over the vase: the binary's traversal of each shadow ray reaches only some of
     the leaves the reach masks allow, and leaves a patch lit that the masks shadowed (25.1 dB from a5soln before
-    the per-ray replay, plugins/octree_leaves.py). Golden: tests/data/octree_shadow_a5soln.png is
+    the per-ray replay, plugins/emulation/octree_leaves.py). Golden: tests/data/octree_shadow_a5soln.png is
     ``a5soln -input vase.txt -size 64 64 -shadows -output vase.bmp`` of this scene, converted to PNG losslessly."""
     from pathlib import Path
 
-    from a5mi.imageio import read_uint8
+    from a5mi.platform.imageio import read_uint8
 
     text = ("PerspectiveCamera { center 0.3 2.5 2.5 direction -0.1 -1 -1 up 0 1 0 angle 35 }\n"
             "Lights { numLights 1 DirectionalLight { direction 0 -1 0 color 0.9 0.9 0.9 } }\n"

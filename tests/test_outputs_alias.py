@@ -1,5 +1,5 @@
 """Every command keeps its inputs (docs/GUARANTEES.md): no output of any command may be one of its inputs or
-another of its outputs, compared by resolved path and inode (:func:`a5mi.clobber.check_outputs`, the rule
+another of its outputs, compared by resolved path and inode (:func:`a5mi.platform.clobber.check_outputs`, the rule
 ``a5`` follows), refused before anything is written: one line, exit 2, every file as it was. ``a5mi convert``
 replaces only the folders a conversion wrote (its ``.a5mi-convert`` marker); ``a5mi grade`` never writes its
 report among the submissions."""
@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from a5mi import imageio
 from a5mi.cli import run_a5mi
-from a5mi.errors import ExitStatus
+from a5mi.platform import imageio
+from a5mi.platform.errors import ExitStatus
 
 HEAD = ("PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 20 }\n"
         "Lights { numLights 1 DirectionalLight { direction -0.2 -0.2 -1 color 1 1 1 } }\n"

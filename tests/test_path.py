@@ -1,4 +1,4 @@
-"""``a5 -integrator path`` (plugins/path.py, docs/EXTENSIONS.md E.14): seeded Monte Carlo checks.
+"""``a5 -integrator path`` (plugins/integrators/path.py, docs/EXTENSIONS.md E.14): seeded Monte Carlo checks.
 
 Every threshold is a number of standard errors of the estimator, the sigma estimated per pixel from the
 passes themselves (over-estimated by the E.5 stratification, so conservative): ``k = 5`` for checks of one
@@ -53,7 +53,7 @@ def test_loads_from_a_dict_and_registers(mi: Any) -> None:
 
 
 def test_options_carry_rr_depth_to_the_path_plugin() -> None:
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     assert RenderOptions(integrator="path", rr_depth=3).integrator_params()["rr_depth"] == 3
     assert "rr_depth" not in RenderOptions().integrator_params()        # course dicts unchanged

@@ -120,7 +120,7 @@ def test_path_renders_of_two_seeds_agree_and_converge(mi: Any) -> None:
 
 @pytest.mark.slow
 def test_path_renders_of_two_seeds_through_the_passes(mi: Any) -> None:
-    """The same through ``a5mi.passes``-style calls (one ``sample_pass`` per pass, 16 x 16, 256 passes): the
+    """The same through ``a5mi.render.passes``-style calls (one ``sample_pass`` per pass, 16 x 16, 256 passes): the
     mean |difference| of two seeds below 5 % of the mean (it was 14.7 %; the Monte Carlo error is ~2.5 %)."""
     desc, scene, _ = load(mi, SKY, integrator="path", bounces=1)
     a, sa = a5_passes(mi, scene, scene.integrator(), desc.camera, 16, 16, 256, seed=1)

@@ -36,7 +36,7 @@ Group { numObjects 3
 def _tracer(mi: Any, **options: Any) -> Any:
     from a5mi.converters.a5_parser import parse_text
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
     from a5mi.trace.core import Tracer
 
     return Tracer(describe(parse_text(SCENE)), RenderOptions(width=12, height=12, **options))

@@ -113,7 +113,7 @@ def test_fresnel_modes_match_common(mi: Any, mode: str, d: tuple, n_medium: floa
     """R is plugins/common.fresnel_weight of the same mode; reflect ks·R, refract ks(1 − R)(n/nt)²."""
     import drjit as dr
 
-    from a5mi.plugins.common import fresnel_weight, snell
+    from a5mi.plugins.optics import fresnel_weight, snell
 
     ks = (0.9, 0.8, 0.7)
     b, dd = _lobes(mi, (0.0, 0.0, 0.0), ks, ior, d, n_medium, mode, count=1)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-# Ken Perlin's ImprovedNoise.java (2002), ported line by line; independent of plugins/perlin.py.
+# Ken Perlin's ImprovedNoise.java (2002), ported line by line; independent of plugins/textures/perlin.py.
 REF_PERMUTATION = [
     151, 160, 137, 91, 90, 15, 131, 13, 201, 95, 96, 53, 194, 233, 7, 225, 140, 36, 103, 30, 69, 142, 8, 99,
     37, 240, 21, 10, 23, 190, 6, 148, 247, 120, 234, 75, 0, 26, 197, 62, 94, 252, 219, 203, 117, 35, 11, 32,
@@ -76,7 +76,7 @@ def _points(rng: np.random.Generator, n: int, lo: float, hi: float) -> np.ndarra
 
 
 def test_b4_permutation_is_the_reference(variant: str) -> None:
-    from a5mi.plugins.perlin import PERMUTATION
+    from a5mi.plugins.textures.perlin import PERMUTATION
 
     assert len(PERMUTATION) == 256
     assert sorted(PERMUTATION) == list(range(256))
@@ -86,7 +86,7 @@ def test_b4_permutation_is_the_reference(variant: str) -> None:
 def test_b4_noise_matches_reference(variant: str) -> None:
     import mitsuba as mi
 
-    from a5mi.plugins.perlin import noise
+    from a5mi.plugins.textures.perlin import noise
 
     pts = np.random.default_rng(1).uniform(-300.0, 300.0, size=(10_000, 3))
     got = noise(*(mi.Float64(pts[:, k]) for k in range(3))).numpy()
@@ -99,7 +99,7 @@ def test_b4_noise_matches_reference(variant: str) -> None:
 def test_b4_octave_noise_matches_reference(variant: str, octaves: int) -> None:
     import mitsuba as mi
 
-    from a5mi.plugins.perlin import octave_noise
+    from a5mi.plugins.textures.perlin import octave_noise
 
     pts = _points(np.random.default_rng(octaves), 2_000, -20.0, 20.0)
     got = octave_noise(mi.Point3f(pts[:, 0], pts[:, 1], pts[:, 2]), mi.UInt32(octaves)).numpy()
@@ -111,7 +111,7 @@ def test_b4_octave_noise_matches_reference(variant: str, octaves: int) -> None:
 def test_b4_octave_noise_zero_on_lattice(variant: str, octaves: int) -> None:
     import mitsuba as mi
 
-    from a5mi.plugins.perlin import octave_noise
+    from a5mi.plugins.textures.perlin import octave_noise
 
     pts = np.random.default_rng(7).integers(-1000, 1000, size=(500, 3)).astype(np.float32)
     got = octave_noise(mi.Point3f(pts[:, 0], pts[:, 1], pts[:, 2]), mi.UInt32(octaves)).numpy()
@@ -122,7 +122,7 @@ def test_b4_octave_noise_per_lane_counts(variant: str) -> None:
     """The symbolic loop honours a per-lane octave count (one kernel for any count)."""
     import mitsuba as mi
 
-    from a5mi.plugins.perlin import octave_noise
+    from a5mi.plugins.textures.perlin import octave_noise
 
     pt = np.array([0.3, 1.7, -2.2], dtype=np.float32)
     counts = [0, 1, 2, 4]

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 
 def _box(mi, light: dict, albedo: float, depth: int) -> tuple:
@@ -66,7 +66,7 @@ def test_knn_estimate_of_a_uniform_photon_density(filter_name: str) -> None:
     """Photons uniform on the plane z = 0 with density ρ and power φ each: irradiance E = ρ φ and L = kd/π E.
     Sigma of a k-nearest estimate ~ E/sqrt(k - 2) (the (k - 1)/(π r²) estimate of a Poisson density has
     variance ρ²/(k - 2)); the mean over 400 points is checked to 4 sigma/sqrt(400)."""
-    from a5mi.plugins.photon_maps import PhotonMap
+    from a5mi.plugins.integrators.photon.maps import PhotonMap
 
     rng = np.random.default_rng(11)
     n, side, phi, k = 200000, 10.0, 0.01, 60
@@ -86,7 +86,7 @@ def test_knn_estimate_of_a_uniform_photon_density(filter_name: str) -> None:
 
 
 def test_split_counts_follow_the_powers(mi) -> None:
-    from a5mi.plugins.photon_emit import split_counts
+    from a5mi.plugins.integrators.photon.emit import split_counts
 
     assert split_counts(1000, [1.0, 3.0, 0.0]) == [250, 750, 0]
     assert split_counts(10, [1e-9, 1.0]) == [1, 10]

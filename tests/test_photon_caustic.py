@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SIZE = 64
@@ -59,7 +59,7 @@ def _caustic_region(desc, size: int) -> tuple[np.ndarray, np.ndarray]:
 
 def _dicts(mi, opts: RenderOptions) -> tuple:
     from a5mi.converters.to_mitsuba import to_dict
-    from a5mi.session import describe_file
+    from a5mi.render.session import describe_file
 
     desc, _ = describe_file(str(SCENES / "caustic_sphere.txt"))
     a5 = to_dict(desc, opts)
@@ -117,7 +117,7 @@ def test_diffuse_scene_matches_the_path_tracer(mi) -> None:
     """scenes/diffuse_corner.txt: photon mapping (direct light + global map) against a5_path (64 spp x 4 seeds),
     image mean within 4 combined sigmas (path: std of the seeds' means / 2; photon: two map seeds, |a − b|/2)."""
     from a5mi.converters.to_mitsuba import to_dict
-    from a5mi.session import describe_file
+    from a5mi.render.session import describe_file
 
     desc, _ = describe_file(str(SCENES / "diffuse_corner.txt"))
     opts = RenderOptions(width=40, height=40, shadows=True, integrator="photon", photons=120000, caustic_photons=0,

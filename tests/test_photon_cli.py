@@ -8,14 +8,14 @@ from pathlib import Path
 import numpy as np
 
 from a5mi import cli
-from a5mi.errors import ExitStatus
+from a5mi.platform.errors import ExitStatus
 
 SCENE = str(Path(__file__).resolve().parents[1] / "scenes" / "caustic_sphere.txt")
 SMALL = ["-photons", "800", "-caustic_photons", "3000", "-bounces", "6"]
 
 
 def test_photons_command_draws_the_maps_and_counts_per_surface(mi, tmp_path: Path, capsys) -> None:
-    from a5mi import imageio
+    from a5mi.platform import imageio
 
     out = tmp_path / "map.png"
     assert cli.run_a5mi(["photons", SCENE, "-o", str(out), "--size", "24", "24", "-shadows", *SMALL, "--json"]) == 0
@@ -43,7 +43,7 @@ def test_photons_command_usage_errors(capsys) -> None:
 
 
 def test_a5_renders_photon_and_ppm(mi, tmp_path: Path) -> None:
-    from a5mi import imageio
+    from a5mi.platform import imageio
 
     a, b = tmp_path / "p.png", tmp_path / "q.png"
     assert cli.run(["-input", SCENE, "-output", str(a), "-size", "16", "16", "-integrator", "photon", *SMALL,

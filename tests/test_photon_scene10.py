@@ -19,13 +19,13 @@ from pathlib import Path
 
 import pytest
 
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 
 def _versus(mi, scenes_dir: Path, size: int, passes: int, photons: tuple[int, int], ptracer_spp: int,
             seeds: int) -> dict:
     from a5mi.photons import versus
-    from a5mi.session import describe_file
+    from a5mi.render.session import describe_file
 
     desc, _ = describe_file(str(scenes_dir / "scene10_sphere.txt"))
     centre, target, angle = versus.SCENE10_VIEW

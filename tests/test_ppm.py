@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 SCENE = Path(__file__).resolve().parents[1] / "scenes" / "caustic_sphere.txt"
 
@@ -28,7 +28,7 @@ def _no_warm_scene_left():
 
 
 def test_radius_schedule_is_the_papers_recursion(mi) -> None:
-    from a5mi.plugins.ppm import radius_at
+    from a5mi.plugins.integrators.photon.ppm import radius_at
 
     alpha, r1 = 2.0 / 3.0, 0.3
     r2 = r1 * r1

@@ -34,11 +34,11 @@ def _exit_rays(mi: Any, k: int, b: np.ndarray, seed: int, passes: int) -> tuple[
     import drjit as dr
 
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.plugins import spectral
+    from a5mi.plugins.integrators.whitted.record import NODE_LAYOUT, TreeRecorder
+    from a5mi.plugins.materials import spectral
     from a5mi.plugins.sampling import SamplePass, pixel_keys
-    from a5mi.plugins.whitted_record import NODE_LAYOUT, TreeRecorder
-    from a5mi.session import build_scene
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import build_scene
 
     text = f"""PerspectiveCamera {{ center 0 0 5 direction 0 0 -1 up 0 1 0 angle 30 }}
 Lights {{ numLights 0 }}
@@ -111,9 +111,9 @@ def test_rays_that_hit_a_sphere_light_stay_finite(mi: Any) -> None:
     loop at that hit samples the same light from its own surface, where the sampled point can be the hit point
     itself (distance 0): the term is 0 there, not 0/0 (before: 41 NaN colours in 2·10⁵ rays, seeded)."""
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
     from a5mi.plugins.sampling import SamplePass
-    from a5mi.session import build_scene
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import build_scene
 
     text = f"""PerspectiveCamera {{ center 0 0 5 direction 0 0 -1 up 0 1 0 angle 30 }}
 Lights {{ numLights 1 SphereLight {{ center 0 0 10000 radius 524 color 3000 3000 3000 samples 1 }} }}

@@ -13,12 +13,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-from a5mi import data_dir, imageio
+from a5mi import data_dir
 from a5mi.converters import obj as objfile
 from a5mi.converters.a5_parser import parse_file
 from a5mi.converters.describe import CubeMapBackground, MeshShape, describe
 from a5mi.converters.files import Image
-from a5mi.options import RenderOptions
+from a5mi.platform import imageio
+from a5mi.render.options import RenderOptions
 
 CUBE_FACES = ("left", "right", "up", "down", "front", "back")
 
@@ -31,7 +32,7 @@ def _png(path: Path, pixels: np.ndarray) -> Path:
 
 @pytest.fixture
 def reads(monkeypatch: pytest.MonkeyPatch) -> dict[str, Counter]:
-    """Counts of ``a5mi.imageio.read_uint8`` (the one image reader) and ``converters.obj.load_obj`` calls,
+    """Counts of ``a5mi.platform.imageio.read_uint8`` (the one image reader) and ``converters.obj.load_obj`` calls,
     per resolved path."""
     counts: dict[str, Counter] = {"image": Counter(), "obj": Counter()}
     read_uint8, load_obj = imageio.read_uint8, objfile.load_obj
@@ -68,7 +69,7 @@ def test_a4_a6_each_file_is_read_once_from_describe_to_render(variant: str, read
     import mitsuba as mi
 
     from a5mi.converters.to_mitsuba import to_dict
-    from a5mi.driver import render_scene
+    from a5mi.render.driver import render_scene
 
     root = data_dir()
     path = root / "extras" / "sibenik" / "s.txt" if name == "sibenik" else root / "scenes" / f"{name}.txt"
@@ -136,7 +137,7 @@ def test_a4_a5_bitmap_from_pixels_equals_from_file_and_reads_nothing(variant: st
 
 def test_a4_load_rgb8_reads_the_file_through_imageio(variant: str, tmp_path: Path,
                                                     reads: dict[str, Counter]) -> None:
-    from a5mi.plugins import imagedata
+    from a5mi.plugins.textures import imagedata
 
     grey = np.array([[[10], [20]], [[30], [40]]], dtype=np.uint8)  # 1 channel: replicated to RGB
     p = _png(tmp_path / "g.png", grey)
@@ -173,7 +174,7 @@ def test_a4_packed_atlas_returns_the_bytes_over_255_at_texel_corners(variant: st
     both images of the atlas (the packed UInt32 texels unpack to the file's bytes)."""
     import mitsuba as mi
 
-    from a5mi.plugins.imagedata import ImageAtlas
+    from a5mi.plugins.textures.imagedata import ImageAtlas
 
     rng = np.random.default_rng(7)  # sizes are powers of 2: u, v and u·W, (1 - v)·H exact
     imgs = [rng.integers(0, 256, (16, 16, 3), dtype=np.uint8), rng.integers(0, 256, (8, 4, 3), dtype=np.uint8)]

@@ -1,7 +1,7 @@
 """Regression against the sample solution's renders in ``reference/`` (SPEC C).
 
 Per image: PSNR >= 60 dB and fewer than 0.1% of pixels off by more than 2/255 (planes intersected
-exactly, mesh hits decided by the binary's own triangle test, plugins/triangle_rule.py). The lowest image is
+exactly, mesh hits decided by the binary's own triangle test, plugins/emulation/triangle_rule.py). The lowest image is
 ``scene10_sphere.b4`` at 67.1 dB; ``scene06_bunny_1k.b4``, at 58.6 dB before the triangle rule (5 grazing
 mirror rays whose re-hit of the bunny hung on float32 rounding noise in the binary's t), is at 88.6 dB. The
 measured figures are in the README's table (``a5mi fidelity`` regenerates it).
@@ -12,7 +12,7 @@ from __future__ import annotations
 import pytest
 
 from a5mi.fidelity import cases, measure
-from a5mi.imageio import read_levels
+from a5mi.platform.imageio import read_levels
 
 PSNR_FLOOR = 60.0
 SHARE_CEILING = 0.001
@@ -50,9 +50,9 @@ def test_b4_marble_plane_of_scene10_matches_reference_plane_pixels(variant, a5_d
     """
     import numpy as np
 
-    from a5mi.imageio import quantize
-    from a5mi.options import RenderOptions
-    from a5mi.session import describe_file, render
+    from a5mi.platform.imageio import quantize
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import describe_file, render
 
     opts = RenderOptions(width=300, height=300, shadows=True, bounces=0, jitter=True, filter=True,
                          normals=True, depth=(0.0, 50.0))

@@ -89,8 +89,8 @@ def _two_seeds(mi: Any, text: str, size: int, passes: int) -> tuple[np.ndarray, 
     import drjit as dr
 
     from a5mi.crosscheck import _pixel_rays
-    from a5mi.passes import _lens_rays
     from a5mi.plugins.sampling import SamplePass
+    from a5mi.render.passes import _lens_rays
 
     desc, scene, _ = load(mi, text, shadows=True, bounces=4)
     n = size * size

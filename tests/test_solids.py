@@ -178,7 +178,7 @@ def test_solid_scene_renders_the_texture(tmp_path: Path, variant: str) -> None:
 
     from a5mi.converters.describe import describe
     from a5mi.converters.to_mitsuba import to_dict
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     desc = describe(_parse(tmp_path, "Wood { color 1 0.5 0 color 0 0 1 frequency 9 octaves 2 }"))
     scene = mi.load_dict(to_dict(desc, RenderOptions(width=21, height=21)))

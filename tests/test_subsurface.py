@@ -46,7 +46,7 @@ def _reference_profile(sigma_a: float, sigma_sp: float, eta: float, r: np.ndarra
 
 
 def _profile(mi: Any, sigma_a: tuple[float, ...], sigma_s: tuple[float, ...], eta: float, r: np.ndarray) -> np.ndarray:
-    from a5mi.plugins.subsurface_dipole import profile_color
+    from a5mi.plugins.media.dipole import profile_color
 
     c = profile_color(mi.Color3f(*map(float, sigma_a)), mi.Color3f(*map(float, sigma_s)), mi.Float(0.0), mi.Float(eta),
                       mi.Float(r.astype(np.float32)))
@@ -91,7 +91,7 @@ def test_profile_is_jensens_formula(mi: Any, name: str) -> None:
 def test_total_reflectance_is_the_integral(mi: Any, name: str, eta: float) -> None:
     """``∫ R_d 2πr dr`` of the implementation (trapezoid on 20000 log-spaced radii up to ``60/σ_tr``) equals
     ``(α'/2)(1 + e^{−4/3 A sqrt(3(1−α'))}) e^{−sqrt(3(1−α'))}`` to 1 %."""
-    from a5mi.plugins.subsurface_dipole import dipole, total_reflectance
+    from a5mi.plugins.media.dipole import dipole, total_reflectance
 
     sigma_sp, sigma_a = (np.array(v) for v in PRESETS[name])
     dp = dipole(sigma_a, sigma_sp, 0.0, eta, xp=np)
@@ -104,7 +104,8 @@ def test_total_reflectance_is_the_integral(mi: Any, name: str, eta: float) -> No
 # ----------------------------------------------------------------------------------------------- rendering
 def _down(n: int) -> tuple[np.ndarray, np.ndarray]:
     """``n`` rays straight down onto the top of the half-space, spread over a 0.1-wide square off the axis: the
-    ray through the very top meets the sphere's pole, where the binary's sphere test (SPEC B.3, plugins/planes.py)
+    ray through the very top meets the sphere's pole, where the binary's sphere test (SPEC B.3,
+    plugins/emulation/planes.py)
     shadows the hit point with its own surface (a5soln renders that pixel black under -shadows too)."""
     xz = (np.random.default_rng(1).random((n, 2)) - 0.5) * 0.1 + 0.01
     return np.column_stack([xz[:, 0], np.full(n, 0.5), xz[:, 1]]), np.tile([0.0, -1.0, 0.0], (n, 1))
@@ -113,7 +114,7 @@ def _down(n: int) -> tuple[np.ndarray, np.ndarray]:
 def test_dipole_half_space_is_total_reflectance(mi: Any) -> None:
     """The top of a sphere of radius 1000 lit head-on, seen head-on: ``F_t(0)² R_d,total · E`` (E = 1), the
     mean of 2048 lanes (8 probes each) within 4 standard errors per channel."""
-    from a5mi.plugins.subsurface_dipole import dipole, total_reflectance
+    from a5mi.plugins.media.dipole import dipole, total_reflectance
 
     o, d = _down(2048)
     got = _trace(mi, _scene(HALF_SPACE.format(sss=MEDIUM), subsurface="dipole"), o, d, seed=5)

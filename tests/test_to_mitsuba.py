@@ -37,8 +37,8 @@ from a5mi.converters.to_mitsuba import (
     sensor_dict,
     to_dict,
 )
-from a5mi.imageio import read_uint8
-from a5mi.options import RenderOptions
+from a5mi.platform.imageio import read_uint8
+from a5mi.render.options import RenderOptions
 
 CAM = "PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
 
@@ -150,7 +150,7 @@ def test_a6_sphere_similarity_vs_shapegroup(variant: str, scenes_dir: Path) -> N
     group = d["sphere_000_group"]
     assert group["type"] == "shapegroup" and group["sphere_000_shape"]["type"] == "sphere"
     assert np.allclose(np.array(d["sphere_000"]["to_world"].matrix), tf.z_rotate(45) @ tf.scale(1, 0.2, 1))
-    d = to_dict(desc)   # a5 renders: the binary's object-space test inside a5_whitted (plugins/planes.py)
+    d = to_dict(desc)   # a5 renders: the binary's object-space test inside a5_whitted (plugins/emulation/planes.py)
     assert "sphere_000" not in d and d["integrator"]["plane_000_radius"] == sph.radius
     assert np.allclose(np.array(d["integrator"]["plane_000_to_world"].matrix), tf.z_rotate(45) @ tf.scale(1, 0.2, 1))
     text = CAM + "Materials { numMaterials 1 Material { } }\nGroup { numObjects 1 MaterialIndex 0 Transform {" \
@@ -368,7 +368,7 @@ def test_a4_cubemap_link_file_is_followed_with_a_warning(tmp_path: Path) -> None
     """A cube-map folder reached through a real symlink needs nothing; a small text file holding a relative
     path to a folder (a git symlink checked out as text, like the course's extras/sibenik/tex/church) is
     followed with a warning at the cubeMap keyword."""
-    from a5mi import imageio
+    from a5mi.platform import imageio
 
     faces = tmp_path / "faces"
     faces.mkdir()
@@ -413,7 +413,7 @@ def test_shipped_scene_loads_with_a5_plugins(variant: str, path: Path) -> None:
     model = parse_file(path)
     scene = _load(to_dict(describe(model), RenderOptions(8, 8)))
     # Planes and spheres are not Mitsuba shapes here: a5_whitted intersects them analytically (SPEC A.6,
-    # plugins/planes.py).
+    # plugins/emulation/planes.py).
     n_planes = sum(type(p.primitive).__name__ in ("Plane", "Sphere") for p in model.objects)
     assert len(scene.shapes()) == len(model.objects) - n_planes
     assert len(scene.integrator().planes) == n_planes
@@ -424,7 +424,7 @@ def test_stock_sensor_puts_pixel_centres_where_b2_does(variant: str, scenes_dir:
     """fov = 2 atan(tan(a/2) W/(W-1)): the stock perspective camera's pixel-centre rays equal B.2's."""
     import mitsuba as mi
 
-    from a5mi.plugins.camera import camera_rays
+    from a5mi.plugins.sensors.camera import camera_rays
 
     model = parse_file(scenes_dir / "scene11_cube.txt")
     w = 9
@@ -470,7 +470,7 @@ def test_a6_stock_plane_stand_in_is_exact_to_far_below_tmin(variant: str, scenes
     1e7 rectangle is off by 1e-2 on the tilted one)."""
     import mitsuba as mi
 
-    from a5mi.plugins.camera import camera_rays
+    from a5mi.plugins.sensors.camera import camera_rays
 
     model = parse_text(TILTED, "t.txt") if name == "tilted" else parse_file(scenes_dir / f"{name}.txt")
     planes = [s for s in describe(model, stock=True).shapes if isinstance(s, PlaneShape)]
@@ -503,7 +503,7 @@ def test_a6_horizon_row_matches_the_reference_image(variant: str, a5_data: Path,
     import drjit as dr
     import mitsuba as mi
 
-    from a5mi.plugins.camera import camera_rays
+    from a5mi.plugins.sensors.camera import camera_rays
 
     model = parse_file(a5_data / "scenes" / f"{name}.txt")
     scene = _load(to_dict(describe(model), RenderOptions(300, 300)))

@@ -14,7 +14,7 @@ from a5mi.converters.describe import describe
 from a5mi.converters.errors import SceneSemanticError
 from a5mi.converters.to_mitsuba import to_dict
 from a5mi.converters.to_xml import write_xml
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 
 def _scene_files() -> list[Path]:
@@ -83,7 +83,7 @@ def test_shipped_scene_xml_loads_with_a5_plugins(variant: str, path: Path, tmp_p
     out = write_xml(describe(model), tmp_path / "a5.xml", RenderOptions(8, 8))
     scene = _load_file(out, optimize=False)
     # Planes and spheres travel as a5_whitted parameters (intersected as the binary does, SPEC A.6,
-    # plugins/planes.py), not as shapes.
+    # plugins/emulation/planes.py), not as shapes.
     n_planes = sum(type(p.primitive).__name__ in ("Plane", "Sphere") for p in model.objects)
     assert len(scene.shapes()) == len(model.objects) - n_planes
     assert len(scene.integrator().planes) == n_planes
@@ -174,7 +174,7 @@ def test_stock_xml_of_solids_loads_in_plain_mitsuba(variant: str, tmp_path: Path
 def test_bump_and_normal_map_without_uv_warn_at_the_shape(shape: str, tmp_path: Path) -> None:
     """E.7: with -bump, a bump or normal map on a shape without texture coordinates cannot show (as a texture
     there): a warning at the shape, as for the texture; without -bump the maps are not read and nothing is said."""
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     write_image(tmp_path / "h.png", np.full((4, 4, 3), 128, dtype=np.uint8))
     (tmp_path / "q.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")

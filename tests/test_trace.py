@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from a5mi.cli import run_a5mi
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 COURSE_SCENES = [f"scene{n:02d}_{s}.txt" for n, s in (
     (1, "plane"), (2, "cube"), (3, "sphere"), (4, "axes"), (5, "bunny_200"), (6, "bunny_1k"), (7, "shine"),
@@ -102,7 +102,7 @@ def test_jitter_filter_samples_and_weights(variant: str, scenes_dir: Path) -> No
     """-jitter -filter: the 3x3 sub-samples are the glibc-jittered rays of the block, the feeding samples' SPEC
     B.5 weights sum to (ΣK)² (K the float32 taps, ΣK ≈ 1.0001), and Σ w·c equals the filtered image's pixel to
     float32 precision."""
-    from a5mi.filters import kernel_taps
+    from a5mi.render.filters import kernel_taps
     from a5mi.trace.core import filter_weights
 
     tracer = tracer_for(scenes_dir / "scene10_sphere.txt", width=12, height=12, shadows=True, jitter=True,
@@ -267,7 +267,7 @@ def test_diff_names_the_broken_term(variant: str, scenes_dir: Path, tmp_path: Pa
 ])
 def test_bad_input_one_line(variant: str, scenes_dir: Path, tmp_path: Path, extra: list[str], message: str,
                             capsys: pytest.CaptureFixture[str]) -> None:
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     small = tmp_path / "small.png"
     write_image(small, np.zeros((5, 5, 3), np.float32))
@@ -314,7 +314,7 @@ def test_filter_alone_and_jitter_alone(variant: str, scenes_dir: Path, opts: dic
 def test_many_samples_are_traced_in_chunks(variant: str, scenes_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Record buffers are bounded: with room for a few lanes per launch the 49 samples of a -jitter -filter
     pixel take several launches and give the same trees as one launch."""
-    from a5mi.plugins.whitted_record import LIGHT_STRIDE, NODE_STRIDE
+    from a5mi.plugins.integrators.whitted.record import LIGHT_STRIDE, NODE_STRIDE
     from a5mi.trace import core
 
     tracer = tracer_for(scenes_dir / "scene10_sphere.txt", width=6, height=6, shadows=True, jitter=True,
@@ -332,7 +332,7 @@ def test_diff_names_nothing_within_the_noise(variant: str, scenes_dir: Path, tmp
     """The reference image itself (``off`` 0), and the same image with every channel moved by a random
     -off..off levels (a correct jittered render, <= 2/255 off): nothing differs, no term is named; one pixel
     moved by 40 levels is then named (it is beyond the noise threshold)."""
-    from a5mi.imageio import read_levels, write_image
+    from a5mi.platform.imageio import read_levels, write_image
     from a5mi.trace.report import DIFF_NOISE
 
     assert off <= DIFF_NOISE

@@ -1,4 +1,4 @@
-"""Mesh hits evaluated with the sample solution's own triangle test (plugins/triangle_rule.py).
+"""Mesh hits evaluated with the sample solution's own triangle test (plugins/emulation/triangle_rule.py).
 
 The binary solves ``[a−b | a−c | d] (β, γ, t) = a − o`` in float32 with vecmath's cofactor inverse and
 accepts ``t >= tmin`` (not strictly greater). For a ray that leaves a triangle at a grazing angle its ``t``
@@ -37,7 +37,7 @@ def _intersect(scene, o, d, t_min, origin=None):
     the face the ray leaves (None: every ray starts behind its origin, the rule's first form)."""
     import mitsuba as mi
 
-    from a5mi.plugins import octree_rule, triangle_rule
+    from a5mi.plugins.emulation import octree_rule, triangle_rule
 
     table = triangle_rule.rule_table(scene)
     si, offset, _ = octree_rule.intersect(scene, mi.Point3f(*[float(x) for x in o]),
@@ -119,7 +119,7 @@ def test_origin_face_that_is_not_re_hit_leaves_the_ray_to_mitsuba(variant: str) 
     the face it leaves is 0 < tmin, so the ray starts at tmin and finds the lower face at t = 1 (its row, 2)."""
     import mitsuba as mi
 
-    from a5mi.plugins import octree_rule, triangle_rule
+    from a5mi.plugins.emulation import octree_rule, triangle_rule
 
     v = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, -1], [1, 0, -1], [0, 1, -1]]
     scene = _scene(v, [[0, 1, 2], [3, 4, 5]])
@@ -137,7 +137,7 @@ def test_rule_table_rows_are_the_face_attributes(variant: str) -> None:
     import mitsuba as mi
 
     from a5mi.converters.to_mitsuba import make_mesh
-    from a5mi.plugins import triangle_rule
+    from a5mi.plugins.emulation import triangle_rule
 
     v = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, -1], [1, 0, -1], [0, 1, -1]]
     mesh = _scene(v, [[0, 1, 2], [3, 4, 5]]).shapes()[0]

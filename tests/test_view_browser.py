@@ -89,7 +89,7 @@ def page_pixels(page, selector: str) -> np.ndarray:  # noqa: ANN001 - a Playwrig
 
 def check_image(page, tmp_path: Path, scene: Path, frame: int, *flags: str) -> None:  # noqa: ANN001
     """The page shows frame ``frame``, whose PNG bytes and decoded pixels are ``a5``'s for ``flags``."""
-    from a5mi.imageio import read_uint8
+    from a5mi.platform.imageio import read_uint8
 
     page.wait_for_selector(f"#render[data-frame='{frame}']", timeout=120_000)
     want = a5_png(scene, tmp_path / f"a5-{frame}.png", *flags)

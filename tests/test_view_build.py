@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from view_scenes import a5_png, scene_text, time_limit
 
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 OPTS = RenderOptions(width=32, height=32, shadows=True)
 FLAGS = ("-size", "32", "32", "-shadows")
@@ -33,7 +33,7 @@ def session(variant):  # noqa: ANN001, ANN201 - fixtures
 
 def mesh_scene(folder: Path) -> Path:
     """The tests' scene with a triangle mesh (material 2) and a cube map of six 4x4 faces."""
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
 
     (folder / "sky").mkdir()
     for k, face in enumerate(FACES):

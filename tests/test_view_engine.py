@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from view_scenes import a5_png, scene_text, time_limit, write_scene
 
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 OPTS = RenderOptions(width=40, height=40, shadows=True)
 
@@ -27,7 +27,7 @@ def session(variant):  # noqa: ANN001, ANN201 - fixtures
 
 def test_frame_png_is_a5s_file_and_the_reference_comparison_is_compares(tmp_path: Path, session) -> None:  # noqa: ANN001
     from a5mi import compare
-    from a5mi.imageio import read_levels
+    from a5mi.platform.imageio import read_levels
     from a5mi.view.engine import ViewEngine
 
     with time_limit(120):
@@ -50,7 +50,7 @@ def test_frame_png_is_a5s_file_and_the_reference_comparison_is_compares(tmp_path
 
 @pytest.mark.parametrize("flags", [{}, {"jitter": True, "filter": True}])
 def test_trace_sums_to_the_pixel_and_projects_the_camera_hit_onto_it(tmp_path: Path, session, flags) -> None:  # noqa: ANN001
-    from a5mi.imageio import quantize
+    from a5mi.platform.imageio import quantize
     from a5mi.view.engine import ViewEngine
 
     with time_limit(120):
@@ -126,7 +126,7 @@ def test_page_png_is_write_images_file_without_its_checks(tmp_path: Path, monkey
     levels, without fsync or decoding anything back."""
     import os
 
-    from a5mi import imageio
+    from a5mi.platform import imageio
     from a5mi.view.png import png_bytes
 
     rng = np.random.default_rng(7)
@@ -162,7 +162,7 @@ def test_a_reload_decodes_only_the_images_that_changed(tmp_path: Path, monkeypat
     """The six cube-map faces are decoded once; a save of the scene text reuses them, a changed face is read
     again (and only it)."""
     from a5mi.converters import files
-    from a5mi.imageio import write_image
+    from a5mi.platform.imageio import write_image
     from a5mi.view.engine import ViewEngine
 
     (tmp_path / "sky").mkdir()
@@ -291,8 +291,9 @@ def test_binary_reference_runs_sandboxed_and_trace_diff_names_a_term(tmp_path: P
     the verdict is not ``match``, and a glass pixel's ``trace --diff`` names terms of the tree."""
     import sys
 
-    from a5mi import PROJECT_ROOT, sandbox
+    from a5mi import PROJECT_ROOT
     from a5mi.difftest.runner import Binary, check_binary
+    from a5mi.sandbox import bwrap as sandbox
     from a5mi.view.engine import ViewEngine
 
     if sandbox.sandbox_problem():

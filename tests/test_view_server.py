@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from view_scenes import time_limit
 
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 from a5mi.view import controls
 from a5mi.view.server import Hub, Jobs, Server, finite, sse
 from a5mi.view.watcher import Watcher
@@ -186,7 +186,7 @@ def test_preview_rule_and_no_preview_flag(tmp_path: Path, monkeypatch, capsys) -
     """The preview comes first when there is no full render yet with these options, or the last took longer than
     PREVIEW_AFTER_SECONDS; ``--no-preview`` reaches the loop as ``preview=False`` (the default: True)."""
     from a5mi import cli
-    from a5mi.cli import view as view_cli
+    from a5mi.commands import view as view_cli
     from a5mi.view import build, live
     from a5mi.view.live import PREVIEW_AFTER_SECONDS, wants_preview
 

@@ -1,4 +1,5 @@
-"""The E.5 wavefront (a5mi/passes.py, docs/EXTENSIONS.md E.24): many ``-spp`` passes traced in one integrator call
+"""The E.5 wavefront (a5mi/render/passes.py, docs/EXTENSIONS.md E.24): many ``-spp`` passes traced in one integrator
+call
 give the image of the pass-by-pass render bit for bit (``a5_whitted``: area lights, lens, gloss, dispersion, a
 medium; ``a5_path``), also when the passes are split over several calls and the sample count is no multiple of
 the SIMD packet."""
@@ -10,8 +11,8 @@ import os
 import numpy as np
 import pytest
 
-from a5mi import passes
-from a5mi.options import RenderOptions
+from a5mi.render import passes
+from a5mi.render.options import RenderOptions
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "scenes")
 
@@ -20,8 +21,8 @@ CASES = [("soft_shadows.txt", {}), ("dof.txt", {}), ("glossy.txt", {}), ("prism.
 
 
 def _render(name: str, options: RenderOptions) -> np.ndarray:
-    from a5mi.session import describe_file, render
-    from a5mi.variant import activate
+    from a5mi.render.session import describe_file, render
+    from a5mi.runtime.variant import activate
 
     activate()
     desc, _ = describe_file(os.path.join(DATA, name))
@@ -52,8 +53,8 @@ def test_wavefront_is_bit_identical_to_pass_by_pass(name: str, extra: dict, monk
 def test_wavefront_aovs_and_counts_match_and_trace_once(monkeypatch: pytest.MonkeyPatch) -> None:
     """-normals, -depth and the -v ray counts (pass 0's AOVs) are those of the pass-by-pass render, and the
     batch is traced by one kernel (an AOV gathered before it is evaluated would launch the integrator again)."""
-    from a5mi.session import describe_file, render
-    from a5mi.variant import activate
+    from a5mi.render.session import describe_file, render
+    from a5mi.runtime.variant import activate
 
     activate()
     desc, _ = describe_file(os.path.join(DATA, "soft_shadows.txt"))

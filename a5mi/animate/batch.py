@@ -4,9 +4,9 @@
 ``resume``), then renders them
 
 * in this process, one :class:`~.warm.WarmScene`, frame after frame; or
-* on a Dask cluster (:func:`a5mi.cluster.start_client`: ``workers`` local worker processes bound to 127.0.0.1,
+* on a Dask cluster (:func:`a5mi.runtime.cluster.start_client`: ``workers`` local worker processes bound to 127.0.0.1,
   or the cluster of ``scheduler``), as contiguous chunks of frames (:func:`.frames.chunks`, about four per
-  worker) through :func:`a5mi.cluster.run_units`. Each worker process keeps one warm scene per (scene file,
+  worker) through :func:`a5mi.runtime.cluster.run_units`. Each worker process keeps one warm scene per (scene file,
   options) for all the chunks it gets, so only its first chunk loads the scene and compiles the kernel.
 
 A frame depends only on its number (the scene is updated from ``t`` alone), so it is the same bit for bit
@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from a5mi.animate import frames as framefiles
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 #: (frames done, frames to do) after each frame (here) or each chunk (Dask).
 Progress = Callable[[int, int], None]
@@ -59,9 +59,9 @@ class Outcome:
 def warm_scene(scene: str, options: RenderOptions, variant: str | None = None) -> tuple[Any, float]:
     """This process's :class:`~.warm.WarmScene` of ``scene`` with ``options`` (built on first use) and the
     seconds spent building it now (0 when it was warm)."""
-    from a5mi import variant as variants
     from a5mi.animate.warm import WarmScene
     from a5mi.converters.a5_parser import parse_file
+    from a5mi.runtime import variant as variants
 
     key = (scene, os.stat(scene).st_mtime, options)
     if key in _WARM:
@@ -131,7 +131,7 @@ def render_animation(scene: str | os.PathLike[str], folder: str | os.PathLike[st
         out.wall_s = time.perf_counter() - t0
         return out
 
-    from a5mi import cluster
+    from a5mi.runtime import cluster
 
     n_workers = workers or 2
     parts = framefiles.chunks(todo, 4 * n_workers)

@@ -1,6 +1,6 @@
 """Frame files of ``a5mi animate`` (docs/EXTENSIONS.md E.11): atomic images with a checksum beside each.
 
-Frame ``i`` is ``FRAMES_DIR/frame_{i:05d}.png``, written atomically (:func:`a5mi.imageio.write_image`: a
+Frame ``i`` is ``FRAMES_DIR/frame_{i:05d}.png``, written atomically (:func:`a5mi.platform.imageio.write_image`: a
 temporary file, then ``os.replace``), and then ``frame_{i:05d}.png.sha256`` (``sha256sum`` format, also
 atomic). A frame is **done** when both files exist and the image's SHA-256 is the one recorded; anything else
 (no image, no checksum, a checksum that does not match: a damaged or foreign file) is rendered again by
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy.typing as npt
 
-from a5mi import imageio, paths
+from a5mi.platform import imageio, paths
 
 EXTENSION = ".png"
 
@@ -60,7 +60,7 @@ def frame_done(folder: str | os.PathLike[str], frame: int) -> bool:
 
 def missing_frames(folder: str | os.PathLike[str], frames: Iterable[int]) -> list[int]:
     """The frames of ``frames`` that are not done (missing or damaged), in order; the temporaries that a
-    killed process left for them are removed (:func:`a5mi.paths.remove_stale`)."""
+    killed process left for them are removed (:func:`a5mi.platform.paths.remove_stale`)."""
     out = []
     for f in frames:
         p = frame_path(folder, f)

@@ -15,9 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from a5mi import imageio, paths
-from a5mi.errors import ImageWriteError
-from a5mi.extras import require
+from a5mi.platform import imageio, paths
+from a5mi.platform.errors import ImageWriteError
+from a5mi.runtime.extras import require
 
 FORMATS = (".mp4", ".gif")
 

@@ -6,7 +6,7 @@ and, for a time ``t``, writes the values of :func:`converters.keyframes.scene_at
 changes enters the kernel as an opaque variable or a device array):
 
 * camera: the a5 camera is not a Mitsuba sensor; the driver takes the camera of the frame (its basis, focal
-  factor, lens radius and focus distance are opaque, :mod:`a5mi.plugins.camera`, :mod:`a5mi.passes`);
+  factor, lens radius and focus distance are opaque, :mod:`a5mi.plugins.sensors.camera`, :mod:`a5mi.render.passes`);
 * ``PointLight`` / ``SpotLight``: ``position``, ``color`` and the spot's unit ``axis = d/|d|``;
   ``AreaLight`` / ``SphereLight``: the ``color`` of the ``a5_area`` emitter on the light's shape (opaque);
   ``DirectionalLight``: ``irradiance.value`` and the ``to_world`` Mitsuba's ``directional`` builds from
@@ -20,7 +20,7 @@ changes enters the kernel as an opaque variable or a device array):
   for the frame's matrices: meshes and triangles ``vertex_positions`` / ``vertex_normals`` / ``faces`` (and the
   octree-rule face attributes), spheres ``to_world`` (``translate(M c)·scale(s r)`` for a similarity, else
   the instance's ``M``: a sphere must keep one of the two kinds for the whole animation), planes the
-  integrator's device arrays (:func:`a5mi.plugins.planes.replace_planes`).
+  integrator's device arrays (:func:`a5mi.plugins.emulation.planes.replace_planes`).
 
 Every tracked value is written at every frame, computed from ``t`` alone: a frame does not depend on the
 frames the process rendered before (so it is the same on every worker).
@@ -34,7 +34,6 @@ from typing import Any
 
 import numpy as np
 
-from a5mi.arrays import aligned_float32
 from a5mi.converters import keyframes, volgrid
 from a5mi.converters import transforms as tf
 from a5mi.converters.describe import describe, describe_volume
@@ -58,8 +57,9 @@ from a5mi.converters.model import (
 )
 from a5mi.converters.names import binary_spheres, object_bsdf, scene_ids
 from a5mi.converters.to_mitsuba import OCTREE_ATTRIBUTES, TRIANGLE_ATTRIBUTES, to_dict
-from a5mi.driver import RenderResult, render_scene
-from a5mi.options import RenderOptions
+from a5mi.platform.arrays import aligned_float32
+from a5mi.render.driver import RenderResult, render_scene
+from a5mi.render.options import RenderOptions
 
 
 def enclosing_transforms(root: Group) -> list[frozenset[int]]:
@@ -174,7 +174,7 @@ class WarmScene:
         return model_t.camera
 
     def _update_medium(self, model_t: Scene) -> None:
-        """The medium's opaque ``density`` and ``albedo`` (plugins/media.py ``MediumParams``, read by the kernel
+        """The medium's opaque ``density`` and ``albedo`` (plugins/media/medium.py ``MediumParams``, read by the kernel
         at trace time) and, for a grid per frame, the ``gridvolume``'s ``data`` (same resolution every frame)."""
         import drjit as dr
         import mitsuba as mi
@@ -197,7 +197,7 @@ class WarmScene:
     def _move_shapes(self, model_t: Scene) -> None:
         import mitsuba as mi
 
-        from a5mi.plugins.planes import replace_planes
+        from a5mi.plugins.emulation.planes import replace_planes
 
         p = self.params
         placed = model_t.objects
@@ -222,7 +222,7 @@ class WarmScene:
                 if data.octree is not None:
                     for attr, cols in OCTREE_ATTRIBUTES.items():
                         p[f"{name}.{attr}"] = mi.Float(aligned_float32(data.octree[:, cols]))
-                if data.triangles is not None:  # the binary's triangle test (plugins/triangle_rule.py)
+                if data.triangles is not None:  # the binary's triangle test (plugins/emulation/triangle_rule.py)
                     for attr, cols in TRIANGLE_ATTRIBUTES.items():
                         p[f"{name}.{attr}"] = mi.Float(aligned_float32(data.triangles[:, cols]))
             elif isinstance(prim, Sphere):
@@ -230,7 +230,7 @@ class WarmScene:
                 if (scale is not None) != self._sphere_kind[i]:
                     raise SceneSemanticError("a keyframed Transform must keep this Sphere's scale uniform (or "
                                              "non-uniform) for the whole animation", prim.loc)
-                if ids.plane is not None:       # a5_whitted's sphere test (plugins/planes.py): the binary's M
+                if ids.plane is not None:       # a5_whitted's sphere test (plugins/emulation/planes.py): the binary's M
                     planes[ids.plane] = tf.binary_chain(pl.levels)
                 elif scale is not None:
                     c = tf.transform_points(m, np.asarray(prim.center))
@@ -240,7 +240,7 @@ class WarmScene:
                     p[f"{ids.entry}.to_world"] = mi.ScalarTransform4f(m.tolist())
             elif isinstance(prim, Plane) and ids.plane is not None:  # an exact plane: a5_whitted's parameters
                 chain = tf.binary_chain(pl.levels)
-                if chain is not None:           # intersected in object space (plugins/planes.py)
+                if chain is not None:           # intersected in object space (plugins/emulation/planes.py)
                     planes[ids.plane] = chain
                     continue
                 n_w, off_w = world_plane(prim, m)

@@ -41,7 +41,7 @@ at the assignment's test command ``-size 300 300 -shadows -bounces 4 -jitter -fi
   published single-core figures of ``reference/README.md`` are printed with ``a5soln / warm``.
 
 **batch** (:mod:`a5mi.bench.batch`, ``a5mi render`` with several jobs): per test scene, ``--batch-renders``
-extra renders in one :class:`a5mi.session.RenderSession`, each written, their wall time against kernel +
+extra renders in one :class:`a5mi.render.session.RenderSession`, each written, their wall time against kernel +
 filter + write; and one ``a5mi render`` process over the test scenes against the sum of their warm ``a5``
 processes.
 
@@ -169,7 +169,7 @@ def bench_scene(path: Path, args: BenchSettings, published: dict[str, float], lo
     if args.no_inprocess:
         return res
     from a5mi.converters.a5_parser import parse_file
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     options = RenderOptions(width=w, height=h, bounces=args.bounces, shadows=True, jitter=True, filter=True)
     with _chdir(path.parent):
@@ -263,7 +263,7 @@ def find_executable(path: str) -> str:
 def _bench_batch(results: list[SceneResult], settings: BenchSettings, extra: dict[str, Any], log: Any) -> None:
     """The batch figures (module docstring) over the test scenes among ``results``, into ``extra``."""
     from a5mi.bench.batch import measure_batch, measure_batch_process
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     tests = [r for r in results if r.name in TEST_SCENES] or results
     paths = [Path(r.path).resolve() for r in tests]

@@ -1,10 +1,10 @@
 """Batch renders in one process (docs/SPEED.md): the cost of each extra render against its kernel + filter + write.
 
-* **in-process** (:func:`measure_batch`): per scene, one :class:`a5mi.session.RenderSession` render that is
+* **in-process** (:func:`measure_batch`): per scene, one :class:`a5mi.render.session.RenderSession` render that is
   written (warm-up: builds the scene, loads the kernel from the disk cache), then ``renders`` more renders of
-  the same scene and options, each written to a PNG (:func:`a5mi.imageio.write_images`). For each extra
+  the same scene and options, each written to a PNG (:func:`a5mi.platform.imageio.write_images`). For each extra
   render: ``wall`` = ``session.render`` + the write, ``kernel`` = compile + execute of its kernels from
-  ``dr.kernel_history()`` (:attr:`a5mi.driver.RenderResult.timings`), ``filter`` (streamed blur +
+  ``dr.kernel_history()`` (:attr:`a5mi.render.driver.RenderResult.timings`), ``filter`` (streamed blur +
   downsample), ``write``; ``ratio`` = median wall / median (kernel + filter + write), the target being
   <= :data:`TARGET_BATCH_RATIO`. ``recompiled`` counts extra renders that compiled a kernel (should be 0).
   What the ratio's excess holds: the Python trace of the integrator (Dr.Jit builds the kernel's IR before it
@@ -61,7 +61,7 @@ class BatchScene:
 
 
 def _timed_render(session: Any, desc: Any, options: Any, out: Path) -> dict[str, float]:
-    from a5mi.imageio import write_images
+    from a5mi.platform.imageio import write_images
 
     t0 = time.perf_counter()
     result = session.render(desc, options)
@@ -76,7 +76,7 @@ def _timed_render(session: Any, desc: Any, options: Any, out: Path) -> dict[str,
 
 def measure_batch(paths: Sequence[Path], options: Any, renders: int, log: Any) -> list[BatchScene]:
     """In-process batch figures of each scene (module docstring); needs the variant active."""
-    from a5mi.session import RenderSession, describe_file
+    from a5mi.render.session import RenderSession, describe_file
 
     session = RenderSession()
     out: list[BatchScene] = []

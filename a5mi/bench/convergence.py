@@ -23,8 +23,8 @@ def convergence(scene: str | Path, *, size: int | tuple[int, int] = 300, spps: t
     side of a square image or (width, height)."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
-    from a5mi.options import RenderOptions
-    from a5mi.session import render
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
 
     desc = describe(parse_file(scene))
     width, height = (size, size) if isinstance(size, int) else size

@@ -108,9 +108,9 @@ def _camera_rays_for(model: Any, rw: int, rh: int) -> Any:
     """The render's camera rays, all of them, in the driver's order (SPEC B.2, B.5 glibc jitter)."""
     import mitsuba as mi
 
-    from a5mi.arrays import aligned_float32
-    from a5mi.plugins.camera import camera_rays
-    from a5mi.tiles import jitter_stream
+    from a5mi.platform.arrays import aligned_float32
+    from a5mi.plugins.sensors.camera import camera_rays
+    from a5mi.render.tiles import jitter_stream
 
     jx, jy = jitter_stream(None)(rw * rh)
     x = np.tile(np.arange(rw, dtype=np.float32), rh) + jx
@@ -178,7 +178,7 @@ def first_hit_floor(scene: Any, ray: Any, counts: dict[str, npt.NDArray[np.float
     import drjit as dr
     import mitsuba as mi
 
-    from a5mi.plugins.common import reflect
+    from a5mi.plugins.optics import reflect
 
     si = scene.ray_intersect(ray)
     o, d = np.asarray(ray.o), np.asarray(ray.d)
@@ -259,9 +259,10 @@ def logged_floor(stock: Any, nodes: dict[str, Any], shadows: dict[str, Any], rep
 def measure_in_process(scene_file: Path, options: Any, repeat: int = 3) -> InProcess:
     """Stages of the first render of ``scene_file`` in this process, then the render's best kernel time and
     the traversal floor for the same rays (see the module docstring). Run from the scene's folder."""
-    from a5mi import driver, imageio
     from a5mi.converters.a5_parser import parse_file
-    from a5mi.session import build_scene
+    from a5mi.platform import imageio
+    from a5mi.render import driver
+    from a5mi.render.session import build_scene
 
     rw, rh = options.render_size
 

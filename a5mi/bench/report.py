@@ -46,7 +46,7 @@ def machine_info() -> dict[str, Any]:
         pass
     info: dict[str, Any] = {"cpu": cpu, "cores": os.cpu_count(), "python": sys.version.split()[0]}
     try:
-        from a5mi import llvm
+        from a5mi.runtime import llvm
 
         lib = llvm.check()
         info["llvm"] = f"{lib.major} ({lib.path})"

@@ -13,10 +13,10 @@ from collections.abc import Sequence
 
 from a5mi.cli.app import EXIT_STATUS_TABLE, Command, Console, exception_summary, execute
 from a5mi.cli.flags import Args
-from a5mi.errors import ExitStatus
+from a5mi.platform.errors import ExitStatus
 
 #: ``a5mi`` sub-command -> its one-line summary for ``a5mi -h``; the command is ``COMMAND`` (the name upper-cased,
-#: ``-`` as ``_``) of the module ``a5mi.cli.NAME`` (:func:`command`).
+#: ``-`` as ``_``) of the module ``a5mi.commands.NAME`` (:func:`command`).
 SUBCOMMANDS: dict[str, str] = {
     "render": "render a scene (the a5 flags)",
     "convert": "convert a scene to Mitsuba XML (+ PLY meshes)",
@@ -53,27 +53,27 @@ def command(name: str) -> Command:
     if name not in SUBCOMMANDS:
         raise KeyError(name)
     module = name.replace("-", "_")
-    return getattr(importlib.import_module(f"a5mi.cli.{module}"), module.upper())
+    return getattr(importlib.import_module(f"a5mi.commands.{module}"), module.upper())
 
 
 def parse_a5_args(argv: Sequence[str]) -> Args:
     """The ``a5`` command line parsed and validated as ``a5`` does before it reads any file (raises
-    :class:`~a5mi.errors.UsageError`): for tests and tools that take a5 command lines."""
-    from a5mi.cli.render import A5
+    :class:`~a5mi.platform.errors.UsageError`): for tests and tools that take a5 command lines."""
+    from a5mi.commands.render import A5
 
     return A5.parse(argv)
 
 
 def run(argv: Sequence[str]) -> int:
-    """``a5 ARGS``: render a scene (SPEC B.1). Returns the exit status (:class:`~a5mi.errors.ExitStatus`)."""
-    from a5mi.cli.render import A5
+    """``a5 ARGS``: render a scene (SPEC B.1). Returns the exit status (:class:`~a5mi.platform.errors.ExitStatus`)."""
+    from a5mi.commands.render import A5
 
     return execute(A5, argv)
 
 
 def run_a5mi(argv: Sequence[str]) -> int:
     """``a5mi COMMAND ARGS``: dispatch through :data:`SUBCOMMANDS`; ``a5mi help COMMAND`` = ``a5mi COMMAND -h``.
-    Returns the exit status (:class:`~a5mi.errors.ExitStatus`)."""
+    Returns the exit status (:class:`~a5mi.platform.errors.ExitStatus`)."""
     console = Console("a5mi")
     if argv and argv[0] == "--version":
         from a5mi import __version__

@@ -4,13 +4,13 @@ Every command (``a5`` and each ``a5mi`` sub-command) is a :class:`Command`: its 
 (:mod:`a5mi.cli.flags`), its positionals and a ``run(args, console)`` function that calls libraries (which
 return data) and prints through the :class:`Console`, the only printer of the project. :func:`execute` parses,
 answers ``-h`` / ``--version``, checks required flags and runs the command under :func:`guarded`, the one
-error policy (docs/CLI.md "Exit status"), whose statuses are :class:`a5mi.errors.ExitStatus`:
+error policy (docs/CLI.md "Exit status"), whose statuses are :class:`a5mi.platform.errors.ExitStatus`:
 
-* a user error (:class:`~a5mi.errors.UserError`, a scene's :class:`~a5mi.converters.errors.SceneError`)
+* a user error (:class:`~a5mi.platform.errors.UserError`, a scene's :class:`~a5mi.converters.errors.SceneError`)
   prints one line, ``FILE:LINE:COL: error: ...`` or ``PROG: error: ...``, and returns 2 (``USAGE``);
 * anything else is a bug: one line ``PROG: internal error: Type: message (re-run with --debug for the
   traceback)`` and 70 (``SOFTWARE``, sysexits' EX_SOFTWARE); ``--debug`` prints tracebacks;
-* SIGINT, SIGTERM and SIGHUP (:mod:`a5mi.interrupts`, installed by :mod:`a5mi.entry`) return
+* SIGINT, SIGTERM and SIGHUP (:mod:`a5mi.platform.interrupts`, installed by :mod:`a5mi.entry`) return
   ``128 + signal`` (130 for Ctrl-C) with one line ``PROG: interrupted (SIGINT)``; nothing is written and
   no temporary is left; a closed output pipe (``a5mi compare A B | head``) ends
   quietly with 141 (128 + SIGPIPE, as a shell reports for coreutils).
@@ -37,13 +37,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, TextIO
 
 from a5mi.cli.flags import COMMON, Args, Flag, Positional, format_help, parse
-from a5mi.errors import ExitStatus, UsageError, UserError
+from a5mi.platform.errors import ExitStatus, UsageError, UserError
 
 if TYPE_CHECKING:
     from a5mi.cli.progress import ProgressBar
 
 #: The exit statuses of every command (docs/CLI.md "Exit status"): (status, meaning), one row per
-#: :class:`~a5mi.errors.ExitStatus` value (signals as one row). Each command words 0 and 1 for itself
+#: :class:`~a5mi.platform.errors.ExitStatus` value (signals as one row). Each command words 0 and 1 for itself
 #: (:attr:`Command.exit_ok`, :attr:`Command.exit_differ`); 1 belongs to the commands that give a verdict.
 EXIT_STATUS_TABLE: tuple[tuple[str, str], ...] = (
     (str(int(ExitStatus.OK)), "success; for a comparison or a check: same, match, pass"),
@@ -288,7 +288,7 @@ def guarded(console: Console, debug: bool, body: Callable[[], int]) -> int:
         console.error(str(exc))
         return ExitStatus.USAGE
     except KeyboardInterrupt as exc:
-        from a5mi import interrupts
+        from a5mi.platform import interrupts
 
         signum = exc.signum if isinstance(exc, interrupts.Interrupted) else 2
         interrupts.report_once(lambda: console.error(f"interrupted ({signal_name(signum)})"))
@@ -346,7 +346,7 @@ def load_scene(path: str, console: Console, *, stock: bool = False, inputs: list
     """Parse ``path`` (SPEC A), print the parser's warnings, build the scene description once (every mesh,
     texture and cube-map face read and checked) and print its warnings; raises positioned scene errors.
     Mitsuba is not imported. Returns the description that the renderers and writers take. ``inputs``, when
-    given, receives every file the scene reads or names (:func:`a5mi.clobber.input_files`, plus textures
+    given, receives every file the scene reads or names (:func:`a5mi.platform.clobber.input_files`, plus textures
     the renderer does not look up), for the output checks. ``bump`` (``-bump``): also read the bump and
     normal maps (docs/EXTENSIONS.md E.7)."""
     from a5mi.converters.a5_parser import parse_file
@@ -362,7 +362,7 @@ def load_scene(path: str, console: Console, *, stock: bool = False, inputs: list
     desc = describe(model, stock=stock, bump=bump)
     console.warnings(desc.warnings)
     if inputs is not None:
-        from a5mi.clobber import input_files
+        from a5mi.platform.clobber import input_files
 
         inputs.extend(input_files(desc))
         for mat in model.materials or ():
@@ -372,11 +372,12 @@ def load_scene(path: str, console: Console, *, stock: bool = False, inputs: list
 
 
 def activate_variant(requested: str | None = None) -> str:
-    """:func:`a5mi.variant.activate` with its failures as user errors (the message names the fix). Mitsuba's
+    """:func:`a5mi.runtime.variant.activate` with its failures as user errors (the message names the fix). Mitsuba's
     own log is then limited to errors: its warnings would be printed on stdout, mixed with the results and
     outside the one-line rule (a sphere of radius 1e-40 or 3e38, whose float32 scale Mitsuba takes for a
     non-uniform one); its errors are raised as exceptions and reported by :func:`guarded`."""
-    from a5mi import interrupts, variant
+    from a5mi.platform import interrupts
+    from a5mi.runtime import variant
 
     try:
         with interrupts.deferred():  # a signal in the middle of loading Dr.Jit would break the interpreter

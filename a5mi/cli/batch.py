@@ -13,13 +13,13 @@ Two ways to give the jobs (they may be combined; the jobs run in the order given
   the working directory, as for ``a5``; a relative ``-output`` / ``-normals`` / ``-depth`` is put in
   ``--output-dir`` when one is given.
 
-Each job is checked, rendered and written on its own (:func:`a5mi.cli.render.outputs_of`, the scene checks,
-:func:`a5mi.imageio.write_images`: atomic, all or nothing for one job's images) through one
-:class:`a5mi.session.RenderSession`, so its images are bit-identical to a separate ``a5`` run of the same
+Each job is checked, rendered and written on its own (:func:`a5mi.commands.render.outputs_of`, the scene checks,
+:func:`a5mi.platform.imageio.write_images`: atomic, all or nothing for one job's images) through one
+:class:`a5mi.render.session.RenderSession`, so its images are bit-identical to a separate ``a5`` run of the same
 arguments. **Error rule**: a job that fails (a bad line, a missing file, a scene error, a write error) prints
 one line, ``a5mi render: job K (NAME): error: ...`` (or the scene's ``FILE:LINE:COL: error: ...``), writes
 nothing, and the others go on; at the end one line counts the failures. Exit status
-(:class:`a5mi.errors.ExitStatus`): 0 when every job was written, 70 when any failed with an internal error (a
+(:class:`a5mi.platform.errors.ExitStatus`): 0 when every job was written, 70 when any failed with an internal error (a
 bug), else 2 when any failed with a user error, 128 + N when signal N stopped the batch (the jobs already
 written stay). Two jobs writing the same file, or a job writing over another job's scene, is refused before
 anything renders (exit 2).
@@ -34,10 +34,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from a5mi import clobber
 from a5mi.cli.app import Console, guarded
 from a5mi.cli.flags import Args, Flag, parse, text
-from a5mi.errors import ExitStatus, UsageError
+from a5mi.platform import clobber
+from a5mi.platform.errors import ExitStatus, UsageError
 
 #: Flags of ``a5mi render`` beyond the a5 ones (module docstring).
 BATCH_FLAGS: tuple[Flag, ...] = (
@@ -126,8 +126,8 @@ def _checked(job: Job, check: Any) -> Job:
 
 def _file_jobs(path: str, base: Args, render_flags: tuple[Flag, ...], out_dir: str | None, check: Any,
                first: int) -> list[Job]:
-    from a5mi.errors import FileReadError, UserError
-    from a5mi.paths import read_regular
+    from a5mi.platform.errors import FileReadError, UserError
+    from a5mi.platform.paths import read_regular
 
     try:  # a regular file only: a FIFO or device is refused, never waited on
         lines = read_regular(path, MAX_JOBS_BYTES, "the jobs file").decode("utf-8").splitlines()
@@ -207,11 +207,11 @@ def run_batch(jobs: list[Job], console: Console, render_one: Any) -> int:
 
 
 def _session(holder: list[Any], args: Args) -> Any:
-    """The batch's :class:`a5mi.session.RenderSession`, made on first use with the job's ``-variant``; later
+    """The batch's :class:`a5mi.render.session.RenderSession`, made on first use with the job's ``-variant``; later
     jobs must not ask for another variant (one process holds one)."""
-    from a5mi import variant
-    from a5mi.errors import UserError
-    from a5mi.session import RenderSession
+    from a5mi.platform.errors import UserError
+    from a5mi.render.session import RenderSession
+    from a5mi.runtime import variant
 
     if not holder:
         try:
@@ -226,14 +226,14 @@ def _session(holder: list[Any], args: Args) -> Any:
 
 
 def _deferred() -> Any:
-    from a5mi import interrupts
+    from a5mi.platform import interrupts
 
     return interrupts.deferred()  # a signal in the middle of loading Dr.Jit would break the interpreter
 
 
 def _variant(args: Args) -> str:
-    """The full variant name of a job's ``-variant`` (or the default), as :func:`a5mi.variant.resolve`."""
-    from a5mi import variant
+    """The full variant name of a job's ``-variant`` (or the default), as :func:`a5mi.runtime.variant.resolve`."""
+    from a5mi.runtime import variant
 
     try:
         return variant.resolve(args.get("variant"))

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from a5mi.cli.app import Command, Console
 from a5mi.cli.flags import Args, Positional, choice
-from a5mi.errors import ExitStatus
+from a5mi.platform.errors import ExitStatus
 
 _TEMPLATE = """\
 # a5mi {version}: bash completion for a5 and a5mi (eval "$(a5mi completion bash)")
@@ -42,7 +42,7 @@ def bash_script() -> str:
     """The bash completion script for every command of :data:`a5mi.cli.SUBCOMMANDS` and ``a5``."""
     from a5mi import __version__
     from a5mi.cli import SUBCOMMANDS, command
-    from a5mi.cli.render import A5
+    from a5mi.commands.render import A5
 
     commands = {"a5": A5, **{name: command(name) for name in SUBCOMMANDS}}
     cases = []

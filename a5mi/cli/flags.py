@@ -1,7 +1,7 @@
 """One flag table and one parser for ``a5`` and every ``a5mi`` sub-command (SPEC B.1 for the a5 flags).
 
 A :class:`Flag` names its spellings, how many values it takes, how they are converted (with the one-line
-:class:`~a5mi.errors.UsageError` messages the CLI prints), its default and its help line. :func:`parse` reads
+:class:`~a5mi.platform.errors.UsageError` messages the CLI prints), its default and its help line. :func:`parse` reads
 an argument list in one of two grammars:
 
 * ``a5``: the sample solution's strict grammar (SPEC B.1): single-dash long flags (``-size W H``) in any
@@ -21,7 +21,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from a5mi.errors import UsageError
+from a5mi.platform.errors import UsageError
 from a5mi.spec import MAX_SIZE
 
 Convert = Callable[[str, list[str]], Any]  # (spelling used, values) -> value

@@ -13,7 +13,7 @@ from a5mi.cli.app import write_diagnostic
 class ProgressBar:
     """A one-line bar on a terminal's stderr, shown once a render has taken more than ``delay`` seconds.
 
-    A callback ``(done, total)`` for the driver, which calls it after each tile (:func:`a5mi.tiles.tile_rows`:
+    A callback ``(done, total)`` for the driver, which calls it after each tile (:func:`a5mi.render.tiles.tile_rows`:
     a few large tiles, since each launch re-traces the integrator). Used as a context manager it also redraws
     every ``tick`` seconds from a thread, so the line moves while a tile renders: ``#`` are samples finished,
     ``-`` the estimate since the last tile at the rate measured so far (over the tiles after the first, which

@@ -4,14 +4,14 @@ One scene, five passes, all through the **same camera rays** (SPEC B.2, pixel ce
 difference is light transport, never sampling:
 
 * ``a5``, ``schlick``, ``exact``: ``a5_whitted`` (SPEC B.3) with its three Fresnel modes
-  (:func:`a5mi.plugins.common.fresnel_weight`): ``R = R0 + (1 − R0)(1 − c)⁵`` with the binary's
+  (:func:`a5mi.plugins.optics.fresnel_weight`): ``R = R0 + (1 − R0)(1 − c)⁵`` with the binary's
   ``R0 = ((nt − 1)/(nt + 1))²`` or the textbook ``R0 = ((nt − n)/(nt + n))²``, or the unpolarised exact
   ``R = ½(r_s² + r_p²)`` of ``mi.fresnel`` (stock ``dielectric``);
 * ``path``: the ``stock=True`` conversion rendered by Mitsuba's own ``path`` integrator, ``spp`` samples
   through each pixel centre, ``max_depth = bounces + 2`` (camera segment + ``bounces`` secondary segments +
   the light connection of the last hit, the longest path ``a5_whitted`` forms) and no Russian roulette;
 * a class pass: ``a5_whitted``'s ``class`` AOV (computed inside the same SPEC B.3 ray-tree kernel, so the
-  push rules are the colour's), rendered by :func:`a5mi.driver.render_scene`, marks each pixel as
+  push rules are the colour's), rendered by :func:`a5mi.render.driver.render_scene`, marks each pixel as
   *background* (the camera ray misses), *opaque* (the tree never hits a material with
   ``refraction_index > 0``) or *glass* (some node of the tree hits one, the last level included).
 

@@ -49,7 +49,7 @@ class CrosscheckOptions:
     media_bounces: int = 1
 
     def __post_init__(self) -> None:
-        from a5mi.options import check_size_and_bounces
+        from a5mi.render.options import check_size_and_bounces
 
         check_size_and_bounces(self.width, self.height, self.bounces)
         if self.spp <= 0:
@@ -106,7 +106,7 @@ def _pixel_rays(camera: Any, width: int, height: int, repeat: int = 1) -> Any:
     (sample-major: lane ``k·W·H + j·W + i``)."""
     import mitsuba as mi
 
-    from a5mi.plugins.camera import camera_rays
+    from a5mi.plugins.sensors.camera import camera_rays
 
     i = np.tile(np.arange(width, dtype=np.float32), height * repeat)
     j = np.tile(np.repeat(np.arange(height, dtype=np.float32), width), repeat)
@@ -125,13 +125,13 @@ def pixel_classes(
     ``integrator``: the scene's ``a5_whitted`` parameters (its dict entry), which carry what the scene puts
     into the integrator (the exact planes, ``plane_*``); the arguments above override them.
     Output: the ``class`` AOV of ``a5_whitted`` (SPEC B.3 ray tree, pixel centres of SPEC B.2) rendered by
-    :func:`a5mi.driver.render_scene`: ``GLASS`` where some node of the pixel's ray tree hits a material with
+    :func:`a5mi.render.driver.render_scene`: ``GLASS`` where some node of the pixel's ray tree hits a material with
     ``refraction_index > 0``; else ``BACKGROUND`` where the camera ray misses, else ``OPAQUE``.
     """
     import mitsuba as mi
 
-    from a5mi.driver import render_scene
-    from a5mi.options import RenderOptions
+    from a5mi.render.driver import render_scene
+    from a5mi.render.options import RenderOptions
 
     base = {k: v for k, v in (integrator or {}).items() if k not in ("type", "aovs")}
     integ = mi.load_dict({**base, "type": "a5_whitted", "max_depth": bounces, "tmin": float(tmin),
@@ -153,11 +153,11 @@ def render_whitted(
     mi_scene: Any, camera: Any, integrator: Mapping[str, Any], options: CrosscheckOptions, fresnel: str
 ) -> npt.NDArray[np.float32]:
     """``a5_whitted`` with ``fresnel`` (and ``options.bounces``/``shadows``) over ``integrator``'s other
-    parameters (ambient, tmin, ...); float image HxWx3, row 0 = top, through :func:`a5mi.driver.render_scene`."""
+    parameters (ambient, tmin, ...); float image HxWx3, row 0 = top, through :func:`a5mi.render.driver.render_scene`."""
     import mitsuba as mi
 
-    from a5mi.driver import render_scene
-    from a5mi.options import RenderOptions
+    from a5mi.render.driver import render_scene
+    from a5mi.render.options import RenderOptions
 
     spec = {**integrator, "type": "a5_whitted", "fresnel": fresnel, "max_depth": options.bounces,
             "shadows": options.shadows, "reflection": True, "refraction": True}
@@ -219,7 +219,7 @@ def render_path(
 
 def levels(img: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """8-bit levels as the image would be saved: ``clamp(int(c·255), 0, 255)`` (SPEC B.1)."""
-    from a5mi.imageio import quantize
+    from a5mi.platform.imageio import quantize
 
     return quantize(img).astype(np.float64)
 
@@ -300,9 +300,9 @@ def crosscheck_dicts(
 
 
 def _render_options(options: CrosscheckOptions) -> Any:
-    """The converter's :class:`a5mi.options.RenderOptions` for the cross-check's size, bounces and shadows
+    """The converter's :class:`a5mi.render.options.RenderOptions` for the cross-check's size, bounces and shadows
     (the a5 defaults otherwise: no Phong, the binary's Fresnel, reflection and refraction on)."""
-    from a5mi.options import RenderOptions
+    from a5mi.render.options import RenderOptions
 
     return RenderOptions(width=options.width, height=options.height, bounces=options.bounces,
                          shadows=options.shadows, bump=options.bump, media_bounces=options.media_bounces)
@@ -318,7 +318,7 @@ def crosscheck(desc_or_model: Any, options: CrosscheckOptions) -> CrosscheckResu
     """The cross-check of a scene description (or a parsed scene, ``a5mi.converters.a5_parser.parse_file``,
     described here): converted with ``to_dict(desc, render_options)`` and ``to_dict(desc, render_options,
     stock=True)``. Needs an active JIT variant with the a5mi plugins registered
-    (:func:`a5mi.variant.activate`)."""
+    (:func:`a5mi.runtime.variant.activate`)."""
     from a5mi.converters.to_mitsuba import to_dict
 
     desc = _description(desc_or_model, options.bump)

@@ -77,8 +77,8 @@ def explain(desc_or_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]
 
     def reading(d: Mapping[str, Any]) -> npt.NDArray[np.float64]:
         """E.13 by ``a5_path`` (the a5 dict's integrator entry carries the planes), through the pixel centres."""
-        from a5mi.driver import render_scene
-        from a5mi.options import RenderOptions
+        from a5mi.render.driver import render_scene
+        from a5mi.render.options import RenderOptions
 
         if str(d["integrator"].get("medium", "none")) != "none":
             return path(d)

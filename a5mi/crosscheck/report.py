@@ -117,7 +117,7 @@ def montage_image(result: CrosscheckResult) -> npt.NDArray[np.uint8]:
 
 
 def write_montage(result: CrosscheckResult, path: str | os.PathLike[str]) -> None:
-    """Write :func:`montage_image` atomically through :func:`a5mi.imageio.write_image`."""
-    from a5mi.imageio import write_image
+    """Write :func:`montage_image` atomically through :func:`a5mi.platform.imageio.write_image`."""
+    from a5mi.platform.imageio import write_image
 
     write_image(path, montage_image(result).astype(np.float32) / np.float32(255.0) + np.float32(0.5 / 255))

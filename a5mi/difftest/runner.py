@@ -3,13 +3,13 @@
 The other executable (the course's ``a5soln``, a student's ``a5``) is untrusted: :func:`run_binary` runs it
 without a shell, in a fresh temporary folder holding only the scene and links to the course files it names
 (meshes, textures, cube maps; the binary resolves paths against its working directory, SPEC A.0), in the same
-sandbox as ``a5mi grade`` (:func:`a5mi.sandbox.run_sandboxed`: an unprivileged user id without capabilities, no
+sandbox as ``a5mi grade`` (:func:`a5mi.sandbox.bwrap.run_sandboxed`: an unprivileged user id without capabilities, no
 network, its own PID namespace, only ``/usr``, the course data, its own folder and ``--allow-read`` paths visible,
 the time limit). Without bubblewrap it does not run unless asked by name (``--no-sandbox``,
 :attr:`Binary.require_sandbox` off). It writes BMP; only a regular file it created itself is taken
-(:func:`a5mi.sandbox_outputs.open_output`) and decoded without privileges
-(:func:`a5mi.sandbox_outputs.decode_levels`). a5mi renders the same folder's scene in this process
-(:func:`a5mi.session.render`), so compiled kernels are reused across scenes.
+(:func:`a5mi.sandbox.outputs.open_output`) and decoded without privileges
+(:func:`a5mi.sandbox.outputs.decode_levels`). a5mi renders the same folder's scene in this process
+(:func:`a5mi.render.session.render`), so compiled kernels are reused across scenes.
 
 Metrics (:func:`a5mi.compare.compare_arrays`): PSNR ``10 log10(255² / MSE)`` over all channels, the share of
 pixels whose largest channel error is > 2/255, and the maximum error.
@@ -27,9 +27,9 @@ import numpy as np
 
 from a5mi.compare import Metrics, compare_arrays
 from a5mi.difftest.generate import GenScene
-from a5mi.errors import UserError
-from a5mi.sandbox import Limits, OutputRefused, run_sandboxed
-from a5mi.sandbox_outputs import TOO_LARGE, decode_levels, open_output
+from a5mi.platform.errors import UserError
+from a5mi.sandbox.bwrap import Limits, OutputRefused, run_sandboxed
+from a5mi.sandbox.outputs import TOO_LARGE, decode_levels, open_output
 
 #: Seconds a single run of the other executable may take.
 DEFAULT_TIMEOUT = 60.0
@@ -130,9 +130,9 @@ def render_a5mi(scene_path: Path, scene: GenScene) -> np.ndarray:
     """a5mi's 8-bit render of ``scene_path`` with the scene's flags (as the ``a5`` command writes it)."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
-    from a5mi.imageio import quantize
-    from a5mi.options import RenderOptions
-    from a5mi.session import render
+    from a5mi.platform.imageio import quantize
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
 
     f = scene.flags
     opts = RenderOptions(width=f.size, height=f.size, bounces=f.bounces, shadows=f.shadows, jitter=f.jitter,

@@ -6,10 +6,10 @@
    relative path from its own folder), and every worker is asked to see each of them
    (:func:`check_workers_see`: the submissions, scenes, references, cache and report folders, the extra
    read-only paths; the report folder must hold the token file this process just wrote there): a worker that
-   cannot is a :class:`~a5mi.errors.UserError` ("the scheduler's workers need a shared filesystem");
+   cannot is a :class:`~a5mi.platform.errors.UserError` ("the scheduler's workers need a shared filesystem");
 2. the references are built on the cluster's workers (rendered by a5mi once per case and cached,
    :mod:`a5mi.grade.references`);
-3. every (student, case) is one task of :func:`a5mi.grade.run.grade_one` through :func:`a5mi.cluster.run_units`
+3. every (student, case) is one task of :func:`a5mi.grade.run.grade_one` through :func:`a5mi.runtime.cluster.run_units`
    (journal ``REPORT/journal.jsonl``). Each record carries the **fingerprint** of what decides it
    (:func:`fingerprint`): every field of the task (the case's command, output, reference name, points and
    render options; thresholds, FLIP, sandbox limits, extra paths and environment); the SHA-256 of the
@@ -35,13 +35,13 @@ from pathlib import Path
 from typing import Any
 
 from a5mi import __version__
-from a5mi.cluster import Journal, Progress, run_units, start_client
-from a5mi.errors import UserError
 from a5mi.grade.cases import Case
 from a5mi.grade.references import build_reference, cache_key
 from a5mi.grade.run import Task, grade_one
 from a5mi.grade.verdict import Thresholds
-from a5mi.sandbox import Limits, isolation
+from a5mi.platform.errors import UserError
+from a5mi.runtime.cluster import Journal, Progress, run_units, start_client
+from a5mi.sandbox.bwrap import Limits, isolation
 
 
 @dataclass
@@ -98,8 +98,8 @@ class GradeOutcome:
 
 
 #: Modules whose code decides a verdict; their source is part of the grader version (:func:`grader_version`).
-VERDICT_MODULES = ("a5mi.grade.run", "a5mi.grade.verdict", "a5mi.sandbox", "a5mi.sandbox_outputs", "a5mi.compare",
-                   "a5mi.imageio")
+VERDICT_MODULES = ("a5mi.grade.run", "a5mi.grade.verdict", "a5mi.sandbox.bwrap", "a5mi.sandbox.outputs", "a5mi.compare",
+                   "a5mi.platform.imageio")
 
 
 def grader_version() -> str:

@@ -28,7 +28,7 @@ import numpy as np
 
 from a5mi.grade.references import build_reference, render_levels
 from a5mi.grade.verdict import ImageMetrics, Thresholds, judge, measure
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 SCENES: tuple[str, ...] = ("scene06_bunny_1k.txt", "scene10_sphere.txt", "scene11_cube.txt", "scene12_vase.txt")
 SEEDS: tuple[int, ...] = (1, 2, 3)
@@ -54,12 +54,12 @@ class Row:
 
 def _box_not_blur(scene: Path, options: RenderOptions) -> np.ndarray:
     """The jittered 3W x 3H render averaged over 3 x 3 blocks, without the blur (a wrong filter)."""
-    from a5mi import variant
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
-    from a5mi.filters import downsample3
-    from a5mi.imageio import quantize
-    from a5mi.session import render
+    from a5mi.platform.imageio import quantize
+    from a5mi.render.filters import downsample3
+    from a5mi.render.session import render
+    from a5mi.runtime import variant
 
     variant.activate(None)
     big = render(describe(parse_file(str(scene)), bump=options.bump), dataclasses.replace(options, filter=False)).image

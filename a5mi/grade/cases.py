@@ -23,7 +23,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from a5mi.errors import UserError
+from a5mi.platform.errors import UserError
 
 HANDOUT_FLAGS = "-size 300 300 -shadows -bounces 4 -jitter -filter"
 #: The handout's four test commands (SPEC B.1 form), 25 points each.
@@ -44,7 +44,7 @@ class CasesError(UserError):
 class Case:
     """One case: ``name``, the a5 ``argv`` (without the program), the ``scene`` and ``output`` it names,
     ``points``, the ``reference`` file name (in ``--reference DIR``) and the render ``options`` of the
-    reference (a :class:`~a5mi.options.RenderOptions`, set by :func:`load_cases`' ``options_of``)."""
+    reference (a :class:`~a5mi.render.options.RenderOptions`, set by :func:`load_cases`' ``options_of``)."""
 
     name: str
     argv: tuple[str, ...]

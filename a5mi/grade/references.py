@@ -1,7 +1,7 @@
 """Reference images and noise bands of grading cases, rendered by a5mi once and cached (docs/GRADING.md).
 
 For a case (scene + a5 flags, :class:`~a5mi.grade.cases.Case`) the reference is a5mi's render through the
-normal library path (parse -> :func:`~a5mi.converters.describe.describe` -> :func:`a5mi.session.render`,
+normal library path (parse -> :func:`~a5mi.converters.describe.describe` -> :func:`a5mi.render.session.render`,
 quantised as SPEC B.1), with the binary's glibc ``rand()`` jitter, or the file the case names in
 ``--reference DIR`` (e.g. the sample solution's renders). The **noise band** ``sigma`` is the per-pixel,
 per-channel sample standard deviation (ddof 1, levels) of the K renders {glibc, ``-seed`` s_1 .. s_{K-1}}
@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from a5mi import __version__
-from a5mi.errors import UserError
-from a5mi.imageio import atomic_file, quantize, read_levels, write_image
+from a5mi.platform.errors import UserError
+from a5mi.platform.imageio import atomic_file, quantize, read_levels, write_image
 
 #: Jitter seeds of the noise band's extra renders (the first render is the binary's glibc stream).
 NOISE_SEEDS: tuple[int, ...] = (1001, 1002, 1003, 1004, 1005, 1006, 1007)
@@ -72,9 +72,9 @@ def render_levels(scene: Path, options: object) -> np.ndarray:
 
 def render_many(scene: Path, options: list[object]) -> list[np.ndarray]:
     """:func:`render_levels` of ``scene`` for each of ``options``, as one batch: the scene parsed, described
-    and built once, the kernels reused (:class:`a5mi.session.RenderSession`); the images are
+    and built once, the kernels reused (:class:`a5mi.render.session.RenderSession`); the images are
     bit-identical to separate renders."""
-    from a5mi.session import RenderSession, describe_file
+    from a5mi.render.session import RenderSession, describe_file
 
     session = RenderSession(None, max_scenes=1)
     desc, _ = describe_file(str(scene))

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from a5mi.grade.cases import Case
-from a5mi.imageio import atomic_file
+from a5mi.platform.imageio import atomic_file
 
 COLOURS = {"match": "#2e7d32", "close": "#9e9d24", "wrong": "#c62828", "wrong size": "#ad1457",
            "no output": "#616161", "unreadable": "#6d4c41", "crash": "#4a148c", "timeout": "#e65100",

@@ -1,16 +1,16 @@
 """Grade one (student, case): run the submission sandboxed or take its image, then judge.
 
-:func:`grade_one` is the unit of work a cluster worker runs (:mod:`a5mi.cluster`); it takes a picklable
+:func:`grade_one` is the unit of work a cluster worker runs (:mod:`a5mi.runtime.cluster`); it takes a picklable
 :class:`Task` and returns a plain dict (one journal record). Verdict order (``docs/GRADING.md``):
 
 1. the submission has an executable ``a5``: it runs with the case's a5 command line in a private working
-   folder that holds links to every scene file (:mod:`a5mi.sandbox`); ``timeout`` if killed at the wall
+   folder that holds links to every scene file (:mod:`a5mi.sandbox.bwrap`); ``timeout`` if killed at the wall
    limit, ``over memory`` on a memory failure, ``crash`` on a signal or a non-zero exit (with stderr's tail);
 2. otherwise the image the case names must be in the submission folder (a student who rendered at home);
 3. ``no output`` without the image; ``unreadable`` if it is not a regular file the program wrote
-   (:func:`a5mi.sandbox_outputs.open_output`: a symbolic link anywhere on its path, a hard link, a FIFO, another
+   (:func:`a5mi.sandbox.outputs.open_output`: a symbolic link anywhere on its path, a hard link, a FIFO, another
    owner, too many bytes; no byte of such a file is read) or cannot be decoded (decoded without privileges,
-   :func:`a5mi.sandbox_outputs.decode_levels`); ``wrong size`` if its size is not the reference's (an image of more
+   :func:`a5mi.sandbox.outputs.decode_levels`); ``wrong size`` if its size is not the reference's (an image of more
    than :data:`MAX_PIXELS_FACTOR` times the reference's pixels is not decoded at all), else ``match`` /
    ``close`` / ``wrong`` by :func:`a5mi.grade.verdict.judge`.
 """
@@ -29,9 +29,9 @@ import numpy as np
 
 from a5mi.grade.cases import Case
 from a5mi.grade.verdict import Thresholds, judge, measure, points_for
-from a5mi.imageio import read_levels, write_image
-from a5mi.sandbox import Limits, OutputRefused, RunResult, run_sandboxed
-from a5mi.sandbox_outputs import TOO_LARGE, decode_levels, open_output
+from a5mi.platform.imageio import read_levels, write_image
+from a5mi.sandbox.bwrap import Limits, OutputRefused, RunResult, run_sandboxed
+from a5mi.sandbox.outputs import TOO_LARGE, decode_levels, open_output
 
 #: Characters of stderr kept in a result (the tail).
 STDERR_KEEP = 2000
@@ -148,7 +148,7 @@ def grade_one(task: Task) -> dict[str, Any]:
 
 
 def _judge_output(task: Task, folder: Path, rel: str, owner: int | None, run_info: dict[str, Any]) -> dict[str, Any]:
-    """Judge ``folder/rel``, taken only as :func:`a5mi.sandbox_outputs.open_output` allows and decoded unprivileged."""
+    """Judge ``folder/rel``, taken only as :func:`a5mi.sandbox.outputs.open_output` allows and decoded unprivileged."""
     out = task.case.output
     ref, sigma = read_levels(task.reference_png), np.load(task.sigma_npy)
     rh, rw = ref.shape[:2]

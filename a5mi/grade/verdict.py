@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from a5mi.compare import compare_arrays
-from a5mi.extras import require
+from a5mi.runtime.extras import require
 
 #: Verdicts, best first; ``points`` are given for ``match`` (full) and ``close`` (CLOSE_CREDIT of them).
 VERDICTS: tuple[str, ...] = ("match", "close", "wrong", "wrong size", "no output", "unreadable", "crash",

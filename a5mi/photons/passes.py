@@ -4,7 +4,7 @@ Pass ``k`` (0-based) of ``-integrator ppm`` is a whole image rendered by an ``a5
 ``first_pass = k`` and one sample per pixel (:func:`render_pass`): its photon maps are seeded by ``(seed, k)``
 and its radius is ``r_(k+1)``, so a pass depends only on the scene, the options and ``k``, never on the
 process that renders it. :func:`render_ppm` renders passes ``0 .. N−1`` in this process or, with ``workers``
-(a ``LocalCluster`` of worker processes bound to 127.0.0.1, TLS, :func:`a5mi.cluster.start_client`) or
+(a ``LocalCluster`` of worker processes bound to 127.0.0.1, TLS, :func:`a5mi.runtime.cluster.start_client`) or
 ``scheduler``, in contiguous chunks on Dask (each worker process keeps its loaded scene for its chunks), then
 sums the pass images in pass order in float32 and scales by ``1/N``: the same operations on the same
 images, so the result is bit for bit the same image wherever the passes ran.
@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 _WARM: dict[tuple[str, float, RenderOptions], Any] = {}   # this process's loaded scene per (file, options)
 
@@ -41,8 +41,8 @@ def _warm(scene: str, options: RenderOptions, variant: str | None) -> Any:
     """``(description, loaded scene, integrator dict)`` of ``scene`` for this process (built on first use)."""
     key = (scene, os.stat(scene).st_mtime, options)
     if key not in _WARM:
-        from a5mi import variant as variants
-        from a5mi.session import describe_file, load, scene_dict
+        from a5mi.render.session import describe_file, load, scene_dict
+        from a5mi.runtime import variant as variants
 
         variants.activate(variant)
         desc, _ = describe_file(scene, bump=options.bump)
@@ -54,8 +54,8 @@ def _warm(scene: str, options: RenderOptions, variant: str | None) -> Any:
 
 def render_pass(scene: str, options: RenderOptions, k: int, variant: str | None = None) -> np.ndarray:
     """Pass ``k`` of ``scene`` (module docstring) as a float32 image (rows from the top)."""
-    from a5mi.driver import render_scene
-    from a5mi.session import load
+    from a5mi.render.driver import render_scene
+    from a5mi.render.session import load
 
     desc, mi_scene, entry = _warm(scene, options, variant)
     integrator = load({**entry, "first_pass": int(k)})
@@ -112,7 +112,7 @@ def render_ppm(scene: str | os.PathLike[str], options: RenderOptions, passes: in
         for k in range(passes):
             take(render_chunk(PassChunk(path, options, (k,), variant)))
     else:
-        from a5mi import cluster
+        from a5mi.runtime import cluster
 
         n_workers = workers or 2
         chunks = [PassChunk(path, options, c, variant) for c in _chunks(passes, 2 * n_workers)]

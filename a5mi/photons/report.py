@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 if TYPE_CHECKING:
     from a5mi.converters.describe import SceneDescription
@@ -114,8 +114,8 @@ def photon_report(desc: SceneDescription, options: RenderOptions, size: tuple[in
     import dataclasses
     import time
 
-    from a5mi.plugins.photon_trace import CAUSTIC, DIRECT, INDIRECT
-    from a5mi.session import build_scene
+    from a5mi.plugins.integrators.photon.trace import CAUSTIC, DIRECT, INDIRECT
+    from a5mi.render.session import build_scene
 
     t0 = time.perf_counter()
     opts = options if options.integrator == "photon" else dataclasses.replace(options, integrator="photon")

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 
 #: A viewpoint on the course's scene10 (center, look-at point, angle in degrees) from which the caustic of its
 #: glass ball under the point light is seen (from the scene's own camera it lies behind the ball).

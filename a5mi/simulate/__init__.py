@@ -4,5 +4,5 @@
   buoyancy, vorticity confinement and an exact FFT projection; each frame's smoke density is written as a
   Mitsuba ``.vol`` grid (:mod:`a5mi.converters.volgrid`) for a keyframed ``Volume { grid "smoke_%03d.vol" }``.
 
-Libraries only: nothing here prints (``a5mi.cli.simulate`` does).
+Libraries only: nothing here prints (``a5mi.commands.simulate`` does).
 """

@@ -2,17 +2,18 @@
 
 Pixel ``(x, y)`` counts from the top-left of the **pixel grid**: the ``-size`` grid ``W x H``, except with
 ``-filter`` alone, whose saved image is ``W/3 x H/3`` (SPEC B.5). Its samples in the render buffer
-(``RW x RH``, row ``j = 0`` at the bottom, :mod:`a5mi.driver`):
+(``RW x RH``, row ``j = 0`` at the bottom, :mod:`a5mi.render.driver`):
 
 * neither flag: the one sample ``(x, H-1-y)``;
 * ``-jitter`` and/or ``-filter``: the 3x3 block ``(3x+dx, 3(GH-1-y)+dy)``, sub-sample ``K = 3·(2-dy) + dx``
   (row-major from the block's top-left); with ``-jitter`` each ray goes through ``i + jx, j + jy`` with the
-  sample's glibc offsets (stream position ``j·RW + i``, :func:`a5mi.tiles.jitter_stream`);
+  sample's glibc offsets (stream position ``j·RW + i``, :func:`a5mi.render.tiles.jitter_stream`);
 * ``-filter``: the output pixel is ``Σ w_s · c_s`` over the samples ``s`` the blur + 3x3 downsample reads,
   ``w_s = (1/9) Σ_block Σ_{a,b} K[a] K[b]`` over the taps whose clamped position is ``s`` (:func:`filter_weights`).
 
 Every needed sample is traced in one record-mode launch of ``a5_whitted`` (the render kernel with the
-recorder of plugins/whitted_record.py), and the same scene is rendered by :func:`a5mi.driver.render_scene`;
+recorder of plugins/integrators/whitted/record.py), and the same scene is rendered by
+:func:`a5mi.render.driver.render_scene`;
 :class:`PixelTrace` carries both so the report can show that the trees' sums are the image's pixels.
 """
 
@@ -24,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from a5mi.errors import UsageError
-from a5mi.options import RenderOptions
+from a5mi.platform.errors import UsageError
+from a5mi.render.options import RenderOptions
 from a5mi.spec import JITTER_FACTOR
 from a5mi.trace.tree import RayTree, build_trees
 
@@ -67,7 +68,7 @@ def block_samples(options: RenderOptions, x: int, y: int) -> list[tuple[int, int
 def filter_weights(options: RenderOptions, x: int, y: int) -> dict[tuple[int, int], float]:
     """SPEC B.5 weights of the render-buffer samples feeding output pixel ``(x, y)`` (top-left) under ``-filter``:
     blur (y pass then x pass, taps clamped to each axis) then the 3x3 box downsample (/9)."""
-    from a5mi.filters import kernel_taps
+    from a5mi.render.filters import kernel_taps
 
     taps = kernel_taps(options.kernel).astype(np.float64)
     rw, rh = options.render_size
@@ -118,7 +119,7 @@ class PixelTrace:
 
     @property
     def value_byte(self) -> tuple[int, int, int]:
-        from a5mi.imageio import quantize
+        from a5mi.platform.imageio import quantize
 
         return tuple(int(v) for v in quantize(np.array(self.value, np.float32))[..., :3].ravel())  # type: ignore
 
@@ -127,7 +128,7 @@ class Tracer:
     """A loaded scene and its integrator for tracing pixels and rendering the reference image once."""
 
     def __init__(self, desc: Any, options: RenderOptions) -> None:
-        from a5mi.session import build_scene
+        from a5mi.render.session import build_scene
 
         self.desc = desc
         self.options = dataclasses.replace(options, normals=False, depth=None, classes=False, count_rays=False)
@@ -139,7 +140,7 @@ class Tracer:
     # ----------------------------------------------------------------------------- the real render
     def image(self) -> np.ndarray:
         """The saved image the options give (float32, row 0 = top), rendered once by the driver."""
-        from a5mi import driver
+        from a5mi.render import driver
 
         if self._image is None:
             self._image = driver.render_scene(self.scene, self.desc.camera, self.options).image
@@ -149,7 +150,7 @@ class Tracer:
 
     def raw(self) -> np.ndarray:
         """The render buffer (RW x RH, row 0 = top) before any filter, rendered once by the driver."""
-        from a5mi import driver
+        from a5mi.render import driver
 
         if self._raw is None:
             if not self.options.filter:
@@ -160,12 +161,12 @@ class Tracer:
 
     # ----------------------------------------------------------------------------- record mode
     def coords(self, samples: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray]:
-        """float32 ``x_pix, y_pix`` of render-buffer samples: as :mod:`a5mi.driver` (``i + jx``, ``j + jy``)."""
+        """float32 ``x_pix, y_pix`` of render-buffer samples: as :mod:`a5mi.render.driver` (``i + jx``, ``j + jy``)."""
         i = np.array([s[0] for s in samples], np.float32)
         j = np.array([s[1] for s in samples], np.float32)
         if not self.options.jitter:
             return i, j
-        from a5mi.tiles import jitter_stream
+        from a5mi.render.tiles import jitter_stream
 
         rw = self.options.render_size[0]
         pos = np.array([s[1] * rw + s[0] for s in samples], np.int64)
@@ -175,7 +176,7 @@ class Tracer:
     def trees(self, samples: list[tuple[int, int]]) -> tuple[list[RayTree], np.ndarray, np.ndarray]:
         """The ray trees of render-buffer samples, from record-mode launches of the render kernel (as many
         samples per launch as keep the record buffers under :data:`RECORD_FLOATS` floats)."""
-        from a5mi.plugins.whitted_record import LIGHT_STRIDE, NODE_STRIDE
+        from a5mi.plugins.integrators.whitted.record import LIGHT_STRIDE, NODE_STRIDE
 
         xs, ys = self.coords(samples)
         max_nodes = min(2 ** (self.options.bounces + 1) - 1, MAX_NODES)
@@ -190,9 +191,9 @@ class Tracer:
         import drjit as dr
         import mitsuba as mi
 
-        from a5mi.arrays import aligned_float32
-        from a5mi.plugins.camera import camera_rays
-        from a5mi.plugins.whitted_record import TreeRecorder
+        from a5mi.platform.arrays import aligned_float32
+        from a5mi.plugins.integrators.whitted.record import TreeRecorder
+        from a5mi.plugins.sensors.camera import camera_rays
 
         rw, rh = self.options.render_size
         cam = self.desc.camera
@@ -240,7 +241,7 @@ class Tracer:
                 img_val = raw[[rh - 1 - j for _, j in block], [i for i, _ in block]].astype(np.float64).mean(0)
             else:
                 img_val = image[y, x].astype(np.float64)
-            from a5mi.imageio import quantize
+            from a5mi.platform.imageio import quantize
 
             out.append(PixelTrace(
                 x, y, (gw, gh), opts, samples, [float(xs[k]) for k in idx], [float(ys[k]) for k in idx],

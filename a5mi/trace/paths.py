@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from a5mi.options import RenderOptions
+from a5mi.render.options import RenderOptions
 from a5mi.trace.core import TraceError, Tracer
 from a5mi.trace.tree import SceneObject, object_names
 
@@ -137,10 +137,10 @@ def trace_pixel(tracer: Tracer, x: int, y: int) -> PathPixel:
     import drjit as dr
     import mitsuba as mi
 
-    from a5mi.arrays import aligned_float32
-    from a5mi.plugins.camera import camera_rays
+    from a5mi.platform.arrays import aligned_float32
     from a5mi.plugins.kernel.pbr_record import PathRecorder
     from a5mi.plugins.sampling import SamplePass
+    from a5mi.plugins.sensors.camera import camera_rays
 
     opts = tracer.options
     mode = stochastic_mode(opts)

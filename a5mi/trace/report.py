@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from a5mi.imageio import quantize
+from a5mi.platform.imageio import quantize
 from a5mi.trace.core import PixelTrace
 from a5mi.trace.tree import RayNode, RayTree, fresnel_text
 

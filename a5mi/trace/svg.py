@@ -13,7 +13,7 @@ from xml.sax.saxutils import escape
 
 import numpy as np
 
-from a5mi.imageio import atomic_file
+from a5mi.platform.imageio import atomic_file
 from a5mi.trace.tree import RayTree
 
 BOX_W, BOX_H, GAP_X, GAP_Y, MARGIN = 250, 84, 20, 70, 20

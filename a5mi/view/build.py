@@ -1,6 +1,6 @@
 """The live page's scene builds: Mitsuba objects kept from one save to the next (docs/VIEW.md "Live reload").
 
-A save re-parses and re-describes the scene (SPEC A), and a plain :class:`a5mi.session.RenderSession` then builds
+A save re-parses and re-describes the scene (SPEC A), and a plain :class:`a5mi.render.session.RenderSession` then builds
 every Mitsuba object again (``mi.load_dict`` of :func:`a5mi.converters.to_mitsuba.to_dict`): on the course scenes
 that is 0.15-0.25 s, most of it the ``a5_cubemap`` emitter (six faces into its atlas), for an edit that changed
 one number. :class:`ViewSession` builds the same dict through :class:`KeyedBackend`, whose every object (image
@@ -38,8 +38,8 @@ import numpy as np
 
 from a5mi.converters import materials
 from a5mi.converters.to_mitsuba import Backend, bitmap, cubemap_faces, make_mesh, scene_entries
-from a5mi.options import RenderOptions
-from a5mi.session import RenderSession, load
+from a5mi.render.options import RenderOptions
+from a5mi.render.session import RenderSession, load
 
 if TYPE_CHECKING:
     import mitsuba as mi
@@ -171,7 +171,7 @@ def pending_entries(desc: SceneDescription, options: RenderOptions) -> tuple[dic
 
 
 class ViewSession(RenderSession):
-    """A :class:`~a5mi.session.RenderSession` whose builds keep the objects of the last build that the next one
+    """A :class:`~a5mi.render.session.RenderSession` whose builds keep the objects of the last build that the next one
     can use (module docstring). ``made`` counts the objects made, ``reused`` those taken from the last build,
     ``scenes_kept`` the builds that kept the Mitsuba scene (tests read them)."""
 

@@ -1,4 +1,4 @@
-"""The flag controls of the live page: which :class:`~a5mi.options.RenderOptions` fields the page may set, and
+"""The flag controls of the live page: which :class:`~a5mi.render.options.RenderOptions` fields the page may set, and
 the check of what it sends (SPEC B.1 flags, and the extension modes of docs/EXTENSIONS.md).
 
 Each control is ``(field, kind, label, choices)``: ``int`` (with its bounds), ``bool`` or ``choice``. The page
@@ -12,8 +12,8 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from a5mi.errors import UsageError
-from a5mi.options import INTEGRATORS, RenderOptions
+from a5mi.platform.errors import UsageError
+from a5mi.render.options import INTEGRATORS, RenderOptions
 from a5mi.spec import FRESNEL_MODES, JITTER_FACTOR, MAX_SIZE
 
 
@@ -74,8 +74,8 @@ def _value(name: str, value: Any) -> Any:
 
 def apply(options: RenderOptions, values: Any) -> RenderOptions:
     """``options`` with the page's ``values`` (a JSON object) applied, checked (module docstring)."""
-    from a5mi import resources
-    from a5mi.options import TILE_RAYS
+    from a5mi.platform import resources
+    from a5mi.render.options import TILE_RAYS
 
     if not isinstance(values, dict):
         raise ControlError("expected a JSON object of control values")

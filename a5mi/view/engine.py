@@ -1,13 +1,14 @@
 """What the live page shows, computed on the one thread that owns Mitsuba (docs/VIEW.md).
 
-:class:`ViewEngine` holds a warm :class:`a5mi.session.RenderSession` and the scene file. :meth:`~ViewEngine.load`
+:class:`ViewEngine` holds a warm :class:`a5mi.render.session.RenderSession` and the scene file. :meth:`~ViewEngine.load`
 parses and describes the scene (SPEC A; every mesh, texture and cube-map face read once, and read again on a
 later load only when its file changed) and lists the files it
-read for :mod:`a5mi.view.watcher`; :meth:`~ViewEngine.render` renders it with a :class:`~a5mi.options.RenderOptions`
+read for :mod:`a5mi.view.watcher`; :meth:`~ViewEngine.render` renders it with a
+:class:`~a5mi.render.options.RenderOptions`
 (SPEC B.1-B.5) and returns a :class:`Frame`:
 
 * ``render_png``: the PNG file ``a5 -output X.png`` writes for the same flags (:func:`a5mi.view.png.png_bytes`:
-  the encoder of :func:`a5mi.imageio.write_image` on the saved image, SPEC B.1 quantisation
+  the encoder of :func:`a5mi.platform.imageio.write_image` on the saved image, SPEC B.1 quantisation
   ``clamp(int(255 c), 0, 255)``, float32 product truncated, without writing a checked file), byte for byte;
 * the reference: ``--reference IMG`` (read once), or ``--binary PATH``'s render of the same scene with the same
   SPEC B.1 flags, run sandboxed as ``a5mi difftest`` runs it (:func:`a5mi.difftest.runner.run_binary`);
@@ -35,8 +36,8 @@ from typing import Any
 
 import numpy as np
 
-from a5mi.errors import UserError
-from a5mi.options import RenderOptions
+from a5mi.platform.errors import UserError
+from a5mi.render.options import RenderOptions
 from a5mi.view.png import png_bytes
 
 #: Largest render buffer (samples) rendered without per-tile progress: each progress step re-traces the
@@ -63,7 +64,7 @@ class Frame:
     seconds: dict[str, float] = field(default_factory=dict)
     #: a quick image shown before the full one (:func:`preview_options`), never compared
     preview: bool = False
-    #: the render's kernel launches by where the kernel came from (:attr:`a5mi.driver.RenderResult.kernels`)
+    #: the render's kernel launches by where the kernel came from (:attr:`a5mi.render.driver.RenderResult.kernels`)
     kernels: dict[str, int] = field(default_factory=dict)
 
 
@@ -78,7 +79,7 @@ def preview_options(options: RenderOptions) -> RenderOptions | None:
 
 
 def render_stages(timings: dict[str, float]) -> dict[str, float]:
-    """The render's stages (seconds) from :attr:`a5mi.driver.RenderResult.timings`: ``build`` (the Mitsuba
+    """The render's stages (seconds) from :attr:`a5mi.render.driver.RenderResult.timings`: ``build`` (the Mitsuba
     objects, 0 when kept), ``compile`` (Dr.Jit codegen + LLVM), ``execute`` (the kernels), ``trace`` (the rest
     of the tile loop: the Python trace of the integrator that builds the kernel's IR, the camera rays, the
     buffer copies) and ``filter`` (-filter's blur and downsample)."""
@@ -88,9 +89,9 @@ def render_stages(timings: dict[str, float]) -> dict[str, float]:
 
 
 def scene_inputs(desc: Any, model: Any) -> list[Path]:
-    """Every file the description read or names (:func:`a5mi.clobber.input_files`), and the texture names of
+    """Every file the description read or names (:func:`a5mi.platform.clobber.input_files`), and the texture names of
     the model resolved both ways (scene folder first, then the working directory), absolute."""
-    from a5mi.clobber import input_files
+    from a5mi.platform.clobber import input_files
 
     out = [Path(p).absolute() for p in input_files(desc)]
     for mat in getattr(model, "materials", None) or ():
@@ -111,7 +112,7 @@ def binary_argv(options: RenderOptions) -> list[str]:
 def project(camera: Any, options: RenderOptions, image_size: tuple[int, int], p: Any) -> list[float] | None:
     """Where the world point ``p`` lies in the saved image (x right, y down, pixel centres at integers), by
     inverting SPEC B.2's camera ray ``d = f w + x u + y v`` (module docstring); None behind the eye."""
-    from a5mi.plugins.camera import camera_basis, focal_factor
+    from a5mi.plugins.sensors.camera import camera_basis, focal_factor
 
     w, u, v = (np.asarray(a, np.float64) for a in camera_basis(camera.direction, camera.up))
     q = np.asarray(p, np.float64) - np.asarray(camera.center, np.float64)
@@ -256,13 +257,13 @@ class ViewEngine:
 
     def compare(self, frame: Frame, progress: Callable[[str, int, int], None] | None = None) -> None:
         """Fill ``frame``'s reference, heatmap and metrics (or ``reference_error``) when there is a reference."""
-        from a5mi.imageio import quantize
+        from a5mi.platform.imageio import quantize
 
         if self.compares:
             self._compare(frame, quantize(frame.image)[..., :3].astype(np.float64), progress, frame.seconds)
 
     def _reference_levels(self, options: RenderOptions) -> np.ndarray:
-        from a5mi.imageio import read_levels
+        from a5mi.platform.imageio import read_levels
 
         if self.reference is not None:
             if self._ref_image is None:
@@ -360,7 +361,7 @@ class ViewEngine:
         shown = 4 if len(pt.block) > 1 else 0
         tree = pt.trees[shown]
         doc = report.trace_json(pt)
-        from a5mi.imageio import quantize
+        from a5mi.platform.imageio import quantize
 
         for sample in doc["samples"]:  # each tree's sum as the 8-bit level a5 would save (SPEC B.1)
             sample["sum_byte"] = [int(b) for b in quantize(np.array(sample["sum"], np.float32)).ravel()[:3]]

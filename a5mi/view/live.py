@@ -1,8 +1,8 @@
 """The engine's loop: take jobs, render or trace, publish the state (docs/VIEW.md).
 
 :func:`run_engine` runs on the thread that owns Mitsuba until ``stop`` is set or a signal's
-:class:`~a5mi.interrupts.Interrupted` ends it (it waits for jobs in steps of :data:`WAIT_SECONDS` and calls
-:func:`a5mi.interrupts.check` between them). A render job reloads the scene when a watched file changed
+:class:`~a5mi.platform.interrupts.Interrupted` ends it (it waits for jobs in steps of :data:`WAIT_SECONDS` and calls
+:func:`a5mi.platform.interrupts.check` between them). A render job reloads the scene when a watched file changed
 (:mod:`a5mi.view.watcher`), renders (first the one-ray preview where :func:`wants_preview` says the full image is
 slow), compares and publishes the new state and images. A scene error (the
 positioned one-line ``FILE:LINE:COL: error: ...``) or another user error is published as ``error`` and the last
@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from a5mi.errors import UserError
+from a5mi.platform.errors import UserError
 from a5mi.view.controls import describe_controls
 from a5mi.view.engine import preview_options
 from a5mi.view.watcher import snapshot
@@ -68,7 +68,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
                preview: bool = True, preview_after: float = PREVIEW_AFTER_SECONDS) -> None:
     """Serve jobs (module docstring) starting with a render of ``options``. ``preview``: show the one-ray preview
     first where :func:`wants_preview` says so (``after=preview_after``); False: never (``--no-preview``)."""
-    from a5mi import interrupts
+    from a5mi.platform import interrupts
 
     stop = stop or threading.Event()
     current = options

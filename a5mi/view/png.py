@@ -1,10 +1,12 @@
 """The page's PNG encodings: the bytes of the file ``a5 -output X.png`` writes, made without writing that file.
 
-:func:`a5mi.imageio.write_image` is the writer of the files a user keeps: it checks the target, writes a temporary
+:func:`a5mi.platform.imageio.write_image` is the writer of the files a user keeps: it checks the target, writes a
+temporary
 beside it, fsyncs it, decodes it again and compares the pixels, then renames it over the target. The page needs
 only the bytes, so :func:`png_bytes` runs the same encoder on the same pixels with the same settings (OpenImageIO's
-PNG writer, 8-bit levels ``clamp(int(255 c), 0, 255)`` of SPEC B.1 by :func:`a5mi.imageio.quantize` for a float
-image, a ``uint8`` image as it is, zlib level :data:`a5mi.imageio.PNG_COMPRESSION`) into one scratch file of the
+PNG writer, 8-bit levels ``clamp(int(255 c), 0, 255)`` of SPEC B.1 by :func:`a5mi.platform.imageio.quantize` for a float
+image, a ``uint8`` image as it is, zlib level :data:`a5mi.platform.imageio.PNG_COMPRESSION`) into one scratch file of
+the
 view's own folder, reads it back as bytes and removes it: no fsync, no decode, no rename. That the bytes equal
 ``a5``'s file is tested (tests/test_view_engine.py).
 """
@@ -16,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from a5mi.errors import ImageWriteError
+from a5mi.platform.errors import ImageWriteError
 
 #: The scratch file's name in the view's folder (one encoding at a time: the engine's thread makes them all).
 SCRATCH_NAME = "frame.png"
@@ -24,11 +26,11 @@ SCRATCH_NAME = "frame.png"
 
 def png_bytes(img: np.ndarray, folder: str | os.PathLike[str]) -> bytes:
     """The bytes of ``img`` (H x W, or H x W x 1, 3 or 4; float, or ``uint8`` levels) as the PNG file
-    :func:`a5mi.imageio.write_image` writes (module docstring); ``folder``: where the scratch file goes.
-    Raises :class:`~a5mi.errors.ImageWriteError` when the encoder fails."""
+    :func:`a5mi.platform.imageio.write_image` writes (module docstring); ``folder``: where the scratch file goes.
+    Raises :class:`~a5mi.platform.errors.ImageWriteError` when the encoder fails."""
     import OpenImageIO as oiio
 
-    from a5mi.imageio import PNG_COMPRESSION, native_stderr, quantize
+    from a5mi.platform.imageio import PNG_COMPRESSION, native_stderr, quantize
 
     a = np.asarray(img)
     if a.ndim == 2:

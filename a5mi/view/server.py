@@ -33,7 +33,7 @@ from importlib import resources as package_data
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
-from a5mi.errors import UserError
+from a5mi.platform.errors import UserError
 
 #: Seconds between two keep-alive comments of the event stream.
 PING_SECONDS = 15.0

@@ -30,10 +30,12 @@ The modules, each usable alone:
 ``raytree``         :func:`trace_tree`: the ``a5_whitted`` kernel, SPEC B.3 read top to bottom
 =================== ====================================================================================
 
-and, beside this package, the pieces they build on: ``plugins/common.py`` (mirror, Snell, the Fresnel modes),
-``plugins/octree_rule.py`` and ``plugins/triangle_rule.py`` (the binary's mesh rules), ``plugins/planes.py``,
-``plugins/media.py`` (E.8, E.9 transmittance and in-scattering), ``plugins/spectral.py`` (E.10),
-``plugins/bump.py`` (E.7), ``plugins/sampling.py`` (E.5), ``plugins/whitted_record.py`` (record mode).
+and, beside this package, the pieces they build on: ``plugins/optics.py`` (mirror, Snell, the Fresnel modes),
+``plugins/emulation/octree_rule.py`` and ``plugins/emulation/triangle_rule.py`` (the binary's mesh rules),
+``plugins/emulation/planes.py``,
+``plugins/media/medium.py`` (E.8, E.9 transmittance and in-scattering), ``plugins/materials/spectral.py`` (E.10),
+``plugins/materials/bump.py`` (E.7), ``plugins/sampling.py`` (E.5), ``plugins/integrators/whitted/record.py`` (record
+mode).
 A new integrator imports these; it does not copy them. One Dr.Jit rule it must keep: a stack of
 ``dr.alloc_local`` arrays is carried through symbolic loops as a plain tuple (:mod:`.stack`).
 """

@@ -15,12 +15,12 @@ import mitsuba as mi
 
 from a5mi.plugins.kernel import pbr_gather
 from a5mi.plugins.kernel.lights import Lights, has_area_lights
-from a5mi.plugins.milled import uses_milled
+from a5mi.plugins.materials.milled import uses_milled
 
 if TYPE_CHECKING:
-    from a5mi.plugins.media import MediumParams
-    from a5mi.plugins.planes import PlaneSet
-    from a5mi.plugins.triangle_rule import RuleTable
+    from a5mi.plugins.emulation.planes import PlaneSet
+    from a5mi.plugins.emulation.triangle_rule import RuleTable
+    from a5mi.plugins.media.medium import MediumParams
 
 
 class Features(NamedTuple):
@@ -45,7 +45,7 @@ class Features(NamedTuple):
     subsurface     str      E.18: ``none`` | ``dipole`` | ``walk``: light under materials with ``sss_*``
     milled         bool     E.20: the Ward lobe of ``a5_milled`` BSDFs in the light loop
     environment    bool     the scene has an environment emitter (else misses are black)
-    triangle_rule  bool     some mesh carries the binary's triangle data (plugins/triangle_rule.py)
+    triangle_rule  bool     some mesh carries the binary's triangle data (plugins/emulation/triangle_rule.py)
     record         bool     record mode: the ray tree's values are scattered into a recorder
     ray_log        bool     ray-log mode: every node ray and shadow ray cast is written to a
                             :class:`~.raylog.RayLog` (``a5mi bench``'s traversal floor)
@@ -80,7 +80,7 @@ class Features(NamedTuple):
 
 class SceneData(NamedTuple):
     """The per-scene values of a kernel call, all opaque: ``max_depth`` (bounce budget), ``ambient``, ``tmin``
-    (of secondary and shadow rays), the :class:`~.lights.Lights`, the planes (plugins/planes.py), the
+    (of secondary and shadow rays), the :class:`~.lights.Lights`, the planes (plugins/emulation/planes.py), the
     triangle-rule table (None: no rule mesh) and the medium (None: no medium)."""
 
     max_depth: mi.UInt32

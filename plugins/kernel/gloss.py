@@ -12,7 +12,7 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.plugins.common import reflect
+from a5mi.plugins.optics import reflect
 from a5mi.plugins.sampling import GLOSSY_SLOT, Stochastic, ggx_normal, stratified_2d
 
 

@@ -1,8 +1,9 @@
 """One hit query for every kernel: meshes as the binary sees them, spheres, exact planes (SPEC A.6, B.3).
 
 :func:`intersect` is the nearest hit with ``t > t_min`` of a ray ``(o, d)``: Mitsuba's scene (meshes by the
-binary's triangle and octree rules, plugins/triangle_rule.py and plugins/octree_rule.py; spheres exactly), then
-the analytic planes (plugins/planes.py, ``t = (offset − n·o)/(n·d)``) and spheres under a non-similarity
+binary's triangle and octree rules, plugins/emulation/triangle_rule.py and plugins/emulation/octree_rule.py; spheres
+exactly), then
+the analytic planes (plugins/emulation/planes.py, ``t = (offset − n·o)/(n·d)``) and spheres under a non-similarity
 transform (the same set: the binary's object-space sphere test), the nearer one winning. The result is one
 :class:`Hit` whose ``si`` describes a plane hit too (``p = o + t d``, shading frame about ``n/|n|``, ``uv = 0``),
 so the material and light code never asks which kind of surface it is. :func:`visible` is SPEC B.3's shadow
@@ -18,10 +19,10 @@ from typing import NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.plugins import octree_rule
-from a5mi.plugins.planes import PlaneSet, intersect_planes, plane_bsdf, plane_mirror_normal, plane_normal
+from a5mi.plugins.emulation import octree_rule
+from a5mi.plugins.emulation.planes import PlaneSet, intersect_planes, plane_bsdf, plane_mirror_normal, plane_normal
+from a5mi.plugins.emulation.triangle_rule import NO_PLACE, RuleTable
 from a5mi.plugins.syntax import syntax
-from a5mi.plugins.triangle_rule import NO_PLACE, RuleTable
 
 #: Mesh hits walked front to back, at most, to find the stale uv (:func:`stale`).
 STALE_WALK = 6
@@ -30,7 +31,7 @@ STALE_WALK = 6
 class Hit(NamedTuple):
     """A ray's nearest hit: ``si`` (planes folded in), ``t`` (+inf on a miss), ``p = o + t d``, ``n`` the shading
     normal (SPEC N, not flipped toward the viewer), ``hit``, ``on_plane`` and ``plane`` (its index), ``row``
-    (the rule-table row of the mesh face hit, 0 for none: what the children leave, plugins/octree_rule.py) and
+    (the rule-table row of the mesh face hit, 0 for none: what the children leave, plugins/emulation/octree_rule.py) and
     ``bsdf`` (the plane's or the shape's)."""
 
     si: mi.SurfaceInteraction3f
@@ -51,7 +52,7 @@ def intersect(scene: mi.Scene, planes: PlaneSet, rules: RuleTable | None, o: mi.
     (:attr:`.features.Features.stale_uv`): the sample solution's stale texture coordinates (:func:`stale`)."""
     width = dr.width(d)
     # Mitsuba rays have no tmin: start at o + tmin d and add tmin back to t. Meshes: as the binary's octree
-    # and triangle test see them (plugins/octree_rule.py).
+    # and triangle test see them (plugins/emulation/octree_rule.py).
     si, offset, row = octree_rule.intersect(scene, o, d, t_min, dr.full(mi.Bool, True, width), rules, origin)
     shape_hit = si.is_valid()
     t_hit = dr.select(shape_hit, si.t + offset, dr.inf)
@@ -118,14 +119,15 @@ def stale(scene: mi.Scene, planes: PlaneSet, rules: RuleTable, shape: mi.ShapePt
 
 def mirror_normal(planes: PlaneSet, on_plane: mi.Bool, plane: mi.UInt32, n: mi.Vector3f) -> mi.Vector3f:
     """The normal mirror and refracted rays turn about: ``n``, except on plane ``plane`` (where ``on_plane``),
-    which the binary mirrors about its normal as written (``plane_<id>_mirror_normal``, plugins/planes.py; a
+    which the binary mirrors about its normal as written (``plane_<id>_mirror_normal``, plugins/emulation/planes.py; a
     non-similarity sphere of the plane set: ``n``)."""
     return dr.select(on_plane, plane_mirror_normal(planes, plane, on_plane, n), n)
 
 
 def visible(scene: mi.Scene, planes: PlaneSet, p: mi.Point3f, d_light: mi.Vector3f, tmin: mi.Float,
             dist: mi.Float, far: mi.Bool, active: mi.Bool, rules: RuleTable | None = None) -> mi.Bool:
-    """SPEC B.3's ``S`` on the lanes of ``active``: no shape the binary sees (plugins/octree_rule.py) and no plane
+    """SPEC B.3's ``S`` on the lanes of ``active``: no shape the binary sees (plugins/emulation/octree_rule.py) and
+    no plane
     with ``tmin < t < dist`` on the ray ``p + t d_light``; ``far`` (a directional light): planes up to +∞."""
     seen = mi.Bool(active)
     seen &= ~octree_rule.occluded(scene, p, d_light, tmin, dist, active, rules)

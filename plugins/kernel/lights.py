@@ -17,15 +17,16 @@ from typing import TYPE_CHECKING, NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.plugins import media_light, milled
 from a5mi.plugins.kernel.intersect import visible
+from a5mi.plugins.materials import milled
+from a5mi.plugins.media import light as media_light
 from a5mi.plugins.sampling import Stochastic, stratified_2d
 from a5mi.plugins.syntax import syntax
 
 if TYPE_CHECKING:
+    from a5mi.plugins.integrators.whitted.record import TreeRecorder
     from a5mi.plugins.kernel.features import Features, SceneData
     from a5mi.plugins.kernel.raylog import RayLog
-    from a5mi.plugins.whitted_record import TreeRecorder
 
 
 class Lights(NamedTuple):

@@ -31,7 +31,7 @@ from typing import NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.plugins.common import fresnel_weight, reflect, snell
+from a5mi.plugins.optics import fresnel_weight, reflect, snell
 from a5mi.spec import MIRROR_THRESHOLD
 
 

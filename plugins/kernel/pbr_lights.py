@@ -45,7 +45,7 @@ from a5mi.plugins.sampling import Stochastic
 from a5mi.plugins.syntax import syntax
 
 if TYPE_CHECKING:
-    from a5mi.plugins.planes import PlaneSet
+    from a5mi.plugins.emulation.planes import PlaneSet
 
 #: kinds of :class:`PbrLights`: a delta light, an emitter on a shape, an ``a5_area`` without a shape (E.2)
 DELTA, SURFACE, POINTS = 0, 1, 2

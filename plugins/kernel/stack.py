@@ -4,7 +4,7 @@ SPEC B.3 recurses into a mirror and a refracted child; a kernel walks that tree 
 ``dr.alloc_local`` arrays instead, so its size does not grow with the bounce budget (a Python recursion unrolled
 into the trace grows as 2^bounces). Each entry is a ray still to trace: origin, direction, path weight, bounces
 left, index of the medium it travels in, its tmin, and the rule-table row of the mesh face it leaves (0: none;
-plugins/octree_rule.py), plus, with dispersion (docs/EXTENSIONS.md E.10), a "weighted by w(λ) already" flag.
+plugins/emulation/octree_rule.py), plus, with dispersion (docs/EXTENSIONS.md E.10), a "weighted by w(λ) already" flag.
 """
 
 from __future__ import annotations

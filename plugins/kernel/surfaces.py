@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING, NamedTuple
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.plugins import spectral
-from a5mi.plugins.bump import shading_normal
+from a5mi.plugins.materials import spectral
+from a5mi.plugins.materials.bump import shading_normal
 
 if TYPE_CHECKING:
     from a5mi.plugins.kernel.features import Features
