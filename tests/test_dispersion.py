@@ -147,7 +147,7 @@ def test_prism_exit_angles_follow_snell_with_cauchy_index(mi: Any) -> None:
     import drjit as dr
 
     from a5mi.converters.describe import describe
-    from a5mi.plugins.integrators.whitted.record import NODE_LAYOUT, TreeRecorder
+    from a5mi.plugins.kernel.record import NODE_LAYOUT, TreeRecorder
     from a5mi.plugins.materials import spectral
     from a5mi.plugins.sampling import SamplePass, pixel_keys
     from a5mi.render.options import RenderOptions
@@ -299,7 +299,7 @@ def test_one_lane_launch_without_passes(mi: Any) -> None:
     table is built before the kernel's loop: built inside it, this launch aborted the process) and gives the
     colour of a lane of a wider launch with the same keys."""
     from a5mi.converters.describe import describe
-    from a5mi.plugins.integrators.whitted.record import TreeRecorder
+    from a5mi.plugins.kernel.record import TreeRecorder
     from a5mi.render.options import RenderOptions
     from a5mi.render.session import build_scene
 

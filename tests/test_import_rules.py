@@ -1,12 +1,14 @@
 """ARCHITECTURE.md's import rules, enforced on the source: data flows one way and only the command layer prints.
 
 * ``converters/`` (``a5mi.converters``) and ``plugins/`` (``a5mi.plugins``) never import each other, the
-  command layer (``a5mi.cli``) or the renderer's driver; from ``a5mi`` they take only the leaf modules.
+  command layer (``a5mi.cli``, ``a5mi.commands``) or the renderer's driver; from ``a5mi`` they take only the
+  leaf modules.
 * the leaf modules (SPEC constants, options, image I/O, errors) import no other ``a5mi`` module but leaves;
-* the libraries of ``a5mi/`` never import the command layer;
+* the libraries of ``a5mi/`` never import the command layer, and the command layer imports no plugin module;
+* no module of the whole package imports itself back through others, and the plugin folders are layered;
 * the modules of ``converters/`` import each other without cycles (counting imports inside functions and under
   ``TYPE_CHECKING``): the grammar's layers are errors -> lexer -> tokens -> model -> builders -> rules;
-* nothing outside ``a5mi/cli/`` calls ``print`` or writes to ``sys.stdout`` / ``sys.stderr``.
+* nothing outside ``a5mi/cli/`` and ``a5mi/commands/`` calls ``print`` or writes to ``sys.stdout`` / ``sys.stderr``.
 """
 
 from __future__ import annotations
@@ -22,7 +24,8 @@ ROOT = Path(__file__).resolve().parent.parent
 #: folder -> its package name
 PACKAGES = {"a5mi": "a5mi", "converters": "a5mi.converters", "plugins": "a5mi.plugins"}
 #: The ``a5mi`` modules every layer may import (standard library, numpy and OpenImageIO only, and each other).
-LEAVES = frozenset({"a5mi", "a5mi.spec", "a5mi.render.options", "a5mi.platform.imageio", "a5mi.platform.errors",
+LEAVES = frozenset({"a5mi", "a5mi.spec", "a5mi.render.options", "a5mi.platform", "a5mi.platform.imageio",
+                    "a5mi.platform.errors",
                     "a5mi.platform.interrupts", "a5mi.platform.resources", "a5mi.vecmath32", "a5mi.platform.arrays",
                     "a5mi.platform.paths"})
 
@@ -86,23 +89,35 @@ def test_converters_and_plugins_import_only_themselves_and_the_leaves(folder: st
 
 def test_leaf_modules_import_only_leaves() -> None:
     for name in sorted(LEAVES):
-        path = ROOT / ("a5mi/__init__.py" if name == "a5mi" else name.replace(".", "/") + ".py")
+        folder = ROOT / name.replace(".", "/")
+        path = folder / "__init__.py" if folder.is_dir() else folder.with_suffix(".py")
         bad = {m for m in _imports(path) if m not in LEAVES and m.rpartition(".")[0] not in LEAVES}
         assert not bad, f"{path.relative_to(ROOT)} imports {sorted(bad)}"
 
 
+def _command_layer(module: str) -> bool:
+    return _is(module, "a5mi.cli") or _is(module, "a5mi.commands")
+
+
 def test_libraries_never_import_the_command_layer() -> None:
     for path in [*_sources("a5mi"), *_sources("converters"), *_sources("plugins")]:
-        if _is(_module_name(path), "a5mi.cli") or _module_name(path) in ("a5mi.__main__", "a5mi.mitsuba",
-                                                                           "a5mi.entry"):
+        if _command_layer(_module_name(path)) or _module_name(path) in ("a5mi.__main__", "a5mi.mitsuba", "a5mi.entry"):
             continue
-        bad = {m for m in _imports(path) if _is(m, "a5mi.cli")}
+        bad = {m for m in _imports(path) if _command_layer(m)}
         assert not bad, f"{path.relative_to(ROOT)} imports the command layer {sorted(bad)}"
+
+
+def test_the_command_layer_reaches_into_no_plugin() -> None:
+    """Commands go through the libraries (:mod:`a5mi.render`, :mod:`a5mi.trace`, ...): a plugin's module is
+    the plugins' own business, registered by :func:`a5mi.plugins.register_all`."""
+    for path in [*_sources("a5mi/cli"), *_sources("a5mi/commands")]:
+        bad = {m for m in _imports(path) if _is(m, "a5mi.plugins")}
+        assert not bad, f"{path.relative_to(ROOT)} imports plugin modules {sorted(bad)}"
 
 
 def test_only_the_command_layer_prints() -> None:
     for path in [*_sources("a5mi"), *_sources("converters"), *_sources("plugins")]:
-        if _is(_module_name(path), "a5mi.cli"):
+        if _command_layer(_module_name(path)):
             continue
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "print":
@@ -170,6 +185,47 @@ def test_converters_import_graph_is_acyclic() -> None:
     assert graph["a5mi.converters.tokens"] <= {"a5mi.converters.lexer", "a5mi.converters.errors"}
     cycle = _cycle(graph)
     assert cycle is None, "import cycle among converters: " + " -> ".join(cycle or [])
+
+
+def _whole_graph() -> dict[str, set[str]]:
+    paths = [*_sources("a5mi"), *_sources("converters"), *_sources("plugins")]
+    modules = {_module_name(p) for p in paths}
+    return {_module_name(p): _module_edges(p.read_text(encoding="utf-8"), _package(p), modules) - {_module_name(p)}
+            for p in paths}
+
+
+def test_the_whole_package_import_graph_is_acyclic() -> None:
+    """No module of a5mi (``a5mi/``, ``converters/``, ``plugins/``) imports one that imports it back, directly or
+    through others, by any import: module level, inside functions, under ``TYPE_CHECKING``."""
+    graph = _whole_graph()
+    assert "a5mi.cli.streams" in graph["a5mi.cli.progress"]  # the checker sees real edges
+    cycle = _cycle(graph)
+    assert cycle is None, "import cycle: " + " -> ".join(cycle or [])
+
+
+def _plugin_family(module: str) -> str | None:
+    """The folder of :mod:`a5mi.plugins` that ``module`` lives in (``a5mi.plugins.kernel``,
+    ``a5mi.plugins.integrators.photon``; a loose module is its own family)."""
+    parts = module.split(".")
+    if module.startswith("a5mi.plugins.integrators."):
+        return ".".join(parts[:4])
+    if module.startswith("a5mi.plugins.") and len(parts) > 3:
+        return ".".join(parts[:3])
+    return module if module.startswith("a5mi.plugins.") else None
+
+
+def test_the_plugin_families_import_each_other_without_cycles() -> None:
+    """ARCHITECTURE.md's plugin layers, by folder: a library never imports its clients (the kernel imports no
+    integrator, media import no kernel), so the graph of the plugin folders is acyclic too."""
+    graph: dict[str, set[str]] = {}
+    for module, edges in _whole_graph().items():
+        if (family := _plugin_family(module)) is None:
+            continue
+        graph.setdefault(family, set()).update(f for e in edges if (f := _plugin_family(e)) not in (None, family))
+    assert "a5mi.plugins.kernel" in graph["a5mi.plugins.integrators.whitted"]  # the checker sees real edges
+    assert not {f for f in graph["a5mi.plugins.kernel"] if f.startswith("a5mi.plugins.integrators")}
+    cycle = _cycle(graph)
+    assert cycle is None, "import cycle between plugin folders: " + " -> ".join(cycle or [])
 
 
 def test_the_cycle_finder_sees_function_level_and_type_checking_imports() -> None:

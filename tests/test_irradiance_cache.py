@@ -117,7 +117,7 @@ def test03_mi_render_of_the_converted_scene(mi: Any) -> None:
 def test04_records_picture(mi: Any) -> None:
     """The picture marks each record's projection (SPEC B.2 inverted) with a dot and its reach with a ring."""
     from a5mi.plugins.integrators.irradiance_cache.grid import RecordSet
-    from a5mi.plugins.integrators.irradiance_cache.records import DOT, RING, RING_ALPHA, picture, project
+    from a5mi.render.ic_records import DOT, RING, RING_ALPHA, picture, project
 
     desc = _load(SCENES / "ic_bleed.txt")
     cam = desc.camera

@@ -34,7 +34,7 @@ def _exit_rays(mi: Any, k: int, b: np.ndarray, seed: int, passes: int) -> tuple[
     import drjit as dr
 
     from a5mi.converters.describe import describe
-    from a5mi.plugins.integrators.whitted.record import NODE_LAYOUT, TreeRecorder
+    from a5mi.plugins.kernel.record import NODE_LAYOUT, TreeRecorder
     from a5mi.plugins.materials import spectral
     from a5mi.plugins.sampling import SamplePass, pixel_keys
     from a5mi.render.options import RenderOptions

@@ -314,7 +314,7 @@ def test_filter_alone_and_jitter_alone(variant: str, scenes_dir: Path, opts: dic
 def test_many_samples_are_traced_in_chunks(variant: str, scenes_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Record buffers are bounded: with room for a few lanes per launch the 49 samples of a -jitter -filter
     pixel take several launches and give the same trees as one launch."""
-    from a5mi.plugins.integrators.whitted.record import LIGHT_STRIDE, NODE_STRIDE
+    from a5mi.plugins.kernel.record import LIGHT_STRIDE, NODE_STRIDE
     from a5mi.trace import core
 
     tracer = tracer_for(scenes_dir / "scene10_sphere.txt", width=6, height=6, shadows=True, jitter=True,

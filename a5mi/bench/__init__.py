@@ -58,7 +58,7 @@ import resource
 import shutil
 import tempfile
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -74,6 +74,7 @@ from a5mi.bench.process import (
     wait_for_idle,
 )
 from a5mi.bench.report import format_table, machine_info, report
+from a5mi.bench.results import SceneResult
 from a5mi.bench.scenes import (
     PUBLISHED_A5SOLN,
     RAY_KINDS,
@@ -96,32 +97,6 @@ from a5mi.spec import MAX_SIZE
 # --------------------------------------------------------------------------------------------------------
 # The benchmark
 # --------------------------------------------------------------------------------------------------------
-
-
-@dataclass
-class SceneResult:
-    name: str
-    path: str
-    cold: ProcessRun | None = None
-    warm: ProcessRun | None = None
-    verbose: ProcessRun | None = None  # best warm ``a5 -v`` run: the process's own stage times
-    inproc: InProcess | None = None
-    stock: dict[str, float] = field(default_factory=dict)
-    a5soln: float | None = None  # measured here
-    a5soln_published: float | None = None
-    busy_before: float | None = None  # CPU fraction used by others just before this scene's runs
-    errors: list[str] = field(default_factory=list)
-
-    def to_json(self) -> dict[str, Any]:
-        d = asdict(self)
-        for key in ("cold", "warm", "verbose"):
-            if d[key] is not None:
-                d[key].pop("stderr")
-                d[key]["startup"] = getattr(self, key).startup
-        if self.inproc is not None:
-            d["inproc"]["floor_total"] = self.inproc.floor_total
-            d["inproc"]["floor_first_hits_total"] = self.inproc.floor_first_hits_total
-        return d
 
 
 def bench_scene(path: Path, args: BenchSettings, published: dict[str, float], log: Any) -> SceneResult:

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 from a5mi.bench.scenes import RAY_KINDS, STAGES, VERBOSE_STAGES
 
 if TYPE_CHECKING:
-    from a5mi.bench import SceneResult
+    from a5mi.bench.results import SceneResult
 
 
 def format_table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:

@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, TextIO
 
 from a5mi.cli.flags import COMMON, Args, Flag, Positional, format_help, parse
+from a5mi.cli.streams import write_diagnostic
 from a5mi.platform.errors import ExitStatus, UsageError, UserError
 
 if TYPE_CHECKING:
@@ -225,15 +226,6 @@ def flush_standard_streams() -> None:
                 os.close(null)
             except OSError:
                 pass
-
-
-def write_diagnostic(stream: Any, text: str) -> None:
-    """Write ``text`` to a diagnostic stream; a stream that cannot take it (closed, full, hung up) drops it."""
-    try:
-        stream.write(text)
-        stream.flush()
-    except (OSError, ValueError, AttributeError):
-        pass
 
 
 def write_result(stream: Any, text: str) -> None:

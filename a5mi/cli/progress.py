@@ -7,7 +7,7 @@ import time
 from collections.abc import Callable
 from typing import TextIO
 
-from a5mi.cli.app import write_diagnostic
+from a5mi.cli.streams import write_diagnostic
 
 
 class ProgressBar:

@@ -331,7 +331,7 @@ def _render_and_write(args: Args, console: Console, activate: Any, render: Any, 
     t0 = time.perf_counter()
     images = {"-output": result.image, "-normals": result.normals, "-depth": result.depth}
     if args.get("ic_records_output"):  # docs/EXTENSIONS.md E.23
-        from a5mi.plugins.integrators.irradiance_cache.records import picture
+        from a5mi.render.ic_records import picture
 
         images["-ic_records"] = picture(result.image, desc.camera, result.render_size,
                                         result.extras["irradiance_cache"])

@@ -12,7 +12,7 @@ Pixel ``(x, y)`` counts from the top-left of the **pixel grid**: the ``-size`` g
   ``w_s = (1/9) Σ_block Σ_{a,b} K[a] K[b]`` over the taps whose clamped position is ``s`` (:func:`filter_weights`).
 
 Every needed sample is traced in one record-mode launch of ``a5_whitted`` (the render kernel with the
-recorder of plugins/integrators/whitted/record.py), and the same scene is rendered by
+recorder of plugins/kernel/record.py), and the same scene is rendered by
 :func:`a5mi.render.driver.render_scene`;
 :class:`PixelTrace` carries both so the report can show that the trees' sums are the image's pixels.
 """
@@ -176,7 +176,7 @@ class Tracer:
     def trees(self, samples: list[tuple[int, int]]) -> tuple[list[RayTree], np.ndarray, np.ndarray]:
         """The ray trees of render-buffer samples, from record-mode launches of the render kernel (as many
         samples per launch as keep the record buffers under :data:`RECORD_FLOATS` floats)."""
-        from a5mi.plugins.integrators.whitted.record import LIGHT_STRIDE, NODE_STRIDE
+        from a5mi.plugins.kernel.record import LIGHT_STRIDE, NODE_STRIDE
 
         xs, ys = self.coords(samples)
         max_nodes = min(2 ** (self.options.bounces + 1) - 1, MAX_NODES)
@@ -192,7 +192,7 @@ class Tracer:
         import mitsuba as mi
 
         from a5mi.platform.arrays import aligned_float32
-        from a5mi.plugins.integrators.whitted.record import TreeRecorder
+        from a5mi.plugins.kernel.record import TreeRecorder
         from a5mi.plugins.sensors.camera import camera_rays
 
         rw, rh = self.options.render_size

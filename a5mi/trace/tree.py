@@ -5,7 +5,7 @@
 (``ambient ⊙ diffuseColor``, then per light ``S · max(L·N, 0) · lightColor ⊙ kd``), its Fresnel weight ``R``
 and the weights handed to its children (``w ⊙ specularColor ⊙ R`` to the mirror ray, ``w ⊙ specularColor ⊙
 (1 - R)`` to the refracted one), and its contribution ``w ⊙ local`` (``w ⊙ background`` on a miss). All numbers
-are the kernel's (plugins/integrators/whitted/record.py); this module only links nodes to parents and names objects.
+are the kernel's (plugins/kernel/record.py); this module only links nodes to parents and names objects.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from a5mi.converters.names import scene_ids, shape_kind
-from a5mi.plugins.integrators.whitted.record import LIGHT_LAYOUT, NODE_LAYOUT
+from a5mi.plugins.kernel.record import LIGHT_LAYOUT, NODE_LAYOUT
 
 #: The scene-language keyword of each kind of object (:func:`a5mi.converters.names.shape_kind`).
 KEYWORDS = {"sphere": "Sphere", "plane": "Plane", "triangle": "Triangle", "mesh": "TriangleMesh"}
@@ -146,7 +146,7 @@ def object_names(desc: Any, scene: Any, integrator: Any, rids: set[int]) -> tupl
     :func:`a5mi.converters.to_mitsuba.to_dict`: each shape's Mitsuba id and each plane's parameter id looked up
     in :func:`~a5mi.converters.names.scene_ids` (a shape that is no object, an area light's, is left
     out). ``rids``: the registry ids met in the record."""
-    from a5mi.plugins.integrators.whitted.record import shape_of
+    from a5mi.plugins.kernel.record import shape_of
 
     ids = scene_ids(desc)
     shapes: dict[int, SceneObject] = {}
@@ -173,7 +173,7 @@ def _named(row: dict[str, Any], shapes: dict[int, SceneObject], planes: list[Sce
 
 def build_trees(nodes: np.ndarray, lights: np.ndarray, counts: np.ndarray, colors: np.ndarray, desc: Any,
                 scene: Any, integrator: Any) -> list[RayTree]:
-    """One :class:`RayTree` per lane from a :class:`~a5mi.plugins.integrators.whitted.record.TreeRecorder`'s buffers.
+    """One :class:`RayTree` per lane from a :class:`~a5mi.plugins.kernel.record.TreeRecorder`'s buffers.
 
     Parents: the kernel pushes the refracted child, then the mirror child, and pops the last push first, so
     replaying that stack over the depth-first numbers links every node to its parent."""

@@ -33,14 +33,14 @@ import mitsuba as mi
 
 from a5mi.plugins.emulation import triangle_rule
 from a5mi.plugins.emulation.planes import plane_set, planes_from_props
-from a5mi.plugins.integrators.whitted.record import shape_id
 from a5mi.plugins.kernel.features import Features, SceneData
 from a5mi.plugins.kernel.intersect import intersect, mirror_normal
-from a5mi.plugins.kernel.lights import has_area_lights, lights_of
 from a5mi.plugins.kernel.pbr import lobes, power_heuristic, sample
 from a5mi.plugins.kernel.pbr_lights import PbrLights, direct, emission, environment, light_point
 from a5mi.plugins.kernel.pbr_lights import lights_of as pbr_lights_of
 from a5mi.plugins.kernel.pbr_record import PathRecorder, lobe_code
+from a5mi.plugins.kernel.record import shape_id
+from a5mi.plugins.kernel.scene import has_area_lights, lights_of
 from a5mi.plugins.kernel.surfaces import surface_at
 from a5mi.plugins.sampling import SamplePass, Stochastic, stochastic
 from a5mi.plugins.syntax import syntax

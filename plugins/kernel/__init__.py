@@ -17,8 +17,8 @@ The modules, each usable alone:
 ``intersect``       :func:`intersect` (meshes by the binary's triangle and octree rules, spheres, exact
                     planes: one :class:`Hit`), :func:`mirror_normal`, :func:`visible` (the SPEC B.3 shadow
                     test ``S``, planes included)
-``lights``          :class:`Lights` and :func:`lights_of` (one rule for "is a light", :func:`is_light`),
-                    :func:`direct` (the light loop: Σ S clamp(L·N, 0) lightColor ⊙ kd, E.2's samples),
+``scene``           :class:`Lights` and :func:`lights_of` (one rule for "is a light", :func:`is_light`)
+``lights``          :func:`direct` (the light loop: Σ S clamp(L·N, 0) lightColor ⊙ kd, E.2's samples),
                     :func:`sample` (one light sample: L, S, the term, the Phong highlight),
                     :func:`sample_point` (E.2's stratified sample), :func:`emission` (an area light seen
                     directly), :func:`record`
@@ -27,15 +27,18 @@ The modules, each usable alone:
 ``gloss``           :func:`facet` (E.4: the sampled GGX normal of a glossy child)
 ``stack``           :func:`create`, :func:`pop`, :func:`push`: the per-lane stack of pending rays of a
                     depth-first ray tree
-``raytree``         :func:`trace_tree`: the ``a5_whitted`` kernel, SPEC B.3 read top to bottom
+``record``          :class:`TreeRecorder`: record mode, every node and term of a ray tree (``a5mi trace``)
+``raylog``          :class:`RayLog`: every ray cast, for the benchmark's floor
 =================== ====================================================================================
 
 and, beside this package, the pieces they build on: ``plugins/optics.py`` (mirror, Snell, the Fresnel modes),
 ``plugins/emulation/octree_rule.py`` and ``plugins/emulation/triangle_rule.py`` (the binary's mesh rules),
 ``plugins/emulation/planes.py``,
-``plugins/media/medium.py`` (E.8, E.9 transmittance and in-scattering), ``plugins/materials/spectral.py`` (E.10),
-``plugins/materials/bump.py`` (E.7), ``plugins/sampling.py`` (E.5), ``plugins/integrators/whitted/record.py`` (record
-mode).
+``plugins/media/`` (E.8, E.9 media and their transmittance), ``plugins/materials/spectral.py`` (E.10),
+``plugins/materials/bump.py`` (E.7), ``plugins/sampling.py`` (E.5). The kernels built on this library live
+with their integrators: ``plugins/integrators/whitted/raytree.py`` (``a5_whitted``, SPEC B.3 read top to
+bottom, with its medium and subsurface walks), ``path.py``, ``photon/``, ``irradiance_cache/``; the library
+never imports them.
 A new integrator imports these; it does not copy them. One Dr.Jit rule it must keep: a stack of
 ``dr.alloc_local`` arrays is carried through symbolic loops as a plain tuple (:mod:`.stack`).
 """

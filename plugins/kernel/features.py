@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol
 import mitsuba as mi
 
 from a5mi.plugins.kernel import pbr_gather
-from a5mi.plugins.kernel.lights import Lights, has_area_lights
+from a5mi.plugins.kernel.scene import Lights, has_area_lights
 from a5mi.plugins.materials.milled import uses_milled
 
 if TYPE_CHECKING:

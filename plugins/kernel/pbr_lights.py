@@ -37,9 +37,9 @@ import drjit as dr
 import mitsuba as mi
 
 from a5mi.plugins.kernel.intersect import visible
-from a5mi.plugins.kernel.lights import area_samples
 from a5mi.plugins.kernel.pbr import Lobes, eval_diffuse, power_heuristic
 from a5mi.plugins.kernel.pbr_sampling import padded_2d
+from a5mi.plugins.kernel.scene import area_samples
 from a5mi.plugins.kernel.surfaces import background
 from a5mi.plugins.sampling import Stochastic
 from a5mi.plugins.syntax import syntax

@@ -1,5 +1,5 @@
 """``a5_irradiancecache`` (EXTENSIONS E.23): Ward's record formulas (``formulas``), their grid
-(``grid``), the gather kernel (``kernel``), the record picture (``records``) and the integrator (``integrator``).
+(``grid``), the gather kernel (``kernel``) and the integrator (``integrator``).
 
 May import: :mod:`a5mi.plugins.kernel` and the lower plugin packages.
 """

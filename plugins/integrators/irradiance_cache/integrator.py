@@ -39,8 +39,8 @@ from a5mi.plugins.integrators.irradiance_cache import formulas as icm
 from a5mi.plugins.integrators.irradiance_cache.grid import RecordSet
 from a5mi.plugins.integrators.irradiance_cache.kernel import camera_tree, gather, node_buffers
 from a5mi.plugins.kernel.features import Features, SceneData, stack_size
-from a5mi.plugins.kernel.lights import has_area_lights, lights_of
 from a5mi.plugins.kernel.pbr_lights import lights_of as pbr_lights_of
+from a5mi.plugins.kernel.scene import has_area_lights, lights_of
 from a5mi.plugins.sampling import SamplePass, Stochastic, pixel_keys, stochastic
 from a5mi.spec import FRESNEL_MODES, TMIN
 

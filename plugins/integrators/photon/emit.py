@@ -40,7 +40,7 @@ import numpy as np
 from a5mi.plugins.emitters.area_light import A5AreaLight
 from a5mi.plugins.emitters.point_light import A5PointLight
 from a5mi.plugins.emitters.spot_light import A5SpotLight, profile
-from a5mi.plugins.kernel.lights import is_light
+from a5mi.plugins.kernel.scene import is_light
 
 
 class PhotonRays(NamedTuple):

@@ -41,7 +41,7 @@ from a5mi.plugins.integrators.photon.walk import camera_step, facing
 from a5mi.plugins.kernel import pbr, pbr_lights
 from a5mi.plugins.kernel.features import SceneData, build_features
 from a5mi.plugins.kernel.intersect import intersect, mirror_normal
-from a5mi.plugins.kernel.lights import lights_of
+from a5mi.plugins.kernel.scene import lights_of
 from a5mi.plugins.kernel.surfaces import surface_at
 from a5mi.plugins.sampling import SamplePass, stochastic
 from a5mi.spec import FRESNEL_MODES, TMIN

@@ -14,13 +14,13 @@ import mitsuba as mi
 
 from a5mi.plugins.emulation import triangle_rule
 from a5mi.plugins.emulation.planes import plane_set, planes_from_props
+from a5mi.plugins.integrators.whitted import subsurface
 from a5mi.plugins.integrators.whitted.raytree import TreeResult, trace_tree
-from a5mi.plugins.integrators.whitted.record import TreeRecorder
 from a5mi.plugins.kernel.features import SceneData, build_features
-from a5mi.plugins.kernel.lights import lights_of
 from a5mi.plugins.kernel.raylog import RayLog
+from a5mi.plugins.kernel.record import TreeRecorder
+from a5mi.plugins.kernel.scene import lights_of
 from a5mi.plugins.media import medium as media
-from a5mi.plugins.media import subsurface
 from a5mi.plugins.sampling import SamplePass, stochastic
 from a5mi.spec import FRESNEL_MODES, TMIN
 
@@ -57,7 +57,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     glossy_samples   int     1       cap on the glossy children of a camera hit (docs/EXTENSIONS.md E.4)
     dispersion       bool    false   wavelength per camera ray, Cauchy n(λ) (docs/EXTENSIONS.md E.10)
     subsurface       string  none    ``dipole`` / ``walk``: subsurface light of materials with ``sss_*``
-                                     (docs/EXTENSIONS.md E.18, plugins/media/subsurface.py)
+                                     (docs/EXTENSIONS.md E.18, plugins/integrators/whitted/subsurface.py)
     bump             bool    false   bump / normal-mapped shading normal (``-bump``, docs/EXTENSIONS.md E.7)
     glossy           bool    true    false: no material has roughness > 0 (the E.4 lobe sampling is
                                      left out of the kernel; the converter says so for its scenes)

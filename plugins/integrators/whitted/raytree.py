@@ -14,16 +14,15 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.plugins.integrators.whitted.record import TreeRecorder, shape_id
+from a5mi.plugins.integrators.whitted import medium_segment, subsurface
 from a5mi.plugins.kernel import gloss, lights, pbr_gather
 from a5mi.plugins.kernel import stack as ray_stack
 from a5mi.plugins.kernel.features import Features, SceneData
 from a5mi.plugins.kernel.intersect import intersect, mirror_normal
 from a5mi.plugins.kernel.raylog import RayLog
+from a5mi.plugins.kernel.record import TreeRecorder, shape_id
 from a5mi.plugins.kernel.surfaces import background, surface_at
 from a5mi.plugins.materials import spectral
-from a5mi.plugins.media import medium as media
-from a5mi.plugins.media import subsurface
 from a5mi.plugins.optics import fresnel_weight, reflect, snell
 from a5mi.plugins.sampling import Stochastic
 from a5mi.plugins.syntax import syntax
@@ -108,8 +107,8 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
             local = lights.emission(scene, si, on_shape, local)
 
         if dr.hint(f.media, mode="scalar"):         # E.8, E.9: the segment o -> p (o -> infinity on a miss)
-            seg_t, seg_light, counter = media.segment(scene, data, o, d, t_min, t_hit, n_medium == 1.0, f.shadows,
-                                                      rng, node, counter)
+            seg_t, seg_light, counter = medium_segment.segment(scene, data, o, d, t_min, t_hit, n_medium == 1.0,
+                                                               f.shadows, rng, node, counter)
             color += weight * seg_light
             weight = weight * seg_t
         color += weight * dr.select(hit, local, bg)

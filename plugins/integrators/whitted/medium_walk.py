@@ -34,7 +34,7 @@ from a5mi.plugins.syntax import syntax
 if TYPE_CHECKING:
     from a5mi.plugins.emulation.planes import PlaneSet
     from a5mi.plugins.kernel.features import SceneData
-    from a5mi.plugins.kernel.lights import Lights
+    from a5mi.plugins.kernel.scene import Lights
     from a5mi.plugins.media.medium import MediumParams
     from a5mi.plugins.sampling import Stochastic
 

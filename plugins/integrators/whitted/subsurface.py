@@ -41,10 +41,10 @@ from typing import TYPE_CHECKING
 import drjit as dr
 import mitsuba as mi
 
+from a5mi.plugins.integrators.whitted.medium_walk import hg_direction
 from a5mi.plugins.kernel import lights
 from a5mi.plugins.kernel.surfaces import background
 from a5mi.plugins.media.dipole import Dipole, dipole, profile
-from a5mi.plugins.media.walk import hg_direction
 from a5mi.plugins.optics import snell
 from a5mi.plugins.syntax import syntax
 
