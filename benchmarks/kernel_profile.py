@@ -33,9 +33,9 @@ CHILD = r"""
 import os, sys, time
 from pathlib import Path
 os.chdir(sys.argv[1])
-from a5mi import variant
+from a5mi.runtime import variant
 variant.activate()
-from a5mi import driver
+from a5mi.render import driver
 from a5mi.converters.a5_parser import parse_file
 from a5mi.converters.describe import describe
 from a5mi.render.options import RenderOptions
@@ -57,11 +57,11 @@ OPS = r"""
 import os, sys
 from pathlib import Path
 os.chdir(sys.argv[1])
-from a5mi import variant
+from a5mi.runtime import variant
 variant.activate()
 import drjit as dr
 import a5mi.render.render_pass as rp
-from a5mi import driver
+from a5mi.render import driver
 from a5mi.converters.a5_parser import parse_file
 from a5mi.converters.describe import describe
 from a5mi.render.options import RenderOptions
@@ -84,7 +84,7 @@ import os, sys
 from pathlib import Path
 import numpy as np
 os.chdir(sys.argv[1])
-from a5mi import variant
+from a5mi.runtime import variant
 variant.activate()
 import drjit as dr, mitsuba as mi
 from a5mi.bench.floor import _camera_rays_for

@@ -33,7 +33,7 @@ import a5mi.cli, a5mi.commands.render; mark("a5mi.cli")
 from a5mi.converters.a5_parser import parse_file; from a5mi.converters.describe import describe; mark("converters")
 d = describe(parse_file(scene)); mark("parse + describe (files read)")
 import drjit, mitsuba as mi; mark("import drjit + mitsuba")
-from a5mi import llvm; llvm.check(); mark("LLVM check")
+from a5mi.runtime import llvm; llvm.check(); mark("LLVM check")
 from a5mi.plugins.syntax import cached_drjit_syntax
 with cached_drjit_syntax(): mi.set_variant("llvm_ad_rgb")
 drjit.llvm.Float(0.0); llvm.check_loaded(); mark("set_variant + LLVM backend")
@@ -43,7 +43,7 @@ o = RenderOptions(width=300, height=300, shadows=True, bounces=4, jitter=True, f
 s = build_scene(d, o); mark("build (mi.load_dict)")
 from a5mi.render.driver import render_scene
 r = render_scene(s, d.camera, o); mark("render (+ jitter, filter)")
-from a5mi import imageio; imageio.write_images([(out, r.image)]); mark("write")
+from a5mi.platform import imageio; imageio.write_images([(out, r.image)]); mark("write")
 print(json.dumps(marks))
 """
 

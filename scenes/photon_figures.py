@@ -13,8 +13,8 @@ import numpy as np
 
 
 def main(out: str, size: int = 160, spp: int = 1024) -> None:
-    from a5mi import imageio
     from a5mi.converters.to_mitsuba import to_dict
+    from a5mi.platform import imageio
     from a5mi.render.options import RenderOptions
     from a5mi.render.session import describe_file
     from a5mi.runtime.variant import activate

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -130,6 +131,12 @@ def test12_bad_arguments_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
     assert err.count("a5mi bench: error:") == 3
 
 
+def _as_printed(v: float) -> Any:
+    """``v`` within half a unit of the last digit :func:`a5mi.bench.report.format_table` prints (3 decimals
+    below 10, 1 below 1000, none above): a ratio measured on a loaded machine may be printed coarser."""
+    return pytest.approx(v, abs=0.0005 if abs(v) < 10 else 0.05 if abs(v) < 1000 else 0.5)
+
+
 def test13_floor_replays_the_render_ray_counts(
     variant: str, scenes_dir: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -156,8 +163,8 @@ def test13_floor_replays_the_render_ray_counts(
     header, _, row = text.split("Rays and the traversal floor")[1].split("\n\n")[1].splitlines()
     names = [c.strip() for c in header.strip("|").split("|")]
     cells = dict(zip(names, (c.strip() for c in row.strip("|").split("|")), strict=True))
-    assert float(cells["kernel/floor"]) == pytest.approx(result.kernel_execute / result.floor_total, abs=1e-3)
-    assert float(cells["floor (first hits)"]) == pytest.approx(sum(result.floor_first_hits.values()), abs=1e-3)
+    assert float(cells["kernel/floor"]) == _as_printed(result.kernel_execute / result.floor_total)
+    assert float(cells["floor (first hits)"]) == _as_printed(sum(result.floor_first_hits.values()))
 
 
 def test14_report_has_the_process_stage_table() -> None:

@@ -120,7 +120,8 @@ def test_sphere_quotient_is_the_binarys_double_division_bit_for_bit(mi) -> None:
     overflows): the same bits as the double expression, against NumPy for normal floats and against the kernel's
     own double arithmetic for every class of input (random bit patterns: subnormals, infinities, NaN)."""
     import drjit as dr
-    from plugins.planes import half_quotient
+
+    from a5mi.plugins.emulation.planes import half_quotient
 
     rng = np.random.default_rng(7)
     n = 400_000

@@ -120,7 +120,7 @@ def _internal_cases(tmp: Path, scene: str) -> dict[str, tuple[list[str], str]]:
         "bench": (["--no-process", "--no-inprocess"], "a5mi.bench.resolve_scenes"),
         "grade": ([str(tmp / "subs"), "-o", str(tmp / "report")], "a5mi.commands.grade.settings_of"),
         "render-xml": ([str(tmp / "s.xml"), "-o", str(tmp / "o.png")], "a5mi.platform.imageio.check_output_path"),
-        "completion": (["bash"], "a5mi.cli.completion.bash_script"),
+        "completion": (["bash"], "a5mi.commands.completion.bash_script"),
         "difftest": (["--binary", str(tmp / "a5")], "a5mi.difftest.runner.check_binary"),
         "trace": (["-input", scene, "-size", "4", "4", "-pixel", "0", "0"], "a5mi.commands.trace.load_scene"),
         "animate": ([scene, "-o", str(tmp / "frames")], "a5mi.cli.app.load_scene"),

@@ -228,7 +228,7 @@ def test_available_memory_counts_the_address_space_limit(tmp_path: Path) -> None
     from a5mi.platform import resources
 
     limit = 3 << 30
-    p = subprocess.run([sys.executable, "-c", "from a5mi import resources; print(resources.available())"],
+    p = subprocess.run([sys.executable, "-c", "from a5mi.platform import resources; print(resources.available())"],
                        capture_output=True, text=True, preexec_fn=_under_address_limit(limit), timeout=60,
                        env={k: v for k, v in os.environ.items() if k != "A5MI_MEMORY_LIMIT"})
     assert p.returncode == 0, p.stderr
@@ -260,7 +260,7 @@ def test_an_image_bomb_is_refused_by_its_header_under_ulimit_v(tmp_path: Path, r
     from hostile import png_bomb
 
     (tmp_path / "bomb.png").write_bytes(png_bomb(30000))
-    code = (f"from a5mi import imageio\ntry:\n    imageio.{reader}('bomb.png')\n"
+    code = (f"from a5mi.platform import imageio\ntry:\n    imageio.{reader}('bomb.png')\n"
             "except imageio.ImageReadError as e:\n    print(e)\n")
     p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120,
                        preexec_fn=_under_address_limit(3 << 30),

@@ -87,7 +87,7 @@ def test_sigint_at_random_moments(tmp_path: Path) -> None:
 WRITER = r"""
 import os, signal, sys, threading
 import numpy as np
-from a5mi import imageio, interrupts
+from a5mi.platform import imageio, interrupts
 interrupts.install(lambda s: None)
 img = np.random.default_rng(1).random((3000, 3000, 3), dtype=np.float32)
 threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIG{name})).start()

@@ -64,7 +64,7 @@ def _rng(mi: Any, pixels: int, passes: int, seeds: tuple[int, ...]) -> Any:
 def test_permute_is_a_bijection(mi: Any) -> None:
     import drjit as dr
 
-    from a5mi.plugins.kernel.pbr_sampling import permute
+    from a5mi.plugins.sampling import permute
 
     for count in (1, 2, 3, 7, 64, 100, 1000, 4096):
         for key in (0, 1, 0xDEADBEEF, 12345):
