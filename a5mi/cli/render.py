@@ -124,8 +124,10 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          "tested before it takes that mesh's uv, as a5soln (docs/FIDELITY.md)", 1, choice(QUIRKS), "none", "Q"),
     Flag(("-normals_mode", "--normals-mode"), "aov_mode", "main (-normals/-depth use the image's rays) or "
          "quadrant (a5soln's top-right-quadrant rays, SPEC B.6)", 1, choice(AOV_MODES), "main", "M"),
-    Flag(("-v", "--verbose"), "verbose", "print stage timings, ray counts and peak memory on stderr",
-         default=False, show_default=False),
+    Flag(("-force", "--force"), "force", "render even when the work estimate is over an hour (docs/USAGE.md "
+         "\"Work estimate\")", default=False, show_default=False),
+    Flag(("-v", "--verbose"), "verbose", "print the work estimate, progress lines, stage timings, ray counts and "
+         "peak memory on stderr", default=False, show_default=False),
 )
 
 
@@ -302,16 +304,21 @@ def _render_and_write(args: Args, console: Console, activate: Any, render: Any, 
     desc, inputs = load()
     clobber.check_outputs(outputs, inputs)  # no output may overwrite a mesh, texture or cube-map face
     timings["parse"] = time.perf_counter() - t0
+    # -v times the plain render kernel; the ray counts (a different kernel: three more outputs) come from a
+    # second pass afterwards, timed on its own ("counts": not part of the command without -v).
+    options = render_options(args, count_rays=False)
+    work = check_work(desc, options, console, force=bool(args.get("force")), verbose=bool(args.verbose))
     t0 = time.perf_counter()
     variant = activate()
     timings["variant"] = time.perf_counter() - t0
 
-    # -v times the plain render kernel; the ray counts (a different kernel: three more outputs) come from a
-    # second pass afterwards, timed on its own ("counts": not part of the command without -v).
-    options = render_options(args, count_rays=False)
     interactive = console.err.isatty()  # never a \r bar in a log file
-    with console.progress(enabled=interactive) as bar:  # progress steps cost a trace each: only when shown
-        result = render(desc, options, progress=bar if interactive else None)
+    shown = interactive or bool(args.verbose)
+    split = args.get("workers") is not None or args.get("scheduler") is not None
+    with console.progress(enabled=interactive, log=bool(args.verbose) and not interactive, rays=work.rays,
+                          seconds=work.seconds, unit="bands" if split else "samples") as bar:
+        # progress steps cost a trace each: only when shown
+        result = render(desc, options, progress=bar if shown else None)
     timings.update(result.timings)
     if args.verbose:
         t0 = time.perf_counter()
@@ -330,7 +337,42 @@ def _render_and_write(args: Args, console: Console, activate: Any, render: Any, 
     timings["write"] = time.perf_counter() - t0
     if args.verbose:
         _report(console, variant, result, timings)
+        _report_work(console, work, options, result, timings)
     return ExitStatus.OK
+
+
+def check_work(desc: Any, options: RenderOptions, console: Console, *, force: bool, verbose: bool) -> Any:
+    """The work estimate of a render (:func:`a5mi.render.estimate.estimate`), before the JIT starts: over
+    :data:`~a5mi.render.estimate.REFUSE_SECONDS` a positioned scene error (exit 2) naming the flags that
+    reduce it, unless ``force``; over :data:`~a5mi.render.estimate.WARN_SECONDS` a positioned warning; with
+    ``-v`` a note. Returns the estimate."""
+    from a5mi.converters.errors import SceneError
+    from a5mi.render import estimate as est
+
+    work = est.estimate(desc, options)
+    what = est.summary(work)
+    hints = ", ".join(work.hints)
+    if work.seconds > est.REFUSE_SECONDS and not force:
+        raise SceneError(f"this render may trace {what}; lower {hints}, or add -force to render it anyway",
+                         work.loc)
+    if work.seconds > est.WARN_SECONDS:
+        console.warnings([(work.loc if work.loc is not None else desc.path, f"this render may trace {what}")])
+    elif verbose:
+        console.note(f"{console.prog}: estimate {what}")
+    return work
+
+
+def _report_work(console: Console, work: Any, options: RenderOptions, result: Any, timings: dict[str, float]) -> None:
+    """``-v``: the rays the render traced against the estimate's bound, and this machine's ray rate kept for
+    the next estimate (:func:`a5mi.render.estimate.record_rate`, from the plain render's kernel time)."""
+    from a5mi.render import estimate as est
+
+    rw, rh = options.render_size
+    traced = rw * rh * options.spp + sum(result.ray_counts.values())
+    console.note(f"{console.prog}: traced {traced} rays of the estimate's {work.rays:.3g} "
+                 f"({work.rays / max(traced, 1):.1f} x)")
+    if not work.extra_rays:  # photons and cache records are not in the counts: their rate would be wrong
+        est.record_rate(traced, timings.get("execute", 0.0))
 
 
 def _report(console: Console, variant: str, result: Any, timings: dict[str, float]) -> None:
