@@ -350,15 +350,12 @@ def check_work(desc: Any, options: RenderOptions, console: Console, *, force: bo
     from a5mi.render import estimate as est
 
     work = est.estimate(desc, options)
-    what = est.summary(work)
-    hints = ", ".join(work.hints)
     if work.seconds > est.REFUSE_SECONDS and not force:
-        raise SceneError(f"this render may trace {what}; lower {hints}, or add -force to render it anyway",
-                         work.loc)
+        raise SceneError(est.refusal(work), work.loc)
     if work.seconds > est.WARN_SECONDS:
-        console.warnings([(work.loc if work.loc is not None else desc.path, f"this render may trace {what}")])
+        console.warnings([(work.loc if work.loc is not None else desc.path, est.warning(work))])
     elif verbose:
-        console.note(f"{console.prog}: estimate {what}")
+        console.note(f"{console.prog}: estimate {est.summary(work)}")
     return work
 
 

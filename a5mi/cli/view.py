@@ -81,7 +81,8 @@ def _serve(args: Args, console: Console, options: object, binary: object) -> int
     except BaseException:
         server.httpd.server_close()
         raise
-    engine = ViewEngine(args.scene, session, reference=args.reference, binary=binary, timeout=args.timeout)
+    engine = ViewEngine(args.scene, session, reference=args.reference, binary=binary, timeout=args.timeout,
+                        force=bool(args.get("force")))
     watcher = Watcher(lambda: jobs.render(reload=True))
     server.start()
     watcher.start()

@@ -221,6 +221,16 @@ def summary(e: Estimate) -> str:
     return f"up to {_num(e.rays)} rays, about {duration(e.seconds)} at {_num(e.rate)} rays/s ({how}): {e.cause}"
 
 
+def refusal(e: Estimate) -> str:
+    """The message of a render refused over :data:`REFUSE_SECONDS`: the estimate and the flags that lower it."""
+    return f"this render may trace {summary(e)}; lower {', '.join(e.hints)}, or add -force to render it anyway"
+
+
+def warning(e: Estimate) -> str:
+    """The message of a render warned over :data:`WARN_SECONDS`."""
+    return f"this render may trace {summary(e)}"
+
+
 # ------------------------------------------------------------------------------------------ the measured rate
 def _rate_path() -> Path:
     from a5mi import cache_dir
@@ -269,4 +279,5 @@ def record_rate(rays: int, seconds: float, path: Path | None = None) -> float | 
 
 
 __all__ = ["CONSERVATIVE_RATE", "REFUSE_SECONDS", "WARN_SECONDS", "Estimate", "duration", "estimate",
-           "light_samples", "measured_rate", "record_rate", "summary", "tree_nodes"]
+           "hemisphere_rays", "light_samples", "measured_rate", "record_rate", "refusal", "summary", "tree_nodes",
+           "warning"]

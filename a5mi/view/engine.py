@@ -25,6 +25,7 @@ terms (:func:`a5mi.trace.report.explain`). Nothing here prints; failures are exc
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import tempfile
 import time
@@ -43,6 +44,12 @@ from .png import png_bytes
 #: Largest render buffer (samples) rendered without per-tile progress: each progress step re-traces the
 #: integrator (about 50 ms), so small renders report their stages only.
 QUIET_SAMPLES = 1 << 20
+#: A render whose work estimate (a5mi.render.estimate) is over this many seconds reports every tile and is cut
+#: into up to :data:`MAX_STEPS` tiles of about this many seconds (by the estimate's bound) each, so that a
+#: newer request pre-empts it at the next tile (a5mi.view.live); more tiles would cost more than they save
+#: (each launch re-traces the integrator, about 50-90 ms).
+LONG_SECONDS = 1.0
+MAX_STEPS = 32
 
 
 @dataclass
@@ -132,8 +139,10 @@ class ViewEngine:
     path; ``binary``: a :class:`a5mi.difftest.runner.Binary`; ``timeout``: seconds a binary run may take."""
 
     def __init__(self, scene: str, session: Any, *, reference: str | None = None, binary: Any = None,
-                 timeout: float = 60.0) -> None:
+                 timeout: float = 60.0, force: bool = False) -> None:
         self.scene = scene
+        #: ``-force``: render even when the work estimate is over an hour (else a positioned scene error)
+        self.force = force
         self.session = session
         self.reference, self.binary, self.timeout = reference, binary, timeout
         self.desc: Any = None
@@ -231,15 +240,34 @@ class ViewEngine:
         :func:`render_stages`, ``png``, ``reference``, ``compare``."""
         if self.desc is None or options.bump != self.bump:
             self.load(options.bump)
+        from a5mi.converters.errors import SceneError
+        from a5mi.render import estimate as est
+
         opts = options
         seconds: dict[str, float] = {}
         t0 = time.perf_counter()
         rw, rh = opts.render_size
+        work = est.estimate(self.desc, opts)
+        if work.seconds > est.REFUSE_SECONDS and not self.force:
+            raise SceneError(est.refusal(work), work.loc)
+        long = work.seconds > LONG_SECONDS
+        run = opts
+        if long:  # tiles of about LONG_SECONDS each by the bound, at most MAX_STEPS
+            steps = min(MAX_STEPS, math.ceil(work.seconds / LONG_SECONDS))
+            run = dataclasses.replace(opts, tile_rays=max(1, min(opts.tile_rays, math.ceil(rw * rh / steps))))
         stage = "preview" if preview else "render"
-        tiles = (lambda d, t: progress(stage, d, t)) if progress and rw * rh > QUIET_SAMPLES else None
+        summary = est.summary(work)
+
+        def status(done: int, total: int) -> dict[str, Any]:
+            elapsed = time.perf_counter() - t0
+            eta = elapsed * (total - done) / done if done else max(work.seconds - elapsed, 0.0)
+            return {"rays": work.rays * done / max(total, 1), "eta": eta, "estimate": summary}
+
+        tiles = (lambda d, t: progress(stage, d, t, **status(d, t))) if progress and (
+            rw * rh > QUIET_SAMPLES or long) else None
         if progress:
-            progress(stage, 0, rw * rh)
-        result = self.session.render(self.desc, opts, progress=tiles)
+            progress(stage, 0, rw * rh, **status(0, rw * rh))
+        result = self.session.render(self.desc, run, progress=tiles)
         seconds["render"] = time.perf_counter() - t0
         seconds.update(render_stages(result.timings))
         image = result.image
