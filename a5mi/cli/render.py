@@ -285,6 +285,9 @@ def render_job(args: Args, console: Console, session: Any, scenes: dict[Any, Any
     return _render_and_write(args, console, lambda: session.variant, session.render, load)
 
 
+#: Tiles at most of a render warned for its estimate (each a progress step; each launch re-traces the
+#: integrator, ~50-90 ms)
+PROGRESS_TILES = 16
 #: Scene descriptions a batch keeps loaded (parsed, files checked); the session keeps one built scene.
 SCENES_KEPT = 4
 
@@ -297,6 +300,7 @@ def _load(path: str, console: Console, bump: bool) -> tuple[Any, list[Any]]:
 def _render_and_write(args: Args, console: Console, activate: Any, render: Any, load: Any) -> int:
     """Check outputs, load the scene once, activate the variant, render, then write every image atomically."""
     from a5mi import imageio
+    from a5mi.render import estimate as est
 
     outputs = outputs_of(args)
     timings: dict[str, float] = {}
@@ -313,12 +317,16 @@ def _render_and_write(args: Args, console: Console, activate: Any, render: Any, 
     timings["variant"] = time.perf_counter() - t0
 
     interactive = console.err.isatty()  # never a \r bar in a log file
-    shown = interactive or bool(args.verbose)
+    # progress steps cost a trace each: only when shown; a warned render (over a minute by the estimate) is cut
+    # into up to PROGRESS_TILES tiles so that the bar or the -v lines follow it (the image is the same)
+    long = work.seconds > est.WARN_SECONDS
+    shown = interactive or (bool(args.verbose) and long)
+    run = dataclasses.replace(options, tile_rays=est.progress_tile_rays(
+        work, options, tile_seconds=1.0, max_tiles=PROGRESS_TILES)) if long else options
     split = args.get("workers") is not None or args.get("scheduler") is not None
     with console.progress(enabled=interactive, log=bool(args.verbose) and not interactive, rays=work.rays,
                           seconds=work.seconds, unit="bands" if split else "samples") as bar:
-        # progress steps cost a trace each: only when shown
-        result = render(desc, options, progress=bar if shown else None)
+        result = render(desc, run, progress=bar if shown else None)
     timings.update(result.timings)
     if args.verbose:
         t0 = time.perf_counter()

@@ -221,6 +221,16 @@ def summary(e: Estimate) -> str:
     return f"up to {_num(e.rays)} rays, about {duration(e.seconds)} at {_num(e.rate)} rays/s ({how}): {e.cause}"
 
 
+def progress_tile_rays(e: Estimate, options: RenderOptions, *, tile_seconds: float, max_tiles: int) -> int:
+    """The ``tile_rays`` (:attr:`RenderOptions.tile_rays`) that cut a render into tiles of about
+    ``tile_seconds`` by the estimate, at most ``max_tiles``: ``ceil(RW·RH / min(max_tiles, ceil(seconds /
+    tile_seconds)))``, never above ``options.tile_rays``; each tile is a progress step and a point where a newer
+    request can pre-empt the render (the image is the same for any tile size, a5mi.tiles.tile_rows)."""
+    rw, rh = options.render_size
+    tiles = max(1, min(max_tiles, math.ceil(e.seconds / tile_seconds)))
+    return max(1, min(options.tile_rays, math.ceil(rw * rh / tiles)))
+
+
 def refusal(e: Estimate) -> str:
     """The message of a render refused over :data:`REFUSE_SECONDS`: the estimate and the flags that lower it."""
     return f"this render may trace {summary(e)}; lower {', '.join(e.hints)}, or add -force to render it anyway"
@@ -279,5 +289,5 @@ def record_rate(rays: int, seconds: float, path: Path | None = None) -> float | 
 
 
 __all__ = ["CONSERVATIVE_RATE", "REFUSE_SECONDS", "WARN_SECONDS", "Estimate", "duration", "estimate",
-           "hemisphere_rays", "light_samples", "measured_rate", "record_rate", "refusal", "summary", "tree_nodes",
-           "warning"]
+           "hemisphere_rays", "light_samples", "measured_rate", "progress_tile_rays", "record_rate", "refusal",
+           "summary", "tree_nodes", "warning"]

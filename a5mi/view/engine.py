@@ -25,7 +25,6 @@ terms (:func:`a5mi.trace.report.explain`). Nothing here prints; failures are exc
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 import tempfile
 import time
@@ -253,8 +252,8 @@ class ViewEngine:
         long = work.seconds > LONG_SECONDS
         run = opts
         if long:  # tiles of about LONG_SECONDS each by the bound, at most MAX_STEPS
-            steps = min(MAX_STEPS, math.ceil(work.seconds / LONG_SECONDS))
-            run = dataclasses.replace(opts, tile_rays=max(1, min(opts.tile_rays, math.ceil(rw * rh / steps))))
+            run = dataclasses.replace(opts, tile_rays=est.progress_tile_rays(work, opts, tile_seconds=LONG_SECONDS,
+                                                                             max_tiles=MAX_STEPS))
         stage = "preview" if preview else "render"
         summary = est.summary(work)
 

@@ -199,6 +199,14 @@ def test_warning_over_a_minute_and_refusal_over_an_hour_with_the_rate_kept_in_th
                                      "77 s at 100 rays/s (measured on this machine): a ray tree of up to 15 nodes per "
                                      "camera ray, 2 children per hit with -indirect 2, -bounces 3, 1 shadow ray per "
                                      "node"], p.stderr
+    warned = (tmp_path / "o.png").read_bytes()
+    # the same render unwarned (no kept rate: 7680 rays at 2e6 rays/s) is one tile; warned with -v it was cut
+    # into progress tiles (a5mi.render.estimate.progress_tile_rays): the same bytes
+    p, _ = _a5(base + ["-bounces", "3", "-indirect", "2", "-v"], tmp_path, cache)
+    assert p.returncode == 0 and ", 4 tiles), saved 16x16" in p.stderr, p.stderr
+    assert (tmp_path / "o.png").read_bytes() == warned
+    p, _ = _a5(base + ["-bounces", "3", "-indirect", "2"], tmp_path, tmp_path / "fresh")
+    assert (p.returncode, p.stderr) == (0, "") and (tmp_path / "o.png").read_bytes() == warned
     (tmp_path / "o.png").unlink()
     refused = base + ["-bounces", "4", "-indirect", "4", "-spp", "16"]
     p, _ = _a5(refused, tmp_path, cache)
