@@ -124,11 +124,14 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          "tested before it takes that mesh's uv, as a5soln (docs/FIDELITY.md)", 1, choice(QUIRKS), "none", "Q"),
     Flag(("-normals_mode", "--normals-mode"), "aov_mode", "main (-normals/-depth use the image's rays) or "
          "quadrant (a5soln's top-right-quadrant rays, SPEC B.6)", 1, choice(AOV_MODES), "main", "M"),
-    Flag(("-force", "--force"), "force", "render even when the work estimate is over an hour (docs/USAGE.md "
-         "\"Work estimate\")", default=False, show_default=False),
     Flag(("-v", "--verbose"), "verbose", "print the work estimate, progress lines, stage timings, ray counts and "
          "peak memory on stderr", default=False, show_default=False),
 )
+
+
+#: ``-force``: the commands that check the work estimate (``a5``, ``a5mi render``, ``a5mi view``) take it.
+FORCE_FLAG = Flag(("-force", "--force"), "force", "render even when the work estimate is over an hour (docs/USAGE.md "
+                  "\"Work estimate and progress\")", default=False, show_default=False)
 
 
 def render_options(args: Args, **overrides: Any) -> RenderOptions:
@@ -259,7 +262,8 @@ def run_render(args: Args, console: Console) -> int:
     if batch.is_batch(args):
         if args.get("workers") is not None or args.get("scheduler") is not None:
             raise UsageError("-workers/-scheduler split one render; not with scenes as arguments or --jobs")
-        return batch.run_batch(batch.make_jobs(args, RENDER_FLAGS, check_render_args), console, render_job)
+        return batch.run_batch(batch.make_jobs(args, (*RENDER_FLAGS, FORCE_FLAG), check_render_args), console,
+                               render_job)
     from a5mi import session
 
     return _render_and_write(args, console, lambda: activate_variant(args.variant), _split(args) or session.render,
@@ -399,7 +403,8 @@ def _report(console: Console, variant: str, result: Any, timings: dict[str, floa
 _SUMMARY = "Render a 6.837 assignment-5 scene as the course's sample solution a5soln does (SPEC B.1)."
 
 #: ``a5``: the sample solution's command line, strict single-dash grammar.
-A5 = Command("a5", _SUMMARY, RENDER_FLAGS + SPLIT_FLAGS, run_render, grammar="a5", required=("input", "output"),
+A5 = Command("a5", _SUMMARY, (*RENDER_FLAGS, FORCE_FLAG, *SPLIT_FLAGS), run_render, grammar="a5",
+             required=("input", "output"),
              check=check_render_args, epilog="Flags in any order; a flag given twice keeps its last value.",
              exit_ok="every image written")
 
@@ -431,7 +436,7 @@ def _render_command() -> Command:
     from a5mi.cli.batch import BATCH_FLAGS, EPILOG, EXIT_NOTE
 
     return Command("render", "render a scene, or several in one process (the a5 flags; see 'a5 -h')",
-                   RENDER_FLAGS + SPLIT_FLAGS + BATCH_FLAGS, run_render,
+                   (*RENDER_FLAGS, FORCE_FLAG, *SPLIT_FLAGS, *BATCH_FLAGS), run_render,
                    (Positional("scenes", "SCENE.txt", "scenes to render with the same flags (with --output-dir)",
                                "*"),),
                    epilog=A5.epilog + " " + EPILOG, check=check_render_command, exit_ok="every image written",

@@ -14,11 +14,12 @@ import secrets
 
 from a5mi.cli.app import Command, Console, activate_variant
 from a5mi.cli.flags import Args, Flag, Positional, integer, real, text
-from a5mi.cli.render import IMAGE_OUTPUT_DESTS, check_render_args, render_flags_except, render_options
+from a5mi.cli.render import FORCE_FLAG, IMAGE_OUTPUT_DESTS, check_render_args, render_flags_except, render_options
 from a5mi.errors import ExitStatus, UsageError
 
 FLAGS: tuple[Flag, ...] = (
     *render_flags_except(IMAGE_OUTPUT_DESTS | {"input", "verbose"}),
+    FORCE_FLAG,
     Flag(("--reference",), "reference", "compare with this image (the course's reference render)", 1, text,
          metavar="IMG"),
     Flag(("--binary",), "binary", "compare with this a5 executable's render of the same scene and SPEC B.1 flags, "

@@ -257,3 +257,21 @@ def test_record_rate_keeps_the_latest_and_skips_small_renders(tmp_path: Path) ->
 def test_duration_reads_as_the_user_would() -> None:
     assert [est.duration(s) for s in (45, 600, 3 * 3600, 40 * 86400, 3.2e8)] == \
         ["45 s", "10 min", "3.0 h", "40 days", "10 years"]
+
+
+def test_a_batch_refuses_the_job_and_force_reaches_every_job(tmp_path: Path) -> None:
+    """``a5mi render SCENE --output-dir``: the refused job is its one positioned line and the batch's exit 2;
+    ``--force`` on the command line reaches the jobs."""
+    cache = tmp_path / "cache"
+    _slow_machine(cache, 100.0)
+    (tmp_path / "room.txt").write_text(ROOM)
+    (tmp_path / "out").mkdir()
+    argv = [str(Path(sys.executable).with_name("a5mi")), "render", "room.txt", "--output-dir", "out", "--size", "16",
+            "16", "--bounces", "4", "--indirect", "4", "--spp", "16"]
+    env = {**os.environ, "A5MI_CACHE_DIR": str(cache)}
+    p = subprocess.run(argv, cwd=tmp_path, capture_output=True, text=True, env=env)
+    line, col = ROOM_MATERIAL
+    assert p.returncode == 2 and p.stderr.splitlines()[0].startswith(f"room.txt:{line}:{col}: error: ")
+    assert not (tmp_path / "out" / "room.png").exists()
+    p = subprocess.run([*argv[:-1], "1", "--force"], cwd=tmp_path, capture_output=True, text=True, env=env)
+    assert p.returncode == 0 and (tmp_path / "out" / "room.png").exists(), p.stderr
