@@ -160,7 +160,7 @@ def estimate(desc: SceneDescription, options: RenderOptions, *, rate: float | No
             cause += f", {k0} children at the camera hit (glossySamples)"
         if shadows:
             cause += f", {shadows} shadow ray{'s' if shadows > 1 else ''} per node"
-        if shadows > 1:
+        if shadows > 1 and int(getattr(light, "samples", 1) or 1) > 1:   # E.2: an area light's samples
             if where is None:
                 where = light
             hints.append("the lights' samples")
@@ -190,8 +190,9 @@ def estimate(desc: SceneDescription, options: RenderOptions, *, rate: float | No
         hints.append("-spp")
     hints.append("-size")
     rays = camera * per + extra
-    measured = rate is None and measured_rate() is not None
-    r = rate if rate is not None else (measured_rate() or CONSERVATIVE_RATE)
+    kept = measured_rate() if rate is None else None
+    r = rate if rate is not None else (kept or CONSERVATIVE_RATE)
+    measured = kept is not None
     loc = getattr(where, "loc", None) or cam_loc
     return Estimate(camera, float(per), int(extra), float(rays), float(rays) / r, float(r), measured, cause, loc,
                     tuple(dict.fromkeys(hints)))

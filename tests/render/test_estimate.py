@@ -275,3 +275,20 @@ def test_a_batch_refuses_the_job_and_force_reaches_every_job(tmp_path: Path) -> 
     assert not (tmp_path / "out" / "room.png").exists()
     p = subprocess.run([*argv[:-1], "1", "--force"], cwd=tmp_path, capture_output=True, text=True, env=env)
     assert p.returncode == 0 and (tmp_path / "out" / "room.png").exists(), p.stderr
+
+
+def test_the_estimate_points_at_what_makes_it_large(scenes_dir: Path, tmp_path: Path) -> None:
+    """The element behind the bound: the diffuse material that multiplies with -indirect, the area light whose
+    samples multiply the shadow rays, else the camera; and the flags named are the ones that lower it."""
+    from a5mi.session import describe_file
+
+    room, _ = describe_file(str(_scene("room", scenes_dir, tmp_path)))
+    work = est.estimate(room, RenderOptions(indirect=3, bounces=2, shadows=True))
+    assert (work.loc.line, work.loc.col) == ROOM_MATERIAL and work.hints == ("-bounces", "-indirect", "-size")
+    assert work.per_camera_ray == est.tree_nodes(3, 3, 2) * 2
+    soft, _ = describe_file(str(PROJECT_SCENES / "soft_shadows.txt"))
+    work = est.estimate(soft, RenderOptions(shadows=True, spp=4))
+    light = max(soft.lights, key=lambda x: getattr(x, "samples", 1))
+    assert work.loc == light.loc and work.hints == ("the lights' samples", "-spp", "-size")
+    plain = est.estimate(room, RenderOptions())
+    assert plain.loc == room.camera.loc and plain.per_camera_ray == 1 and plain.hints == ("-size",)
