@@ -43,12 +43,11 @@ from .png import png_bytes
 #: Largest render buffer (samples) rendered without per-tile progress: each progress step re-traces the
 #: integrator (about 50 ms), so small renders report their stages only.
 QUIET_SAMPLES = 1 << 20
-#: A render whose work estimate (a5mi.render.estimate) is over this many seconds reports every tile and is cut
-#: into up to :data:`MAX_STEPS` tiles of about this many seconds (by the estimate's bound) each, so that a
-#: newer request pre-empts it at the next tile (a5mi.view.live); more tiles would cost more than they save
-#: (each launch re-traces the integrator, about 50-90 ms).
-LONG_SECONDS = 1.0
-MAX_STEPS = 32
+#: A render whose work estimate (a5mi.render.estimate) is over a minute (``WARN_SECONDS``, the one ``a5`` warns
+#: for) reports every tile and is cut into up to this many tiles of equal estimated work, so that a newer
+#: request pre-empts it at the next tile (a5mi.view.live). Not for shorter ones: each launch re-traces the
+#: integrator (~50-90 ms), and 57 tiles of scene10 at 300 x 300 with -jitter took 20 s against 4 s in one.
+MAX_STEPS = 16
 
 
 @dataclass
@@ -249,10 +248,10 @@ class ViewEngine:
         work = est.estimate(self.desc, opts)
         if work.seconds > est.REFUSE_SECONDS and not self.force:
             raise SceneError(est.refusal(work), work.loc)
-        long = work.seconds > LONG_SECONDS
+        long = work.seconds > est.WARN_SECONDS
         run = opts
-        if long:  # tiles of about LONG_SECONDS each by the bound, at most MAX_STEPS
-            run = dataclasses.replace(opts, tile_rays=est.progress_tile_rays(work, opts, tile_seconds=LONG_SECONDS,
+        if long:  # MAX_STEPS tiles
+            run = dataclasses.replace(opts, tile_rays=est.progress_tile_rays(work, opts, tile_seconds=1.0,
                                                                              max_tiles=MAX_STEPS))
         stage = "preview" if preview else "render"
         summary = est.summary(work)

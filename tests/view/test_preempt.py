@@ -28,7 +28,7 @@ def session(variant):  # noqa: ANN001, ANN201 - fixtures
 
 def test_a_newer_control_change_pre_empts_a_long_render(tmp_path: Path, session: Any,
                                                         monkeypatch: pytest.MonkeyPatch) -> None:
-    """With a kept rate of 100 rays/s the 40 x 40 render is estimated at minutes: it is cut into tiles (32 at
+    """With a kept rate of 100 rays/s the 40 x 40 render is estimated at minutes: it is cut into tiles (16 at
     most) that report ``rays`` and ``eta``. After its first tile a control change (-bounces 1) arrives: the
     render stops at that step (never reaching its last tile) and the one published frame is -bounces 1's, the
     image a render of those options gives."""
