@@ -166,10 +166,14 @@ class Console:
         line = msg if ": error: " in msg else f"{self.prog}: error: {msg}"
         self._diagnostic(line.split("\n")[0])
 
-    def progress(self, enabled: bool) -> ProgressBar:
+    def progress(self, enabled: bool, *, log: bool = False, rays: float | None = None,
+                 seconds: float | None = None, unit: str = "samples") -> ProgressBar:
+        """The render progress (:class:`a5mi.cli.progress.ProgressBar`): a bar on a terminal (``enabled``),
+        whole ``-v`` lines elsewhere (``log``); ``rays`` / ``seconds``: the work estimate."""
         from a5mi.cli.progress import ProgressBar
 
-        return ProgressBar(self.err, enabled=enabled)
+        return ProgressBar(self.err, enabled=enabled, log=log, rays=rays, seconds=seconds, unit=unit,
+                           prog=self.prog)
 
 
 class _NullStream:

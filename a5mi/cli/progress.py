@@ -22,7 +22,9 @@ class ProgressBar:
     never gets a ``\\r`` line."""
 
     def __init__(self, stream: TextIO, enabled: bool, delay: float = 1.0, width: int = 30, tick: float = 0.1,
-                 clock: Callable[[], float] = time.perf_counter) -> None:
+                 clock: Callable[[], float] = time.perf_counter, *, log: bool = False, log_every: float = 10.0,
+                 rays: float | None = None, seconds: float | None = None, unit: str = "samples",
+                 prog: str = "a5") -> None:
         import threading
 
         self.stream, self.enabled, self.delay, self.width, self.tick = stream, enabled, delay, width, tick
@@ -31,6 +33,12 @@ class ProgressBar:
         self.shown = False
         self.finished = False
         self.done = self.total = 0
+        #: ``-v`` off a terminal: whole lines (:meth:`log_line`) every ``log_every`` seconds instead of the bar;
+        #: ``rays`` / ``seconds``: the work estimate's bound (a5mi.render.estimate), for the rays so far and
+        #: the ETA before the first tile
+        self.log, self.log_every, self.rays, self.seconds = log, log_every, rays, seconds
+        self.unit, self.prog = unit, prog
+        self._logged = self.start
         self._marks: list[tuple[float, int]] = []  # (time, done) at each callback
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -40,7 +48,7 @@ class ProgressBar:
     def __enter__(self) -> ProgressBar:
         import threading
 
-        if self.enabled:
+        if self.enabled or self.log:
             self._thread = threading.Thread(target=self._run, name="a5mi-progress", daemon=True)
             self._thread.start()
         return self
@@ -57,7 +65,9 @@ class ProgressBar:
     def _run(self) -> None:
         while not self._stop.wait(self.tick):
             with self._lock:
-                self._draw(self.clock())
+                now = self.clock()
+                self._draw(now)
+                self._write_log(now, False)
 
     # -------------------------------------------------------------------------------- the callback
     def __call__(self, done: int, total: int) -> None:
@@ -66,6 +76,7 @@ class ProgressBar:
             self.done, self.total = done, total
             self._marks.append((now, done))
             self._draw(now)
+            self._write_log(now, done >= total)
 
     def estimate(self, now: float) -> int:
         """Samples probably finished at ``now``: ``done`` plus the measured rate times the time since the last
@@ -89,7 +100,9 @@ class ProgressBar:
         if not self._marks:  # nothing measured yet: a block sweeping the bar
             pos = int(elapsed / max(self.tick, 1e-3)) % (2 * (w - 4))
             pos = pos if pos < w - 4 else 2 * (w - 4) - pos
-            return f"[{'.' * pos}####{'.' * (w - 4 - pos)}]   ..  {elapsed:6.1f} s"
+            left = None if self.seconds is None else self.seconds - elapsed
+            eta = f"  eta <{left:5.0f} s" if left is not None and left > 0 else ""
+            return f"[{'.' * pos}####{'.' * (w - 4 - pos)}]   ..  {elapsed:6.1f} s{eta}"
         total = self.total or 1
         est = self.estimate(now)
         fill, guess = int(self.done / total * w), int(est / total * w)
@@ -97,7 +110,38 @@ class ProgressBar:
         frac = est / total
         eta = elapsed / frac - elapsed if frac > 0 else 0.0
         bar = "#" * fill + "-" * (guess - fill) + "." * (w - guess)
-        return f"[{bar}] {frac:4.0%}  {elapsed:6.1f} s  eta {eta:5.1f} s"
+        rays = f"  up to {self.rays * self.done / total:.2g} rays" if self.rays is not None else ""
+        return f"[{bar}] {frac:4.0%}  {elapsed:6.1f} s  eta {eta:5.1f} s{rays}"
+
+    def eta(self, now: float) -> float | None:
+        """Seconds left: from the measured rate once a tile is done, else the work estimate's ``seconds``
+        minus the time spent (an upper bound, as the estimate), else None."""
+        elapsed = now - self.start
+        if self._marks and self.total:
+            frac = self.estimate(now) / self.total
+            return elapsed / frac - elapsed if frac > 0 else None
+        if self.seconds is not None:
+            return max(self.seconds - elapsed, 0.0)
+        return None
+
+    def log_line(self, now: float) -> str:
+        """``a5: progress 50% (405000 of 810000 samples), up to 3.7e7 rays so far, 1.2 s, eta 1.2 s``."""
+        from a5mi.render.estimate import duration
+
+        elapsed = now - self.start
+        frac = self.done / self.total if self.total else 0.0
+        text = f"{self.prog}: progress {frac:.0%} ({self.done} of {self.total or '?'} {self.unit})"
+        if self.rays is not None and self.total:
+            text += f", up to {self.rays * frac:.3g} rays so far"
+        eta = self.eta(now)
+        return text + f", {duration(elapsed)}" + (f", eta {duration(eta)}" if eta is not None else "")
+
+    def _write_log(self, now: float, complete: bool) -> None:
+        """A :meth:`log_line` when ``log_every`` seconds passed since the last (or the start); not at the end."""
+        if not self.log or complete or now - self._logged < self.log_every:
+            return
+        self._logged = now
+        write_diagnostic(self.stream, self.log_line(now) + "\n")
 
     def _draw(self, now: float) -> None:
         if not self.enabled or self.finished:

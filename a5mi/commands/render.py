@@ -132,9 +132,14 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          "tested before it takes that mesh's uv, as a5soln (docs/FIDELITY.md)", 1, choice(QUIRKS), "none", "Q"),
     Flag(("-normals_mode", "--normals-mode"), "aov_mode", "main (-normals/-depth use the image's rays) or "
          "quadrant (a5soln's top-right-quadrant rays, SPEC B.6)", 1, choice(AOV_MODES), "main", "M"),
-    Flag(("-v", "--verbose"), "verbose", "print stage timings, ray counts and peak memory on stderr",
-         default=False, show_default=False),
+    Flag(("-v", "--verbose"), "verbose", "print the work estimate, progress lines, stage timings, ray counts and "
+         "peak memory on stderr", default=False, show_default=False),
 )
+
+
+#: ``-force``: the commands that check the work estimate (``a5``, ``a5mi render``, ``a5mi view``) take it.
+FORCE_FLAG = Flag(("-force", "--force"), "force", "render even when the work estimate is over an hour (docs/USAGE.md "
+                  "\"Work estimate and progress\")", default=False, show_default=False)
 
 
 def render_options(args: Args, **overrides: Any) -> RenderOptions:
@@ -266,7 +271,8 @@ def run_render(args: Args, console: Console) -> int:
     if batch.is_batch(args):
         if args.get("workers") is not None or args.get("scheduler") is not None:
             raise UsageError("-workers/-scheduler split one render; not with scenes as arguments or --jobs")
-        return batch.run_batch(batch.make_jobs(args, RENDER_FLAGS, check_render_args), console, render_job)
+        return batch.run_batch(batch.make_jobs(args, (*RENDER_FLAGS, FORCE_FLAG), check_render_args), console,
+                               render_job)
     from a5mi.render import session
 
     return _render_and_write(args, console, lambda: activate_variant(args.variant), _split(args) or session.render,
@@ -292,6 +298,9 @@ def render_job(args: Args, console: Console, session: Any, scenes: dict[Any, Any
     return _render_and_write(args, console, lambda: session.variant, session.render, load)
 
 
+#: Tiles at most of a render warned for its estimate (each a progress step; each launch re-traces the
+#: integrator, ~50-90 ms)
+PROGRESS_TILES = 16
 #: Scene descriptions a batch keeps loaded (parsed, files checked); the session keeps one built scene.
 SCENES_KEPT = 4
 
@@ -304,6 +313,7 @@ def _load(path: str, console: Console, bump: bool) -> tuple[Any, list[Any]]:
 def _render_and_write(args: Args, console: Console, activate: Any, render: Any, load: Any) -> int:
     """Check outputs, load the scene once, activate the variant, render, then write every image atomically."""
     from a5mi.platform import imageio
+    from a5mi.render import estimate as est
 
     outputs = outputs_of(args)
     timings: dict[str, float] = {}
@@ -311,16 +321,25 @@ def _render_and_write(args: Args, console: Console, activate: Any, render: Any, 
     desc, inputs = load()
     clobber.check_outputs(outputs, inputs)  # no output may overwrite a mesh, texture or cube-map face
     timings["parse"] = time.perf_counter() - t0
+    # -v times the plain render kernel; the ray counts (a different kernel: three more outputs) come from a
+    # second pass afterwards, timed on its own ("counts": not part of the command without -v).
+    options = render_options(args, count_rays=False)
+    work = check_work(desc, options, console, force=bool(args.get("force")), verbose=bool(args.verbose))
     t0 = time.perf_counter()
     variant = activate()
     timings["variant"] = time.perf_counter() - t0
 
-    # -v times the plain render kernel; the ray counts (a different kernel: three more outputs) come from a
-    # second pass afterwards, timed on its own ("counts": not part of the command without -v).
-    options = render_options(args, count_rays=False)
     interactive = console.err.isatty()  # never a \r bar in a log file
-    with console.progress(enabled=interactive) as bar:  # progress steps cost a trace each: only when shown
-        result = render(desc, options, progress=bar if interactive else None)
+    # progress steps cost a trace each: only when shown; a warned render (over a minute by the estimate) is cut
+    # into up to PROGRESS_TILES tiles so that the bar or the -v lines follow it (the image is the same)
+    long = work.seconds > est.WARN_SECONDS
+    shown = interactive or (bool(args.verbose) and long)
+    run = dataclasses.replace(options, tile_rays=est.progress_tile_rays(
+        work, options, tile_seconds=1.0, max_tiles=PROGRESS_TILES)) if long else options
+    split = args.get("workers") is not None or args.get("scheduler") is not None
+    with console.progress(enabled=interactive, log=bool(args.verbose) and not interactive, rays=work.rays,
+                          seconds=work.seconds, unit="bands" if split else "samples") as bar:
+        result = render(desc, run, progress=bar if shown else None)
     timings.update(result.timings)
     if args.verbose:
         t0 = time.perf_counter()
@@ -339,7 +358,39 @@ def _render_and_write(args: Args, console: Console, activate: Any, render: Any, 
     timings["write"] = time.perf_counter() - t0
     if args.verbose:
         _report(console, variant, result, timings)
+        _report_work(console, work, options, result, timings)
     return ExitStatus.OK
+
+
+def check_work(desc: Any, options: RenderOptions, console: Console, *, force: bool, verbose: bool) -> Any:
+    """The work estimate of a render (:func:`a5mi.render.estimate.estimate`), before the JIT starts: over
+    :data:`~a5mi.render.estimate.REFUSE_SECONDS` a positioned scene error (exit 2) naming the flags that
+    reduce it, unless ``force``; over :data:`~a5mi.render.estimate.WARN_SECONDS` a positioned warning; with
+    ``-v`` a note. Returns the estimate."""
+    from a5mi.converters.errors import SceneError
+    from a5mi.render import estimate as est
+
+    work = est.estimate(desc, options)
+    if work.seconds > est.REFUSE_SECONDS and not force:
+        raise SceneError(est.refusal(work), work.loc)
+    if work.seconds > est.WARN_SECONDS:
+        console.warnings([(work.loc if work.loc is not None else desc.path, est.warning(work))])
+    elif verbose:
+        console.note(f"{console.prog}: estimate {est.summary(work)}")
+    return work
+
+
+def _report_work(console: Console, work: Any, options: RenderOptions, result: Any, timings: dict[str, float]) -> None:
+    """``-v``: the rays the render traced against the estimate's bound, and this machine's ray rate kept for
+    the next estimate (:func:`a5mi.render.estimate.record_rate`, from the plain render's kernel time)."""
+    from a5mi.render import estimate as est
+
+    rw, rh = options.render_size
+    traced = rw * rh * options.spp + sum(result.ray_counts.values())
+    console.note(f"{console.prog}: traced {traced} rays of the estimate's {work.rays:.3g} "
+                 f"({work.rays / max(traced, 1):.1f} x)")
+    if not work.extra_rays:  # photons and cache records are not in the counts: their rate would be wrong
+        est.record_rate(traced, timings.get("execute", 0.0))
 
 
 def _report(console: Console, variant: str, result: Any, timings: dict[str, float]) -> None:
@@ -361,7 +412,8 @@ def _report(console: Console, variant: str, result: Any, timings: dict[str, floa
 _SUMMARY = "Render a 6.837 assignment-5 scene as the course's sample solution a5soln does (SPEC B.1)."
 
 #: ``a5``: the sample solution's command line, strict single-dash grammar.
-A5 = Command("a5", _SUMMARY, RENDER_FLAGS + SPLIT_FLAGS, run_render, grammar="a5", required=("input", "output"),
+A5 = Command("a5", _SUMMARY, (*RENDER_FLAGS, FORCE_FLAG, *SPLIT_FLAGS), run_render, grammar="a5",
+             required=("input", "output"),
              check=check_render_args, epilog="Flags in any order; a flag given twice keeps its last value.",
              exit_ok="every image written")
 
@@ -393,7 +445,7 @@ def _render_command() -> Command:
     from a5mi.cli.batch import BATCH_FLAGS, EPILOG, EXIT_NOTE
 
     return Command("render", "render a scene, or several in one process (the a5 flags; see 'a5 -h')",
-                   RENDER_FLAGS + SPLIT_FLAGS + BATCH_FLAGS, run_render,
+                   (*RENDER_FLAGS, FORCE_FLAG, *SPLIT_FLAGS, *BATCH_FLAGS), run_render,
                    (Positional("scenes", "SCENE.txt", "scenes to render with the same flags (with --output-dir)",
                                "*"),),
                    epilog=A5.epilog + " " + EPILOG, check=check_render_command, exit_ok="every image written",

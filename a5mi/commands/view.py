@@ -14,11 +14,12 @@ import secrets
 
 from a5mi.cli.app import Command, Console, activate_variant
 from a5mi.cli.flags import Args, Flag, Positional, integer, real, text
-from a5mi.commands.render import IMAGE_OUTPUT_DESTS, check_render_args, render_flags_except, render_options
+from a5mi.commands.render import FORCE_FLAG, IMAGE_OUTPUT_DESTS, check_render_args, render_flags_except, render_options
 from a5mi.platform.errors import ExitStatus, UsageError
 
 FLAGS: tuple[Flag, ...] = (
     *render_flags_except(IMAGE_OUTPUT_DESTS | {"input", "verbose"}),
+    FORCE_FLAG,
     Flag(("--reference",), "reference", "compare with this image (the course's reference render)", 1, text,
          metavar="IMG"),
     Flag(("--binary",), "binary", "compare with this a5 executable's render of the same scene and SPEC B.1 flags, "
@@ -81,7 +82,8 @@ def _serve(args: Args, console: Console, options: object, binary: object) -> int
     except BaseException:
         server.httpd.server_close()
         raise
-    engine = ViewEngine(args.scene, session, reference=args.reference, binary=binary, timeout=args.timeout)
+    engine = ViewEngine(args.scene, session, reference=args.reference, binary=binary, timeout=args.timeout,
+                        force=bool(args.get("force")))
     watcher = Watcher(lambda: jobs.render(reload=True))
     server.start()
     watcher.start()

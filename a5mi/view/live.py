@@ -33,6 +33,21 @@ PREVIEW_AFTER_SECONDS = 0.5
 COMPARED = ("metrics", "reference_error", "has_reference", "has_diff", "compared")
 
 
+class Superseded(Exception):
+    """A newer render request arrived while a render was under way: the render stops at its next tile."""
+
+
+def preemptible(hub: Any, jobs: Any) -> Callable[..., None]:
+    """The progress callback of a render: forwards to ``hub.progress`` and raises :class:`Superseded` at a
+    render or preview step when a newer request waits (``jobs.render_pending()``), so the loop starts the
+    newest request instead of finishing a stale one."""
+    def progress(stage: str, done: int, total: int, **extra: Any) -> None:
+        hub.progress(stage, done, total, **extra)
+        if stage in ("render", "preview") and done < total and jobs.render_pending():
+            raise Superseded
+    return progress
+
+
 def error_line(exc: BaseException) -> str:
     """The one line of a user error as the command line prints it."""
     from a5mi.converters.errors import SceneError
@@ -114,7 +129,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
                 parse = time.monotonic() - t0
             quick = preview_options(current) if preview and wants_preview(last_full, current, preview_after) else None
             if quick is not None:
-                pv = engine.render(quick, progress=hub.progress, preview=True)
+                pv = engine.render(quick, progress=preemptible(hub, jobs), preview=True)
                 shown = {k: v for k, v in frame_state(engine, pv).items() if k not in COMPARED}  # the last stay
                 hub.update({"render": pv.render_png}, **{
                     **state, **shown, "controls": describe_controls(current), "busy": True,
@@ -124,7 +139,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
                 if jobs.render_pending():  # a newer save or control: its render replaces this one's full image
                     continue
             t_full = time.monotonic()
-            frame = engine.render(current, progress=hub.progress, compare=False)
+            frame = engine.render(current, progress=preemptible(hub, jobs), compare=False)
             last_full = (current, time.monotonic() - t_full)
             if engine.compares:  # the image first; its comparison follows (the page dims the last one meanwhile)
                 shown = {k: v for k, v in frame_state(engine, frame).items() if k not in COMPARED}
@@ -137,6 +152,8 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
             images = {"render": frame.render_png, "reference": frame.reference_png, "diff": frame.diff_png}
             state.update(frame_state(engine, frame), warnings=engine.warnings, options_ok=True, comparing=False)
             state["seconds"] = {"parse": parse, **frame.seconds, "total": time.monotonic() - t0}
+        except Superseded:  # the newer request is the next job
+            continue
         except UserError as exc:  # SceneError is a ValueError too: caught below
             state["error"] = error_line(exc)
         except ValueError as exc:

@@ -85,8 +85,10 @@ class Hub:
             doc = dict(self._state)
         self._send(sse("state", doc))
 
-    def progress(self, stage: str, done: int, total: int) -> None:
-        self._send(sse("progress", {"stage": stage, "done": done, "total": total}))
+    def progress(self, stage: str, done: int, total: int, **extra: Any) -> None:
+        """A ``progress`` event: the stage, ``done`` of ``total``, and what the engine adds (``rays``, ``eta``,
+        ``estimate``: the work estimate's bound so far, the seconds left, its summary)."""
+        self._send(sse("progress", {"stage": stage, "done": done, "total": total, **extra}))
 
     def _send(self, event: bytes | None) -> None:
         with self._lock:

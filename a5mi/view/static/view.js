@@ -139,7 +139,14 @@ events.addEventListener("state", (e) => show(JSON.parse(e.data)));
 events.addEventListener("progress", (e) => {
   const p = JSON.parse(e.data);
   $("progress").value = p.total ? p.done / p.total : 0;
-  $("status").textContent = p.stage + (p.total > 1 ? " " + Math.round((100 * p.done) / p.total) + "%" : "") + "...";
+  let text = p.stage + (p.total > 1 ? " " + Math.round((100 * p.done) / p.total) + "%" : "");
+  // the work estimate (docs/USAGE.md "Work estimate and progress"): rays so far (at most) and the time left
+  if (p.rays !== undefined && p.eta !== undefined) {
+    const eta = p.eta < 90 ? Math.round(p.eta) + " s" : Math.round(p.eta / 60) + " min";
+    text += " (up to " + Number(p.rays).toPrecision(2) + " rays, eta " + eta + ")";
+  }
+  $("status").textContent = text + "...";
+  $("status").title = p.estimate || "";
 });
 events.addEventListener("error", () => { if (events.readyState !== EventSource.OPEN) $("status").textContent = "reconnecting"; });
 
