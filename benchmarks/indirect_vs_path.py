@@ -5,7 +5,7 @@ the background alone, so Whitted's ``kd`` direct term plays no part: ``path -bou
 2 -shadows`` and ``irradiancecache -bounces 1`` estimate the same image, E.15 / E.23).
 
 Reference: ``a5_path -bounces 1`` at ``REF`` passes per pixel centre, traced many passes per launch
-(``A5PathIntegrator.trace(..., rng=)``, tests/test_irradiance_cache_bench.py's ``reference``), seed 99 (no
+(``A5PathIntegrator.trace(..., rng=)``, tests/bench/test_irradiance_cache_bench.py's ``reference``), seed 99 (no
 render below uses it). Error: mean |image − reference| over pixels and channels / the reference's mean; the
 reference's own share of it is printed (its standard error).
 Time: the render's wall time through :func:`a5mi.render.driver.render_scene` after a first render of the same options

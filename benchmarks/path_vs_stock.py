@@ -1,6 +1,6 @@
 """Samples per second of ``-integrator path`` (a5_path, docs/EXTENSIONS.md E.14) against Mitsuba's stock ``path``
-on the ``--stock`` conversion of the same scene (tests/test_path_stock.py's scene, where the conversion is the
-E.13 reading), one run, on whatever else the machine is doing (the load average is printed).
+on the ``--stock`` conversion of the same scene (tests/plugins/integrators/test_path_stock.py's scene, where the
+conversion is the E.13 reading), one run, on whatever else the machine is doing (the load average is printed).
 
 Both render W x H pixel centres (SPEC B.2) with ``spp`` samples each, ``-bounces 4`` (stock ``max_depth`` 6),
 Russian roulette from 5, after one warm-up render each (kernels compiled and cached), then REPEATS renders of

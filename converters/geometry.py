@@ -19,7 +19,7 @@
   (:func:`plane_rectangle_to_world`), centred on the foot of the perpendicular from the camera centre, with
   its frame's z axis along the plane's unit normal. Mitsuba inverts its ``to_world`` in float32, so the hit
   point's error grows with the half-size (measured on a plane tilted by 0.05: 1.3e-2 at 1e7, 2.8e-5 at 1e4,
-  3e-6 at 1e3); at 4096 it stays below 1e-5 = tmin/100 (tests/test_to_mitsuba.py). What it cannot do: a
+  3e-6 at 1e3); at 4096 it stays below 1e-5 = tmin/100 (tests/converters/test_to_mitsuba.py). What it cannot do: a
   camera ray that would meet the infinite plane more than ~4096 units away misses the stand-in, i.e. the
   last rows below the horizon (scene10's farthest plane row is hit at t ≈ 16,000) show the background.
 

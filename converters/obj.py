@@ -83,7 +83,7 @@ def load_obj(path: str | Path, loc: FileLoc | None = None) -> ObjMesh:
     mixed face forms, odd whitespace before a record, no faces) it returns None and the line-by-line
     :func:`_parse_slow` reads the file instead and reports the error at its ``path:line:col``. Both use
     Python's own ``float`` / ``int`` on the same words, so the numbers are identical
-    (tests/test_obj_fast.py compares them on every course OBJ and on generated odd files)."""
+    (tests/converters/test_obj_fast.py compares them on every course OBJ and on generated odd files)."""
     path = Path(path)
     spath = str(path)
     try:  # a regular file within MAX_OBJ_BYTES (a FIFO would block, /dev/zero never ends)

@@ -25,7 +25,7 @@ on a triangle whose slot bit is 0 is one the binary does not see.
 :data:`MAX_TRIG` triangles sharing one region (8 coincident faces, thin faces crossing at a point) makes
 every node there split down to level 9, about 8^9 nodes: ``a5soln`` itself runs out of memory or time on it
 (8 copies of one triangle: 1.7 GB and still building at 60 s; the two over-budget meshes of
-tests/test_degenerate_meshes.py, 300 slivers and 30 copies of an 800-face grid: 1.1-1.2 GB and not done at
+tests/converters/test_degenerate_meshes.py, 300 slivers and 30 copies of an 800-face grid: 1.1-1.2 GB and not done at
 60 s). Here nodes split only when the traversal visits them, a node whose triangles are all reached already
 is not entered (the reach set is the union of the reachable leaves' triangles, and a leaf holds a subset of
 its ancestors'), and the work has a budget: :data:`MAX_REFS` triangle references held by split nodes,

@@ -1,5 +1,5 @@
-"""Helpers of the path-tracing tests (tests/test_path*.py, tests/test_indirect.py): a5 scene text -> loaded
-Mitsuba scenes, and per-pixel means with their standard errors over ``-spp`` passes of an a5 integrator or of
+"""Helpers of the path-tracing tests (tests/plugins/integrators/test_path*.py, test_indirect.py): a5 scene text
+-> loaded Mitsuba scenes, and per-pixel means with their standard errors over ``-spp`` passes of an a5 integrator or of
 Mitsuba's stock ``path``, all through the SPEC B.2 pixel centres (``a5mi.crosscheck._pixel_rays``)."""
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """``a5mi fidelity [--diff-dir DIR]``: re-render every reference image, print the fidelity table and judge it.
 
 The verdict (SPEC C: a faithful implementation lands far above 40 dB; this project's regression floor is the
-one of ``tests/test_reference.py``): every image must reach ``--min-psnr`` (default :data:`PSNR_FLOOR`, 60 dB)
+one of ``tests/fidelity/test_reference.py``): every image must reach ``--min-psnr`` (default :data:`PSNR_FLOOR`, 60 dB)
 with fewer than ``--max-share`` of its pixels (default :data:`SHARE_CEILING`, 0.1%) off by more than 2/255.
 Exit status 1 when an image does not, naming it on stderr.
 """
@@ -18,9 +18,9 @@ from a5mi.platform.errors import ExitStatus, UsageError, UserError
 if TYPE_CHECKING:
     from a5mi.compare import Metrics
 
-#: Lowest PSNR (dB) of a reference image that passes (SPEC C; tests/test_reference.py).
+#: Lowest PSNR (dB) of a reference image that passes (SPEC C; tests/fidelity/test_reference.py).
 PSNR_FLOOR = 60.0
-#: Share of an image's pixels off by more than 2/255 at which it fails (SPEC C; tests/test_reference.py).
+#: Share of an image's pixels off by more than 2/255 at which it fails (SPEC C; tests/fidelity/test_reference.py).
 SHARE_CEILING = 0.001
 
 FLAGS: tuple[Flag, ...] = (

@@ -11,7 +11,7 @@ For each handout scene (``-shadows -bounces 4 -jitter -filter`` at ``size``), th
   be seen by any grader and is reported as ``no effect``.
 
 :func:`calibrate` returns the rows; ``benchmarks/grade_calibration.py`` prints them as Markdown and
-``tests/test_grade_calibration.py`` asserts the rule at 100 x 100.
+``tests/grade/test_grade_calibration.py`` asserts the rule at 100 x 100.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ description it keeps
   (``-shadows``, ``-bounces``, ``-v``'s counts AOVs, ...), loaded alone from the scene dict's own
   ``integrator`` entry (ambient, the exact planes and their loaded BSDFs) with those parameters replaced, so
   a job renders with exactly the integrator a separate ``a5`` run would build (bit-identical images,
-  tests/test_batch.py).
+  tests/cli/test_batch.py).
 
 Kernels: Dr.Jit's in-memory kernel cache lives as long as the process. Every per-scene value that enters
 the render kernel is an opaque JIT value (camera basis, lights, marble, plane set, image atlas offsets), so
@@ -31,7 +31,7 @@ At most ``max_scenes`` built scenes are kept (least recently used dropped first,
 one is built), so a long job list has bounded memory. The default is one: while a scene is alive, the next
 scene's plugins get new registry IDs and the vcall tables' offsets baked into the render kernel change, so
 the next scene would compile its kernel again; freed first, the IDs are reused and the kernel is found in the
-cache (``kernels["compiled"] == 0``, tests/test_batch.py). (Mitsuba's own ``sphere`` bakes its
+cache (``kernels["compiled"] == 0``, tests/cli/test_batch.py). (Mitsuba's own ``sphere`` bakes its
 centre into the kernel: a moved sphere compiles again whatever the session does.) Nothing here prints or
 writes a file; it returns data (:class:`~a5mi.render.driver.RenderResult`).
 """

@@ -25,7 +25,7 @@ State on a periodic grid of ``N³`` cells of size ``h = 1/N`` (the unit cube; ar
 The forward transport conserves ``Σ ρ`` to rounding in any flow (the weights of each source cell sum to 1);
 the backward (semi-Lagrangian) one only for a uniform velocity: in a deforming divergence-free flow its weights
 do not sum to 1 per source cell and ``Σ ρ`` drifts by up to 8 % over 24 steps at CFL 1
-(``tests/test_simulate.py``), which is why the smoke is carried forward.
+(``tests/simulate/test_simulate.py``), which is why the smoke is carried forward.
 """
 
 from __future__ import annotations

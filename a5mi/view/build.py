@@ -23,7 +23,7 @@ and the new objects. When nothing but the integrator entry changed (``ambientLig
 parameters, the flags), the Mitsuba scene itself is kept and only the integrator is loaded.
 
 A kept object was made from equal input by the same code, so the render is the one a fresh build gives, bit
-for bit (tests/test_view_build.py compares with ``a5`` after geometry, material and number edits).
+for bit (tests/view/test_view_build.py compares with ``a5`` after geometry, material and number edits).
 """
 
 from __future__ import annotations

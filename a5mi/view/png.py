@@ -8,7 +8,7 @@ PNG writer, 8-bit levels ``clamp(int(255 c), 0, 255)`` of SPEC B.1 by :func:`a5m
 image, a ``uint8`` image as it is, zlib level :data:`a5mi.platform.imageio.PNG_COMPRESSION`) into one scratch file of
 the
 view's own folder, reads it back as bytes and removes it: no fsync, no decode, no rename. That the bytes equal
-``a5``'s file is tested (tests/test_view_engine.py).
+``a5``'s file is tested (tests/view/test_view_engine.py).
 """
 
 from __future__ import annotations
