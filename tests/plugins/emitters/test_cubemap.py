@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_bitmap import read_bmp24, write_image
+from helpers import read_bmp24, write_image
 
 FACES = ["left", "right", "up", "down", "front", "back"]
 
