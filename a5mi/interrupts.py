@@ -159,7 +159,7 @@ def signal_behind(exc: BaseException) -> int:
     that native code called (a ``dr.while_loop`` body, a plugin constructor in ``mi.load_dict``) comes back
     wrapped in a ``RuntimeError``: Dr.Jit chains it (``__cause__``), Mitsuba folds its traceback into the
     message. Looks through the chain, then the message, then :func:`arrived` (any exception after a signal
-    is the signal's doing: the command was being stopped)."""
+    is the signal's doing: the command was being stopped). docs/GUARANTEES.md, "Signals"."""
     seen: set[int] = set()
     link: BaseException | None = exc
     while link is not None and id(link) not in seen:
