@@ -23,7 +23,8 @@ import pytest
 from conftest import DATA_DOC, TIER_LINE
 
 ROOT = Path(__file__).resolve().parent.parent
-FILES = ["tests/test_reference.py", "tests/test_geometry.py", "tests/test_obj_fast.py"]
+#: The three test files, by name wherever they live under tests/.
+NAMES = ("test_reference.py", "test_geometry.py", "test_obj_fast.py")
 
 #: Run pytest with the copy's packages: the copy's root first on sys.path (``a5mi``), and the two folders that
 #: pyproject.toml maps into it (``plugins`` -> ``a5mi.plugins``, ``converters`` -> ``a5mi.converters``) loaded
@@ -69,8 +70,10 @@ def fresh_copy(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def _run(copy: Path, **env: str) -> subprocess.CompletedProcess[str]:
     environ = {k: v for k, v in os.environ.items() if k not in ("A5_DATA", "PYTHONPATH", "A5MI_REQUIRE_COURSE_DATA")}
     environ.update(env)
+    files = [str(p.relative_to(copy)) for name in NAMES for p in sorted((copy / "tests").rglob(name))]
+    assert len(files) == len(NAMES), files
     return subprocess.run([sys.executable, "-c", BOOT, "-q", "-n", "0", "-p", "no:cacheprovider", "-m", "not slow",
-                           *FILES], cwd=copy, env=environ, capture_output=True, text=True, timeout=900)
+                           *files], cwd=copy, env=environ, capture_output=True, text=True, timeout=900)
 
 
 def test_a_fresh_copy_without_course_data_skips_the_tier_in_one_line(fresh_copy: Path) -> None:
