@@ -106,6 +106,8 @@ DATA_DOC = "docs/INSTALL.md#the-course-data"
 #: The one summary line of a run without the course data (``{n}``: how many tests it skipped).
 TIER_LINE = ("course data tier: {n} tests skipped: the course data (SPEC, scenes, meshes, reference renders) "
              "was not found; set A5_DATA to its folder or put it at ../shared/a5 ({doc})")
+#: The line before such a run (also under ``-q``).
+START_LINE = f"course data not found: its tests will be skipped (set A5_DATA; {DATA_DOC})"
 #: The reason of each such skip (pytest's report), and the stats key they are counted under.
 TIER_REASON = f"course data not found (set A5_DATA; {DATA_DOC})"
 TIER_KEY = "skipped (no course data)"
@@ -159,13 +161,21 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             item.add_marker(pytest.mark.skip(reason=TIER_REASON), append=False)  # before an empty-set skip
 
 
-def pytest_report_header(config: pytest.Config) -> str:
-    """Before the run: where the course data is, or that its tests will be skipped (and how to provide it)."""
-    if has_course_data():
-        return f"course data: {data_dir()}"
+def pytest_report_header(config: pytest.Config) -> str | None:
+    """The header (without ``-q``): where the course data is."""
+    return f"course data: {data_dir()}" if has_course_data() else None
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Before the run, also under ``-q`` (``make test``): one line when the course data is missing, saying that
+    its tests will be skipped (or fail, under ``A5MI_REQUIRE_COURSE_DATA``). The controller only, under xdist."""
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    if has_course_data() or reporter is None or hasattr(session.config, "workerinput"):
+        return
     if os.environ.get("A5MI_REQUIRE_COURSE_DATA", "") not in ("", "0"):
-        return "course data: not found, and A5MI_REQUIRE_COURSE_DATA is set: its tests will fail"
-    return f"course data: not found: its tests will be skipped (set A5_DATA or see {DATA_DOC})"
+        reporter.write_line("course data not found, and A5MI_REQUIRE_COURSE_DATA is set: its tests will fail")
+    else:
+        reporter.write_line(START_LINE)
 
 
 @pytest.hookimpl(tryfirst=True)

@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import DATA_DOC, TIER_LINE
+from conftest import DATA_DOC, START_LINE, TIER_LINE
 
 ROOT = Path(__file__).resolve().parent.parent
 #: The three test files, by name wherever they live under tests/.
@@ -85,9 +85,10 @@ def test_a_fresh_copy_without_course_data_skips_the_tier_in_one_line(fresh_copy:
                                                       final))
     n = counts.get("skipped (no course data)", 0)
     assert n > 0 and counts.get("passed", 0) > 0 and "failed" not in counts and "error" not in final, final
-    assert out.count(TIER_LINE.format(n=n, doc=DATA_DOC)) == 1, out
+    tier = TIER_LINE.format(n=n, doc=DATA_DOC)
+    assert out.count(tier) == 1 and out.splitlines()[0] == START_LINE, out  # one line before, one after
     assert "A5_DATA" in TIER_LINE and "../shared/a5" in TIER_LINE
-    assert "course data not found" not in out.replace(TIER_LINE.format(n=n, doc=DATA_DOC), ""), out  # no -ra list
+    assert "course data not found" not in out.replace(tier, "").replace(START_LINE, ""), out  # no -ra list
 
 
 def test_ci_can_require_the_course_data(fresh_copy: Path) -> None:
