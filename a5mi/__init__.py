@@ -28,6 +28,10 @@ def cache_dir() -> Path:
     return Path(base) / "a5mi"
 
 
+#: The page and section that say what the course data is, where it comes from and how to point a5mi at it.
+DATA_DOC = 'docs/INSTALL.md "The course data"'
+
+
 def data_candidates() -> list[Path]:
     """Where the course data (SPEC.md, scenes/, reference/) is looked for, in order: ``$A5_DATA`` alone when
     it is set; else ``../shared/a5`` beside the project checkout (when a5mi runs from one), then
@@ -50,11 +54,12 @@ def data_dir() -> Path:
 
 def require_data_dir() -> Path:
     """:func:`data_dir` if it holds the course data (``SPEC.md``), else a :class:`~a5mi.platform.errors.UserError`
-    naming where it looked and ``A5_DATA``."""
+    naming where it looked, ``A5_DATA`` and :data:`DATA_DOC`."""
     from a5mi.platform.errors import UserError
 
     root = data_dir()
     if not (root / "SPEC.md").is_file():
         looked = ", ".join(str(c) for c in data_candidates())
-        raise UserError(f"course data not found (looked in {looked}); set A5_DATA to the folder holding SPEC.md")
+        raise UserError(f"course data not found (looked in {looked}); set A5_DATA to the folder holding SPEC.md "
+                        f"(see {DATA_DOC})")
     return root

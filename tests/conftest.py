@@ -1,8 +1,11 @@
 """Shared fixtures and settings of the whole suite (the only conftest).
 
-* ``a5_data`` / ``scenes_dir``: the course data (``$A5_DATA`` or ../shared/a5). Every test that uses them is
-  marked ``course_data`` automatically (``pytest -m "not course_data"`` runs the rest); a missing folder is a
-  failure, never a skip: CI always has it.
+* ``a5_data`` / ``scenes_dir``: the course data (``$A5_DATA`` or ../shared/a5; docs/INSTALL.md "The course
+  data"), an opt-in tier. Every test that uses them is marked ``course_data`` automatically, and a test that
+  reads the data another way carries the mark itself (``pytest -m "not course_data"`` runs the rest). Without
+  the data those tests are skipped before they start, and the run ends with one line saying how many, why and
+  how to provide it (:data:`TIER_LINE`); with ``A5MI_REQUIRE_COURSE_DATA=1`` (CI) a missing folder is an
+  error instead, so a lost data folder can never pass as a green run.
 * ``variant`` / ``mi``: the JIT variant activated once per session (llvm_ad_rgb unless ``A5MI_VARIANT`` says
   otherwise) with the a5mi plugins registered; ``mi`` is the ``mitsuba`` module.
 * hypothesis profiles: ``fast`` (the default: ``make test``; derandomised, fixed example counts) and
@@ -98,12 +101,31 @@ def examples(n: int) -> int:
     return n * (10 if settings().max_examples >= 1000 else 1)
 
 
+#: Where docs/INSTALL.md says what the course data is, where it comes from and how to point a5mi at it.
+DATA_DOC = "docs/INSTALL.md#the-course-data"
+#: The one summary line of a run without the course data (``{n}``: how many tests it skipped).
+TIER_LINE = ("course data tier: {n} tests skipped: the course data (SPEC, scenes, meshes, reference renders) "
+             "was not found; set A5_DATA to its folder or put it at ../shared/a5 ({doc})")
+#: The line before such a run (also under ``-q``).
+START_LINE = f"course data not found: its tests will be skipped (set A5_DATA; {DATA_DOC})"
+#: The reason of each such skip (pytest's report), and the stats key they are counted under.
+TIER_REASON = f"course data not found (set A5_DATA; {DATA_DOC})"
+TIER_KEY = "skipped (no course data)"
+
+
+def has_course_data() -> bool:
+    """True when :func:`a5mi.data_dir` holds the course data (its SPEC.md)."""
+    return (data_dir() / "SPEC.md").is_file()
+
+
 @pytest.fixture(scope="session")
 def a5_data() -> Path:
-    """The course data; the suite needs it (CI has ../shared/a5 beside the clone)."""
+    """The course data (CI has ../shared/a5 beside the clone; without it these tests are skipped at
+    collection, :func:`pytest_collection_modifyitems`, unless ``A5MI_REQUIRE_COURSE_DATA=1``)."""
     root = data_dir()
     if not (root / "SPEC.md").is_file():
-        pytest.fail(f"course data not found at {root}: set A5_DATA to the folder holding SPEC.md and scenes/")
+        pytest.fail(f"course data not found at {root}: set A5_DATA to the folder holding SPEC.md and scenes/ "
+                    f"({DATA_DOC})")
     return root
 
 
@@ -129,10 +151,57 @@ def mi(variant: str) -> Any:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Mark every test that reads the course data ``course_data``."""
+    """Mark every test that reads the course data ``course_data``; without the data, skip them (with
+    ``A5MI_REQUIRE_COURSE_DATA=1`` they run and fail instead)."""
+    skip = not has_course_data() and os.environ.get("A5MI_REQUIRE_COURSE_DATA", "") in ("", "0")
     for item in items:
         if COURSE_DATA_FIXTURES & set(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.course_data)
+        if skip and item.get_closest_marker("course_data") is not None:
+            item.add_marker(pytest.mark.skip(reason=TIER_REASON), append=False)  # before an empty-set skip
+
+
+def pytest_report_header(config: pytest.Config) -> str | None:
+    """The header (without ``-q``): where the course data is."""
+    return f"course data: {data_dir()}" if has_course_data() else None
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Before the run, also under ``-q`` (``make test``): one line when the course data is missing, saying that
+    its tests will be skipped (or fail, under ``A5MI_REQUIRE_COURSE_DATA``). The controller only, under xdist."""
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    if has_course_data() or reporter is None or hasattr(session.config, "workerinput"):
+        return
+    if os.environ.get("A5MI_REQUIRE_COURSE_DATA", "") not in ("", "0"):
+        reporter.write_line("course data not found, and A5MI_REQUIRE_COURSE_DATA is set: its tests will fail")
+    else:
+        reporter.write_line(START_LINE)
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_terminal_summary(terminalreporter: Any, exitstatus: int, config: pytest.Config) -> None:
+    """The course data tier's one line: the skips of :data:`TIER_REASON` move from ``skipped`` to their own
+    count (so ``-ra`` lists none of them and the final line says ``N skipped (no course data)``), and
+    :data:`TIER_LINE` says how many, why and how to provide the data. Runs in the controller under
+    pytest-xdist too (the reports carry the reason)."""
+    stats = terminalreporter.stats
+    tier = [r for r in stats.get("skipped", []) if _skip_reason(r) == TIER_REASON]
+    if not tier:
+        return
+    stats["skipped"] = [r for r in stats["skipped"] if _skip_reason(r) != TIER_REASON]
+    if not stats["skipped"]:
+        del stats["skipped"]
+    stats[TIER_KEY] = tier
+    terminalreporter.write_sep("-", "course data")
+    terminalreporter.write_line(TIER_LINE.format(n=len(tier), doc=DATA_DOC))
+
+
+def _skip_reason(report: Any) -> str | None:
+    """The reason of a skip report (``longrepr`` is ``(path, line, 'Skipped: REASON')``)."""
+    longrepr = getattr(report, "longrepr", None)
+    if isinstance(longrepr, tuple) and len(longrepr) == 3:
+        return str(longrepr[2]).removeprefix("Skipped: ")
+    return None
 
 
 #: Files that start sandboxed runs (user ids in a5mi.sandbox.bwrap's range) run on one worker, one after the other:

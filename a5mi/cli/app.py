@@ -11,9 +11,10 @@ error policy (docs/CLI.md "Exit status"), whose statuses are :class:`a5mi.platfo
 * anything else is a bug: one line ``PROG: internal error: Type: message (re-run with --debug for the
   traceback)`` and 70 (``SOFTWARE``, sysexits' EX_SOFTWARE); ``--debug`` prints tracebacks;
 * SIGINT, SIGTERM and SIGHUP (:mod:`a5mi.platform.interrupts`, installed by :mod:`a5mi.entry`) return
-  ``128 + signal`` (130 for Ctrl-C) with one line ``PROG: interrupted (SIGINT)``; nothing is written and
-  no temporary is left; a closed output pipe (``a5mi compare A B | head``) ends
-  quietly with 141 (128 + SIGPIPE, as a shell reports for coreutils).
+  ``128 + signal`` (130 for Ctrl-C) with one line ``PROG: interrupted (SIGINT)``, also when native code
+  handed the signal back wrapped in another exception (:func:`a5mi.platform.interrupts.signal_behind`: a Dr.Jit loop
+  body or a plugin constructor was running); nothing is written and no temporary is left; a closed output
+  pipe (``a5mi compare A B | head``) ends quietly with 141 (128 + SIGPIPE, as a shell reports for coreutils).
 
 A command's own outcome is 0 (``OK``) or, for a command that gives a verdict, 1 (``DIFFER``: images differ,
 a check does not hold). :data:`EXIT_STATUS_TABLE` is the one table of these statuses; every command's ``-h``
@@ -293,6 +294,14 @@ def guarded(console: Console, debug: bool, body: Callable[[], int]) -> int:
         _silence_stdout()
         return ExitStatus.BROKEN_PIPE
     except Exception as exc:  # noqa: BLE001 - the last line of defence: report a bug, not a traceback
+        from a5mi.platform import interrupts
+
+        signum = interrupts.signal_behind(exc)  # a signal that native code wrapped (a5mi.platform.interrupts)
+        if signum:
+            if debug:
+                write_diagnostic(console.err, traceback.format_exc())
+            interrupts.report_once(lambda: console.error(f"interrupted ({signal_name(signum)})"))
+            return ExitStatus.signal(signum)
         if debug:
             write_diagnostic(console.err, traceback.format_exc())
         else:

@@ -29,7 +29,18 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--spp",), "spp", "the sampler's samples per pixel, the XML default $spp (mitsuba -Dspp=N overrides it)",
          1, integer(1, 1 << 20), metavar="N"),
     *(f for f in RENDER_FLAGS if f.dests[0] in _SHARED),
+    Flag(("-jitter", "-jittered", "--jitter"), "jitter", "refused: not part of a Mitsuba scene (see -filter)",
+         default=False, show_default=False),
+    Flag(("-filter", "--filter"), "filter", "refused: SPEC B.5's glibc jitter and blur are steps of a5's driver; "
+         "the XML's sampler takes pixel centres, the image of a5 without -jitter/-filter", default=False,
+         show_default=False),
 )
+
+#: Why ``convert`` refuses ``-jitter`` and ``-filter`` (docs/USAGE.md "a5mi compare and a5mi convert").
+NO_SUPERSAMPLING = ("-jitter and -filter are not part of a Mitsuba scene: SPEC B.5's glibc jitter and the binary's "
+                    "blur and downsample are steps of a5's own driver; the XML renders one ray through each pixel "
+                    "centre, the image of the same a5 command without them (docs/USAGE.md, 'a5mi compare and "
+                    "a5mi convert')")
 
 
 def check_convert_outputs(xml: str) -> tuple[str, str, str, str]:
@@ -62,6 +73,8 @@ def check_convert_outputs(xml: str) -> tuple[str, str, str, str]:
 
 
 def run_convert(args: Args, console: Console) -> int:
+    if args.jitter or args.filter:
+        raise UsageError(NO_SUPERSAMPLING)
     xml, meshes, envmap, images = check_convert_outputs(args.output)
     inputs: list[Any] = []
     desc = load_scene(args.scene, console, stock=bool(args.stock), inputs=inputs, bump=bool(args.get("bump")))

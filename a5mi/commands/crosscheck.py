@@ -53,9 +53,9 @@ def run_crosscheck(args: Args, console: Console) -> int:
     out = args.output or f"{Path(args.scene).stem}_crosscheck.png"
     from a5mi.platform import clobber
 
-    check_output_path(out)
     inputs: list[Any] = []
-    desc = load_scene(args.scene, console, bump=bool(args.bump), inputs=inputs)
+    desc = load_scene(args.scene, console, bump=bool(args.bump), inputs=inputs)  # the scene's errors come first
+    check_output_path(out)
     clobber.check_outputs([("-o", out)], inputs)
     activate_variant(None)
     options = xc.CrosscheckOptions(width=args.width, height=args.height, bounces=args.bounces, spp=args.spp,

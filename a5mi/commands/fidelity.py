@@ -50,12 +50,13 @@ def run_fidelity(args: Args, console: Console) -> int:
         raise UsageError(f"--diff-dir: folder '{args.diff_dir}' does not exist")
     if not 0 <= args.max_share <= 1:
         raise UsageError(f"--max-share expects a share in [0, 1], found {args.max_share:g}")
-    from a5mi import require_data_dir
+    from a5mi import DATA_DOC, require_data_dir
 
     require_data_dir()
     cases = list(fidelity.cases())
     if not cases:
-        raise UserError(f"no reference images under {fidelity.data_dir() / 'reference'} (set A5_DATA)")
+        raise UserError(f"no reference images under {fidelity.data_dir() / 'reference'} "
+                        f"(set A5_DATA; see {DATA_DOC})")
     activate_variant(None)
     rows = []
     for case in cases:

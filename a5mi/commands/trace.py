@@ -7,6 +7,7 @@ and checks that the contributions sum to the pixel of the real render. ``--diff 
 renders the reference, picks the N pixels where the student's image is furthest off and names, for each,
 the term of the reference tree that best accounts for the difference; pixels within the noise threshold
 (:data:`a5mi.trace.report.DIFF_NOISE` levels) are not named, so an identical image prints "nothing differs".
+``-pixel X Y --diff STUDENT.png`` explains that pixel instead, saying so when it is within the noise threshold.
 """
 
 from __future__ import annotations
@@ -33,8 +34,10 @@ FLAGS: tuple[Flag, ...] = (
     json_flag("the trace"),
     Flag(("--svg",), "svg", "also write a diagram of the (first shown) ray tree", 1, text, metavar="OUT.svg"),
     Flag(("--diff",), "diff", "find the pixels where this student image is furthest from the reference and name "
-         "the term to look at (pixels off by at most 2/255 are noise: none named)", 1, text, metavar="STUDENT.png"),
-    Flag(("--worst",), "worst", "with --diff: how many pixels", 1, integer(1, 1000), 3, "N"),
+         "the term to look at (pixels off by at most 2/255 are noise: none named); with -pixel: that pixel",
+         1, text, metavar="STUDENT.png"),
+    Flag(("--worst",), "worst", "with --diff: how many pixels (default 3; not with -pixel)", 1, integer(1, 1000),
+         metavar="N"),
 )
 
 
@@ -49,6 +52,8 @@ def check_trace_args(args: Args) -> None:
         raise TraceError("--sample needs -jitter (without it a pixel has one camera ray)")
     if args.diff is None and args.px is None:
         raise TraceError("give -pixel X Y (or --diff STUDENT.png)")
+    if args.worst is not None and (args.diff is None or args.px is not None):
+        raise TraceError("--worst goes with --diff alone (with -pixel X Y, --diff explains that pixel)")
     if args.diff is not None and args.jitter and not args.filter:
         raise TraceError("--diff with -jitter alone: the saved image is the 3W x 3H buffer; use -jitter -filter")
     if args.svg is not None:
@@ -96,10 +101,16 @@ def run_trace(args: Args, console: Console) -> int:
     return ExitStatus.OK
 
 
+#: ``--diff`` without ``-pixel``: how many of the worst pixels are explained unless ``--worst`` says.
+DIFF_WORST = 3
+
+
 def _run_diff(args: Args, console: Console, tracer: Any, desc: Any) -> int:
+    """``--diff STUDENT.png``: the ``--worst`` pixels furthest from the reference, or the ``-pixel`` asked for,
+    each with the reference term that best accounts for the difference (docs/TRACE.md)."""
     from a5mi.platform.imageio import quantize, read_levels
     from a5mi.trace import report
-    from a5mi.trace.core import TraceError
+    from a5mi.trace.core import TraceError, to_top_left
 
     student = read_levels(args.diff)
     ref = tracer.image()
@@ -108,8 +119,11 @@ def _run_diff(args: Args, console: Console, tracer: Any, desc: Any) -> int:
                          f"{ref.shape[1]}x{ref.shape[0]}")
     ref_bytes = quantize(ref)[..., :3].astype(np.float64)
     err = np.abs(student - ref_bytes).max(axis=-1)
-    order = np.argsort(-err, axis=None, kind="stable")[: args.worst]
-    pixels = [(int(k % err.shape[1]), int(k // err.shape[1])) for k in order if report.differs(err.flat[k])]
+    if args.px is not None:  # the pixel asked for, whether or not it differs
+        pixels = [to_top_left(tracer.options, args.px, args.py, args.origin)]
+    else:
+        order = np.argsort(-err, axis=None, kind="stable")[: args.worst or DIFF_WORST]
+        pixels = [(int(k % err.shape[1]), int(k // err.shape[1])) for k in order if report.differs(err.flat[k])]
     if not pixels:
         console.result("[]" if args.json else f"nothing differs: no pixel is off by more than {report.DIFF_NOISE}/255 "
                        f"(the noise threshold; largest difference {int(err.max())}/255)")
@@ -130,7 +144,9 @@ def _run_diff(args: Args, console: Console, tracer: Any, desc: Any) -> int:
             continue
         lines = [f"pixel ({pt.x}, {pt.y}) (top-left): student {tuple(int(v) for v in student[pt.y, pt.x])}, "
                  f"reference {pt.image_byte} (off by {int(err[pt.y, pt.x])}/255)"]
-        if not ranked:
+        if not report.differs(err[pt.y, pt.x]):
+            lines.append(f"  within the noise threshold ({report.DIFF_NOISE}/255): nothing to explain")
+        elif not ranked:
             lines.append("  no single term of the reference tree accounts for the difference")
         else:
             best, resid = ranked[0]

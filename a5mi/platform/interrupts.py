@@ -24,6 +24,7 @@ A leaf module: standard library only.
 from __future__ import annotations
 
 import os
+import re
 import signal
 import threading
 import time
@@ -36,7 +37,7 @@ SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM, signal.SIG
 #: Seconds after a signal before the watchdog ends a process that has not stopped by itself.
 GRACE = 1.0
 
-_state: dict[str, int] = {"depth": 0, "pending": 0, "installed": False, "protect": 0, "reported": 0}
+_state: dict[str, int] = {"depth": 0, "pending": 0, "installed": False, "protect": 0, "reported": 0, "arrived": 0}
 _report_lock = threading.Lock()
 
 
@@ -66,6 +67,7 @@ def _importing(frame: FrameType | None) -> bool:
 
 
 def _handler(signum: int, frame: FrameType | None) -> None:
+    _state["arrived"] = _state["arrived"] or signum
     if _state["depth"] > 0 or _importing(frame):
         _state["pending"] = _state["pending"] or signum
         return
@@ -138,6 +140,39 @@ def hold(signum: int) -> None:
     """Record ``signum`` as arrived and deferred (a signal caught before :func:`install`, by a handler that
     could only note it): the next :func:`check` raises it."""
     _state["pending"] = _state["pending"] or int(signum)
+    _state["arrived"] = _state["arrived"] or int(signum)
+
+
+def arrived() -> int:
+    """The first signal of :data:`SIGNALS` this process received since :func:`install` (raised, deferred or
+    held), 0 when none."""
+    return int(_state["arrived"])
+
+
+#: The last line of a Python traceback that Mitsuba's ``load_dict`` folds into its own message when a plugin's
+#: constructor raised: ``Interrupted: 2`` or ``KeyboardInterrupt``.
+_EMBEDDED = re.compile(r"^(?:[\w.]*\.)?(Interrupted|KeyboardInterrupt)\b(?::\s*(\d+))?\s*$", re.M)
+
+
+def signal_behind(exc: BaseException) -> int:
+    """The signal an exception stands for, 0 when none: a signal raised as :class:`Interrupted` in Python code
+    that native code called (a ``dr.while_loop`` body, a plugin constructor in ``mi.load_dict``) comes back
+    wrapped in a ``RuntimeError``: Dr.Jit chains it (``__cause__``), Mitsuba folds its traceback into the
+    message. Looks through the chain, then the message, then :func:`arrived` (any exception after a signal
+    is the signal's doing: the command was being stopped). docs/GUARANTEES.md, "Signals"."""
+    seen: set[int] = set()
+    link: BaseException | None = exc
+    while link is not None and id(link) not in seen:
+        seen.add(id(link))
+        if isinstance(link, Interrupted):
+            return link.signum
+        if isinstance(link, KeyboardInterrupt):
+            return int(signal.SIGINT)
+        match = _EMBEDDED.search(str(link))
+        if match:
+            return int(match.group(2)) if match.group(1) == "Interrupted" and match.group(2) else int(signal.SIGINT)
+        link = link.__cause__ or link.__context__
+    return arrived()
 
 
 def pending() -> int:
@@ -179,5 +214,5 @@ def protected() -> Iterator[None]:
         _state["protect"] -= 1
 
 
-__all__ = ["GRACE", "SIGNALS", "Interrupted", "check", "deferred", "hold", "ignore", "install", "pending",
-           "protected", "report_once"]
+__all__ = ["GRACE", "SIGNALS", "Interrupted", "arrived", "check", "deferred", "hold", "ignore", "install", "pending",
+           "protected", "report_once", "signal_behind"]

@@ -394,6 +394,7 @@ def test_course_data_is_found_by_a5_data_then_the_documented_places(tmp_path, mo
         assert cli.run_a5mi(argv) == 2
         line = _one_error_line(capsys.readouterr().err)
         assert "course data not found (looked in" in line and "set A5_DATA" in line, line
+        assert line.endswith('(see docs/INSTALL.md "The course data")'), line
     (tmp_path / "shared" / "a5").mkdir(parents=True)
     (tmp_path / "shared" / "a5" / "SPEC.md").write_text("x")
     monkeypatch.delenv("A5_DATA")

@@ -15,7 +15,7 @@ from a5mi.converters.obj import load_obj
 UV_OBJS = [p for p in sorted(data_dir().rglob("*.obj")) if b"\nvt " in p.read_bytes()]
 
 
-@pytest.mark.skipif(not UV_OBJS, reason="course data not found (set A5_DATA)")
+@pytest.mark.course_data
 @pytest.mark.parametrize("path", UV_OBJS, ids=lambda p: p.name)
 def test_a6_uv_split_is_the_lexicographic_pair_order(path: Path) -> None:
     obj = load_obj(path)

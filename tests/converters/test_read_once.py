@@ -61,6 +61,7 @@ def _filenames(value: Any) -> list[str]:
 SCENES = ["scene08_c", "scene11_cube", "scene10_sphere", "sibenik"]
 
 
+@pytest.mark.course_data
 @pytest.mark.parametrize("name", SCENES)
 def test_a4_a6_each_file_is_read_once_from_describe_to_render(variant: str, reads: dict[str, Counter],
                                                             name: str) -> None:

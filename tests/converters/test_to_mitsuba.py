@@ -398,6 +398,7 @@ def test_a4_cubemap_link_file_is_followed_with_a_warning(tmp_path: Path) -> None
 
 
 # --------------------------------------------------------------------------------- loading
+@pytest.mark.course_data
 @pytest.mark.parametrize("path", SCENE_FILES, ids=SCENE_IDS)
 def test_shipped_scene_loads_stock(variant: str, path: Path) -> None:
     import mitsuba as mi
@@ -408,6 +409,7 @@ def test_shipped_scene_loads_stock(variant: str, path: Path) -> None:
     assert len(scene.emitters()) == len(model.lights) + 1  # + the background
 
 
+@pytest.mark.course_data
 @pytest.mark.parametrize("path", SCENE_FILES, ids=SCENE_IDS)
 def test_shipped_scene_loads_with_a5_plugins(variant: str, path: Path) -> None:
     model = parse_file(path)

@@ -66,6 +66,7 @@ def test_xml_errors_before_writing(variant: str, tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.course_data
 @pytest.mark.parametrize("path", SCENE_FILES, ids=SCENE_IDS)
 def test_shipped_scene_stock_xml_loads_in_plain_mitsuba(variant: str, path: Path, tmp_path: Path) -> None:
     import mitsuba as mi
@@ -78,6 +79,7 @@ def test_shipped_scene_stock_xml_loads_in_plain_mitsuba(variant: str, path: Path
 
 
 @pytest.mark.slow
+@pytest.mark.course_data
 @pytest.mark.parametrize("path", SCENE_FILES, ids=SCENE_IDS)
 def test_shipped_scene_xml_loads_with_a5_plugins(variant: str, path: Path, tmp_path: Path) -> None:
     model = parse_file(path)

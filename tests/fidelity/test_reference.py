@@ -28,6 +28,7 @@ def test_reference_set_is_complete(a5_data) -> None:
             assert f"{scene}.{suffix}" in found
 
 
+@pytest.mark.course_data
 @pytest.mark.parametrize("case", CASES, ids=str)
 def test_matches_sample_solution(case, variant, tmp_path) -> None:
     m, ours, ref = measure(case)

@@ -100,15 +100,19 @@ def test_nonzero_direction_the_mesh_shadows_as_an_exact_test_says(variant: str, 
     assert (~lit & sphere).sum() > 50 and bad.sum() <= 2  # shadow-edge pixels may differ in the last bits
 
 
-def test_reach_masks_follow_the_traversal() -> None:
-    """A mesh of <= 7 triangles is one leaf: every pattern reaches every triangle. For the diamond
-    (110 triangles) a +0 x component reaches only triangles touching the lowest-x leaves (all of them
-    within the lower x half of the box), and the same ones whatever the signs of y and z."""
+def test_reach_masks_of_one_leaf_reach_every_triangle() -> None:
+    """A mesh of <= 7 triangles is one leaf: every pattern reaches every triangle."""
     cube = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
     small = octree.reach_masks(cube, np.array([[0, 1, 2], [0, 1, 3], [0, 2, 3]]))
     used = [s for s in range(48) if not ((s % 8) & ((s // 8) + 1))]  # sign bits only on finite axes
     assert len(used) == 3 * 4 + 3 * 2
     assert all(int(w[0]) | (int(w[1]) << 24) == sum(1 << s for s in used) for w in small)
+
+
+@pytest.mark.course_data
+def test_reach_masks_follow_the_traversal() -> None:
+    """For the diamond (110 triangles) a +0 x component reaches only triangles touching the lowest-x leaves
+    (all of them within the lower x half of the box), and the same ones whatever the signs of y and z."""
     from pathlib import Path
 
     from a5mi import data_dir
