@@ -5,10 +5,11 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
+from a5mi.plugins.textures.atlas_texture import AtlasTexture
 from a5mi.plugins.textures.imagedata import ImageAtlas, bitmap_rgb8, load_rgb8, resolve
 
 
-class A5Bitmap(mi.Texture):
+class A5Bitmap(AtlasTexture):
     """Image texture with the 6.837 lookup (SPEC A.4; ``texture NAME`` of A.5).
 
     .. list-table::
@@ -78,15 +79,6 @@ class A5Bitmap(mi.Texture):
 
     def resolution(self) -> mi.ScalarVector2i:
         return mi.ScalarVector2i(self.width, self.height)
-
-    def is_spatially_varying(self) -> bool:
-        return True
-
-    def traverse(self, cb: mi.TraversalCallback) -> None:
-        cb.put("data", self.atlas.data, mi.ParamFlags.NonDifferentiable)
-
-    def parameters_changed(self, keys: list[str]) -> None:
-        dr.make_opaque(self.atlas.data)
 
     def to_string(self) -> str:
         return f"A5Bitmap[filename={self.filename!r}, size={self.width}x{self.height}]"

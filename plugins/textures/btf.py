@@ -24,6 +24,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from a5mi.plugins.textures.atlas_texture import AtlasTexture
 from a5mi.plugins.textures.imagedata import ImageAtlas, bitmap_rgb8, load_rgb8, resolve
 
 
@@ -38,7 +39,7 @@ def _angles(props: mi.Properties, name: str, hi: float, hi_open: bool) -> list[f
     return values
 
 
-class A5Btf(mi.Texture):
+class A5Btf(AtlasTexture):
     """View-dependent image texture (module docstring)."""
 
     def __init__(self, props: mi.Properties) -> None:
@@ -108,15 +109,6 @@ class A5Btf(mi.Texture):
 
     def mean(self) -> float:
         return self._mean
-
-    def is_spatially_varying(self) -> bool:
-        return True
-
-    def traverse(self, cb: mi.TraversalCallback) -> None:
-        cb.put("data", self.atlas.data, mi.ParamFlags.NonDifferentiable)
-
-    def parameters_changed(self, keys: list[str]) -> None:
-        dr.make_opaque(self.atlas.data)
 
     def to_string(self) -> str:
         return f"A5Btf[elevations={self.elevations}, azimuths={self.azimuths}]"
