@@ -75,7 +75,7 @@ def test_endless_render_stops_soon_after_a_signal(tmp_path: Path, sig: signal.Si
     whole reference render (so it is inside the endless kernel, however busy the machine); the bounds are
     hang checks scaled to the reference's wall time, measured under the same load."""
     ref_wall, ref_cpu = reference_render
-    p = _start(tmp_path, ENDLESS, "-size", "60", "60", "-bounces", "64")
+    p = _start(tmp_path, ENDLESS, "-size", "60", "60", "-bounces", "64", "-force")  # over the work estimate
     t0 = time.monotonic()
     while _cpu_seconds(p.pid) < 2 * ref_cpu + 0.5:
         assert p.poll() is None

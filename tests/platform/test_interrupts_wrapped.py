@@ -21,7 +21,7 @@ WRAPPED = r"""
 import os, signal, sys
 import drjit as dr
 import mitsuba as mi
-from a5mi import interrupts
+from a5mi.platform import interrupts
 from a5mi.cli.app import Console, guarded
 mi.set_variant("llvm_ad_rgb")
 interrupts.install(lambda s: None)
