@@ -28,6 +28,8 @@ pass key.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import drjit as dr
 import mitsuba as mi
 
@@ -43,8 +45,17 @@ from a5mi.plugins.kernel.surfaces import surface_at
 from a5mi.plugins.sampling import SamplePass, Stochastic, stochastic
 from a5mi.plugins.syntax import syntax
 
-#: ``(radiance, first-hit normal, first-hit t, n_reflection, n_refraction, n_shadow)``
-PathResult = tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float]
+
+class PathResult(NamedTuple):
+    """What :func:`trace_paths` returns per camera ray: the radiance ``color``, the first hit's normal ``n`` and
+    distance ``t``, and the rays traced by kind."""
+
+    color: mi.Color3f
+    n: mi.Vector3f
+    t: mi.Float
+    n_reflection: mi.Float
+    n_refraction: mi.Float
+    n_shadow: mi.Float
 #: the E.5 slot of the BSDF sample at a vertex
 BSDF_SLOT = 255
 
@@ -98,9 +109,10 @@ class A5PathIntegrator(A5Integrator):
                active: mi.Bool | bool = True, sample_pass: SamplePass | None = None,
                ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
         """Radiance of one path per lane, the ``active`` mask and the AOVs of :meth:`aov_names`."""
-        color, n, t, n_refl, n_refr, n_shadow = self.trace(scene, ray, active, sampler, sample_pass)
-        channels = {"normal": [n.x, n.y, n.z], "depth": [t], "counts": [n_refl, n_refr, n_shadow]}
-        return color, dr.full(mi.Bool, True, dr.width(color)) & active, self.aov_values(channels)
+        r = self.trace(scene, ray, active, sampler, sample_pass)
+        channels = {"normal": [r.n.x, r.n.y, r.n.z], "depth": [r.t],
+                    "counts": [r.n_reflection, r.n_refraction, r.n_shadow]}
+        return r.color, dr.full(mi.Bool, True, dr.width(r.color)) & active, self.aov_values(channels)
 
     def to_string(self) -> str:
         return (f"A5PathIntegrator[max_depth={self.max_depth}, rr_depth={self.rr_depth}, fresnel='{self.fresnel}', "
@@ -193,7 +205,7 @@ def trace_paths(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
         alive &= ~roulette | survive
         alive &= dr.max(beta) > 0.0
 
-    return result, aov_n, aov_t, n_refl, n_refr, n_shadow
+    return PathResult(result, aov_n, aov_t, n_refl, n_refr, n_shadow)
 
 
 def register() -> None:

@@ -117,10 +117,10 @@ class A5WhittedIntegrator(A5Integrator):
     ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
         """Colour of one camera ray per lane, the ``active`` mask, and the AOVs of :meth:`aov_names`;
         ``sample_pass`` as in :meth:`trace` (Mitsuba's own ``mi.render`` passes none)."""
-        color, n, t, cls, n_refl, n_refr, n_shadow = self.trace(scene, ray, active, sampler,
-                                                                sample_pass=sample_pass)
-        channels = {"normal": [n.x, n.y, n.z], "depth": [t], "class": [cls], "counts": [n_refl, n_refr, n_shadow]}
-        return color, dr.full(mi.Bool, True, ray_width(ray, active)) & active, self.aov_values(channels)
+        r = self.trace(scene, ray, active, sampler, sample_pass=sample_pass)
+        channels = {"normal": [r.n.x, r.n.y, r.n.z], "depth": [r.t], "class": [r.cls],
+                    "counts": [r.n_reflection, r.n_refraction, r.n_shadow]}
+        return r.color, dr.full(mi.Bool, True, ray_width(ray, active)) & active, self.aov_values(channels)
 
     def to_string(self) -> str:
         return (

@@ -95,7 +95,8 @@ def irradiance(scene: mi.Scene, data: SceneData, f: Features, p: mi.Point3f, n: 
         u = mi.Point2f(mi.sample_tea_float32(rng.pass_key, counter),
                        mi.sample_tea_float32(rng.pass_key, counter + 1))
         counter += 2
-        ls = lights.sample(scene, data, fl, emitter, is_area, it, p, live, n, one, one * 0.0, mi.Float(0.0), n, u)
+        ls = lights.sample(scene, data, fl, emitter, is_area,
+                           lights.ShadingPoint(it, p, live, n, one, one * 0.0, mi.Float(0.0), n), u)
         acc += dr.select(ls.seen, ls.term * _transmitted(dr.dot(ls.d_light, n), eta), 0.0)
         k += 1
     return acc, counter
