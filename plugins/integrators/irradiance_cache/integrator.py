@@ -158,10 +158,10 @@ class A5IrradianceCacheIntegrator(A5Integrator):
             self._scene_id = id(scene)
 
     def trace(self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True, sampler: mi.Sampler | None = None,
-              sample_pass: SamplePass | None = None) -> tuple[mi.Color3f, np.ndarray, list[mi.Float]]:
-        """``(colour without the cache, β kd/π ⊙ E summed per lane (numpy, W x 3), AOVs nx, ny, nz, t,
-        n_reflection, n_refraction, n_shadow)`` of camera rays ``ray`` (module docstring); the colour of
-        :meth:`sample` is the sum of the first two."""
+              sample_pass: SamplePass | None = None) -> tuple[mi.Color3f, np.ndarray, dict[str, list[mi.Float]]]:
+        """``(colour without the cache, β kd/π ⊙ E summed per lane (numpy, W x 3), the AOV channels by group:
+        normal [nx, ny, nz], depth [t], counts [n_reflection, n_refraction, n_shadow])`` of camera rays ``ray``
+        (module docstring); the colour of :meth:`sample` is the sum of the first two."""
         self._reset(scene, sample_pass)
         data, lights, features = self._setup(scene)
         o, d, go = camera_rays(ray, active)
@@ -180,16 +180,14 @@ class A5IrradianceCacheIntegrator(A5Integrator):
                 break
             capacity = found
         indirect = self._indirect(scene, data, lights, features, nodes, found, width, sample_pass)
-        return color, indirect, [n.x, n.y, n.z, t, n_refl, n_refr, n_shadow]
+        return color, indirect, {"normal": [n.x, n.y, n.z], "depth": [t], "counts": [n_refl, n_refr, n_shadow]}
 
     def sample(self, scene: mi.Scene, sampler: mi.Sampler | None, ray: mi.Ray3f, medium: mi.Medium | None = None,
                active: mi.Bool | bool = True, sample_pass: SamplePass | None = None,
                ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
         """Colour of each camera ray (module docstring), the ``active`` mask and the AOVs of :meth:`aov_names`."""
-        color, indirect, (nx, ny, nz, t, n_refl, n_refr, n_shadow) = self.trace(scene, ray, active, sampler,
-                                                                                sample_pass)
+        color, indirect, channels = self.trace(scene, ray, active, sampler, sample_pass)
         color = color + mi.Color3f(*(_floats(indirect[:, c]) for c in range(3)))
-        channels = {"normal": [nx, ny, nz], "depth": [t], "counts": [n_refl, n_refr, n_shadow]}
         return color, dr.full(mi.Bool, True, dr.width(color)) & active, self.aov_values(channels)
 
     # ------------------------------------------------------------------ the cache
