@@ -173,7 +173,7 @@ def trace_paths(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
             bsdf, si, alive, n, f, None, mi.UInt32(1))
         n_mirror = mirror_normal(data.planes, on_plane, plane_idx, n)
         b = lobes(f.fresnel, kd, specular, ior, d, n, n_mirror, n_medium, alive, f.refraction, f.reflection)
-        nee, counter, n_shadow = direct(scene, data.planes, lights, f.environment, data.tmin, si, p, b, alive,
+        nee, counter, n_shadow = direct(scene, data, lights, f.environment, si, p, b, alive,
                                         rng, depth * 256, counter, n_shadow)
         result += dr.select(alive, beta * nee, 0.0)
         if dr.hint(f.record, mode="scalar"):

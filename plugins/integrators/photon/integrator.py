@@ -188,8 +188,8 @@ class A5PhotonIntegrator(A5Integrator):
             lambert = pbr.lobes(self.fresnel, s.kd, dr.zeros(mi.Color3f, width), mi.Float(0.0), d, s.n, s.n,
                                 n_medium, diffuse, False, False)
             lambert = lambert._replace(p_d=dr.select(lambert.p_d > 0.0, 1e-30, 0.0))   # MIS weight 1
-            nee, counter, n_shadow = pbr_lights.direct(scene, data.planes, self._pbr_lights(scene), f.environment,
-                                                       data.tmin, h.si, h.p, lambert, diffuse, rng,
+            nee, counter, n_shadow = pbr_lights.direct(scene, data, self._pbr_lights(scene), f.environment, h.si,
+                                                       h.p, lambert, diffuse, rng,
                                                        dr.opaque(mi.UInt32, depth * 256), counter, n_shadow)
             local += nee
             step = camera_step(self.fresnel, d, s.n, mirror_normal(data.planes, h.on_plane, h.plane, s.n), s.specular,
