@@ -28,11 +28,12 @@ pass key.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.plugins.emulation import triangle_rule
-from a5mi.plugins.emulation.planes import plane_set, planes_from_props
+from a5mi.plugins.integrators.base import E13_FIXED, A5Integrator, camera_rays
 from a5mi.plugins.kernel.features import Features, SceneData
 from a5mi.plugins.kernel.intersect import intersect, mirror_normal
 from a5mi.plugins.kernel.pbr import lobes, power_heuristic, sample
@@ -40,41 +41,26 @@ from a5mi.plugins.kernel.pbr_lights import PbrLights, direct, emission, environm
 from a5mi.plugins.kernel.pbr_lights import lights_of as pbr_lights_of
 from a5mi.plugins.kernel.pbr_record import PathRecorder, lobe_code
 from a5mi.plugins.kernel.record import shape_id
-from a5mi.plugins.kernel.scene import has_area_lights, lights_of
 from a5mi.plugins.kernel.surfaces import surface_at
 from a5mi.plugins.sampling import SamplePass, Stochastic, stochastic
 from a5mi.plugins.syntax import syntax
-from a5mi.spec import FRESNEL_MODES, TMIN
 
-#: AOV groups ``a5_path`` computes (``aovs`` parameter), as ``a5_whitted``'s: first-hit normal and distance.
-#: ``counts``: rays traced per camera ray: scattered to the side the ray came from (diffuse and mirror), through
-#: the surface (refraction), and shadow rays.
-AOV_CHANNELS: dict[str, tuple[str, ...]] = {"normal": ("nx", "ny", "nz"), "depth": ("t",),
-                                            "counts": ("n_reflection", "n_refraction", "n_shadow")}
-#: ``(radiance, first-hit normal, first-hit t, n_reflection, n_refraction, n_shadow)``
-PathResult = tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float]
+
+class PathResult(NamedTuple):
+    """What :func:`trace_paths` returns per camera ray: the radiance ``color``, the first hit's normal ``n`` and
+    distance ``t``, and the rays traced by kind."""
+
+    color: mi.Color3f
+    n: mi.Vector3f
+    t: mi.Float
+    n_reflection: mi.Float
+    n_refraction: mi.Float
+    n_shadow: mi.Float
 #: the E.5 slot of the BSDF sample at a vertex
 BSDF_SLOT = 255
-#: parameters ``a5_path`` accepts for the scene dicts the converter writes for every a5 integrator but does not
-#: use: the Whitted-only options (shadows are always traced; no Phong; the ambient term is off, E.13)
-IGNORED = ("shadows", "phong", "ambient", "glossy", "glossy_samples", "dispersion")
 
 
-def _bool(props: mi.Properties, name: str, default: bool) -> bool:
-    value = props.get(name, default)
-    if not isinstance(value, bool):
-        raise ValueError(f"a5_path: '{name}' must be a boolean, got {value!r}")
-    return value
-
-
-def _int(props: mi.Properties, name: str, default: int, low: int) -> int:
-    value = props.get(name, default)
-    if isinstance(value, bool) or not isinstance(value, int) or value < low:
-        raise ValueError(f"a5_path: '{name}' must be an integer >= {low}, got {value!r}")
-    return value
-
-
-class A5PathIntegrator(mi.SamplingIntegrator):
+class A5PathIntegrator(A5Integrator):
     """Path tracing with next-event estimation, MIS and Russian roulette (module docstring).
 
     ================ ======= ======= ==========================================================
@@ -99,54 +85,11 @@ class A5PathIntegrator(mi.SamplingIntegrator):
     Dict form: ``{'type': 'a5_path', 'max_depth': 8, 'rr_depth': 5}``.
     """
 
-    #: ``a5mi.render.passes.sample_passes`` hands this integrator its :class:`~.sampling.SamplePass`
-    takes_sample_pass = True
-
-    def __init__(self, props: mi.Properties) -> None:
-        super().__init__(props)
-        self.max_depth = _int(props, "max_depth", 4, 0)
-        self.rr_depth = _int(props, "rr_depth", 5, 0)
-        self.fresnel = props.get("fresnel", "a5")
-        if self.fresnel not in FRESNEL_MODES:
-            raise ValueError(f"a5_path: 'fresnel' must be one of {', '.join(FRESNEL_MODES)}, got {self.fresnel!r}")
-        self.reflection = _bool(props, "reflection", True)
-        self.refraction = _bool(props, "refraction", True)
-        self.bump = _bool(props, "bump", False)
-        tmin = props.get("tmin", TMIN)
-        if isinstance(tmin, bool) or not isinstance(tmin, (int, float)) or not 0.0 <= tmin < float("inf"):
-            raise ValueError(f"a5_path: 'tmin' must be a finite number >= 0, got {tmin!r}")
-        self.tmin = float(tmin)
-        aovs = props.get("aovs", "")
-        groups = [g.strip() for g in aovs.split(",") if g.strip()] if isinstance(aovs, str) else None
-        if groups is None or any(g not in AOV_CHANNELS for g in groups):
-            raise ValueError(f"a5_path: 'aovs' must list groups of {', '.join(AOV_CHANNELS)}, got {aovs!r}")
-        self.aovs = tuple(g for g in AOV_CHANNELS if g in groups)
-        medium = props.get("medium", "none")
-        if medium != "none":
-            raise ValueError(f"a5_path: participating media are not part of E.13 (medium {medium!r})")
-        for name in IGNORED:
-            if name in props:
-                props.get(name)
-        self.planes = planes_from_props(props)
-        self._planes = plane_set(self.planes)
-        self._rules: dict[int, triangle_rule.RuleTable] = {}
-
-    def aov_names(self) -> list[str]:
-        return [name for g in self.aovs for name in AOV_CHANNELS[g]]
-
-    def _rule_table(self, scene: mi.Scene) -> triangle_rule.RuleTable | None:
-        """The scene's triangle-rule table, kept while its buffers are unchanged (as ``a5_whitted``)."""
-        table = triangle_rule.rule_table(scene, self._rules.get(id(scene)))
-        self._rules = {id(scene): table} if table is not None else {}
-        return table
-
-    def features(self, scene: mi.Scene, data: SceneData, record: bool = False) -> Features:
-        """The kernel's compile-time blocks: the fresnel mode, lobes, E.7 bump, an environment, emitters on
-        shapes, the triangle rule, record mode."""
-        return Features(shadows=True, fresnel=self.fresnel, reflection=self.reflection,
-                        refraction=self.refraction, area_lights=has_area_lights(scene), bump=self.bump,
-                        environment=scene.environment() is not None, triangle_rule=data.rules is not None,
-                        record=record)
+    name = "a5_path"
+    aov_groups = ("normal", "depth", "counts")
+    options = ("rr_depth",)
+    fixed = {**E13_FIXED, "shadows": True}   # E.13: shadows always, no ambient or Phong term
+    exposed = ("max_depth", "rr_depth", "fresnel", "reflection", "refraction", "bump", "tmin", "aovs")
 
     def trace(self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True,
               sampler: mi.Sampler | None = None, sample_pass: SamplePass | None = None,
@@ -155,32 +98,21 @@ class A5PathIntegrator(mi.SamplingIntegrator):
         camera ray (module docstring). ``record`` (``a5mi trace``): fill this recorder with every vertex.
         ``rng``: per-lane E.5 keys and pass indices instead of those of ``sample_pass`` (many passes of a pixel
         in one launch)."""
-        data = SceneData(dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, 0.0),
-                         dr.opaque(mi.Float, self.tmin), lights_of(scene), self._planes, self._rule_table(scene),
-                         None)
-        width = max(dr.width(ray.o), dr.width(ray.d), dr.width(active) if isinstance(active, mi.Bool) else 1)
-        o = mi.Point3f(ray.o) + dr.zeros(mi.Point3f, width)
-        d = mi.Vector3f(ray.d) + dr.zeros(mi.Vector3f, width)
+        data = self.scene_data(scene)
+        o, d, go = camera_rays(ray, active)
         if rng is None:
-            rng = stochastic(sample_pass, sampler, width, 1)
-        return trace_paths(scene, o, d, dr.full(mi.Bool, True, width) & active, data, pbr_lights_of(scene), rng,
-                           self.features(scene, data, record is not None), dr.opaque(mi.UInt32, self.rr_depth),
-                           record)
+            rng = stochastic(sample_pass, sampler, dr.width(go), 1)
+        return trace_paths(scene, o, d, go, data, pbr_lights_of(scene), rng,
+                           self.features(scene, data, record is not None), dr.opaque(mi.UInt32, self.rr_depth), record)
 
     def sample(self, scene: mi.Scene, sampler: mi.Sampler | None, ray: mi.Ray3f, medium: mi.Medium | None = None,
                active: mi.Bool | bool = True, sample_pass: SamplePass | None = None,
                ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
         """Radiance of one path per lane, the ``active`` mask and the AOVs of :meth:`aov_names`."""
-        color, n, t, n_refl, n_refr, n_shadow = self.trace(scene, ray, active, sampler, sample_pass)
-        channels = {"normal": [n.x, n.y, n.z], "depth": [t], "counts": [n_refl, n_refr, n_shadow]}
-        width = dr.width(color)
-        return color, dr.full(mi.Bool, True, width) & active, [a for g in self.aovs for a in channels[g]]
-
-    def traverse(self, callback: mi.TraversalCallback) -> None:
-        flags = int(mi.ParamFlags.NonDifferentiable)
-        for name in ("max_depth", "rr_depth", "fresnel", "reflection", "refraction", "bump", "tmin"):
-            callback.put(name, getattr(self, name), flags)
-        callback.put("aovs", ",".join(self.aovs), flags)
+        r = self.trace(scene, ray, active, sampler, sample_pass)
+        channels = {"normal": [r.n.x, r.n.y, r.n.z], "depth": [r.t],
+                    "counts": [r.n_reflection, r.n_refraction, r.n_shadow]}
+        return r.color, dr.full(mi.Bool, True, dr.width(r.color)) & active, self.aov_values(channels)
 
     def to_string(self) -> str:
         return (f"A5PathIntegrator[max_depth={self.max_depth}, rr_depth={self.rr_depth}, fresnel='{self.fresnel}', "
@@ -241,7 +173,7 @@ def trace_paths(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
             bsdf, si, alive, n, f, None, mi.UInt32(1))
         n_mirror = mirror_normal(data.planes, on_plane, plane_idx, n)
         b = lobes(f.fresnel, kd, specular, ior, d, n, n_mirror, n_medium, alive, f.refraction, f.reflection)
-        nee, counter, n_shadow = direct(scene, data.planes, lights, f.environment, data.tmin, si, p, b, alive,
+        nee, counter, n_shadow = direct(scene, data, lights, f.environment, si, p, b, alive,
                                         rng, depth * 256, counter, n_shadow)
         result += dr.select(alive, beta * nee, 0.0)
         if dr.hint(f.record, mode="scalar"):
@@ -273,7 +205,7 @@ def trace_paths(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
         alive &= ~roulette | survive
         alive &= dr.max(beta) > 0.0
 
-    return result, aov_n, aov_t, n_refl, n_refr, n_shadow
+    return PathResult(result, aov_n, aov_t, n_refl, n_refr, n_shadow)
 
 
 def register() -> None:

@@ -9,7 +9,7 @@ values are ``dr.opaque`` (a literal would be baked into the kernel and force a r
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 import mitsuba as mi
 
@@ -105,6 +105,14 @@ class FeatureSource(Protocol):
     dispersion: bool
     max_depth: int
     glossy_samples: int
+    indirect: int
+    subsurface: str
+    planes: list[Any]
+
+    @property
+    def stack_depth(self) -> int:
+        """The bounce budget the pending-ray stack holds (``max_depth``; one more for a tree whose last level
+        is traced past the budget, as ``a5_irradiancecache``'s camera tree)."""
 
 
 def stack_size(max_depth: int, glossy_samples: int = 1) -> int:
@@ -119,19 +127,21 @@ def stack_size(max_depth: int, glossy_samples: int = 1) -> int:
 def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, record: bool = False,
                    ray_log: bool = False) -> Features:
     """The :class:`Features` of a kernel call: the integrator's flags, what ``scene`` holds (area lights, an
-    environment) and what ``data`` carries (a triangle-rule table, a medium); ``indirect`` (E.15) is read where
-    the integrator has it; ``record`` and ``ray_log``: the call hands a recorder / a ray log to the kernel."""
-    indirect = int(getattr(source, "indirect", 0))
-    size = stack_size(source.max_depth, source.glossy_samples)
+    environment) and what ``data`` carries (a triangle-rule table, a medium); the stack holds
+    ``source.stack_depth`` bounces (:func:`stack_size`; with E.15's ``indirect`` gathered rays
+    :func:`.pbr_gather.stack_size`); ``record`` and ``ray_log``: the call hands a recorder / a ray log to the
+    kernel."""
+    indirect = int(source.indirect)
+    size = stack_size(source.stack_depth, source.glossy_samples)
     if indirect > 0:
-        size = pbr_gather.stack_size(source.max_depth, source.glossy_samples, indirect)
+        size = pbr_gather.stack_size(source.stack_depth, source.glossy_samples, indirect)
     return Features(
         shadows=source.shadows, phong=source.phong, fresnel=source.fresnel, reflection=source.reflection,
         refraction=source.refraction, area_lights=has_area_lights(scene), glossy=source.glossy,
         bump=source.bump, media=data.medium is not None,
         media_light=data.medium is not None and data.medium.bounces > 0 and source.shadows,
-        dispersion=source.dispersion, subsurface=getattr(source, "subsurface", "none"),
-        milled=uses_milled(scene, [p[3] for p in getattr(source, "planes", ())]),
+        dispersion=source.dispersion, subsurface=source.subsurface,
+        milled=uses_milled(scene, [p[3] for p in source.planes]),
         environment=scene.environment() is not None, triangle_rule=data.rules is not None, record=record,
         stack_size=size, indirect=indirect,
         stale_uv=data.planes.bsdf_uv is not None and data.rules is not None, ray_log=ray_log,

@@ -29,6 +29,22 @@ if TYPE_CHECKING:
     from a5mi.plugins.kernel.record import TreeRecorder
 
 
+class ShadingPoint(NamedTuple):
+    """A hit as the light loop sees it (SPEC B.3): the interaction ``si`` and its point ``p``, the lanes ``hit``,
+    the shading normal ``n``, the material's ``kd``, ``specular`` and ``shininess``, the mirror direction
+    ``r_view`` (for the Phong highlight) and the hit's BSDF ``bsdf`` (None: ``si.bsdf()``; E.20's milled term)."""
+
+    si: mi.SurfaceInteraction3f
+    p: mi.Point3f
+    hit: mi.Bool
+    n: mi.Vector3f
+    kd: mi.Color3f
+    specular: mi.Color3f
+    shininess: mi.Float
+    r_view: mi.Vector3f
+    bsdf: mi.BSDFPtr | None = None
+
+
 class LightSample(NamedTuple):
     """One sample of one light at a hit (:func:`sample`): ``term`` (``clamp(L·N, 0) lightColor ⊙ kd``, plus the
     Phong highlight with ``phong``), ``seen`` (SPEC ``S``), ``d_light`` (SPEC ``L``), ``light_color``, ``dist``
@@ -46,23 +62,21 @@ class LightSample(NamedTuple):
 
 
 def sample(scene: mi.Scene, data: SceneData, f: Features, emitter: mi.EmitterPtr, is_area: mi.Bool,
-           si: mi.SurfaceInteraction3f, p: mi.Point3f, hit: mi.Bool, n: mi.Vector3f, kd: mi.Color3f,
-           specular: mi.Color3f, shininess: mi.Float, r_view: mi.Vector3f, u: mi.Point2f,
-           bsdf: mi.BSDFPtr | None = None) -> LightSample:
-    """The light ``emitter`` (``is_area``: an E.2 light) seen from the hit ``si`` (point ``p``, lanes ``hit``,
-    shading normal ``n``, material ``kd``, ``specular``, ``shininess``, mirror direction ``r_view``) through the
-    unit-square sample ``u`` (module docstring); :func:`direct` loops over lights and samples. With ``milled``
-    (E.20) the term adds ``π ρs W(wi, L) cosθ_L lightColor`` of the hit's BSDF ``bsdf`` (default ``si.bsdf()``)."""
+           sp: ShadingPoint, u: mi.Point2f) -> LightSample:
+    """The light ``emitter`` (``is_area``: an E.2 light) seen from the hit ``sp`` through the unit-square sample
+    ``u`` (module docstring); :func:`direct` loops over lights and samples. With ``milled`` (E.20) the term adds
+    ``π ρs W(wi, L) cosθ_L lightColor`` of the hit's BSDF (``sp.bsdf``, default ``si.bsdf()``)."""
+    si, p, hit, n = sp.si, sp.p, sp.hit, sp.n
     ds, light_color = emitter.sample_direction(si, u, hit)
     d_light = ds.d                                               # SPEC L
-    term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * kd
+    term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * sp.kd
     if dr.hint(f.milled, mode="scalar"):
-        term += milled.light_term(si.bsdf() if bsdf is None else bsdf, si, d_light, hit) * light_color
+        term += milled.light_term(si.bsdf() if sp.bsdf is None else sp.bsdf, si, d_light, hit) * light_color
     highlight = None
     if dr.hint(f.phong, mode="scalar"):
-        l_dot_r = dr.maximum(dr.dot(d_light, dr.normalize(r_view)), 0.0)
-        highlight = dr.select(shininess == 0.0, 1.0, dr.power(l_dot_r, shininess))
-        term += highlight * light_color * specular
+        l_dot_r = dr.maximum(dr.dot(d_light, dr.normalize(sp.r_view)), 0.0)
+        highlight = dr.select(sp.shininess == 0.0, 1.0, dr.power(l_dot_r, sp.shininess))
+        term += highlight * light_color * sp.specular
     seen = mi.Bool(hit)                                          # SPEC S
     far = None
     tested = None
@@ -88,16 +102,14 @@ def sample_point(rng: Stochastic, node: mi.UInt32, k: mi.UInt32, j: mi.UInt32, n
 
 
 @syntax
-def direct(scene: mi.Scene, data: SceneData, f: Features, si: mi.SurfaceInteraction3f, p: mi.Point3f,
-           hit: mi.Bool, n: mi.Vector3f, kd: mi.Color3f, specular: mi.Color3f, shininess: mi.Float,
-           r_view: mi.Vector3f, local: mi.Color3f, rng: Stochastic, node: mi.UInt32, counter: mi.UInt32,
-           n_shadow: mi.Float, rec: TreeRecorder | None = None,
-           at: mi.UInt32 | None = None, bsdf: mi.BSDFPtr | None = None,
-           log: RayLog | None = None) -> tuple[mi.Color3f, mi.UInt32, mi.Float]:
-    """The light loop of SPEC B.3 at a hit (module docstring): ``local + Σ_lights (1/S) Σ_samples S·term``, with
-    ``counter`` advanced by two draws per light sample and ``n_shadow`` by the shadow rays traced; returns
-    ``(local, counter, n_shadow)``. Arguments as :func:`sample`; ``node``: the ray-tree node (E.5 dimensions);
-    ``rec`` / ``at``: record mode's recorder and node number; ``log``: ray-log mode's :class:`~.raylog.RayLog`."""
+def direct(scene: mi.Scene, data: SceneData, f: Features, sp: ShadingPoint, local: mi.Color3f, rng: Stochastic,
+           node: mi.UInt32, counter: mi.UInt32, n_shadow: mi.Float, rec: TreeRecorder | None = None,
+           at: mi.UInt32 | None = None, log: RayLog | None = None) -> tuple[mi.Color3f, mi.UInt32, mi.Float]:
+    """The light loop of SPEC B.3 at the hit ``sp`` (module docstring): ``local + Σ_lights (1/S) Σ_samples
+    S·term``, with ``counter`` advanced by two draws per light sample and ``n_shadow`` by the shadow rays traced;
+    returns ``(local, counter, n_shadow)``. ``node``: the ray-tree node (E.5 dimensions); ``rec`` / ``at``: record
+    mode's recorder and node number; ``log``: ray-log mode's :class:`~.raylog.RayLog`."""
+    p, hit = sp.p, sp.hit
     k = dr.zeros(mi.UInt32, dr.width(p))
     while hit & (k < data.lights.count):
         emitter = dr.gather(mi.EmitterPtr, data.lights.emitters, k, hit)
@@ -111,7 +123,7 @@ def direct(scene: mi.Scene, data: SceneData, f: Features, si: mi.SurfaceInteract
             if dr.hint(f.area_lights, mode="scalar"):
                 u = sample_point(rng, node, k, j, n_samples, counter)
             counter += 2
-            ls = sample(scene, data, f, emitter, is_area, si, p, hit, n, kd, specular, shininess, r_view, u, bsdf)
+            ls = sample(scene, data, f, emitter, is_area, sp, u)
             if dr.hint(f.ray_log and f.shadows, mode="scalar"):   # ray-log mode: the shadow ray as cast
                 log.shadow(ls.tested, p, ls.d_light, data.tmin, dr.select(is_area, ls.dist * (1.0 - 1e-4), ls.dist),
                            ls.far, n_shadow)
@@ -124,7 +136,7 @@ def direct(scene: mi.Scene, data: SceneData, f: Features, si: mi.SurfaceInteract
                 term = term * tr
             acc += dr.select(ls.seen, term, 0.0)
             if dr.hint(f.record, mode="scalar"):
-                record(rec, scene, data, f, at, k, p, hit, n, ls, is_area, n_samples)
+                record(rec, scene, data, f, at, k, sp, ls, is_area, n_samples)
             j += 1
         local += acc * (1.0 / mi.Float(dr.maximum(n_samples, 1)))
         k += 1
@@ -132,10 +144,10 @@ def direct(scene: mi.Scene, data: SceneData, f: Features, si: mi.SurfaceInteract
 
 
 def record(rec: TreeRecorder, scene: mi.Scene, data: SceneData, f: Features, at: mi.UInt32, k: mi.UInt32,
-           p: mi.Point3f, hit: mi.Bool, n: mi.Vector3f, ls: LightSample, is_area: mi.Bool,
-           n_samples: mi.UInt32) -> None:
-    """Record mode: light ``k``'s values at node ``at`` (an area light keeps its last sample's ray and verdict);
-    with shadows also the occluder's identity (a nearest-hit query of its own)."""
+           sp: ShadingPoint, ls: LightSample, is_area: mi.Bool, n_samples: mi.UInt32) -> None:
+    """Record mode: light ``k``'s values at node ``at`` of the hit ``sp`` (an area light keeps its last sample's
+    ray and verdict); with shadows also the occluder's identity (a nearest-hit query of its own)."""
+    p, hit, n = sp.p, sp.hit, sp.n
     if dr.hint(f.shadows, mode="scalar"):
         dist = dr.select(is_area, ls.dist * (1.0 - 1e-4), ls.dist)
         rec.occluder(scene, data.planes, at, k, p, ls.d_light, data.tmin, dist, ls.far, hit)

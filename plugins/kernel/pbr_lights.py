@@ -45,7 +45,7 @@ from a5mi.plugins.sampling import Stochastic
 from a5mi.plugins.syntax import syntax
 
 if TYPE_CHECKING:
-    from a5mi.plugins.emulation.planes import PlaneSet
+    from a5mi.plugins.kernel.features import SceneData
 
 #: kinds of :class:`PbrLights`: a delta light, an emitter on a shape, an ``a5_area`` without a shape (E.2)
 DELTA, SURFACE, POINTS = 0, 1, 2
@@ -142,11 +142,12 @@ def light_point(rng: Stochastic, dim: mi.UInt32, counter: mi.UInt32) -> mi.Point
 
 
 @syntax
-def direct(scene: mi.Scene, planes: PlaneSet, lights: PbrLights, env: bool, tmin: mi.Float,
-           si: mi.SurfaceInteraction3f, p: mi.Point3f, b: Lobes, active: mi.Bool, rng: Stochastic,
-           dim: mi.UInt32, counter: mi.UInt32, n_shadow: mi.Float) -> tuple[mi.Color3f, mi.UInt32, mi.Float]:
+def direct(scene: mi.Scene, data: SceneData, lights: PbrLights, env: bool, si: mi.SurfaceInteraction3f,
+           p: mi.Point3f, b: Lobes, active: mi.Bool, rng: Stochastic, dim: mi.UInt32, counter: mi.UInt32,
+           n_shadow: mi.Float) -> tuple[mi.Color3f, mi.UInt32, mi.Float]:
     """Next-event estimation at the hit ``si`` (point ``p``, BSDF ``b``, lanes ``active``): one sample of every
-    light and, with ``env``, one of the environment, each MIS-weighted (module docstring). Light ``k`` uses
+    light and, with ``env``, one of the environment, each MIS-weighted (module docstring); shadow rays from
+    ``data.tmin`` past the scene's shapes and ``data.planes``. Light ``k`` uses
     E.5 dimension ``dim + k``, the environment ``dim + ENV_SLOT``. Returns ``(Σ f |cos θ| weight · w, counter,
     n_shadow)`` (``counter`` advanced by two draws per sample, ``n_shadow`` by the shadow rays traced)."""
     go = active & (b.p_d > 0.0)
@@ -160,7 +161,7 @@ def direct(scene: mi.Scene, planes: PlaneSet, lights: PbrLights, env: bool, tmin
         w = dr.select(ls.delta, 1.0, power_heuristic(ls.pdf, pdf_f))
         contrib = f * ls.weight * w
         test = go & (dr.max(contrib) > 0.0)
-        seen = visible(scene, planes, p, ls.d, tmin, ls.shadow_dist, ls.far, test)
+        seen = visible(scene, data.planes, p, ls.d, data.tmin, ls.shadow_dist, ls.far, test)
         n_shadow += dr.select(test, 1.0, 0.0)
         result += dr.select(seen, contrib, 0.0)
         k += 1
@@ -171,7 +172,7 @@ def direct(scene: mi.Scene, planes: PlaneSet, lights: PbrLights, env: bool, tmin
         f, pdf_f = eval_diffuse(b, d)
         contrib = f * background(scene, d, go) * (power_heuristic(mi.Float(ENV_PDF), pdf_f) / ENV_PDF)
         test = go & (dr.max(contrib) > 0.0)
-        seen = visible(scene, planes, p, d, tmin, mi.Float(dr.inf), mi.Bool(True), test)
+        seen = visible(scene, data.planes, p, d, data.tmin, mi.Float(dr.inf), mi.Bool(True), test)
         n_shadow += dr.select(test, 1.0, 0.0)
         result += dr.select(seen, contrib, 0.0)
     return result, counter, n_shadow

@@ -9,9 +9,13 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
+from a5mi.plugins.params import read_choice, read_int, read_number
+
 #: Sampling dimensions of the medium: ``MEDIUM_DIM + node·256 + k`` for light k, ``+ 255`` for the jitter ξ.
 MEDIUM_DIM = 0x80000000
 KINDS = ("fog", "volume")
+#: the plugin that reads these parameters (the first word of their errors)
+PLUGIN = "a5_whitted"
 
 
 class MediumParams:
@@ -45,27 +49,17 @@ class MediumParams:
 def params_from_props(props: mi.Properties) -> MediumParams | None:
     """``medium`` (``none`` | ``fog`` | ``volume``), ``medium_density`` (>= 0), ``medium_albedo`` (rgb),
     ``medium_steps`` (>= 1) and, for a volume, ``medium_grid`` (a ``gridvolume``); None for ``none``."""
-    kind = props.get("medium", "none")
-    bounces = props.get("medium_bounces", 0)
-    if isinstance(bounces, bool) or not isinstance(bounces, int) or bounces < 0:
-        raise ValueError(f"a5_whitted: 'medium_bounces' must be an integer >= 0, got {bounces!r}")
+    kind = read_choice(PLUGIN, props, "medium", "none", ("none", *KINDS))
+    bounces = read_int(PLUGIN, props, "medium_bounces", 0, 0)
     if kind == "none":
         return None
-    if kind not in KINDS:
-        raise ValueError(f"a5_whitted: 'medium' must be none, fog or volume, got {kind!r}")
-    density = props.get("medium_density", 0.0)
-    if isinstance(density, bool) or not isinstance(density, (int, float)) or not 0.0 <= density < float("inf"):
-        raise ValueError(f"a5_whitted: 'medium_density' must be a finite number >= 0, got {density!r}")
-    steps = props.get("medium_steps", 16)
-    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
-        raise ValueError(f"a5_whitted: 'medium_steps' must be an integer >= 1, got {steps!r}")
+    density = read_number(PLUGIN, props, "medium_density", 0.0)
+    steps = read_int(PLUGIN, props, "medium_steps", 16, 1)
     albedo = props.get("medium_albedo", mi.ScalarColor3d(1.0))
     grid = None
     if kind == "volume":
         grid = props.get("medium_grid", None)
         if not isinstance(grid, mi.Volume):
-            raise ValueError("a5_whitted: medium 'volume' needs a 'medium_grid' volume (gridvolume)")
-    g = props.get("medium_g", 0.0)
-    if isinstance(g, bool) or not isinstance(g, (int, float)) or not -1.0 < g < 1.0:
-        raise ValueError(f"a5_whitted: 'medium_g' must be a number in (-1, 1), got {g!r}")
-    return MediumParams(kind, float(density), [float(albedo[i]) for i in range(3)], steps, grid, bounces, float(g))
+            raise ValueError(f"{PLUGIN}: medium 'volume' needs a 'medium_grid' volume (gridvolume)")
+    g = read_number(PLUGIN, props, "medium_g", 0.0, -1.0, 1.0, open_low=True)
+    return MediumParams(kind, density, [float(albedo[i]) for i in range(3)], steps, grid, bounces, g)

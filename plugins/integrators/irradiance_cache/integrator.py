@@ -33,49 +33,21 @@ import mitsuba as mi
 import numpy as np
 
 from a5mi.platform.arrays import aligned_float32
-from a5mi.plugins.emulation import triangle_rule
-from a5mi.plugins.emulation.planes import plane_set, planes_from_props
+from a5mi.plugins.integrators.base import E13_FIXED, A5Integrator, camera_rays
 from a5mi.plugins.integrators.irradiance_cache import formulas as icm
 from a5mi.plugins.integrators.irradiance_cache.grid import RecordSet
 from a5mi.plugins.integrators.irradiance_cache.kernel import camera_tree, gather, node_buffers
-from a5mi.plugins.kernel.features import Features, SceneData, stack_size
+from a5mi.plugins.kernel.features import Features, SceneData
 from a5mi.plugins.kernel.pbr_lights import lights_of as pbr_lights_of
-from a5mi.plugins.kernel.scene import has_area_lights, lights_of
+from a5mi.plugins.params import read_bool, read_int, read_number
 from a5mi.plugins.sampling import SamplePass, Stochastic, pixel_keys, stochastic
-from a5mi.spec import FRESNEL_MODES, TMIN
 
-AOV_CHANNELS: dict[str, tuple[str, ...]] = {
-    "normal": ("nx", "ny", "nz"), "depth": ("t",), "counts": ("n_reflection", "n_refraction", "n_shadow")}
-#: parameters the converter writes for every a5 integrator that this one does not use (E.13: no ambient, no
-#: Phong, shadows always traced, no glossy or dispersive lobes)
-IGNORED = ("shadows", "phong", "ambient", "glossy", "glossy_samples", "dispersion")
 #: hemisphere rays traced per kernel launch at most
 GATHER_RAYS = 1 << 20
 #: placement rounds before every remaining node gets its own record
 MAX_ROUNDS = 24
 #: factor of the placement grid from one round to the next
 SHRINK = 0.25
-
-
-def _number(props: mi.Properties, name: str, default: float, low: float, high: float = math.inf) -> float:
-    value = props.get(name, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not low < value <= high:
-        raise ValueError(f"a5_irradiancecache: '{name}' must be a number in ({low}, {high}], got {value!r}")
-    return float(value)
-
-
-def _int(props: mi.Properties, name: str, default: int, low: int) -> int:
-    value = props.get(name, default)
-    if isinstance(value, bool) or not isinstance(value, int) or value < low:
-        raise ValueError(f"a5_irradiancecache: '{name}' must be an integer >= {low}, got {value!r}")
-    return value
-
-
-def _bool(props: mi.Properties, name: str, default: bool) -> bool:
-    value = props.get(name, default)
-    if not isinstance(value, bool):
-        raise ValueError(f"a5_irradiancecache: '{name}' must be a boolean, got {value!r}")
-    return value
 
 
 def _floats(a: np.ndarray) -> mi.Float:
@@ -104,7 +76,7 @@ def pixel_angle(scene: mi.Scene) -> float:
     return 2.0 * math.tan(math.radians(x_fov) * 0.5) / w
 
 
-class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
+class A5IrradianceCacheIntegrator(A5Integrator):
     """Irradiance caching with rotation and translation gradients (module docstring, docs/EXTENSIONS.md E.23).
 
     ================ ======= ======= ==========================================================
@@ -134,49 +106,25 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
     used (E.13); a medium is refused. Dict form: ``{'type': 'a5_irradiancecache', 'error': 0.2}``.
     """
 
-    #: ``a5mi.render.passes.sample_passes`` hands this integrator its :class:`~.sampling.SamplePass`
-    takes_sample_pass = True
+    name = "a5_irradiancecache"
+    aov_groups = ("normal", "depth", "counts")
+    options = ("rr_depth", "seed")
+    fixed = {**E13_FIXED, "shadows": True}   # E.13: shadows always, no ambient or Phong term
+    exposed = ("error", "samples", "min_pixels", "max_pixels", "gradients", "max_depth", "rr_depth", "fresnel",
+               "reflection", "refraction", "bump", "tmin", "seed", "pixel_angle", "aovs")
 
     def __init__(self, props: mi.Properties) -> None:
-        super().__init__(props)
-        self.error = _number(props, "error", 0.3, 0.0, 1.0)
-        self.samples = _int(props, "samples", 256, 6)
+        super().__init__(props)   # the shared parameters (plugins/integrators/base.py)
+        name = self.name
+        self.error = read_number(name, props, "error", 0.3, 0.0, 1.0, open_low=True, closed_high=True)
+        self.samples = read_int(name, props, "samples", 256, 6)
         self.strata = icm.strata(self.samples)
-        self.min_pixels = _number(props, "min_pixels", 2.5, 0.0)
-        self.max_pixels = _number(props, "max_pixels", 15.0, 0.0)
+        self.min_pixels = read_number(name, props, "min_pixels", 2.5, open_low=True)
+        self.max_pixels = read_number(name, props, "max_pixels", 15.0, open_low=True)
         if self.max_pixels < self.min_pixels:
-            raise ValueError("a5_irradiancecache: 'max_pixels' must be >= 'min_pixels'")
-        self.gradients = _bool(props, "gradients", True)
-        self.max_depth = _int(props, "max_depth", 4, 0)
-        self.rr_depth = _int(props, "rr_depth", 5, 0)
-        self.fresnel = props.get("fresnel", "a5")
-        if self.fresnel not in FRESNEL_MODES:
-            raise ValueError(f"a5_irradiancecache: 'fresnel' must be one of {', '.join(FRESNEL_MODES)}, "
-                             f"got {self.fresnel!r}")
-        self.reflection = _bool(props, "reflection", True)
-        self.refraction = _bool(props, "refraction", True)
-        self.bump = _bool(props, "bump", False)
-        self.tmin = _number(props, "tmin", TMIN, -1e-30, 1e30)
-        self.seed = _int(props, "seed", 0, 0)
-        angle = props.get("pixel_angle", 0.0)
-        if isinstance(angle, bool) or not isinstance(angle, (int, float)) or not 0.0 <= angle < math.pi:
-            raise ValueError(f"a5_irradiancecache: 'pixel_angle' must be in [0, π), got {angle!r}")
-        self.pixel_angle = float(angle)
-        aovs = props.get("aovs", "")
-        groups = [g.strip() for g in aovs.split(",") if g.strip()] if isinstance(aovs, str) else None
-        if groups is None or any(g not in AOV_CHANNELS for g in groups):
-            raise ValueError(f"a5_irradiancecache: 'aovs' must list groups of {', '.join(AOV_CHANNELS)}, "
-                             f"got {aovs!r}")
-        self.aovs = tuple(g for g in AOV_CHANNELS if g in groups)
-        medium = props.get("medium", "none")
-        if medium != "none":
-            raise ValueError(f"a5_irradiancecache: participating media are not part of E.13 (medium {medium!r})")
-        for name in IGNORED:
-            if name in props:
-                props.get(name)
-        self.planes = planes_from_props(props)
-        self._planes = plane_set(self.planes)
-        self._rules: dict[int, triangle_rule.RuleTable] = {}
+            raise ValueError(f"{name}: 'max_pixels' must be >= 'min_pixels'")
+        self.gradients = read_bool(name, props, "gradients", True)
+        self.pixel_angle = read_number(name, props, "pixel_angle", 0.0, 0.0, math.pi)
         self.cache = RecordSet(self.error)
         #: what the last render did: ``records``, ``rounds``, ``hemisphere_rays``, ``gather_rays`` (every ray
         #: the hemisphere paths cast: traced and shadow rays), ``nodes`` (diffuse nodes)
@@ -184,9 +132,6 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
         self._scene_id = 0
 
     # ------------------------------------------------------------------ Mitsuba interface
-
-    def aov_names(self) -> list[str]:
-        return [name for g in self.aovs for name in AOV_CHANNELS[g]]
 
     def records(self) -> RecordSet:
         """The cache of the last render (module docstring)."""
@@ -196,16 +141,14 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
         """What ``a5mi.render.driver`` keeps of a render besides the images: the cache and its statistics."""
         return {"irradiance_cache": self.cache, "irradiance_cache_stats": dict(self.stats)}
 
+    @property
+    def stack_depth(self) -> int:
+        """The camera tree traces one level past ``max_depth`` (plugins/integrators/irradiance_cache/kernel.py)."""
+        return self.max_depth + 1
+
     def _setup(self, scene: mi.Scene) -> tuple[SceneData, Any, Features]:
-        table = triangle_rule.rule_table(scene, self._rules.get(id(scene)))
-        self._rules = {id(scene): table} if table is not None else {}
-        data = SceneData(dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, 0.0),
-                         dr.opaque(mi.Float, self.tmin), lights_of(scene), self._planes, table, None)
-        features = Features(shadows=True, fresnel=self.fresnel, reflection=self.reflection,
-                            refraction=self.refraction, area_lights=has_area_lights(scene), bump=self.bump,
-                            environment=scene.environment() is not None, triangle_rule=table is not None,
-                            stack_size=stack_size(self.max_depth + 1))
-        return data, pbr_lights_of(scene), features
+        data = self.scene_data(scene)
+        return data, pbr_lights_of(scene), self.features(scene, data)
 
     def _reset(self, scene: mi.Scene, sample_pass: SamplePass | None) -> None:
         starts = sample_pass is None or (int(sample_pass.first_pixel) == 0 and int(sample_pass.index) == 0)
@@ -215,16 +158,14 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
             self._scene_id = id(scene)
 
     def trace(self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True, sampler: mi.Sampler | None = None,
-              sample_pass: SamplePass | None = None) -> tuple[mi.Color3f, np.ndarray, list[mi.Float]]:
-        """``(colour without the cache, β kd/π ⊙ E summed per lane (numpy, W x 3), AOVs nx, ny, nz, t,
-        n_reflection, n_refraction, n_shadow)`` of camera rays ``ray`` (module docstring); the colour of
-        :meth:`sample` is the sum of the first two."""
+              sample_pass: SamplePass | None = None) -> tuple[mi.Color3f, np.ndarray, dict[str, list[mi.Float]]]:
+        """``(colour without the cache, β kd/π ⊙ E summed per lane (numpy, W x 3), the AOV channels by group:
+        normal [nx, ny, nz], depth [t], counts [n_reflection, n_refraction, n_shadow])`` of camera rays ``ray``
+        (module docstring); the colour of :meth:`sample` is the sum of the first two."""
         self._reset(scene, sample_pass)
         data, lights, features = self._setup(scene)
-        width = max(dr.width(ray.o), dr.width(ray.d), dr.width(active) if isinstance(active, mi.Bool) else 1)
-        o = mi.Point3f(ray.o) + dr.zeros(mi.Point3f, width)
-        d = mi.Vector3f(ray.d) + dr.zeros(mi.Vector3f, width)
-        go = dr.full(mi.Bool, True, width) & active
+        o, d, go = camera_rays(ray, active)
+        width = dr.width(go)
         rng = stochastic(sample_pass, sampler, width, 1)
         theta = self.pixel_angle or pixel_angle(scene)
         capacity = 4 * width
@@ -239,18 +180,15 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
                 break
             capacity = found
         indirect = self._indirect(scene, data, lights, features, nodes, found, width, sample_pass)
-        return color, indirect, [n.x, n.y, n.z, t, n_refl, n_refr, n_shadow]
+        return color, indirect, {"normal": [n.x, n.y, n.z], "depth": [t], "counts": [n_refl, n_refr, n_shadow]}
 
     def sample(self, scene: mi.Scene, sampler: mi.Sampler | None, ray: mi.Ray3f, medium: mi.Medium | None = None,
                active: mi.Bool | bool = True, sample_pass: SamplePass | None = None,
                ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
         """Colour of each camera ray (module docstring), the ``active`` mask and the AOVs of :meth:`aov_names`."""
-        color, indirect, (nx, ny, nz, t, n_refl, n_refr, n_shadow) = self.trace(scene, ray, active, sampler,
-                                                                                sample_pass)
+        color, indirect, channels = self.trace(scene, ray, active, sampler, sample_pass)
         color = color + mi.Color3f(*(_floats(indirect[:, c]) for c in range(3)))
-        channels = {"normal": [nx, ny, nz], "depth": [t], "counts": [n_refl, n_refr, n_shadow]}
-        go = dr.full(mi.Bool, True, dr.width(color)) & active
-        return color, go, [a for g in self.aovs for a in channels[g]]
+        return color, dr.full(mi.Bool, True, dr.width(color)) & active, self.aov_values(channels)
 
     # ------------------------------------------------------------------ the cache
 
@@ -339,13 +277,6 @@ class A5IrradianceCacheIntegrator(mi.SamplingIntegrator):
             self.stats["hemisphere_rays"] += k * per
             self.stats["gather_rays"] += int(np.asarray(cast, np.float64).sum())
             self.stats["records"] = len(self.cache)
-
-    def traverse(self, callback: mi.TraversalCallback) -> None:
-        flags = int(mi.ParamFlags.NonDifferentiable)
-        for name in ("error", "samples", "min_pixels", "max_pixels", "gradients", "max_depth", "rr_depth",
-                     "fresnel", "reflection", "refraction", "bump", "tmin", "seed", "pixel_angle"):
-            callback.put(name, getattr(self, name), flags)
-        callback.put("aovs", ",".join(self.aovs), flags)
 
     def to_string(self) -> str:
         m, nn = self.strata

@@ -113,7 +113,7 @@ def camera_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
         inside = hit & (bounces > 0)                            # within the budget (else: emission only)
         diffuse = inside & (dr.max(b.kd) > 0.0)
         b_nee = b._replace(p_d=dr.select(diffuse, 1.0, 0.0))    # MIS partner: the cache's cos θ/π rays
-        nee, counter, n_shadow = direct(scene, data.planes, lights, False, data.tmin, si, p, b_nee, diffuse,
+        nee, counter, n_shadow = direct(scene, data, lights, False, si, p, b_nee, diffuse,
                                         rng, node * 256, counter, n_shadow)
         color += dr.select(diffuse, weight * nee, 0.0)
 
@@ -192,7 +192,7 @@ def gather(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, first_pdf: mi
             bsdf, si, alive, n, f, None, mi.UInt32(1))
         n_mirror = mirror_normal(data.planes, on_plane, plane_idx, n)
         b = lobes(f.fresnel, kd, specular, ior, d, n, n_mirror, n_medium, alive, f.refraction, f.reflection)
-        nee, counter, n_shadow = direct(scene, data.planes, lights, f.environment, data.tmin, si, p, b, alive,
+        nee, counter, n_shadow = direct(scene, data, lights, f.environment, si, p, b, alive,
                                         rng, depth * 256, counter, n_shadow)
         result += dr.select(alive, beta * nee, 0.0)
         u_lobe = mi.sample_tea_float32(rng.pass_key, counter)

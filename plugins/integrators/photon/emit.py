@@ -31,7 +31,7 @@ per light of positive power) and its photons carry ``Φ / N_l``.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import drjit as dr
 import mitsuba as mi
@@ -108,6 +108,11 @@ def to_np3(v: object, n: int | None = None) -> np.ndarray:
     cols = [np.asarray(v[i], dtype=np.float64) for i in range(3)]   # type: ignore[index]
     m = max(len(c) for c in cols) if n is None else n
     return np.stack([np.broadcast_to(c, (m,)) for c in cols], axis=1)
+
+
+def to_dr3(cls: type, a: np.ndarray) -> Any:
+    """A numpy ``(n, 3)`` array as a Dr.Jit 3-vector or colour of class ``cls`` (float32 columns)."""
+    return cls(*(mi.Float(np.ascontiguousarray(a[:, i], dtype=np.float32)) for i in range(3)))
 
 
 Targets = list[tuple[np.ndarray, float]]

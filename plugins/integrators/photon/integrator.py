@@ -32,19 +32,17 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from a5mi.plugins.emulation import triangle_rule
-from a5mi.plugins.emulation.planes import plane_set, planes_from_props
-from a5mi.plugins.integrators.photon.emit import emit, light_powers, specular_targets, split_counts, to_np3
+from a5mi.plugins.integrators.base import E13_FIXED, A5Integrator, camera_rays
+from a5mi.plugins.integrators.photon.emit import emit, light_powers, specular_targets, split_counts, to_dr3, to_np3
 from a5mi.plugins.integrators.photon.maps import FILTERS, PhotonMap
 from a5mi.plugins.integrators.photon.trace import CAUSTIC, INDIRECT, PhotonSet, first_distance, trace_photons
 from a5mi.plugins.integrators.photon.walk import camera_step, facing
 from a5mi.plugins.kernel import pbr, pbr_lights
-from a5mi.plugins.kernel.features import SceneData, build_features
+from a5mi.plugins.kernel.features import SceneData
 from a5mi.plugins.kernel.intersect import intersect, mirror_normal
-from a5mi.plugins.kernel.scene import lights_of
 from a5mi.plugins.kernel.surfaces import surface_at
+from a5mi.plugins.params import read_choice, read_int
 from a5mi.plugins.sampling import SamplePass, stochastic
-from a5mi.spec import FRESNEL_MODES, TMIN
 
 
 class Maps(NamedTuple):
@@ -56,40 +54,11 @@ class Maps(NamedTuple):
     full: PhotonMap | None
 
 
-def _int(props: mi.Properties, name: str, default: int, low: int) -> int:
-    v = props.get(name, default)
-    if isinstance(v, bool) or not isinstance(v, int) or v < low:
-        raise ValueError(f"photon integrator: '{name}' must be an integer >= {low}, got {v!r}")
-    return v
-
-
-def _bool(props: mi.Properties, name: str, default: bool) -> bool:
-    v = props.get(name, default)
-    if not isinstance(v, bool):
-        raise ValueError(f"photon integrator: '{name}' must be a boolean, got {v!r}")
-    return v
-
-
-def _float(props: mi.Properties, name: str, default: float, low: float) -> float:
-    v = props.get(name, default)
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not low <= v < float("inf"):
-        raise ValueError(f"photon integrator: '{name}' must be a finite number >= {low}, got {v!r}")
-    return float(v)
-
-
-def _width(ray: mi.Ray3f, active: mi.Bool | bool) -> int:
-    return max(dr.width(ray.o), dr.width(ray.d), dr.width(active) if isinstance(active, mi.Bool) else 1)
-
-
 def _np3(v: Any) -> np.ndarray:
     return to_np3(v)
 
 
-def _dr3(cls: type, a: np.ndarray) -> Any:
-    return cls(*(mi.Float(np.ascontiguousarray(a[:, i], dtype=np.float32)) for i in range(3)))
-
-
-class A5PhotonIntegrator(mi.SamplingIntegrator):
+class A5PhotonIntegrator(A5Integrator):
     """Photon mapping (module docstring). Parameters: ``max_depth`` int (4, camera path hits = ``-bounces``),
     ``photon_depth`` int (10, photon hits), ``photons`` int (100000), ``caustic_photons`` int (100000), ``k``
     int (50), ``filter`` ``none``/``cone``/``epanechnikov`` (none), ``final_gather`` int (0: off; else rays per
@@ -101,54 +70,23 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
     path's n_reflection, n_refraction, n_shadow)."""
 
     name = "a5_photon"
-    takes_sample_pass = True   #: a5mi/render/passes.py hands ``sample()`` its SamplePass
+    aov_groups = ("counts",)
+    options = ("seed",)
+    fixed = E13_FIXED   # smooth, non-dispersive materials; no ambient or Phong term
+    exposed = ("max_depth", "photon_depth", "photons", "caustic_photons", "k", "final_gather", "seed", "filter",
+               "fresnel", "shadows", "reflection", "refraction", "tmin")
 
     def __init__(self, props: mi.Properties) -> None:
-        super().__init__(props)
-        self.max_depth = _int(props, "max_depth", 4, 0)
-        self.photon_depth = _int(props, "photon_depth", 10, 1)
-        self.photons = _int(props, "photons", 100000, 0)
-        self.caustic_photons = _int(props, "caustic_photons", 100000, 0)
-        self.k = _int(props, "k", 50, 1)
-        self.final_gather = _int(props, "final_gather", 0, 0)
-        self.seed = _int(props, "seed", 0, 0)
-        self.filter = props.get("filter", "none")
-        if self.filter not in FILTERS:
-            raise ValueError(f"photon integrator: 'filter' must be one of {', '.join(FILTERS)}, got {self.filter!r}")
-        self.fresnel = props.get("fresnel", "a5")
-        if self.fresnel not in FRESNEL_MODES:
-            raise ValueError(f"photon integrator: 'fresnel' must be one of {', '.join(FRESNEL_MODES)}")
-        self.tmin = _float(props, "tmin", TMIN, 0.0)
-        self.shadows = _bool(props, "shadows", False)
-        self.reflection = _bool(props, "reflection", True)
-        self.refraction = _bool(props, "refraction", True)
-        self.bump = _bool(props, "bump", False)
-        for name in ("phong", "glossy", "dispersion"):   # accepted: smooth, non-dispersive materials
-            _bool(props, name, False)
-        props.get("ambient", None)                        # the ambient term is off
-        props.get("glossy_samples", 1)
-        aovs = props.get("aovs", "")
-        if aovs not in ("", "counts"):
-            raise ValueError(f"photon integrator: 'aovs' must be '' or 'counts' (the rays traced), got {aovs!r}")
-        self.aovs = aovs
-        self.phong, self.glossy, self.dispersion, self.glossy_samples = False, False, False, 1
-        self.planes = planes_from_props(props)
-        self._planes = plane_set(self.planes)
-        self._init_extra(props)
+        super().__init__(props)   # the shared parameters (plugins/integrators/base.py)
+        self.photon_depth = read_int(self.name, props, "photon_depth", 10, 1)
+        self.photons = read_int(self.name, props, "photons", 100000, 0)
+        self.caustic_photons = read_int(self.name, props, "caustic_photons", 100000, 0)
+        self.k = read_int(self.name, props, "k", 50, 1)
+        self.final_gather = read_int(self.name, props, "final_gather", 0, 0)
+        self.filter = read_choice(self.name, props, "filter", "none", FILTERS)
         self._maps: dict[tuple[int, int, int], Maps] = {}
-        self._rules: dict[int, Any] = {}
-
-    def _init_extra(self, props: mi.Properties) -> None:
-        """Parameters of a subclass (``a5_ppm``)."""
 
     # ------------------------------------------------------------------ scene values
-
-    def scene_data(self, scene: mi.Scene) -> SceneData:
-        """The :class:`SceneData` of ``scene`` (ambient 0, no medium)."""
-        table = triangle_rule.rule_table(scene, self._rules.get(id(scene)))
-        self._rules = {id(scene): table} if table is not None else {}
-        return SceneData(dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, 0.0),
-                         dr.opaque(mi.Float, self.tmin), lights_of(scene), self._planes, table, None)
 
     def _pbr_lights(self, scene: mi.Scene) -> pbr_lights.PbrLights:
         """The E.13 lights of ``scene`` for next-event estimation."""
@@ -159,7 +97,7 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
         """``n`` photons emitted (in proportion to the lights' powers) and traced; the stored ones of ``keep``
         (caustic photons only: point lights aim at the specular shapes, plugins/integrators/photon/emit.py)."""
         data = self.scene_data(scene)
-        f = build_features(self, scene, data)
+        f = self.features(scene, data)
         targets = specular_targets(scene) if keep == (CAUSTIC,) else None
         counts = split_counts(n, light_powers(scene, first_distance(scene, data), seed=seed, targets=targets))
         rays = emit(scene, counts, seed, pass_index, targets)
@@ -201,8 +139,8 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
         r = mi.PCG32(count * m, dr.opaque(mi.UInt64, 0x5851F42D4C957F2D), dr.arange(mi.UInt64, count * m) * 2 + 1) \
             if rng is None else rng
         u = mi.Point2f(r.next_float32(), r.next_float32())
-        d = mi.Frame3f(_dr3(mi.Vector3f, ns)).to_world(mi.warp.square_to_cosine_hemisphere(u))
-        h = intersect(scene, data.planes, data.rules, _dr3(mi.Point3f, xs), d,
+        d = mi.Frame3f(to_dr3(mi.Vector3f, ns)).to_world(mi.warp.square_to_cosine_hemisphere(u))
+        h = intersect(scene, data.planes, data.rules, to_dr3(mi.Point3f, xs), d,
                       data.tmin + dr.zeros(mi.Float, count * m), dr.zeros(mi.UInt32, count * m))
         s = surface_at(h.bsdf, h.si, h.hit, h.n, f, None, mi.UInt32(1))
         n_y = facing(d, s.n)
@@ -221,7 +159,7 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
         n_shadow), as numpy ``(width, 3)`` arrays."""
         width = dr.width(d)
         data = self.scene_data(scene)
-        f = build_features(self, scene, data)
+        f = self.features(scene, data)
         rng = stochastic(sample_pass, sampler, width, 1)
         first = 0 if sample_pass is None else int(sample_pass.first_pixel)
         state = (seed * 0x9E3779B97F4A7C15 + pass_index * 0xD1B54A32D192ED03 + 7) % (1 << 64)
@@ -250,8 +188,8 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
             lambert = pbr.lobes(self.fresnel, s.kd, dr.zeros(mi.Color3f, width), mi.Float(0.0), d, s.n, s.n,
                                 n_medium, diffuse, False, False)
             lambert = lambert._replace(p_d=dr.select(lambert.p_d > 0.0, 1e-30, 0.0))   # MIS weight 1
-            nee, counter, n_shadow = pbr_lights.direct(scene, data.planes, self._pbr_lights(scene), f.environment,
-                                                       data.tmin, h.si, h.p, lambert, diffuse, rng,
+            nee, counter, n_shadow = pbr_lights.direct(scene, data, self._pbr_lights(scene), f.environment, h.si,
+                                                       h.p, lambert, diffuse, rng,
                                                        dr.opaque(mi.UInt32, depth * 256), counter, n_shadow)
             local += nee
             step = camera_step(self.fresnel, d, s.n, mirror_normal(data.planes, h.on_plane, h.plane, s.n), s.specular,
@@ -289,26 +227,14 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
                active: mi.Bool | bool = True, sample_pass: SamplePass | None = None,
                ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
         """The colour of one camera ray per lane (module docstring) and the ``active`` mask; no AOVs."""
-        width = _width(ray, active)
-        o = mi.Point3f(ray.o) + dr.zeros(mi.Point3f, width)
-        d = mi.Vector3f(ray.d) + dr.zeros(mi.Vector3f, width)
-        act = dr.full(mi.Bool, True, width) & active
+        o, d, act = camera_rays(ray, active)
         seed, k = self.pass_seed(sample_pass)
         color, counts = self.radiance(scene, o, d, act, self.maps(scene, seed, k), sample_pass, sampler, seed, k)
-        return _dr3(mi.Color3f, color), act, self.aov_values(counts)
+        return to_dr3(mi.Color3f, color), act, self.count_aovs(counts)
 
-    def aov_values(self, counts: np.ndarray) -> list[mi.Float]:
-        """The AOVs of :meth:`aov_names` from the per-lane ray counts."""
+    def count_aovs(self, counts: np.ndarray) -> list[mi.Float]:
+        """The AOVs of :meth:`aov_names` (none, or the ``counts`` group) from the per-lane ray counts."""
         return [mi.Float(counts[:, i].astype(np.float32)) for i in range(3)] if self.aovs else []
-
-    def aov_names(self) -> list[str]:
-        return ["n_reflection", "n_refraction", "n_shadow"] if self.aovs else []
-
-    def traverse(self, callback: mi.TraversalCallback) -> None:
-        flags = int(mi.ParamFlags.NonDifferentiable)
-        for name in ("max_depth", "photon_depth", "photons", "caustic_photons", "k", "final_gather", "seed",
-                     "filter", "fresnel", "shadows", "reflection", "refraction", "tmin"):
-            callback.put(name, getattr(self, name), flags)
 
     def to_string(self) -> str:
         return (f"{type(self).__name__}[max_depth={self.max_depth}, photons={self.photons}, "

@@ -24,8 +24,10 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from a5mi.plugins.integrators.photon.emit import scene_ball
-from a5mi.plugins.integrators.photon.integrator import A5PhotonIntegrator, Maps, _dr3, _float, _int, _width
+from a5mi.plugins.integrators.base import camera_rays
+from a5mi.plugins.integrators.photon.emit import scene_ball, to_dr3
+from a5mi.plugins.integrators.photon.integrator import A5PhotonIntegrator, Maps
+from a5mi.plugins.params import read_int, read_number
 from a5mi.plugins.sampling import SamplePass
 
 
@@ -43,14 +45,14 @@ class A5PPMIntegrator(A5PhotonIntegrator):
     (0), ``passes`` int (1, for calls without a SamplePass)."""
 
     name = "a5_ppm"
+    exposed = (*A5PhotonIntegrator.exposed, "radius", "alpha", "first_pass", "passes")
 
-    def _init_extra(self, props: mi.Properties) -> None:
-        self.radius = _float(props, "radius", 0.0, 0.0)
-        self.alpha = _float(props, "alpha", 2.0 / 3.0, 0.0)
-        if not 0.0 < self.alpha < 1.0:
-            raise ValueError(f"a5_ppm: 'alpha' must lie in (0, 1), got {self.alpha}")
-        self.first_pass = _int(props, "first_pass", 0, 0)
-        self.passes = _int(props, "passes", 1, 1)
+    def __init__(self, props: mi.Properties) -> None:
+        super().__init__(props)   # a5_photon's parameters
+        self.radius = read_number(self.name, props, "radius", 0.0)
+        self.alpha = read_number(self.name, props, "alpha", 2.0 / 3.0, 0.0, 1.0, open_low=True)
+        self.first_pass = read_int(self.name, props, "first_pass", 0, 0)
+        self.passes = read_int(self.name, props, "passes", 1, 1)
         self.final_gather = 0
 
     def initial_radius(self, scene: mi.Scene) -> float:
@@ -76,23 +78,15 @@ class A5PPMIntegrator(A5PhotonIntegrator):
         self._r1 = self.initial_radius(scene)
         if sample_pass is not None:
             return super().sample(scene, sampler, ray, medium, active, sample_pass)
-        width = _width(ray, active)
-        o = mi.Point3f(ray.o) + dr.zeros(mi.Point3f, width)
-        d = mi.Vector3f(ray.d) + dr.zeros(mi.Vector3f, width)
-        act = dr.full(mi.Bool, True, width) & active
+        o, d, act = camera_rays(ray, active)
+        width = dr.width(act)
         total, counted = np.zeros((width, 3)), np.zeros((width, 3))
         for k in range(self.first_pass, self.first_pass + self.passes):
             maps = self.build_maps(scene, self.seed, k)
             color, counts = self.radiance(scene, o, d, act, maps, None, sampler, self.seed, k)
             total += color
             counted += counts
-        return _dr3(mi.Color3f, total / self.passes), act, self.aov_values(counted / self.passes)
-
-    def traverse(self, callback: mi.TraversalCallback) -> None:
-        super().traverse(callback)
-        flags = int(mi.ParamFlags.NonDifferentiable)
-        for name in ("radius", "alpha", "first_pass", "passes"):
-            callback.put(name, getattr(self, name), flags)
+        return to_dr3(mi.Color3f, total / self.passes), act, self.count_aovs(counted / self.passes)
 
 
 def register() -> None:

@@ -12,35 +12,17 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.plugins.emulation import triangle_rule
-from a5mi.plugins.emulation.planes import plane_set, planes_from_props
+from a5mi.plugins.integrators.base import A5Integrator, camera_rays, ray_width
 from a5mi.plugins.integrators.whitted import subsurface
 from a5mi.plugins.integrators.whitted.raytree import TreeResult, trace_tree
-from a5mi.plugins.kernel.features import SceneData, build_features
 from a5mi.plugins.kernel.raylog import RayLog
 from a5mi.plugins.kernel.record import TreeRecorder
-from a5mi.plugins.kernel.scene import lights_of
 from a5mi.plugins.media import medium as media
+from a5mi.plugins.params import read_int
 from a5mi.plugins.sampling import SamplePass, stochastic
-from a5mi.spec import FRESNEL_MODES, TMIN
-
-#: AOV groups of the ``aovs`` parameter (a5mi.render.options.AOV_GROUPS) and the channels each adds, in order:
-#: first-hit shading normal and distance (SPEC B.6), the ray-tree class (``MISS``, ``OPAQUE``, ``GLASS`` of
-#: plugins/integrators/whitted/raytree.py), and rays traced per camera ray by kind.
-AOV_CHANNELS: dict[str, tuple[str, ...]] = {
-    "normal": ("nx", "ny", "nz"),
-    "depth": ("t",),
-    "class": ("class",),
-    "counts": ("n_reflection", "n_refraction", "n_shadow"),
-}
 
 
-def _width(ray: mi.Ray3f, active: mi.Bool | bool) -> int:
-    """Number of lanes of a ray batch: the widest of origin, direction and mask."""
-    return max(dr.width(ray.o), dr.width(ray.d), dr.width(active) if isinstance(active, mi.Bool) else 1)
-
-
-class A5WhittedIntegrator(mi.SamplingIntegrator):
+class A5WhittedIntegrator(A5Integrator):
     """Whitted ray tracing exactly as the sample solution ``a5soln`` does it (SPEC B.3).
 
     ================ ======= ======= ==========================================================
@@ -98,75 +80,19 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     'value': [0.1, 0.1, 0.1]}}``.
     """
 
+    name = "a5_whitted"
+    aov_groups = ("normal", "depth", "class", "counts")
+    has_media = True
+    exposed = ("max_depth", "shadows", "ambient", "phong", "fresnel", "reflection", "refraction", "tmin", "aovs",
+               "glossy_samples", "dispersion", "bump", "glossy", "indirect")
+
     def __init__(self, props: mi.Properties) -> None:
-        super().__init__(props)
-        max_depth = props.get("max_depth", 4)
-        if isinstance(max_depth, bool) or not isinstance(max_depth, int) or max_depth < 0:
-            raise ValueError(f"a5_whitted: 'max_depth' must be an integer >= 0, got {max_depth!r}")
-        fresnel = props.get("fresnel", "a5")
-        if fresnel not in FRESNEL_MODES:
-            raise ValueError(f"a5_whitted: 'fresnel' must be one of {', '.join(FRESNEL_MODES)}, got {fresnel!r}")
-        tmin = props.get("tmin", TMIN)
-        if isinstance(tmin, bool) or not isinstance(tmin, (int, float)) or not 0.0 <= tmin < float("inf"):
-            raise ValueError(f"a5_whitted: 'tmin' must be a finite number >= 0, got {tmin!r}")
-        ambient = props.get("ambient", mi.ScalarColor3d(0.0))
-        try:
-            if isinstance(ambient, str):
-                raise TypeError
-            ambient_rgb = [float(ambient)] * 3 if isinstance(ambient, (int, float)) else [
-                float(ambient[i]) for i in range(3)]
-        except (TypeError, IndexError, ValueError):
-            raise ValueError(f"a5_whitted: 'ambient' must be an rgb colour, got {ambient!r}") from None
-        flags = {}
-        for name, default in (("shadows", False), ("phong", False), ("reflection", True),
-                              ("refraction", True), ("dispersion", False), ("bump", False), ("glossy", True)):
-            value = props.get(name, default)
-            if not isinstance(value, bool):
-                raise ValueError(f"a5_whitted: '{name}' must be a boolean, got {value!r}")
-            flags[name] = value
-        self.max_depth = max_depth
-        self.fresnel = fresnel
-        self.tmin = float(tmin)
-        self.ambient = ambient_rgb
-        self.shadows = flags["shadows"]
-        self.phong = flags["phong"]
-        self.reflection = flags["reflection"]
-        self.refraction = flags["refraction"]
-        self.dispersion = flags["dispersion"]  # docs/EXTENSIONS.md E.10
-        self.bump = flags["bump"]  # docs/EXTENSIONS.md E.7
-        self.glossy = flags["glossy"]  # False: no glossy material (E.4), its lobe sampling stays out of the kernel
-        aovs = props.get("aovs", "")
-        groups = [g.strip() for g in aovs.split(",") if g.strip()] if isinstance(aovs, str) else None
-        if groups is None or any(g not in AOV_CHANNELS for g in groups):
-            raise ValueError(f"a5_whitted: 'aovs' must list groups of {', '.join(AOV_CHANNELS)}, got {aovs!r}")
-        self.aovs = tuple(g for g in AOV_CHANNELS if g in groups)
-        self.planes = planes_from_props(props)
-        self._planes = plane_set(self.planes)
-        glossy_samples = props.get("glossy_samples", 1)  # docs/EXTENSIONS.md E.4: cap on glossy children
-        if isinstance(glossy_samples, bool) or not isinstance(glossy_samples, int) or glossy_samples < 1:
-            raise ValueError(f"a5_whitted: 'glossy_samples' must be an integer >= 1, got {glossy_samples!r}")
-        self.glossy_samples = glossy_samples
-        indirect = props.get("indirect", 0)   # docs/EXTENSIONS.md E.15: gathered rays per diffuse hit
-        if isinstance(indirect, bool) or not isinstance(indirect, int) or indirect < 0:
-            raise ValueError(f"a5_whitted: 'indirect' must be an integer >= 0, got {indirect!r}")
-        self.indirect = indirect
+        super().__init__(props)   # the shared parameters (plugins/integrators/base.py)
+        self.indirect = read_int(self.name, props, "indirect", 0, 0)   # E.15: gathered rays per diffuse hit
         self._medium = media.params_from_props(props)   # docs/EXTENSIONS.md E.8, E.9 (None: no medium)
         self.subsurface = subsurface.method_from_props(props)   # docs/EXTENSIONS.md E.18
-        self._rules: dict[int, triangle_rule.RuleTable] = {}   # id(scene) -> its rule table (the last scene only)
 
     # ------------------------------------------------------------------ Mitsuba interface
-
-    def aov_names(self) -> list[str]:
-        return [name for g in self.aovs for name in AOV_CHANNELS[g]]
-
-    def _rule_table(self, scene: mi.Scene) -> triangle_rule.RuleTable | None:
-        """The scene's triangle-rule table (plugins/emulation/triangle_rule.py), kept while its buffers are unchanged:
-        a cache of a value derived from the scene (recomputed when the scene or its buffers change), not state
-        that changes what a call computes."""
-        cached = self._rules.get(id(scene))
-        table = triangle_rule.rule_table(scene, cached)
-        self._rules = {id(scene): table} if table is not None else {}
-        return table
 
     def trace(
         self, scene: mi.Scene, ray: mi.Ray3f, active: mi.Bool | bool = True, sampler: mi.Sampler | None = None,
@@ -179,16 +105,11 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         lane's ray tree (a kernel with the recording calls). Parameter ``ray_log`` (``a5mi bench``'s traversal
         floor): write every node ray and shadow ray the kernel casts into this
         :class:`~.kernel.raylog.RayLog` (a kernel with the logging calls; the colour is the same)."""
-        data = SceneData(dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, self.ambient),
-                         dr.opaque(mi.Float, self.tmin), lights_of(scene), self._planes, self._rule_table(scene),
-                         self._medium)
-        features = build_features(self, scene, data, record=record is not None, ray_log=ray_log is not None)
-        width = _width(ray, active)
-        # Every loop variable must be full width (a width-1 stack pointer makes lanes loop forever).
-        o = mi.Point3f(ray.o) + dr.zeros(mi.Point3f, width)
-        d = mi.Vector3f(ray.d) + dr.zeros(mi.Vector3f, width)
-        rng = stochastic(sample_pass, sampler, width, self.glossy_samples)
-        return trace_tree(scene, o, d, dr.full(mi.Bool, True, width) & active, data, rng, features, record, ray_log)
+        data = self.scene_data(scene)
+        features = self.features(scene, data, record=record is not None, ray_log=ray_log is not None)
+        o, d, go = camera_rays(ray, active)
+        rng = stochastic(sample_pass, sampler, dr.width(go), self.glossy_samples)
+        return trace_tree(scene, o, d, go, data, rng, features, record, ray_log)
 
     def sample(
         self, scene: mi.Scene, sampler: mi.Sampler | None, ray: mi.Ray3f, medium: mi.Medium | None = None,
@@ -196,29 +117,10 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     ) -> tuple[mi.Color3f, mi.Bool, list[mi.Float]]:
         """Colour of one camera ray per lane, the ``active`` mask, and the AOVs of :meth:`aov_names`;
         ``sample_pass`` as in :meth:`trace` (Mitsuba's own ``mi.render`` passes none)."""
-        color, n, t, cls, n_refl, n_refr, n_shadow = self.trace(scene, ray, active, sampler,
-                                                                sample_pass=sample_pass)
-        channels = {"normal": [n.x, n.y, n.z], "depth": [t], "class": [cls], "counts": [n_refl, n_refr, n_shadow]}
-        aovs = [a for g in self.aovs for a in channels[g]]
-        width = _width(ray, active)
-        return color, dr.full(mi.Bool, True, width) & active, aovs
-
-    def traverse(self, callback: mi.TraversalCallback) -> None:
-        flags = int(mi.ParamFlags.NonDifferentiable)
-        callback.put("max_depth", self.max_depth, flags)
-        callback.put("shadows", self.shadows, flags)
-        callback.put("ambient", mi.ScalarColor3f(self.ambient), flags)
-        callback.put("phong", self.phong, flags)
-        callback.put("fresnel", self.fresnel, flags)
-        callback.put("reflection", self.reflection, flags)
-        callback.put("refraction", self.refraction, flags)
-        callback.put("tmin", self.tmin, flags)
-        callback.put("aovs", ",".join(self.aovs), flags)
-        callback.put("glossy_samples", self.glossy_samples, flags)
-        callback.put("dispersion", self.dispersion, flags)
-        callback.put("bump", self.bump, flags)
-        callback.put("glossy", self.glossy, flags)
-        callback.put("indirect", self.indirect, flags)
+        r = self.trace(scene, ray, active, sampler, sample_pass=sample_pass)
+        channels = {"normal": [r.n.x, r.n.y, r.n.z], "depth": [r.t], "class": [r.cls],
+                    "counts": [r.n_reflection, r.n_refraction, r.n_shadow]}
+        return r.color, dr.full(mi.Bool, True, ray_width(ray, active)) & active, self.aov_values(channels)
 
     def to_string(self) -> str:
         return (

@@ -11,6 +11,8 @@ blocks (docs/EXTENSIONS.md E.2, E.4, E.7-E.10, E.15, record mode) are named help
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import drjit as dr
 import mitsuba as mi
 
@@ -32,8 +34,19 @@ from a5mi.spec import MIRROR_THRESHOLD
 #: ``refraction_index > 0``; some node of the tree (the last level included) hits one.
 MISS, OPAQUE, GLASS = 0, 1, 2
 
-#: ``(colour, first-hit normal, first-hit t, class, n_reflection, n_refraction, n_shadow)``
-TreeResult = tuple[mi.Color3f, mi.Vector3f, mi.Float, mi.Float, mi.Float, mi.Float, mi.Float]
+
+
+class TreeResult(NamedTuple):
+    """What :func:`trace_tree` returns per camera ray: the colour, the first hit's normal ``n`` and distance ``t``
+    (SPEC B.6), the ray-tree ``cls`` (:data:`MISS`, :data:`OPAQUE`, :data:`GLASS`) and the rays traced by kind."""
+
+    color: mi.Color3f
+    n: mi.Vector3f
+    t: mi.Float
+    cls: mi.Float
+    n_reflection: mi.Float
+    n_refraction: mi.Float
+    n_shadow: mi.Float
 
 
 @syntax
@@ -98,8 +111,9 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
         local = data.ambient * diffuse_color
         if dr.hint(f.subsurface != "none", mode="scalar"):   # E.18: light under the surface replaces Lambert
             kd, local, counter = subsurface.shade(scene, data, f, bsdf, si, p, d, n, hit, kd, local, rng, counter)
-        local, counter, n_shadow = lights.direct(scene, data, f, si, p, hit, n, kd, specular, shininess, r_view,
-                                                 local, rng, node, counter, n_shadow, rec, at, bsdf, log)
+        shading = lights.ShadingPoint(si, p, hit, n, kd, specular, shininess, r_view, bsdf)
+        local, counter, n_shadow = lights.direct(scene, data, f, shading, local, rng, node, counter, n_shadow, rec,
+                                                 at, log)
         if dr.hint(f.area_lights, mode="scalar"):   # E.2: an area light seen directly
             on_shape = hit & ~on_plane
             if dr.hint(f.indirect > 0, mode="scalar"):   # E.15: not by a gathered ray (the light loop has it)
@@ -173,4 +187,4 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
                                                      f.indirect)
         node += 1
 
-    return color, aov_n, aov_t, aov_class, n_refl, n_refr, n_shadow
+    return TreeResult(color, aov_n, aov_t, aov_class, n_refl, n_refr, n_shadow)

@@ -46,6 +46,7 @@ from a5mi.plugins.kernel import lights
 from a5mi.plugins.kernel.surfaces import background
 from a5mi.plugins.media.dipole import Dipole, dipole, profile
 from a5mi.plugins.optics import snell
+from a5mi.plugins.params import read_choice
 from a5mi.plugins.syntax import syntax
 
 if TYPE_CHECKING:
@@ -61,10 +62,7 @@ AXIS_P = (0.5, 0.25, 0.25)
 
 def method_from_props(props: mi.Properties) -> str:
     """``a5_whitted``'s ``subsurface`` parameter: one of :data:`METHODS` (default ``none``)."""
-    method = props.get("subsurface", "none")
-    if method not in METHODS:
-        raise ValueError(f"a5_whitted: 'subsurface' must be one of {', '.join(METHODS)}, got {method!r}")
-    return str(method)
+    return read_choice("a5_whitted", props, "subsurface", "none", METHODS)
 
 
 def _rand(rng: Stochastic, counter: mi.UInt32) -> tuple[mi.Float, mi.UInt32]:
@@ -95,7 +93,8 @@ def irradiance(scene: mi.Scene, data: SceneData, f: Features, p: mi.Point3f, n: 
         u = mi.Point2f(mi.sample_tea_float32(rng.pass_key, counter),
                        mi.sample_tea_float32(rng.pass_key, counter + 1))
         counter += 2
-        ls = lights.sample(scene, data, fl, emitter, is_area, it, p, live, n, one, one * 0.0, mi.Float(0.0), n, u)
+        ls = lights.sample(scene, data, fl, emitter, is_area,
+                           lights.ShadingPoint(it, p, live, n, one, one * 0.0, mi.Float(0.0), n), u)
         acc += dr.select(ls.seen, ls.term * _transmitted(dr.dot(ls.d_light, n), eta), 0.0)
         k += 1
     return acc, counter
