@@ -94,6 +94,8 @@ class RenderOptions:
     #: and alpha
     photons: int = 100000
     caustic_photons: int = 100000
+    #: E.16: photon hits before a photon path is cut (0: none, Russian roulette alone)
+    photon_depth: int = 0
     photon_k: int = 50
     photon_filter: str = "none"
     final_gather: int = 0
@@ -173,7 +175,8 @@ class RenderOptions:
         if self.integrator in ("photon", "ppm"):  # docs/EXTENSIONS.md E.16, E.17
             del params["phong"]
             params.update(photons=int(self.photons), caustic_photons=int(self.caustic_photons),
-                          filter=str(self.photon_filter), seed=int(self.seed or 0))
+                          filter=str(self.photon_filter), seed=int(self.seed or 0),
+                          photon_depth=int(self.photon_depth))
             if self.integrator == "photon":
                 params.update(k=int(self.photon_k), final_gather=int(self.final_gather))
             else:

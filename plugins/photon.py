@@ -92,13 +92,13 @@ def _dr3(cls: type, a: np.ndarray) -> Any:
 
 class A5PhotonIntegrator(mi.SamplingIntegrator):
     """Photon mapping (module docstring). Parameters: ``max_depth`` int (4, camera path hits = ``-bounces``),
-    ``photon_depth`` int (10, photon hits), ``photons`` int (100000), ``caustic_photons`` int (100000), ``k``
-    int (50), ``filter`` ``none``/``cone``/``epanechnikov`` (none), ``final_gather`` int (0: off; else rays per
-    point), ``shadows`` bool (false), ``fresnel`` ``a5``/``schlick``/``exact`` (a5), ``reflection``,
-    ``refraction`` bool (true), ``seed`` int (0: the photon maps' seed when no pass gives one), ``tmin``
-    float (0.001), ``bump`` bool (false); and the scene part of ``a5_whitted``'s parameters (``ambient``,
-    ``plane_<id>_*``, accepted, ``phong``, ``glossy``, ``glossy_samples``, ``dispersion``;
-    ``aovs`` "" or ``counts``: the camera
+    ``photon_depth`` int (0: photons end by Russian roulette alone; N > 0: cut after N hits, biased),
+    ``photons`` int (100000), ``caustic_photons`` int (100000), ``k`` int (50), ``filter``
+    ``none``/``cone``/``epanechnikov`` (none), ``final_gather`` int (0: off; else rays per point), ``shadows``
+    bool (false), ``fresnel`` ``a5``/``schlick``/``exact`` (a5), ``reflection``, ``refraction`` bool (true),
+    ``seed`` int (0: the photon maps' seed when no pass gives one), ``tmin`` float (0.001), ``bump`` bool
+    (false); and the scene part of ``a5_whitted``'s parameters (``ambient``, ``plane_<id>_*``, accepted,
+    ``phong``, ``glossy``, ``glossy_samples``, ``dispersion``; ``aovs`` "" or ``counts``: the camera
     path's n_reflection, n_refraction, n_shadow)."""
 
     name = "a5_photon"
@@ -107,7 +107,7 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)
         self.max_depth = _int(props, "max_depth", 4, 0)
-        self.photon_depth = _int(props, "photon_depth", 10, 1)
+        self.photon_depth = _int(props, "photon_depth", 0, 0)
         self.photons = _int(props, "photons", 100000, 0)
         self.caustic_photons = _int(props, "caustic_photons", 100000, 0)
         self.k = _int(props, "k", 50, 1)

@@ -89,6 +89,8 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          integer(0, 1 << 26), 100000, "N"),
     Flag(("-caustic_photons", "--caustic-photons"), "caustic_photons", "photons emitted for the caustic map "
          "(E.16)", 1, integer(0, 1 << 26), 100000, "N"),
+    Flag(("-photon_depth", "--photon-depth"), "photon_depth", "photon hits before a photon path is cut, 0: no "
+         "cut, Russian roulette alone (unbiased; E.16)", 1, integer(0, 1 << 16), 0, "N"),
     Flag(("-k", "--k"), "photon_k", "nearest photons of a photon-map estimate (E.16)", 1, integer(1, 4096), 50, "K"),
     Flag(("-photon_filter", "--photon-filter"), "photon_filter", "photon estimate filter: none, cone or "
          "epanechnikov (E.16)", 1, choice(PHOTON_FILTERS), "none", "F"),

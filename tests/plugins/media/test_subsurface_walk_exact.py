@@ -5,8 +5,8 @@ A semi-infinite medium of single-scattering albedo ``ω`` (isotropic phase funct
 (Chandrasekhar, *Radiative Transfer*, 1960, ch. IV), ``H`` his H-function. By reciprocity the walk from an
 eye ray at ``μ`` into a face lit head-on with irradiance 1 shows ``A(μ)``. ``H`` is computed here from its
 closed-form integral, independently of the renderer, and checked against the solution of its integral equation
-and Chandrasekhar's table (``ω = 1``: ``H(1) = 2.9078``). The walk's answer must not depend on the medium's density in scene units: ``σ_t`` 3, 30 and
-300 per unit give the same ``A``.
+and Chandrasekhar's table (``ω = 1``: ``H(1) = 2.9078``). The walk's answer must not depend on the medium's
+density in scene units: ``σ_t`` 3, 30 and 300 per unit give the same ``A``.
 
 The half-space is the top of a sphere of radius ``3000/σ_t`` (3000 mean free paths, 500 diffusion lengths of
 the most scattering channel): its float32 intersection is then as exact in mean free paths at every density.
