@@ -1,0 +1,49 @@
+"""A plane with a non-unit normal in front of glass: the Schlick blow-up, followed to the byte (docs/FIDELITY.md).
+
+A mirror ray off ``Plane { normal 0 -12.6 0 ... }`` is ``|n|²`` long (SPEC A.6: the reflection uses the normal
+as written), so Schlick's ``c = |d·N|`` on the glass ball it meets is far above 1 and ``R = R0 + (1 − R0)(1 −
+c)⁵`` reaches −1e10 .. −1e15 (SPEC B.3). The pixel's colour is then ±1e7 .. ±1e15; the sample solution's
+``int(c * 255)`` of a product beyond the int32 range is x86's ``INT_MIN``, which the clamp makes 0: every such
+pixel is black, the negative ones and the positive ones alike.
+
+Golden: tests/data/plane_blowup_a5soln.png is ``a5soln -input plane_blowup.txt -size 48 48 -output pb.tga``
+of :data:`SCENE` (default 4 bounces), converted to PNG losslessly; 85 of its pixels are black. Before the
+quantisation followed the conversion, a5mi drew the positive ones white (17.5 dB at 100 x 100).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from a5mi.converters.a5_parser import parse_text
+from a5mi.converters.describe import describe
+from a5mi.imageio import quantize, read_uint8
+from a5mi.options import RenderOptions
+from a5mi.session import render
+
+SCENE = """PerspectiveCamera { center 0 2 6 direction 0 -0.3 -1 up 0 1 0 angle 40 }
+Lights { numLights 1 DirectionalLight { direction -0.3 -1 -0.5 color 0.9 0.9 0.9 } }
+Background { color 0.2 0.3 0.5 ambientLight 0.1 0.1 0.1 }
+Materials { numMaterials 3
+  Material { diffuseColor 0.3 0.3 0.3 specularColor 0.7 0.7 0.7 }
+  Material { diffuseColor 0.1 0.1 0.1 specularColor 0.9 0.9 0.9 refractionIndex 1.5 }
+  Material { diffuseColor 0.8 0.2 0.2 }
+}
+Group { numObjects 3
+  MaterialIndex 0 Plane { normal 0 -12.6 0 offset 12.6 }
+  MaterialIndex 1 Sphere { center 0 0 0 radius 0.8 }
+  MaterialIndex 2 Sphere { center 1.5 0.3 -1 radius 0.5 }
+}
+"""
+
+
+def test_blown_up_pixels_are_black_as_in_the_sample_solution(variant: str) -> None:
+    """The whole 48 x 48 image equals a5soln's byte for byte; the blow-up is really there (float colours
+    beyond 8.4e6, both signs)."""
+    result = render(describe(parse_text(SCENE, "plane_blowup.txt")), RenderOptions(width=48, height=48))
+    golden = read_uint8(Path(__file__).parents[2] / "data" / "plane_blowup_a5soln.png")
+    np.testing.assert_array_equal(quantize(result.image)[..., :3], golden)
+    rgb = np.asarray(result.image, dtype=np.float64)[..., :3]
+    assert (rgb > 8.5e6).any() and (rgb < -8.5e6).any()
