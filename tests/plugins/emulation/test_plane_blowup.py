@@ -9,6 +9,11 @@ pixel is black, the negative ones and the positive ones alike.
 Golden: tests/data/plane_blowup_a5soln.png is ``a5soln -input plane_blowup.txt -size 48 48 -output pb.tga``
 of :data:`SCENE` (default 4 bounces), converted to PNG losslessly; 85 of its pixels are black. Before the
 quantisation followed the conversion, a5mi drew the positive ones white (17.5 dB at 100 x 100).
+
+The ``-normals`` image shows the hit record's normal, which for a plane is its normal as written: ``|n_y| =
+12.6``, 255 (SPEC B.6; a5mi showed the unit normal there before). tests/data/plane_blowup_a5soln_normals.png
+and ``_depth.png`` are ``a5soln -input plane_blowup.txt -size 48 48 -output x.bmp -normals n.bmp -depth 3 16
+d.bmp`` (its main image is the golden above), traced with the binary's quadrant rays (``aov_mode quadrant``).
 """
 
 from __future__ import annotations
@@ -47,3 +52,27 @@ def test_blown_up_pixels_are_black_as_in_the_sample_solution(variant: str) -> No
     np.testing.assert_array_equal(quantize(result.image)[..., :3], golden)
     rgb = np.asarray(result.image, dtype=np.float64)[..., :3]
     assert (rgb > 8.5e6).any() and (rgb < -8.5e6).any()
+
+
+def test_aov_images_are_the_sample_solutions(variant: str) -> None:
+    """The quadrant-ray ``-normals`` and ``-depth 3 16`` images equal a5soln's byte for byte; the plane shows
+    ``(0, 255, 0)`` in the normals image (1513 of its pixels)."""
+    opts = RenderOptions(width=48, height=48, normals=True, depth=(3.0, 16.0), aov_mode="quadrant")
+    result = render(describe(parse_text(SCENE, "plane_blowup.txt")), opts)
+    data = Path(__file__).parents[2] / "data"
+    normals = quantize(result.normals)[..., :3]
+    np.testing.assert_array_equal(normals, read_uint8(data / "plane_blowup_a5soln_normals.png"))
+    np.testing.assert_array_equal(quantize(result.depth)[..., :3], read_uint8(data / "plane_blowup_a5soln_depth.png"))
+    assert int((normals == (0, 255, 0)).all(axis=2).sum()) == 1513
+
+
+def test_normals_image_of_a_tilted_plane_shows_the_normal_as_written(variant: str) -> None:
+    """``Plane { normal -0.305 0.333 -0.42 }`` fills the quadrant rays' view: every pixel of the ``-normals``
+    image is ``trunc(255 |n_i|)`` of the normal as written, (77, 84, 107), not of the unit normal
+    (126, 137, 173). (a5soln ``-size 32 32 -normals`` of this scene: all 1024 pixels (77, 84, 107).)"""
+    text = SCENE.replace("Plane { normal 0 -12.6 0 offset 12.6 }", "Plane { normal -0.305 0.333 -0.42 offset -0.955 }")
+    opts = RenderOptions(width=32, height=32, normals=True, aov_mode="quadrant")
+    normals = quantize(render(describe(parse_text(text, "tilted.txt")), opts).normals)[..., :3]
+    want = np.trunc(np.float32(255.0) * np.abs(np.array([-0.305, 0.333, -0.42], dtype=np.float32)))
+    assert want.tolist() == [77, 84, 107]
+    assert (normals == want).all(axis=2).sum() == 32 * 32
