@@ -89,6 +89,8 @@ class RenderOptions:
     rr_depth: int = 5
     #: docs/EXTENSIONS.md E.15: ``a5_whitted`` gathers indirect light with N cosine-weighted rays per diffuse hit
     indirect: int = 0
+    #: docs/EXTENSIONS.md E.15: ``a5_whitted``'s light loop lights both faces (N turned toward the ray)
+    two_sided: bool = False
     #: docs/EXTENSIONS.md E.16, E.17 (``-integrator photon`` / ``ppm``): photons per map (per pass for ppm),
     #: nearest photons of an estimate, its filter, final-gather rays (0: off), the ppm radius (0: automatic)
     #: and alpha
@@ -170,6 +172,8 @@ class RenderOptions:
             params["bump"] = True
         if self.indirect > 0 and self.plugin == "a5_whitted":  # E.15; absent at 0: course dicts unchanged
             params["indirect"] = int(self.indirect)
+        if self.two_sided and self.plugin == "a5_whitted":  # E.15; absent when off: course dicts unchanged
+            params["two_sided"] = True
         if self.plugin in ("a5_path", "a5_irradiancecache"):  # docs/EXTENSIONS.md E.14, E.23
             params["rr_depth"] = int(self.rr_depth)
         if self.integrator in ("photon", "ppm"):  # docs/EXTENSIONS.md E.16, E.17

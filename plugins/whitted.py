@@ -64,6 +64,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
                                      (t), ``class`` (class), ``counts`` (n_reflection, n_refraction,
                                      n_shadow)
     indirect         int     0       rays gathered at each diffuse hit (``-indirect``, EXTENSIONS E.15)
+    two_sided        bool    false   the light loop lights the face the ray sees (N turned toward the
+                                     ray; ``-two_sided``, EXTENSIONS E.15); false: SPEC B.3's front face
     medium           string  none    ``fog`` / ``volume``: a participating medium (EXTENSIONS E.8,
                                      E.9; ``medium_*`` parameters, plugins/media.py)
     plane_<id>_*     ...             an exact infinite plane: ``_normal`` vector, ``_offset`` float,
@@ -149,6 +151,10 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         if isinstance(indirect, bool) or not isinstance(indirect, int) or indirect < 0:
             raise ValueError(f"a5_whitted: 'indirect' must be an integer >= 0, got {indirect!r}")
         self.indirect = indirect
+        two_sided = props.get("two_sided", False)   # docs/EXTENSIONS.md E.15: both faces lit by the light loop
+        if not isinstance(two_sided, bool):
+            raise ValueError(f"a5_whitted: 'two_sided' must be a boolean, got {two_sided!r}")
+        self.two_sided = two_sided
         self._medium = media.params_from_props(props)   # docs/EXTENSIONS.md E.8, E.9 (None: no medium)
         self.subsurface = subsurface.method_from_props(props)   # docs/EXTENSIONS.md E.18
         self._rules: dict[int, triangle_rule.RuleTable] = {}   # id(scene) -> its rule table (the last scene only)
@@ -218,6 +224,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         callback.put("bump", self.bump, flags)
         callback.put("glossy", self.glossy, flags)
         callback.put("indirect", self.indirect, flags)
+        callback.put("two_sided", self.two_sided, flags)
 
     def to_string(self) -> str:
         return (

@@ -85,6 +85,9 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          "(docs/EXTENSIONS.md E.14)", 1, integer(0, 1 << 16), 5, "N"),
     Flag(("-indirect", "--indirect"), "indirect", "whitted: N cosine-weighted rays gather indirect light at each "
          "diffuse hit (docs/EXTENSIONS.md E.15)", 1, integer(0, 4096), 0, "N"),
+    Flag(("-two_sided", "--two-sided"), "two_sided", "whitted: the light loop lights both faces of a surface, N "
+         "turned toward the ray (the physical reading for -indirect; SPEC B.3 lights the front only; "
+         "docs/EXTENSIONS.md E.15)", default=False, show_default=False),
     Flag(("-photons", "--photons"), "photons", "photons emitted for the global map (per pass with ppm; E.16)", 1,
          integer(0, 1 << 26), 100000, "N"),
     Flag(("-caustic_photons", "--caustic-photons"), "caustic_photons", "photons emitted for the caustic map "
@@ -157,6 +160,9 @@ def check_render_args(args: Args) -> None:
     indirect = args.get("indirect") or 0
     if indirect and args.get("integrator") not in (None, "whitted"):
         raise UsageError(f"-indirect is a mode of the whitted integrator, not of -integrator {args.integrator}")
+    if args.get("two_sided") and args.get("integrator") not in (None, "whitted"):
+        raise UsageError(f"-two_sided is a mode of the whitted integrator (-integrator {args.integrator} lights "
+                         "both faces already)")
     if indirect and (indirect + 1) * args.bounces > MAX_PENDING:
         pending = (indirect + 1) * args.bounces
         raise UsageError(f"-indirect {indirect} with -bounces {args.bounces} keeps up to {pending} pending rays per "

@@ -101,7 +101,10 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
         local = data.ambient * diffuse_color
         if dr.hint(f.subsurface != "none", mode="scalar"):   # E.18: light under the surface replaces Lambert
             kd, local, counter = subsurface.shade(scene, data, f, bsdf, si, p, d, n, hit, kd, local, rng, counter)
-        local, counter, n_shadow = lights.direct(scene, data, f, si, p, hit, n, kd, specular, shininess, r_view,
+        n_lit = n
+        if dr.hint(f.two_sided, mode="scalar"):      # E.15: the face the ray sees is lit (physical reading)
+            n_lit = dr.select(dr.dot(d, n) > 0.0, -n, n)
+        local, counter, n_shadow = lights.direct(scene, data, f, si, p, hit, n_lit, kd, specular, shininess, r_view,
                                                  local, rng, node, counter, n_shadow, rec, at, bsdf, log)
         if dr.hint(f.area_lights, mode="scalar"):   # E.2: an area light seen directly
             on_shape = hit & ~on_plane
