@@ -99,6 +99,8 @@ class RenderOptions:
     #: E.16: photon hits before a photon path is cut (0: none, Russian roulette alone)
     photon_depth: int = 0
     photon_k: int = 50
+    #: E.16: the largest radius of a k-nearest photon disc (0: none)
+    photon_max_radius: float = 0.0
     photon_filter: str = "none"
     final_gather: int = 0
     ppm_radius: float = 0.0
@@ -182,7 +184,8 @@ class RenderOptions:
                           filter=str(self.photon_filter), seed=int(self.seed or 0),
                           photon_depth=int(self.photon_depth))
             if self.integrator == "photon":
-                params.update(k=int(self.photon_k), final_gather=int(self.final_gather))
+                params.update(k=int(self.photon_k), final_gather=int(self.final_gather),
+                              max_radius=float(self.photon_max_radius))
             else:
                 params.update(radius=float(self.ppm_radius), alpha=float(self.ppm_alpha))
         if self.media_bounces and self.plugin == "a5_whitted":  # E.8, E.9; absent at 0 (dicts, XML unchanged)

@@ -15,7 +15,8 @@ its path weight ``β``:
 * ``L_direct``: next-event estimation of E.13 (plugins/kernel/pbr_lights.py ``direct``: one sample of every
   light and of the environment, the Lambert BSDF ``kd/π``, shadow rays always), every sample at MIS weight 1:
   the light the BSDF would find by sampling is not estimated again here (direct photons are not used);
-* ``L_caustic``: the caustic map's estimate (``k`` nearest, plugins/photon_maps.py);
+* ``L_caustic``: the caustic map's estimate (``k`` nearest, their disc at most ``max_radius`` wide when it is
+  > 0, plugins/photon_maps.py);
 * ``L_indirect``: the global map's estimate (photons after a diffuse bounce), or with ``final_gather = M``:
   ``(kd/M) Σ_i L_full(y_i)`` over ``M`` cosine-weighted rays to diffuse points ``y_i``, ``L_full`` the estimate
   from every stored photon there.
@@ -93,7 +94,8 @@ def _dr3(cls: type, a: np.ndarray) -> Any:
 class A5PhotonIntegrator(mi.SamplingIntegrator):
     """Photon mapping (module docstring). Parameters: ``max_depth`` int (4, camera path hits = ``-bounces``),
     ``photon_depth`` int (0: photons end by Russian roulette alone; N > 0: cut after N hits, biased),
-    ``photons`` int (100000), ``caustic_photons`` int (100000), ``k`` int (50), ``filter``
+    ``photons`` int (100000), ``caustic_photons`` int (100000), ``k`` int (50), ``max_radius`` float (0: none;
+    else the k-nearest disc's largest radius), ``filter``
     ``none``/``cone``/``epanechnikov`` (none), ``final_gather`` int (0: off; else rays per point), ``shadows``
     bool (false), ``fresnel`` ``a5``/``schlick``/``exact`` (a5), ``reflection``, ``refraction`` bool (true),
     ``seed`` int (0: the photon maps' seed when no pass gives one), ``tmin`` float (0.001), ``bump`` bool
@@ -112,6 +114,7 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
         self.caustic_photons = _int(props, "caustic_photons", 100000, 0)
         self.k = _int(props, "k", 50, 1)
         self.final_gather = _int(props, "final_gather", 0, 0)
+        self.max_radius = _float(props, "max_radius", 0.0, 0.0)
         self.seed = _int(props, "seed", 0, 0)
         self.filter = props.get("filter", "none")
         if self.filter not in FILTERS:
@@ -187,9 +190,9 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
 
     def estimate(self, maps: Maps, x: np.ndarray, n: np.ndarray, kd: np.ndarray, pass_index: int) -> np.ndarray:
         """``L_caustic + L_indirect`` at diffuse points (without the final gather's ``L_indirect``)."""
-        out = maps.caustic.knn(x, n, kd, self.k, self.filter)
+        out = maps.caustic.knn(x, n, kd, self.k, self.filter, max_radius=self.max_radius)
         if not self.final_gather:
-            out += maps.indirect.knn(x, n, kd, self.k, self.filter)
+            out += maps.indirect.knn(x, n, kd, self.k, self.filter, max_radius=self.max_radius)
         return out
 
     def gather(self, scene: mi.Scene, data: SceneData, f: Any, maps: Maps, x: np.ndarray, n: np.ndarray,
@@ -210,7 +213,8 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
         dr.eval(h.p, h.hit, s.kd, n_y)
         hit = np.asarray(h.hit, dtype=bool) & (_np3(s.kd).max(axis=1) > 0.0)
         lum = np.zeros((count * m, 3))
-        lum[hit] = maps.full.knn(_np3(h.p)[hit], _np3(n_y)[hit], _np3(s.kd)[hit], self.k, self.filter)
+        lum[hit] = maps.full.knn(_np3(h.p)[hit], _np3(n_y)[hit], _np3(s.kd)[hit], self.k, self.filter,
+                                 max_radius=self.max_radius)
         return kd * lum.reshape(count, m, 3).mean(axis=1)
 
     # ------------------------------------------------------------------ camera paths
@@ -307,8 +311,8 @@ class A5PhotonIntegrator(mi.SamplingIntegrator):
 
     def traverse(self, callback: mi.TraversalCallback) -> None:
         flags = int(mi.ParamFlags.NonDifferentiable)
-        for name in ("max_depth", "photon_depth", "photons", "caustic_photons", "k", "final_gather", "seed",
-                     "filter", "fresnel", "shadows", "reflection", "refraction", "tmin"):
+        for name in ("max_depth", "photon_depth", "photons", "caustic_photons", "k", "max_radius", "final_gather",
+                     "seed", "filter", "fresnel", "shadows", "reflection", "refraction", "tmin"):
             callback.put(name, getattr(self, name), flags)
 
     def to_string(self) -> str:

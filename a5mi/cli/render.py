@@ -95,6 +95,9 @@ RENDER_FLAGS: tuple[Flag, ...] = (
     Flag(("-photon_depth", "--photon-depth"), "photon_depth", "photon hits before a photon path is cut, 0: no "
          "cut, Russian roulette alone (unbiased; E.16)", 1, integer(0, 1 << 16), 0, "N"),
     Flag(("-k", "--k"), "photon_k", "nearest photons of a photon-map estimate (E.16)", 1, integer(1, 4096), 50, "K"),
+    Flag(("-photon_max_radius", "--photon-max-radius"), "photon_max_radius", "largest radius of a k-nearest "
+         "photon disc, 0: none (bounds the estimate's leak from a bright neighbour; E.16)", 1,
+         lambda f, v: _nonneg(f, v[0]), 0.0, "R"),
     Flag(("-photon_filter", "--photon-filter"), "photon_filter", "photon estimate filter: none, cone or "
          "epanechnikov (E.16)", 1, choice(PHOTON_FILTERS), "none", "F"),
     Flag(("-final_gather", "--final-gather"), "final_gather", "final-gather rays per diffuse point, 0: off (E.16)",
