@@ -1,5 +1,5 @@
 """``a5mi difftest --binary PATH [--count N] [--seed S] [--mean-size N] [--threshold DB] [--out DIR]
-[--json-file F]``.
+[--json-file F] [--aovs quadrant|main|none]``.
 
 Differential testing of a5mi against another executable with the a5 command line (:mod:`a5mi.difftest`):
 prints one table row per scene as it is done, then the summary; failures are minimised and written to
@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from a5mi.cli.app import Command, Console, activate_variant
-from a5mi.cli.flags import Args, Flag, integer, json_file_flag, real, text
+from a5mi.cli.flags import Args, Flag, choice, integer, json_file_flag, real, text
 from a5mi.platform.errors import ExitStatus, UsageError
 
 FLAGS: tuple[Flag, ...] = (
@@ -33,6 +33,9 @@ FLAGS: tuple[Flag, ...] = (
     json_file_flag("the whole report"),
     Flag(("--allow-read",), "allow_read", "extra paths the sandboxed binary may read (':'-separated), e.g. its "
          "interpreter", 1, text, metavar="PATHS"),
+    Flag(("--aovs",), "aovs", "compare the -normals and -depth images too, traced with the other renderer's rays: "
+         "quadrant (a5soln's, SPEC B.6), main (the main image's), or none", 1,
+         choice(("quadrant", "main", "none")), "quadrant", "RAYS"),
     Flag(("--no-sandbox",), "no_sandbox", "run the binary even without bubblewrap (rlimits and a user id only)",
          default=False, show_default=False),
 )
@@ -71,11 +74,16 @@ def run_difftest(args: Args, console: Console) -> int:
     rows = campaign.run_campaign(
         binary, data, count=args.count, seed=args.seed, size=args.size, threshold=args.threshold,
         timeout=args.timeout, out_dir=Path(args.out) if args.out else None, minimise_budget=args.budget,
-        start=args.start, on_row=lambda r: console.result(campaign.table_line(r)))
+        start=args.start, aovs=args.aovs, on_row=lambda r: console.result(campaign.table_line(r)))
     s = campaign.summary(rows, args.threshold)
     console.result(f"\n{s['scenes']} scenes (seed {args.seed}): median PSNR {campaign.psnr_text(s['median_psnr'])} "
                    f"dB, {100 * s['share_at_least_50']:.1f}% at >= 50 dB, {s['identical']} identical, "
                    f"{s['failed_runs']} failed runs, {s['below_threshold']} below {args.threshold:g} dB")
+    for name in ("normals", "depth"):
+        if f"{name}_median_psnr" in s:
+            console.result(f"{name}: median PSNR {campaign.psnr_text(s[f'{name}_median_psnr'])} dB, "
+                           f"{100 * s[f'{name}_share_at_least_50']:.1f}% at >= 50 dB, {s[f'{name}_identical']} "
+                           "identical")
     if args.json_file:
         with atomic_file(args.json_file, "w") as f:
             f.write(campaign.report_json(rows, args.threshold, args.seed))

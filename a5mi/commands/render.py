@@ -94,11 +94,19 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          "(docs/EXTENSIONS.md E.14)", 1, integer(0, 1 << 16), 5, "N"),
     Flag(("-indirect", "--indirect"), "indirect", "whitted: N cosine-weighted rays gather indirect light at each "
          "diffuse hit (docs/EXTENSIONS.md E.15)", 1, integer(0, 4096), 0, "N"),
+    Flag(("-two_sided", "--two-sided"), "two_sided", "whitted: the light loop lights both faces of a surface, N "
+         "turned toward the ray (the physical reading for -indirect; SPEC B.3 lights the front only; "
+         "docs/EXTENSIONS.md E.15)", default=False, show_default=False),
     Flag(("-photons", "--photons"), "photons", "photons emitted for the global map (per pass with ppm; E.16)", 1,
          integer(0, 1 << 26), 100000, "N"),
     Flag(("-caustic_photons", "--caustic-photons"), "caustic_photons", "photons emitted for the caustic map "
          "(E.16)", 1, integer(0, 1 << 26), 100000, "N"),
+    Flag(("-photon_depth", "--photon-depth"), "photon_depth", "photon hits before a photon path is cut, 0: no "
+         "cut, Russian roulette alone (unbiased; E.16)", 1, integer(0, 1 << 16), 0, "N"),
     Flag(("-k", "--k"), "photon_k", "nearest photons of a photon-map estimate (E.16)", 1, integer(1, 4096), 50, "K"),
+    Flag(("-photon_max_radius", "--photon-max-radius"), "photon_max_radius", "largest radius of a k-nearest "
+         "photon disc, 0: none (bounds the estimate's leak from a bright neighbour; E.16)", 1,
+         lambda f, v: _nonneg(f, v[0]), 0.0, "R"),
     Flag(("-photon_filter", "--photon-filter"), "photon_filter", "photon estimate filter: none, cone or "
          "epanechnikov (E.16)", 1, choice(PHOTON_FILTERS), "none", "F"),
     Flag(("-final_gather", "--final-gather"), "final_gather", "final-gather rays per diffuse point, 0: off (E.16)",
@@ -169,6 +177,9 @@ def check_render_args(args: Args) -> None:
     indirect = args.get("indirect") or 0
     if indirect and args.get("integrator") not in (None, "whitted"):
         raise UsageError(f"-indirect is a mode of the whitted integrator, not of -integrator {args.integrator}")
+    if args.get("two_sided") and args.get("integrator") not in (None, "whitted"):
+        raise UsageError(f"-two_sided is a mode of the whitted integrator (-integrator {args.integrator} lights "
+                         "both faces already)")
     if indirect and (indirect + 1) * args.bounces > MAX_PENDING:
         pending = (indirect + 1) * args.bounces
         raise UsageError(f"-indirect {indirect} with -bounces {args.bounces} keeps up to {pending} pending rays per "

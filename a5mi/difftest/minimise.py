@@ -77,8 +77,8 @@ def candidates(s: GenScene) -> Iterator[GenScene]:
 
 def minimise(scene: GenScene, check: Check, threshold: float, first: Outcome | None = None,
              budget: int = 80) -> Minimised:
-    """The smallest variant of ``scene`` that still fails (``check(scene).psnr < threshold``), within
-    ``budget`` comparisons (module docstring)."""
+    """The smallest variant of ``scene`` that still fails (``check(scene).worst < threshold``: the lowest PSNR
+    of its images), within ``budget`` comparisons (module docstring)."""
     best, outcome = scene, first if first is not None else check(scene)
     n = 0 if first is not None else 1
     changed = True
@@ -89,7 +89,7 @@ def minimise(scene: GenScene, check: Check, threshold: float, first: Outcome | N
                 break
             n += 1
             out = check(cand)
-            if out.status == outcome.status and out.psnr < threshold:
+            if out.status == outcome.status and out.worst < threshold:
                 best, outcome, changed = cand, out, True
                 break
     return Minimised(best, outcome, n)

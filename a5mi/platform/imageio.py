@@ -39,11 +39,20 @@ EXTENSIONS: tuple[str, ...] = tuple(sorted(BYTE_FORMATS | FLOAT_FORMATS))
 PNG_COMPRESSION = 1
 
 
+#: ``2³¹``: the first float the x86 conversion to int32 (``cvttss2si``) cannot represent.
+_INT32_LIMIT = np.float32(2.0**31)
+
+
 def quantize(img: npt.ArrayLike) -> npt.NDArray[np.uint8]:
-    """``byte = clamp(int(c * 255), 0, 255)``: float32 product, truncation toward zero (SPEC B.1)."""
-    with np.errstate(over="ignore", invalid="ignore"):  # c near FLT_MAX: c·255 = inf -> 255, no warning
+    """``byte = clamp(int(c * 255), 0, 255)``: float32 product, truncation toward zero (SPEC B.1), with the x86
+    conversion's rule for what int32 cannot hold: a product ``>= 2³¹`` (``c >= 8,421,504.5``), ``< −2³¹``, ``±inf``
+    or NaN converts to ``INT_MIN`` (the "integer indefinite" value), which the clamp makes 0. So a colour
+    beyond 8.4 million is black, as in a5soln (measured: a Lambert colour of 8.0e6 renders 255, 8.5e6 renders 0;
+    docs/FIDELITY.md, the Schlick blow-up)."""
+    with np.errstate(over="ignore", invalid="ignore"):  # c near FLT_MAX: c·255 = inf, no warning
         scaled = np.asarray(img, dtype=np.float32) * np.float32(255.0)
-    scaled = np.nan_to_num(scaled, nan=0.0, posinf=255.0, neginf=0.0)
+        held = (scaled < _INT32_LIMIT) & (scaled >= -_INT32_LIMIT)          # False for NaN and ±inf too
+    scaled = np.where(held, scaled, np.float32(0.0))
     return np.clip(np.trunc(scaled), 0.0, 255.0).astype(np.uint8)
 
 

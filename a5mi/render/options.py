@@ -89,12 +89,18 @@ class RenderOptions:
     rr_depth: int = 5
     #: docs/EXTENSIONS.md E.15: ``a5_whitted`` gathers indirect light with N cosine-weighted rays per diffuse hit
     indirect: int = 0
+    #: docs/EXTENSIONS.md E.15: ``a5_whitted``'s light loop lights both faces (N turned toward the ray)
+    two_sided: bool = False
     #: docs/EXTENSIONS.md E.16, E.17 (``-integrator photon`` / ``ppm``): photons per map (per pass for ppm),
     #: nearest photons of an estimate, its filter, final-gather rays (0: off), the ppm radius (0: automatic)
     #: and alpha
     photons: int = 100000
     caustic_photons: int = 100000
+    #: E.16: photon hits before a photon path is cut (0: none, Russian roulette alone)
+    photon_depth: int = 0
     photon_k: int = 50
+    #: E.16: the largest radius of a k-nearest photon disc (0: none)
+    photon_max_radius: float = 0.0
     photon_filter: str = "none"
     final_gather: int = 0
     ppm_radius: float = 0.0
@@ -168,14 +174,18 @@ class RenderOptions:
             params["bump"] = True
         if self.indirect > 0 and self.plugin == "a5_whitted":  # E.15; absent at 0: course dicts unchanged
             params["indirect"] = int(self.indirect)
+        if self.two_sided and self.plugin == "a5_whitted":  # E.15; absent when off: course dicts unchanged
+            params["two_sided"] = True
         if self.plugin in ("a5_path", "a5_irradiancecache"):  # docs/EXTENSIONS.md E.14, E.23
             params["rr_depth"] = int(self.rr_depth)
         if self.integrator in ("photon", "ppm"):  # docs/EXTENSIONS.md E.16, E.17
             del params["phong"]
             params.update(photons=int(self.photons), caustic_photons=int(self.caustic_photons),
-                          filter=str(self.photon_filter), seed=int(self.seed or 0))
+                          filter=str(self.photon_filter), seed=int(self.seed or 0),
+                          photon_depth=int(self.photon_depth))
             if self.integrator == "photon":
-                params.update(k=int(self.photon_k), final_gather=int(self.final_gather))
+                params.update(k=int(self.photon_k), final_gather=int(self.final_gather),
+                              max_radius=float(self.photon_max_radius))
             else:
                 params.update(radius=float(self.ppm_radius), alpha=float(self.ppm_alpha))
         if self.media_bounces and self.plugin == "a5_whitted":  # E.8, E.9; absent at 0 (dicts, XML unchanged)

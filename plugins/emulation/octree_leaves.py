@@ -39,8 +39,9 @@ from a5mi.plugins.syntax import syntax
 
 MAX_TRIG = 7
 MAX_LEVEL = 8
-#: Triangle references held by leaves, at most, over a scene's rule meshes; beyond it no leaf table is built
-#: and the reach masks decide (plugins/emulation/octree_rule.py).
+#: Triangle references held by leaves, at most, over a scene's distinct rule meshes (meshes with the same
+#: object-space triangles, instances of one OBJ under different transforms, share their leaves: their octrees
+#: are the same); beyond it no leaf table is built and the reach masks decide (plugins/emulation/octree_rule.py).
 MAX_REFS = 2_000_000
 FIN, NEG, POS, NAN = 0, 1, 2, 3
 
@@ -102,12 +103,22 @@ def mesh_leaves(tri: np.ndarray, budget: int) -> tuple[np.ndarray, np.ndarray, l
 
 def build(meshes: list[np.ndarray]) -> LeafTable | None:
     """The :class:`LeafTable` of the rule meshes' (F, 3, 3) object-space triangles, in row order; None past
-    :data:`MAX_REFS`."""
+    :data:`MAX_REFS` references. A mesh whose float32 triangles equal an earlier one's (byte for byte: the same
+    octree) gets that one's ``first`` / ``count`` and adds no references."""
     firsts, counts, codes, depths, boxes = [], [], [], [], []
     base = 0
+    seen: dict[bytes, tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]] = {}
     try:
         for tri in meshes:
-            mn, mx, leaves = mesh_leaves(np.asarray(tri, dtype=np.float32), MAX_REFS)
+            tri32 = np.ascontiguousarray(tri, dtype=np.float32)
+            key = tri32.tobytes()
+            if key in seen:                                   # an instance: its octree is the earlier one's
+                first, count, box = seen[key]
+                firsts.append(first)
+                counts.append(count)
+                boxes.append(box)
+                continue
+            mn, mx, leaves = mesh_leaves(tri32, MAX_REFS)
             boxes.append((mn, mx))
             faces = np.concatenate([f for f, _, _ in leaves]).astype(np.int64)
             code = np.concatenate([c for _, c, _ in leaves])
@@ -116,6 +127,7 @@ def build(meshes: list[np.ndarray]) -> LeafTable | None:
             count = np.bincount(faces, minlength=len(tri))
             firsts.append(base + np.concatenate([[0], np.cumsum(count)[:-1]]))
             counts.append(count)
+            seen[key] = (firsts[-1], count, (mn, mx))
             codes.append(code[order])
             depths.append(depth[order])
             base += len(faces)

@@ -97,6 +97,7 @@ class A5Integrator(mi.SamplingIntegrator):
     #: E.15 gathered rays and the E.18 method: none unless the integrator reads them (:func:`build_features`)
     indirect: int = 0
     subsurface: str = "none"
+    two_sided: bool = False
 
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)

@@ -50,6 +50,7 @@ class Features(NamedTuple):
     ray_log        bool     ray-log mode: every node ray and shadow ray cast is written to a
                             :class:`~.raylog.RayLog` (``a5mi bench``'s traversal floor)
     indirect       int      E.15: cosine-weighted rays gathered at each diffuse hit (0: none)
+    two_sided      bool     E.15: the light loop's ``clamp(L·N)`` with N turned toward the ray (both faces lit)
     stale_uv       bool     ``-quirks binary``: some plane-set entry has a textured BSDF (``plane_<id>_bsdf_uv``)
                             and a rule mesh exists: the sample solution's stale uv (docs/FIDELITY.md)
     stack_size     int      entries of the pending-ray stack (:func:`stack_size`)
@@ -74,6 +75,7 @@ class Features(NamedTuple):
     record: bool = False
     stack_size: int = 8
     indirect: int = 0
+    two_sided: bool = False
     stale_uv: bool = False
     ray_log: bool = False
 
@@ -107,6 +109,7 @@ class FeatureSource(Protocol):
     glossy_samples: int
     indirect: int
     subsurface: str
+    two_sided: bool
     planes: list[Any]
 
     @property
@@ -143,6 +146,6 @@ def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, reco
         dispersion=source.dispersion, subsurface=source.subsurface,
         milled=uses_milled(scene, [p[3] for p in source.planes]),
         environment=scene.environment() is not None, triangle_rule=data.rules is not None, record=record,
-        stack_size=size, indirect=indirect,
+        stack_size=size, indirect=indirect, two_sided=source.two_sided,
         stale_uv=data.planes.bsdf_uv is not None and data.rules is not None, ray_log=ray_log,
     )

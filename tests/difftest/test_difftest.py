@@ -33,11 +33,12 @@ MATERIALS = (("  Material {\n    diffuseColor 0.8 0.3 0.2\n  }", ()),
 
 
 def _wrapper(tmp_path: Path) -> Path:
-    """An executable ``a5`` that always adds ``-fresnel schlick`` (a Python script run by this venv)."""
+    """An executable ``a5`` that always adds ``-fresnel schlick`` and traces its AOV images with the sample
+    solution's quadrant rays, as the compared ones are by default (a Python script run by this venv)."""
     (tmp_path / "bin").mkdir(mode=0o755, exist_ok=True)
     exe = tmp_path / "bin" / "a5schlick"
     exe.write_text(f"#!{sys.executable}\nimport sys\nfrom a5mi.cli import run\n"
-                   "sys.exit(run(sys.argv[1:] + ['-fresnel', 'schlick']))\n")
+                   "sys.exit(run(sys.argv[1:] + ['-fresnel', 'schlick', '-normals_mode', 'quadrant']))\n")
     exe.chmod(0o755)
     return exe
 
@@ -118,7 +119,7 @@ def test_cli_reports_a_table_and_json(a5_data: Path, tmp_path: Path) -> None:
 
     allow = ":".join((sys.prefix, sys.base_prefix, str(PROJECT_ROOT)))  # what the a5 script needs to start
     proc = subprocess.run([_a5mi(), "difftest", "--binary", a5, "--count", "2", "--allow-read", allow,
-                           "--mean-size", "40", "--seed", "4", "--json-file", str(report)],
+                           "--mean-size", "40", "--seed", "4", "--json-file", str(report), "--aovs", "main"],
                           capture_output=True, text=True, timeout=300, check=False)
     assert proc.returncode == 0, proc.stderr
     assert "| scene | size |" in proc.stdout and "2 scenes (seed 4)" in proc.stdout
@@ -126,6 +127,8 @@ def test_cli_reports_a_table_and_json(a5_data: Path, tmp_path: Path) -> None:
 
     data = json.loads(report.read_text())
     assert [s["psnr"] for s in data["scenes"]] == ["inf", "inf"] and data["summary"]["identical"] == 2
+    assert [(s["normals_psnr"], s["depth_psnr"]) for s in data["scenes"]] == [("inf", "inf")] * 2
+    assert data["summary"]["normals_identical"] == data["summary"]["depth_identical"] == 2
     assert data["summary"]["median_psnr"] == "inf" and data["passed"] is True
     assert "median PSNR inf dB" in proc.stdout
 
@@ -237,5 +240,50 @@ def test_a_jittered_unfiltered_scene_is_compared_at_three_times_the_size(variant
     s = _glass_scene()
     scene = GenScene(s.camera, s.lights, s.background, s.materials, s.objects[:1],
                      Flags(size=24, bounces=0, jitter=True))
+    out = compare_scene(scene, other, a5_data / "scenes", aovs="main")
+    assert out.status == "ok" and math.isinf(out.worst) and [n for n, _ in out.aovs] == ["normals", "depth"]
+    assert all(m.width == 72 for _, m in out.aovs)   # the AOVs at the 3x render buffer too (SPEC B.6)
+
+
+def _plain(tmp_path: Path, extra: list[str]) -> Binary:
+    """a5 with ``extra`` flags appended, as a sandboxed executable."""
+    from a5mi import PROJECT_ROOT
+
+    (tmp_path / "bin").mkdir(mode=0o755, exist_ok=True)
+    exe = tmp_path / "bin" / "a5extra"
+    exe.write_text(f"#!{sys.executable}\nimport sys\nfrom a5mi.cli import run\n"
+                   f"sys.exit(run(sys.argv[1:] + {extra!r}))\n")
+    exe.chmod(0o755)
+    return Binary(check_binary(exe), (sys.prefix, sys.base_prefix, str(PROJECT_ROOT)))
+
+
+def test_aov_images_are_compared_and_decide_the_scene(variant: str, a5_data: Path, tmp_path: Path) -> None:
+    """The other renderer's ``-normals`` / ``-depth`` images are compared with a5mi's traced by the same rays
+    (SPEC B.6): a5 with quadrant AOV rays against ``--aovs quadrant`` is identical in all three images; against
+    ``--aovs main`` the main image is still identical but the two AOV images differ (the quadrant is the view's
+    top-right quarter magnified 2x), and the scene fails on them (``worst``), also in the campaign."""
+    s = _glass_scene()
+    scene = GenScene(s.camera, s.lights, s.background, s.materials, s.objects, Flags(size=24, bounces=1))
+    other = _plain(tmp_path, ["-normals_mode", "quadrant"])
+    data = a5_data / "scenes"
+    same = compare_scene(scene, other, data, aovs="quadrant")
+    assert same.status == "ok" and math.isinf(same.worst)
+    mixed = compare_scene(scene, other, data, aovs="main")
+    assert math.isinf(mixed.psnr) and mixed.aov_psnr("normals") < 30 and mixed.aov_psnr("depth") < 30
+    assert mixed.worst == min(mixed.aov_psnr("normals"), mixed.aov_psnr("depth"))
+    row = campaign.Row(0, scene, mixed)
+    assert campaign.below(row, 50.0) and not campaign.passed([row], 50.0)
+    line = campaign.table_line(row)
+    assert line.startswith("| 0 | 24 |") and line.count("|") == campaign.TABLE_HEAD.splitlines()[0].count("|")
+    only_main = compare_scene(scene, other, data, aovs="none")
+    assert only_main.aovs == () and math.isinf(only_main.worst)
+
+
+def test_an_other_renderer_without_aov_images_fails_the_run(variant: str, a5_data: Path, tmp_path: Path) -> None:
+    """A binary that does not write the AOV images (here: a5 given a ``-normals`` path it refuses) is a failed
+    run: the comparison has no metrics."""
+    other = _plain(tmp_path, ["-normals", "/dev/null/x.png"])  # a refused -normals path: a5 stops with 2
+    s = _glass_scene()
+    scene = GenScene(s.camera, s.lights, s.background, s.materials, s.objects[:1], Flags(size=16, bounces=0))
     out = compare_scene(scene, other, a5_data / "scenes")
-    assert out.status == "ok" and math.isinf(out.psnr)
+    assert out.metrics is None and out.status.startswith("binary failed"), out.status

@@ -15,7 +15,8 @@ its path weight ``β``:
 * ``L_direct``: next-event estimation of E.13 (plugins/kernel/pbr_lights.py ``direct``: one sample of every
   light and of the environment, the Lambert BSDF ``kd/π``, shadow rays always), every sample at MIS weight 1:
   the light the BSDF would find by sampling is not estimated again here (direct photons are not used);
-* ``L_caustic``: the caustic map's estimate (``k`` nearest, plugins/integrators/photon/maps.py);
+* ``L_caustic``: the caustic map's estimate (``k`` nearest, their disc at most ``max_radius`` wide when it is
+  > 0, plugins/integrators/photon/maps.py);
 * ``L_indirect``: the global map's estimate (photons after a diffuse bounce), or with ``final_gather = M``:
   ``(kd/M) Σ_i L_full(y_i)`` over ``M`` cosine-weighted rays to diffuse points ``y_i``, ``L_full`` the estimate
   from every stored photon there.
@@ -41,7 +42,7 @@ from a5mi.plugins.kernel import pbr, pbr_lights
 from a5mi.plugins.kernel.features import SceneData
 from a5mi.plugins.kernel.intersect import intersect, mirror_normal
 from a5mi.plugins.kernel.surfaces import surface_at
-from a5mi.plugins.params import read_choice, read_int
+from a5mi.plugins.params import read_choice, read_int, read_number
 from a5mi.plugins.sampling import SamplePass, stochastic
 
 
@@ -60,29 +61,31 @@ def _np3(v: Any) -> np.ndarray:
 
 class A5PhotonIntegrator(A5Integrator):
     """Photon mapping (module docstring). Parameters: ``max_depth`` int (4, camera path hits = ``-bounces``),
-    ``photon_depth`` int (10, photon hits), ``photons`` int (100000), ``caustic_photons`` int (100000), ``k``
-    int (50), ``filter`` ``none``/``cone``/``epanechnikov`` (none), ``final_gather`` int (0: off; else rays per
-    point), ``shadows`` bool (false), ``fresnel`` ``a5``/``schlick``/``exact`` (a5), ``reflection``,
-    ``refraction`` bool (true), ``seed`` int (0: the photon maps' seed when no pass gives one), ``tmin``
-    float (0.001), ``bump`` bool (false); and the scene part of ``a5_whitted``'s parameters (``ambient``,
-    ``plane_<id>_*``, accepted, ``phong``, ``glossy``, ``glossy_samples``, ``dispersion``;
-    ``aovs`` "" or ``counts``: the camera
+    ``photon_depth`` int (0: photons end by Russian roulette alone; N > 0: cut after N hits, biased),
+    ``photons`` int (100000), ``caustic_photons`` int (100000), ``k`` int (50), ``max_radius`` float (0: none;
+    else the k-nearest disc's largest radius), ``filter``
+    ``none``/``cone``/``epanechnikov`` (none), ``final_gather`` int (0: off; else rays per point), ``shadows``
+    bool (false), ``fresnel`` ``a5``/``schlick``/``exact`` (a5), ``reflection``, ``refraction`` bool (true),
+    ``seed`` int (0: the photon maps' seed when no pass gives one), ``tmin`` float (0.001), ``bump`` bool
+    (false); and the scene part of ``a5_whitted``'s parameters (``ambient``, ``plane_<id>_*``, accepted,
+    ``phong``, ``glossy``, ``glossy_samples``, ``dispersion``; ``aovs`` "" or ``counts``: the camera
     path's n_reflection, n_refraction, n_shadow)."""
 
     name = "a5_photon"
     aov_groups = ("counts",)
     options = ("seed",)
     fixed = E13_FIXED   # smooth, non-dispersive materials; no ambient or Phong term
-    exposed = ("max_depth", "photon_depth", "photons", "caustic_photons", "k", "final_gather", "seed", "filter",
-               "fresnel", "shadows", "reflection", "refraction", "tmin")
+    exposed = ("max_depth", "photon_depth", "photons", "caustic_photons", "k", "max_radius", "final_gather", "seed",
+               "filter", "fresnel", "shadows", "reflection", "refraction", "tmin")
 
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)   # the shared parameters (plugins/integrators/base.py)
-        self.photon_depth = read_int(self.name, props, "photon_depth", 10, 1)
+        self.photon_depth = read_int(self.name, props, "photon_depth", 0, 0)   # 0: Russian roulette alone
         self.photons = read_int(self.name, props, "photons", 100000, 0)
         self.caustic_photons = read_int(self.name, props, "caustic_photons", 100000, 0)
         self.k = read_int(self.name, props, "k", 50, 1)
         self.final_gather = read_int(self.name, props, "final_gather", 0, 0)
+        self.max_radius = read_number(self.name, props, "max_radius", 0.0)   # 0: the k-nearest disc unbounded
         self.filter = read_choice(self.name, props, "filter", "none", FILTERS)
         self._maps: dict[tuple[int, int, int], Maps] = {}
 
@@ -124,9 +127,9 @@ class A5PhotonIntegrator(A5Integrator):
 
     def estimate(self, maps: Maps, x: np.ndarray, n: np.ndarray, kd: np.ndarray, pass_index: int) -> np.ndarray:
         """``L_caustic + L_indirect`` at diffuse points (without the final gather's ``L_indirect``)."""
-        out = maps.caustic.knn(x, n, kd, self.k, self.filter)
+        out = maps.caustic.knn(x, n, kd, self.k, self.filter, max_radius=self.max_radius)
         if not self.final_gather:
-            out += maps.indirect.knn(x, n, kd, self.k, self.filter)
+            out += maps.indirect.knn(x, n, kd, self.k, self.filter, max_radius=self.max_radius)
         return out
 
     def gather(self, scene: mi.Scene, data: SceneData, f: Any, maps: Maps, x: np.ndarray, n: np.ndarray,
@@ -147,7 +150,8 @@ class A5PhotonIntegrator(A5Integrator):
         dr.eval(h.p, h.hit, s.kd, n_y)
         hit = np.asarray(h.hit, dtype=bool) & (_np3(s.kd).max(axis=1) > 0.0)
         lum = np.zeros((count * m, 3))
-        lum[hit] = maps.full.knn(_np3(h.p)[hit], _np3(n_y)[hit], _np3(s.kd)[hit], self.k, self.filter)
+        lum[hit] = maps.full.knn(_np3(h.p)[hit], _np3(n_y)[hit], _np3(s.kd)[hit], self.k, self.filter,
+                                 max_radius=self.max_radius)
         return kd * lum.reshape(count, m, 3).mean(axis=1)
 
     # ------------------------------------------------------------------ camera paths

@@ -13,9 +13,11 @@ with the density weights ``w_p`` of a disc of radius ``r``:
 
 each integrating to 1 over the disc. :meth:`PhotonMap.knn` takes ``r`` = the distance of the ``k``-th nearest
 photon and sums the ``k − 1`` nearer ones (for a Poisson density ``ρ``, ``E[(k − 1)/(π r²)] = ρ``, while
-``k/(π r²)`` is ``k/(k − 1)`` too high) (E.16); :meth:`PhotonMap.radius` takes every photon within a given
-``r`` per point (E.17), through ``cKDTree.sparse_distance_matrix`` between the points' tree and the map's
-(no Python loop).
+``k/(π r²)`` is ``k/(k − 1)`` too high) (E.16); with ``max_radius = R`` it takes ``r = min(r_k, R)`` and the
+photons within it (all of them lie among the ``k − 1`` nearer ones when ``r_k > R``: the fixed-radius estimate
+of E.17 there), so no disc reaches farther than ``R`` into a bright neighbour. :meth:`PhotonMap.radius` takes
+every photon within a given ``r`` per point (E.17), through ``cKDTree.sparse_distance_matrix`` between the
+points' tree and the map's (no Python loop).
 """
 
 from __future__ import annotations
@@ -54,8 +56,9 @@ class PhotonMap:
         return len(self.pos)
 
     def knn(self, x: np.ndarray, n: np.ndarray, kd: np.ndarray, k: int, filter_name: str = "none",
-            workers: int = 1) -> np.ndarray:
-        """``L(x)`` (rgb, ``(m, 3)``) from the ``k`` nearest photons of each point (module docstring)."""
+            workers: int = 1, max_radius: float = 0.0) -> np.ndarray:
+        """``L(x)`` (rgb, ``(m, 3)``) from the ``k`` nearest photons of each point, their disc at most
+        ``max_radius`` wide when it is > 0 (module docstring)."""
         out = np.zeros((len(x), 3))
         if self.tree is None or len(x) == 0:
             return out
@@ -64,6 +67,8 @@ class PhotonMap:
         if k == 1:
             dist, idx = dist[:, None], idx[:, None]
         r = dist[:, -1:]
+        if max_radius > 0.0:
+            r = np.minimum(r, max_radius)               # a bound: the photons within it (module docstring)
         dist, idx = dist[:, :-1], idx[:, :-1]         # the k-th photon sets r and is not counted
         front = np.einsum("mkc,mc->mk", self.dir[idx], n) < 0.0
         w = weights(filter_name, dist, r) * front

@@ -17,6 +17,13 @@ absorbs the photon. An a5 light over an infinite plane otherwise sends photons o
 from arbitrarily far back into the scene; the direct light there is next-event estimation's, only the indirect
 light from beyond ``4 R`` is left out.
 
+Depth: a photon ends by Russian roulette alone (plugins/integrators/photon/walk.py), unbiased; from bounce
+:data:`ROULETTE_CAP_DEPTH` on its survival is at most :data:`ROULETTE_CAP` (power × ``w/q`` as before), so that
+lossless bounces end too. ``max_depth > 0`` (``-photon_depth N``) cuts every path after ``N`` hits instead: the
+light of the longer paths is lost: in an integrating sphere of albedo ``a`` the irradiance is
+``Σ_(m=1..N) a^(m−1) = (1 − a^N)/(1 − a)`` times the direct one instead of ``1/(1 − a)``, a share ``a^N`` low
+(E.16).
+
 Random numbers: a PCG32 per photon, stream = the photon's index, state from ``(seed, pass, bounce)``, so a map
 depends only on its seed and pass, never on how the photons were split or compacted.
 """
@@ -38,6 +45,10 @@ if TYPE_CHECKING:
     from a5mi.plugins.kernel.features import Features, SceneData
 
 DIRECT, CAUSTIC, INDIRECT = 0, 1, 2
+
+#: From this bounce on, Russian roulette keeps a photon with probability at most ``ROULETTE_CAP`` (module
+#: docstring): lossless paths end with probability 1 (after ``1/(1 − 0.95) = 20`` more bounces on average).
+ROULETTE_CAP_DEPTH, ROULETTE_CAP = 32, 0.95
 
 
 class PhotonSet(NamedTuple):
@@ -80,8 +91,9 @@ def shape_index(scene: mi.Scene, hit_shape: object, on_plane: object, plane: obj
 
 
 def _bounce(scene: mi.Scene, data: SceneData, f: Features, o: np.ndarray, d: np.ndarray, n_medium: np.ndarray,
-            index: np.ndarray, state: int, shapes: bool) -> dict[str, np.ndarray]:
-    """One bounce of the photons ``(o, d)`` (numpy): hit, material, scatter; numpy results."""
+            index: np.ndarray, state: int, shapes: bool, q_max: float) -> dict[str, np.ndarray]:
+    """One bounce of the photons ``(o, d)`` (numpy): hit, material, scatter (survival at most ``q_max``);
+    numpy results."""
     n = len(o)
     od, dd = _dr3(mi.Point3f, o), _dr3(mi.Vector3f, d)
     h = intersect(scene, data.planes, data.rules, od, dd, data.tmin + dr.zeros(mi.Float, n), dr.zeros(mi.UInt32, n))
@@ -91,7 +103,7 @@ def _bounce(scene: mi.Scene, data: SceneData, f: Features, o: np.ndarray, d: np.
     u_dir = mi.Point2f(rng.next_float32(), rng.next_float32())
     n_mirror = mirror_normal(data.planes, h.on_plane, h.plane, s.n)
     st = photon_step(f.fresnel, dd, s.n, n_mirror, s.kd, s.specular, s.ior, mi.Float(n_medium.astype(np.float32)),
-                     h.hit, u_lobe, u_dir, u_rr, f.refraction, f.reflection)
+                     h.hit, u_lobe, u_dir, u_rr, f.refraction, f.reflection, q_max)
     out = {"t": h.t, "p": h.p, "kd": s.kd, "hit": h.hit, "d": st.d, "factor": st.factor, "alive": st.alive & h.hit,
            "diffuse": st.diffuse, "n_medium": st.n_medium}
     dr.eval(*out.values())
@@ -105,9 +117,9 @@ def _bounce(scene: mi.Scene, data: SceneData, f: Features, o: np.ndarray, d: np.
 def trace_photons(scene: mi.Scene, data: SceneData, f: Features, rays: PhotonRays, max_depth: int, seed: int,
                   pass_index: int, emitted: int, keep: tuple[int, ...] = (DIRECT, CAUSTIC, INDIRECT),
                   shapes: bool = False) -> PhotonSet:
-    """Trace ``rays`` for up to ``max_depth`` hits and return the photons stored (module docstring) whose kind
-    is in ``keep``; ``emitted``: the ``N`` the powers were divided by; ``shapes``: fill ``PhotonSet.shape``
-    (``a5mi photons``), else -1."""
+    """Trace ``rays`` until Russian roulette ends them, or for at most ``max_depth`` hits when it is > 0
+    (module docstring), and return the photons stored whose kind is in ``keep``; ``emitted``: the ``N`` the
+    powers were divided by; ``shapes``: fill ``PhotonSet.shape`` (``a5mi photons``), else -1."""
     o, d, power = rays.o.copy(), rays.d.copy(), rays.power.copy()
     falloff = rays.falloff.copy()
     n_medium = np.ones(len(o), dtype=np.float64)           # photons leave the lights in air
@@ -116,11 +128,12 @@ def trace_photons(scene: mi.Scene, data: SceneData, f: Features, rays: PhotonRay
     index = np.arange(len(o), dtype=np.int64)
     kind = np.full(len(o), DIRECT, dtype=np.int8)
     stored: list[tuple[np.ndarray, ...]] = []
-    for depth in range(max_depth):
-        if len(o) == 0:
-            break
+    depth = -1
+    while len(o) and (max_depth <= 0 or depth + 1 < max_depth):
+        depth += 1
+        q_max = 1.0 if depth < ROULETTE_CAP_DEPTH else ROULETTE_CAP
         state = (seed * 0x9E3779B97F4A7C15 + (pass_index << 20) + depth * 0x632BE59BD9B4E019 + 1) % (1 << 64)
-        b = _bounce(scene, data, f, o, d, n_medium, index, state, shapes)
+        b = _bounce(scene, data, f, o, d, n_medium, index, state, shapes, q_max)
         if depth == 0:
             r = np.where(b["hit"], b["t"].astype(np.float64), np.inf)
             power = power * first_hit_factor(falloff, r)[:, None]

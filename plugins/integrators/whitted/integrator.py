@@ -18,7 +18,7 @@ from a5mi.plugins.integrators.whitted.raytree import TreeResult, trace_tree
 from a5mi.plugins.kernel.raylog import RayLog
 from a5mi.plugins.kernel.record import TreeRecorder
 from a5mi.plugins.media import medium as media
-from a5mi.plugins.params import read_int
+from a5mi.plugins.params import read_bool, read_int
 from a5mi.plugins.sampling import SamplePass, stochastic
 
 
@@ -47,6 +47,8 @@ class A5WhittedIntegrator(A5Integrator):
                                      (t), ``class`` (class), ``counts`` (n_reflection, n_refraction,
                                      n_shadow)
     indirect         int     0       rays gathered at each diffuse hit (``-indirect``, EXTENSIONS E.15)
+    two_sided        bool    false   the light loop lights the face the ray sees (N turned toward the
+                                     ray; ``-two_sided``, EXTENSIONS E.15); false: SPEC B.3's front face
     medium           string  none    ``fog`` / ``volume``: a participating medium (EXTENSIONS E.8,
                                      E.9; ``medium_*`` parameters, plugins/media/medium.py)
     plane_<id>_*     ...             an exact infinite plane: ``_normal`` vector, ``_offset`` float,
@@ -84,11 +86,12 @@ class A5WhittedIntegrator(A5Integrator):
     aov_groups = ("normal", "depth", "class", "counts")
     has_media = True
     exposed = ("max_depth", "shadows", "ambient", "phong", "fresnel", "reflection", "refraction", "tmin", "aovs",
-               "glossy_samples", "dispersion", "bump", "glossy", "indirect")
+               "glossy_samples", "dispersion", "bump", "glossy", "indirect", "two_sided")
 
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)   # the shared parameters (plugins/integrators/base.py)
         self.indirect = read_int(self.name, props, "indirect", 0, 0)   # E.15: gathered rays per diffuse hit
+        self.two_sided = read_bool(self.name, props, "two_sided", False)   # E.15: both faces lit by the light loop
         self._medium = media.params_from_props(props)   # docs/EXTENSIONS.md E.8, E.9 (None: no medium)
         self.subsurface = subsurface.method_from_props(props)   # docs/EXTENSIONS.md E.18
 

@@ -55,7 +55,10 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
                log: RayLog | None = None) -> TreeResult:
     """SPEC B.3 for camera rays (unit ``ray_d``, tmin 0, index 1.0, budget ``data.max_depth``).
 
-    Returns ``(colour, first-hit normal, first-hit t, class, n_reflection, n_refraction, n_shadow)``, with
+    Returns ``(colour, first-hit normal, first-hit t, class, n_reflection, n_refraction, n_shadow)``; the
+    first-hit normal is the one the binary's hit record holds and its ``-normals`` image shows (SPEC B.6): the
+    shading normal, except on a plane, whose normal is as written (unnormalised, as the mirror ray uses it;
+    ``Plane { normal 0 -12.6 0 }`` gives ``|n_y| = 12.6``, 255 in the image), with
     ``class = GLASS`` if some node of the ray tree hits a material with ``refraction_index > 0``, else
     ``OPAQUE`` if the camera ray hits, else ``MISS`` (the tree is the one the colour walks). Only ``f`` is
     baked into the kernel; ``data`` and ``rng`` are opaque. ``rec`` (with ``f.record``): the
@@ -111,7 +114,10 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
         local = data.ambient * diffuse_color
         if dr.hint(f.subsurface != "none", mode="scalar"):   # E.18: light under the surface replaces Lambert
             kd, local, counter = subsurface.shade(scene, data, f, bsdf, si, p, d, n, hit, kd, local, rng, counter)
-        shading = lights.ShadingPoint(si, p, hit, n, kd, specular, shininess, r_view, bsdf)
+        n_lit = n
+        if dr.hint(f.two_sided, mode="scalar"):      # E.15: the face the ray sees is lit (physical reading)
+            n_lit = dr.select(dr.dot(d, n) > 0.0, -n, n)
+        shading = lights.ShadingPoint(si, p, hit, n_lit, kd, specular, shininess, r_view, bsdf)
         local, counter, n_shadow = lights.direct(scene, data, f, shading, local, rng, node, counter, n_shadow, rec,
                                                  at, log)
         if dr.hint(f.area_lights, mode="scalar"):   # E.2: an area light seen directly
@@ -126,7 +132,7 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
             color += weight * seg_light
             weight = weight * seg_t
         color += weight * dr.select(hit, local, bg)
-        aov_n = dr.select(first & hit, n, aov_n)
+        aov_n = dr.select(first & hit, n_mirror, aov_n)   # the hit's normal as the binary stores it (B.6)
         aov_t = dr.select(first & hit, t_hit, aov_t)
         aov_class = dr.select(first & hit, float(OPAQUE), aov_class)   # only the camera ray sets OPAQUE
         aov_class = dr.select(a5 & (ior > 0.0), float(GLASS), aov_class)

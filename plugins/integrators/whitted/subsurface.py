@@ -22,7 +22,11 @@ unpolarised Fresnel reflectance of the index ``η``; ``S`` the shadow test with 
   ``F_t(η, cos θ_o)``; free flights from the mixture of the channels' exponentials (each flight draws a
   channel ``c`` uniformly, then ``s = −ln(1 − ξ)/σ_t,c``; weight ``f/⟨p⟩``: scatter
   ``σ_s e^{−σ_t s}/mean_c(σ_t,c e^{−σ_t,c s})``, boundary ``e^{−σ_t t_b}/mean_c(e^{−σ_t,c t_b})``);
-  Henyey-Greenstein directions (``g``); at the boundary the walk adds
+  Henyey-Greenstein directions (``g``); a flight from a scattering vertex starts at the vertex itself, one
+  from the boundary (the entry, an internal reflection) ``tmin`` along its direction (the flight's length counts
+  from the boundary point), so a vertex however near the boundary finds it: exact at any density (a start
+  ``tmin`` ahead of a vertex misses a boundary nearer than ``tmin``, a loss that grows with ``σ_t · tmin``);
+  at the boundary the walk adds
   the light that enters there, ``E_t(x_b)/η²`` (the boundary radiates the transmitted irradiance inward
   diffusely: radiance ``E_t/π``, basic radiance ``L/η²`` ``E_t/(π η²)``, a5 scale ``E_t/η²``; the walk
   carries basic radiance, which a smooth boundary transmits with ``F_t`` alone), plus with an environment the
@@ -216,14 +220,16 @@ def walk_radiance(scene: mi.Scene, data: SceneData, f: Features, p: mi.Point3f, 
         acc = dr.zeros(mi.Color3f, width)
         events = dr.zeros(mi.UInt32, width)
         alive = mi.Bool(live)
+        on_wall = mi.Bool(True)
         while alive & (events < MAX_EVENTS):
             uc, counter = _rand(rng, counter)
             st_c = _channel(mi.UInt32(dr.minimum(uc * 3.0, 2.0)), sigma_t)    # this flight's channel
             u, counter = _rand(rng, counter)
             s = -dr.log(1.0 - u) / dr.maximum(st_c, 1e-30)
-            si = scene.ray_intersect(mi.Ray3f(x + data.tmin * wd, wd), alive)
+            lead = dr.select(on_wall, data.tmin, 0.0)                       # off the wall, not off a vertex
+            si = scene.ray_intersect(mi.Ray3f(x + lead * wd, wd), alive)
             alive &= si.is_valid()
-            t_b = si.t + data.tmin
+            t_b = si.t + lead
             scatter = alive & (s < t_b)
             at_wall = alive & ~scatter
             tt = dr.select(scatter, s, t_b)
@@ -244,6 +250,7 @@ def walk_radiance(scene: mi.Scene, data: SceneData, f: Features, p: mi.Point3f, 
             u3, counter = _rand(rng, counter)
             wd = dr.select(scatter, hg_direction(wd, g, mi.Point2f(u2, u3)), wd - 2.0 * dr.dot(wd, nb) * nb)
             w = dr.select(at_wall, w * fr, w)
+            on_wall = mi.Bool(at_wall)
             events += 1
             q = dr.minimum(dr.maximum(dr.maximum(w.x, w.y), w.z), 0.99)
             u4, counter = _rand(rng, counter)

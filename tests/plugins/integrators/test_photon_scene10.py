@@ -30,8 +30,11 @@ def _versus(mi, scenes_dir: Path, size: int, passes: int, photons: tuple[int, in
     desc, _ = describe_file(str(scenes_dir / "scene10_sphere.txt"))
     centre, target, angle = versus.SCENE10_VIEW
     desc = versus.with_camera(desc, centre, target, angle=angle)
+    # ptracer's paths end at max_depth 12 (versus_dicts): the photons are cut to match (10 hits after the light's
+    # segment and before the camera's), so both estimate the same truncated light; unbounded, ptracer's own
+    # Russian roulette is too noisy at a test's sample counts
     opts = RenderOptions(width=size, height=size, shadows=True, integrator="ppm", photons=photons[0],
-                         caustic_photons=photons[1], seed=1)
+                         caustic_photons=photons[1], seed=1, photon_depth=10)
     return versus.render_versus(mi, desc, opts, passes, 4, ptracer_spp, seeds)
 
 
