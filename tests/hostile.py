@@ -55,23 +55,15 @@ def png_bomb(side: int = 20000) -> bytes:
             + chunk(b"IDAT", raw) + chunk(b"IEND", b""))
 
 
-def sandbox_processes() -> list[int]:
-    """Live (non-zombie) processes whose real uid is in the sandbox's uid range (a5mi.sandbox UID_BASE ..
-    UID_BASE + UID_SPAN): after a run, none may be left."""
-    from a5mi.sandbox import UID_BASE, UID_SPAN
+def sandbox_processes(uids: object) -> list[int]:
+    """Live (non-zombie) processes of the runs' own user ids ``uids`` (the ``uid`` of each record or
+    :class:`a5mi.sandbox.RunResult`; None entries are skipped): after a run, none may be left. Only what these
+    runs started is looked at, never the machine's other sandboxes (another suite may run beside this one)."""
+    from a5mi.sandbox import live_processes
 
-    out = []
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/status") as f:
-                    fields = dict(ln.split(":", 1) for ln in f if ":" in ln)
-            except OSError:
-                continue
-            uid = int(fields["Uid"].split()[0])
-            if UID_BASE <= uid < UID_BASE + UID_SPAN and not fields["State"].strip().startswith("Z"):
-                out.append(int(entry))
-    return out
+    if uids is None or isinstance(uids, int):
+        uids = [uids]
+    return [pid for uid in set(uids) if uid is not None for pid in live_processes(uid)]  # type: ignore[union-attr]
 
 
 def host_tmp(port: int) -> Path:

@@ -144,7 +144,7 @@ def test_with_bubblewrap_every_attack_is_blocked(klass, monkeypatch, capsys) -> 
         assert not p.exists(), p
     assert not klass["listener"].accepted
     assert "Operation not permitted" in recs["killer"]["stderr_tail"] or recs["killer"]["verdict"] == "crash"
-    assert not sandbox_processes()
+    assert not sandbox_processes([r.get("uid") for r in recs.values()])
     assert "(sandbox: bwrap)" in capsys.readouterr().err
 
 
@@ -167,7 +167,7 @@ def test_without_bubblewrap_executables_are_refused_unless_asked(klass, monkeypa
     _check_all(recs, klass["expect"], ["good", "mktemp", "wrongimg", "athome", "symref", "symmate", "hardlink",
                                        "huge", "bomb", "fifo", "shadowlink", "reflink", "hardcopy", "forkstorm"])
     assert {r["isolation"] for r in recs.values() if "image" not in r["isolation"]} == {"rlimits"}
-    assert not sandbox_processes()
+    assert not sandbox_processes([r.get("uid") for r in recs.values()])
     # unsandboxed, the network student reached the host's loopback, and the writer could write where its user
     # id may (a world-writable folder, the host's /tmp)
     klass["listener"].accepted.clear()
@@ -177,10 +177,14 @@ def test_without_bubblewrap_executables_are_refused_unless_asked(klass, monkeypa
             p.unlink()
 
 
-def test_difftest_runner_blocks_the_same_class(klass, tmp_path) -> None:
+def test_difftest_runner_blocks_the_same_class(klass, tmp_path, monkeypatch) -> None:
     """Each executable student as ``difftest --binary``: the runner gives the same sandbox and output checks."""
+    import a5mi.sandbox as sandbox_module
     from a5mi.difftest.runner import Binary, run_binary
 
+    uids: list[int | None] = []  # the user ids of these runs: only their processes are looked at
+    fresh = sandbox_module.fresh_uid
+    monkeypatch.setattr(sandbox_module, "fresh_uid", lambda: uids.append(fresh()) or uids[-1])
     base = tmp_path / "dt"
     base.mkdir()
     for p in (tmp_path, base):
@@ -212,7 +216,7 @@ def test_difftest_runner_blocks_the_same_class(klass, tmp_path) -> None:
     for p in (klass["outside"] / "pwned", subs / "athome" / "pwned", host_tmp(klass["listener"].port)):
         assert not p.exists(), p
     assert not klass["listener"].accepted
-    assert not sandbox_processes()
+    assert uids and not sandbox_processes(uids)
 
 
 def test_difftest_cli_refuses_without_bubblewrap(klass, tmp_path) -> None:
