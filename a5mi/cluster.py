@@ -5,8 +5,9 @@
   each key's *fingerprint* (a digest of everything that decides the unit's result), only the keys whose
   record carries that same fingerprint.
 * :func:`start_client`: a ``distributed.LocalCluster`` of ``workers`` single-threaded worker **processes**
-  bound to 127.0.0.1 (no dashboard; the scheduler's HTTP server on a free loopback port, never 8787), or, with ``scheduler="tls://HOST:PORT"``, a client of an existing
-  cluster (``dask scheduler`` / ``dask worker``, or ``dask-jobqueue`` on SLURM).
+  bound to 127.0.0.1 (no dashboard; the scheduler's HTTP server on a free loopback port, never 8787), or,
+  with ``scheduler="tls://HOST:PORT"``, a client of an existing cluster (``dask scheduler`` / ``dask
+  worker``, or ``dask-jobqueue`` on SLURM).
 * **Authentication.** Whoever can open a connection to a Dask scheduler, worker or nanny can make it run
   any Python function. The local cluster therefore speaks only ``tls://`` with mutual authentication and
   per-run credentials (:func:`per_run_security`: a fresh self-signed key and certificate, in memory only,

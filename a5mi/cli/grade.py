@@ -215,10 +215,16 @@ def run_grade(args: Args, console: Console) -> int:
     tot = totals([r for r in outcome.records if "student" in r], outcome.students)
     by = {(r.get("student"), r.get("case")): r.get("verdict", "error") for r in outcome.records}
     width = max(len(s) for s in outcome.students)
+    from a5mi.grade.feedback import same_failure
+
     for s in outcome.students:
         p, m = tot[s]
         verdicts = ", ".join(f"{c.name} {by.get((s, c.name), 'error')}" for c in settings.cases)
         console.result(f"{s:<{width}}  {p:6g} / {m:g}  {verdicts}")
+    for s in outcome.students:  # a failure shared by every case of a student: said once
+        common = same_failure([r for r in outcome.records if r.get("student") == s])
+        if common:
+            console.note(f"a5mi grade: {s}: {common}")
     if outcome.skipped:
         console.note(f"a5mi grade: {outcome.skipped} cases taken from the journal (--resume)")
     console.note(f"a5mi grade: report in {outcome.files['html']} (sandbox: {outcome.isolation})")

@@ -10,7 +10,9 @@
    at its CPU-time bound or the wall-clock backstop (the record's ``ended_by`` says which), ``over memory``
    on a memory failure, ``crash`` on a signal or a non-zero exit (with stderr's tail);
 2. otherwise the image the case names must be in the submission folder (a student who rendered at home);
-3. ``no output`` without the image; ``unreadable`` if it is not a regular file the program wrote
+3. every record gets a one-line ``cause`` (:func:`a5mi.grade.cause.cause_of`: for a wrong image, the ray-tree
+   term that explains its worst pixels); ``no output`` without the image; ``unreadable`` if it is not a
+   regular file the program wrote
    (:func:`a5mi.sandbox_outputs.open_output`: a symbolic link anywhere on its path, a hard link, a FIFO, another
    owner, too many bytes; no byte of such a file is read) or cannot be decoded (decoded without privileges,
    :func:`a5mi.sandbox_outputs.decode_levels`); ``wrong size`` if its size is not the reference's (an image of more
@@ -31,6 +33,8 @@ from typing import Any
 import numpy as np
 
 from a5mi.grade.cases import Case
+from a5mi.grade.cause import cause_of
+from a5mi.grade.needs import missing_paths
 from a5mi.grade.verdict import Thresholds, judge, measure, points_for
 from a5mi.imageio import read_levels, write_image
 from a5mi.sandbox import Limits, OutputRefused, RunResult, run_folder, run_sandboxed, sandbox_problem
@@ -157,10 +161,15 @@ def grade_one(task: Task) -> dict[str, Any]:
             else:
                 owner = run.uid if run.uid is not None else os.geteuid()
                 rec = _judge_output(task, work, task.case.output, owner, run_info)
+            if rec["verdict"] in ("crash", "no output"):  # could it start? (docs/GRADING.md, a5mi.grade.needs)
+                rec["needs"] = missing_paths(prog, (str(sub.resolve()), str(Path(task.scenes).resolve()),
+                                                    *task.read_only))
     else:
         rec = _judge_output(task, sub.parent, f"{sub.name}/{task.case.output}", None,
                             {"isolation": "none (image submitted)"})
         rec["wall"] = round(time.perf_counter() - t0, 3)
+    if "cause" not in rec:
+        rec["cause"] = cause_of(rec)
     return rec
 
 
@@ -206,13 +215,17 @@ def _judge_output(task: Task, folder: Path, rel: str, owner: int | None, run_inf
         return _record(task, "wrong size", f"{w}x{h}, expected {rw}x{rh}", images=images, **run_info)
     metrics, heat = measure(student, ref, sigma if sigma.shape == ref.shape else None, flip=task.flip)
     verdict = judge(metrics, task.thresholds)
+    cause = cause_of({"verdict": verdict, "detail": metrics.summary()}, scene=Path(task.scenes) / task.case.scene,
+                     options=task.case.options, student=student, reference=ref,
+                     sigma=sigma if sigma.shape == ref.shape else None)
     diff = np.clip(np.abs(student - ref).max(axis=2, keepdims=True) * 8.0, 0, 255).repeat(3, axis=2)
     write_image(img_dir / f"{base}.diff.png", diff / 255.0 + 0.5 / 255.0)
     images["diff"] = f"img/{task.student}/{base}.diff.png"
     if heat is not None:
         write_image(img_dir / f"{base}.flip.png", np.clip(heat, 0, 255) / 255.0 + 0.5 / 255.0)
         images["flip"] = f"img/{task.student}/{base}.flip.png"
-    return _record(task, verdict, metrics.summary(), metrics=metrics.as_dict(), images=images, **run_info)
+    return _record(task, verdict, metrics.summary(), metrics=metrics.as_dict(), images=images, cause=cause,
+                   **run_info)
 
 
 __all__ = ["MAX_IMAGE_BYTES", "MAX_PIXELS_FACTOR", "STDERR_KEEP", "Task", "executable", "grade_one",
