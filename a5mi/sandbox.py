@@ -607,8 +607,10 @@ def run_sandboxed(argv: Sequence[str], workdir: str | os.PathLike[str], limits: 
     if not ended and rc in (-signal.SIGXCPU, 128 + signal.SIGXCPU):
         ended = "cpu"  # one process reached RLIMIT_CPU
     err_text = err_tail.decode("utf-8", "replace")
-    over_disk = (folder is not None and folder.bounded and disk_full(folder.work)) or (
-        rc != 0 and any(p in err_text for p in DISK_PATTERNS))
+    if folder is not None and folder.bounded:  # the tmpfs says it (ENOSPC in stderr may be another limit's)
+        over_disk = disk_full(folder.work)
+    else:
+        over_disk = rc != 0 and any(p in err_text for p in DISK_PATTERNS)
     over = (not ended and rc != 0 and any(p in err_text for p in MEMORY_PATTERNS))
     return RunResult(rc, bool(ended), over, out_head.decode("utf-8", "replace"), err_text, counts[0], counts[1],
                      wall, how, list(argv), uid, round(cpu, 3), ended, over_disk,
