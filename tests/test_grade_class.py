@@ -172,8 +172,9 @@ def test_class_gets_the_verdicts_its_defects_imply(klass, capsys) -> None:
     lines = {ln.split()[0]: ln for ln in out.out.splitlines()}
     assert set(lines) == set(CLASS) and "100 / 100" in lines["good"]
     # a failure shared by every case is said once, with the paths that let the program start
-    said = [ln for ln in out.err.splitlines() if "every case" in ln]
+    said = [ln for ln in out.err.splitlines() if "pyenvwrap" in ln]
     assert len(said) == 1 and said[0].startswith("a5mi grade: pyenvwrap: every case: crash: exit status 127"), said
+    assert "a5mi grade: badsize: every case: wrong size: 33x30, expected 30x30" in out.err.splitlines()
     assert f"add --allow-read {klass / 'pyenv' / 'versions' / '3.11.7'}:{klass / 'venv'}" in said[0]
     assert (report / "feedback" / "pyenvwrap.md").read_text().count("every case: crash") == 1
     assert by["pyenvwrap", "cube"]["cause"] == by["pyenvwrap", "10f"]["cause"]

@@ -114,9 +114,10 @@ class GradeOutcome:
         return bool(self.records) and all(r.get("verdict", "error") in UNGRADED for r in self.records)
 
 
-#: Modules whose code decides a verdict; their source is part of the grader version (:func:`grader_version`).
-VERDICT_MODULES = ("a5mi.grade.run", "a5mi.grade.verdict", "a5mi.sandbox", "a5mi.sandbox_outputs", "a5mi.compare",
-                   "a5mi.imageio")
+#: Modules whose code decides a record (verdict, cause); their source is part of the grader version
+#: (:func:`grader_version`).
+VERDICT_MODULES = ("a5mi.grade.run", "a5mi.grade.verdict", "a5mi.grade.cause", "a5mi.grade.needs", "a5mi.sandbox",
+                   "a5mi.sandbox_outputs", "a5mi.compare", "a5mi.imageio")
 
 
 def grader_version() -> str:
