@@ -146,8 +146,8 @@ def grade_one(task: Task) -> dict[str, Any]:
             run = run_sandboxed([argv0, *task.case.argv], work, lim, env=dict(task.env), folder=folder, **where)
             run_info = {"stderr_tail": run.stderr_tail[-STDERR_KEEP:], "wall": round(run.wall, 3),
                         "isolation": run.isolation, "stdout_bytes": run.stdout_bytes,
-                        "stderr_bytes": run.stderr_bytes, "cpu": run.cpu, "ended_by": run.ended_by,
-                        "cpu_bound": lim.cpu, "wall_bound": lim.timeout, "uid": run.uid}
+                        "stderr_bytes": run.stderr_bytes, "cpu": run.cpu, "waited": run.waited,
+                        "ended_by": run.ended_by, "cpu_bound": lim.cpu, "wall_bound": lim.timeout, "uid": run.uid}
             if run.over_disk:
                 rec = _record(task, "over disk", f"filled its {lim.disk_mb} MB / {lim.inodes} inodes of disk"
                               f"{'' if run.returncode == 0 else ', ' + _crash_detail(run)}", **run_info)
