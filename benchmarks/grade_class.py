@@ -109,7 +109,7 @@ def main(argv: list[str]) -> int:
         for workers in (1, 2):
             report = base / f"report{workers}"
             settings = GradeSettings(str(subs), str(report), cases, scenes, str(cache), workers=workers,
-                                     limits=limits, read_only=allow)
+                                     limits=limits, read_only=allow, cpu=limits.cpu, wall=limits.timeout)
             with start_client(workers) as client:
                 client.run(lambda: None)  # workers up before timing
                 t0 = time.perf_counter()

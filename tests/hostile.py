@@ -5,7 +5,10 @@ Every attack is what a student could hand in: read secrets (``/etc/shadow``, the
 grader's home), write outside its folder, connect to a port on the host's loopback and to a public address,
 fork without end, kill its parent and every process it may signal, answer with a symbolic link to the
 reference or to a classmate's image, a hard link, a FIFO, an image header of 30000 x 30000 pixels in a tiny
-file, a decompression-bomb PNG, ``unshare -r`` and remounting. Image-folder students hand in links instead of
+file, a decompression-bomb PNG, ``unshare -r`` and remounting, fill the disk (six files under the per-file limit,
+in its folder and ``$TMPDIR``) or its inodes (60,000 files and 808-deep folders) and still write a correct image.
+A pyenv-style wrapper (``exec VENV/bin/a5``, its interpreter a copy of ``dash`` outside ``/usr``) is honest
+but cannot start without ``--allow-read``: its cause names the paths. Image-folder students hand in links instead of
 images. The honest ones write a correct image (the reference's bytes, embedded), use ``mktemp`` and ``$HOME``,
 or write a wrong image.
 """
@@ -14,10 +17,14 @@ from __future__ import annotations
 
 import base64
 import os
+import socket
 import struct
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
+
+import pytest
+from helpers import ROOT
 
 #: How a script finds the image path it must write (the a5 command line: ``-output FILE``).
 ARGS = 'out=out.png\nwhile [ $# -gt 0 ]; do [ "$1" = -output ] && out="$2"; shift; done\n'
@@ -25,12 +32,13 @@ ARGS = 'out=out.png\nwhile [ $# -gt 0 ]; do [ "$1" = -output ] && out="$2"; shif
 
 @dataclass(frozen=True)
 class Expect:
-    """What a student must get: one of ``verdicts`` and, when given, ``detail`` in the record's detail and
-    ``stderr`` in its stderr tail."""
+    """What a student must get: one of ``verdicts`` and, when given, ``detail`` in the record's detail,
+    ``stderr`` in its stderr tail and ``cause`` in its cause."""
 
     verdicts: tuple[str, ...]
     detail: str = ""
     stderr: tuple[str, ...] = ()
+    cause: str = ""
 
 
 def _embed(data: bytes, target: str = '"$out"') -> str:
@@ -55,23 +63,34 @@ def png_bomb(side: int = 20000) -> bytes:
             + chunk(b"IDAT", raw) + chunk(b"IEND", b""))
 
 
-def sandbox_processes() -> list[int]:
-    """Live (non-zombie) processes whose real uid is in the sandbox's uid range (a5mi.sandbox.bwrap UID_BASE ..
-    UID_BASE + UID_SPAN): after a run, none may be left."""
-    from a5mi.sandbox.bwrap import UID_BASE, UID_SPAN
+def sandbox_processes(uids: object) -> list[int]:
+    """Live (non-zombie) processes of the runs' own user ids ``uids`` (the ``uid`` of each record or
+    :class:`a5mi.sandbox.bwrap.RunResult`; None entries are skipped): after a run, none may be left. Only what these
+    runs started is looked at, never the machine's other sandboxes (another suite may run beside this one)."""
+    from a5mi.sandbox.bwrap import live_processes
 
-    out = []
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/status") as f:
-                    fields = dict(ln.split(":", 1) for ln in f if ":" in ln)
-            except OSError:
-                continue
-            uid = int(fields["Uid"].split()[0])
-            if UID_BASE <= uid < UID_BASE + UID_SPAN and not fields["State"].strip().startswith("Z"):
-                out.append(int(entry))
-    return out
+    if uids is None or isinstance(uids, int):
+        uids = [uids]
+    return [pid for uid in set(uids) if uid is not None for pid in live_processes(uid)]  # type: ignore[union-attr]
+
+
+def pyenv_wrapper(subs: Path) -> Path:
+    """A virtual environment's ``a5`` beside ``subs`` (``VENV/bin/a5``) whose interpreter is a copy of ``dash``
+    in a pyenv-style prefix (``PYENV/versions/3.11.7/bin/sh``): made once, returns the venv's ``a5``."""
+    import shutil
+
+    venv_a5 = subs.parent / "venv" / "bin" / "a5"
+    interp = subs.parent / "pyenv" / "versions" / "3.11.7" / "bin" / "sh"
+    if not venv_a5.exists():
+        interp.parent.mkdir(parents=True)
+        venv_a5.parent.mkdir(parents=True)
+        shutil.copy2("/usr/bin/dash", interp)
+        venv_a5.write_text(f"#!{interp}\necho started >&2\n")
+        venv_a5.chmod(0o755)
+        for d in (subs.parent / "venv", subs.parent / "pyenv", *interp.parents, *venv_a5.parents):
+            if d.is_relative_to(subs.parent):
+                d.chmod(0o755)
+    return venv_a5
 
 
 def host_tmp(port: int) -> Path:
@@ -120,6 +139,14 @@ def make_class(subs: Path, *, output: str, good: bytes, wrong: bytes, reference:
         "userns": ("unshare -r id >&2\n", Expect(("crash",), "", ("unshare failed",))),
         "remount": (f"mount -o remount,rw / >&2\nmount -o remount,bind,rw '{subs}' >&2\n"
                     f"echo pwned > '{subs / 'pwned-remount'}'\n", Expect(("crash",), "", ("superuser",))),
+        "diskfill": ('for d in . "$TMPDIR" . "$TMPDIR" . "$TMPDIR"; do i=$((i+1)); head -c 50000000 /dev/zero '
+                     '> "$d/fill$i"; done\n'
+                     + ARGS + _embed(good), Expect(("over disk",), "filled its")),
+        "inodes": ('i=0; while [ $i -lt 60000 ]; do : > "f$i" || break; i=$((i+1)); done\n'
+                   'j=0; while [ $j -lt 808 ]; do mkdir d && cd d || break; j=$((j+1)); done\ncd "$HOME"\n'
+                   + ARGS + _embed(good), Expect(("over disk",), "filled its")),
+        "pyenvwrap": (f'exec "{pyenv_wrapper(subs)}" "$@"\n',
+                      Expect(("crash",), "exit status 127", (), "add --allow-read ")),
     }
     expect: dict[str, Expect] = {}
     subs.mkdir(parents=True, exist_ok=True)
@@ -156,4 +183,51 @@ def make_class(subs: Path, *, output: str, good: bytes, wrong: bytes, reference:
     return expect
 
 
-__all__ = ["ARGS", "Expect", "host_tmp", "make_class", "png_bomb", "tga_header"]
+__all__ = ["ARGS", "Expect", "host_tmp", "make_class", "png_bomb", "pyenv_wrapper", "tga_header"]
+
+
+def confinement_probe(outside: Path, port: int) -> str:
+    """A Python program that tries every escape (secrets, capabilities, user namespace, remount, writing
+    outside, the host's loopback, a public address) and prints one JSON line of what happened."""
+    return "#!/usr/bin/python3\n" + f"""import json, os, socket, subprocess
+res = {{}}
+for key, path in (("shadow", "/etc/shadow"), ("checkout", {str(ROOT / "pyproject.toml")!r})):
+    try:
+        open(path).read(1)
+        res[key] = "READ"
+    except OSError as exc:
+        res[key] = exc.strerror
+res["capeff"] = [ln.split()[1] for ln in open("/proc/self/status") if ln.startswith("CapEff")][0]
+res["unshare"] = subprocess.run(["unshare", "-r", "true"], capture_output=True).returncode
+res["remount"] = subprocess.run(["mount", "-o", "remount,bind,rw", "/usr"], capture_output=True).returncode
+try:
+    open({str(outside / "pwned")!r}, "w").write("x")
+    res["write"] = "WROTE"
+except OSError as exc:
+    res["write"] = exc.strerror
+for key, addr in (("loopback", ("127.0.0.1", {port})), ("public", ("192.0.2.1", 80))):
+    s = socket.socket()
+    s.settimeout(2)
+    try:
+        s.connect(addr)
+        res[key] = "CONNECTED"
+    except OSError as exc:
+        res[key] = exc.strerror
+print(json.dumps(res))
+"""
+
+
+CONFINED = {"shadow": "No such file or directory", "checkout": "No such file or directory",
+            "capeff": "0000000000000000", "write": "Read-only file system", "loopback": "Connection refused",
+            "public": "Network is unreachable"}
+
+
+def check_confined(res: dict, listener: socket.socket) -> None:
+    """What :func:`confinement_probe` printed (``res``) shows every escape failed, and nothing reached the test's
+    own ``listener`` on the host's loopback."""
+    assert res["unshare"] != 0 and res["remount"] != 0, res
+    assert {k: res[k] for k in CONFINED} == CONFINED | {"write": res["write"]}, res
+    assert res["write"] in ("Read-only file system", "No such file or directory", "Permission denied"), res
+    listener.settimeout(0.01)
+    with pytest.raises(OSError):
+        listener.accept()

@@ -35,8 +35,15 @@ FLAGS: tuple[Flag, ...] = (
          metavar="FILE"),
     Flag(("--insecure-scheduler",), "insecure_scheduler", "allow a plain tcp:// --scheduler (anyone who reaches "
          "it can run code on its workers)", default=False, show_default=False),
-    Flag(("--timeout",), "timeout", "wall-clock seconds per case", 1, real_in(0.0, 1e6, open_lo=True), 120.0, "S"),
+    Flag(("--cpu",), "cpu", "CPU seconds per case, all its processes together (default: max(120, 250 x a5mi's "
+         "own CPU seconds for the case, measured on a worker))", 1, real_in(0.0, 1e6, open_lo=True), metavar="S"),
+    Flag(("--timeout",), "timeout", "wall-clock backstop per case, not counting time spent waiting for a CPU "
+         "(default: twice the CPU bound)", 1, real_in(0.0, 1e6, open_lo=True), metavar="S"),
     Flag(("--memory",), "memory", "address-space limit per case", 1, integer(64, 1 << 22), 4096, "MB"),
+    Flag(("--disk",), "disk", "bytes a case may write, its folder and /tmp together (a tmpfs per run)", 1,
+         integer(1, 1 << 20), 512, "MB"),
+    Flag(("--inodes",), "inodes", "files and folders a case may create, its folder and /tmp together", 1,
+         integer(64, 1 << 24), 4096, "N"),
     Flag(("--resume",), "resume", "skip the cases already in REPORT_DIR/journal.jsonl", default=False,
          show_default=False),
     Flag(("--allow-read",), "allow_read", "extra paths the sandbox may read (':'-separated), e.g. a toolchain", 1,
@@ -101,8 +108,10 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
         submissions=args.submissions, report_dir=args.output, cases=cases, scenes=os.path.abspath(scenes),
         cache_dir=args.cache or str(default_cache_dir()), reference_dir=args.reference, workers=args.workers,
         scheduler=args.scheduler, security=security, resume=args.resume,
-        limits=Limits(timeout=args.timeout, memory_mb=args.memory, require_sandbox=not args.no_sandbox),
-        read_only=allow, thresholds=Thresholds(args.match, args.close), flip=args.flip)
+        limits=Limits(timeout=args.timeout or 0.0, memory_mb=args.memory, require_sandbox=not args.no_sandbox,
+                      cpu_seconds=args.cpu, disk_mb=args.disk, inodes=args.inodes),
+        cpu=args.cpu, wall=args.timeout, read_only=allow, thresholds=Thresholds(args.match, args.close),
+        flip=args.flip)
 
 
 def check_report_dir(args: Args) -> None:
@@ -206,10 +215,16 @@ def run_grade(args: Args, console: Console) -> int:
     tot = totals([r for r in outcome.records if "student" in r], outcome.students)
     by = {(r.get("student"), r.get("case")): r.get("verdict", "error") for r in outcome.records}
     width = max(len(s) for s in outcome.students)
+    from a5mi.grade.feedback import same_failure
+
     for s in outcome.students:
         p, m = tot[s]
         verdicts = ", ".join(f"{c.name} {by.get((s, c.name), 'error')}" for c in settings.cases)
         console.result(f"{s:<{width}}  {p:6g} / {m:g}  {verdicts}")
+    for s in outcome.students:  # a failure shared by every case of a student: said once
+        common = same_failure([r for r in outcome.records if r.get("student") == s])
+        if common:
+            console.note(f"a5mi grade: {s}: {common}")
     if outcome.skipped:
         console.note(f"a5mi grade: {outcome.skipped} cases taken from the journal (--resume)")
     console.note(f"a5mi grade: report in {outcome.files['html']} (sandbox: {outcome.isolation})")

@@ -36,12 +36,19 @@ from typing import Any
 
 from a5mi import __version__
 from a5mi.grade.cases import Case
-from a5mi.grade.references import build_reference, cache_key
+from a5mi.grade.references import build_reference, cache_key, render_cpu_seconds
 from a5mi.grade.run import Task, grade_one
 from a5mi.grade.verdict import Thresholds
 from a5mi.platform.errors import UserError
 from a5mi.runtime.cluster import Journal, Progress, run_units, start_client
-from a5mi.sandbox.bwrap import Limits, isolation
+from a5mi.sandbox.bwrap import Limits, isolation, mounts_under, unmount
+
+#: A case's CPU-time bound is ``max(cpu floor, CPU_FACTOR x a5mi's CPU seconds for the case)``: the sample
+#: solution needs 70-143 CPU-s for the vase at the handout's flags where a5mi needs ~1.6 s (90x), so 250x
+#: leaves a5soln-class programs a margin of 1.7x or more (docs/GRADING.md "Bounds").
+CPU_FACTOR = 250.0
+#: Default floor of the CPU-time bound (s) and the wall-clock backstop as a multiple of the CPU bound.
+CPU_FLOOR, WALL_FACTOR = 120.0, 2.0
 
 
 @dataclass
@@ -64,6 +71,16 @@ class GradeSettings:
     flip: bool = True
     work_root: str | None = None
     security: Any = None  # distributed.security.Security of ``scheduler`` (None: Dask's configuration)
+    cpu: float | None = None   # --cpu: a fixed CPU-time bound (s); None: calibrated (:func:`bounds`)
+    wall: float | None = None  # --timeout: the wall-clock backstop (s); None: WALL_FACTOR x the CPU bound
+
+    def bounds(self, a5mi_cpu: float) -> Limits:
+        """The limits of one case whose a5mi render took ``a5mi_cpu`` CPU seconds on a worker:
+        ``cpu = --cpu`` or ``max(CPU_FLOOR, CPU_FACTOR x a5mi_cpu)``; wall backstop ``--timeout`` or
+        ``WALL_FACTOR x cpu`` (counted without the time the run waits for a CPU)."""
+        cpu = self.cpu if self.cpu is not None else max(CPU_FLOOR, CPU_FACTOR * a5mi_cpu)
+        return dataclasses.replace(self.limits, cpu_seconds=round(cpu, 1),
+                                   timeout=self.wall if self.wall is not None else WALL_FACTOR * round(cpu, 1))
 
     def absolute(self) -> GradeSettings:
         """These settings with every path absolute (from this process's folder)."""
@@ -97,9 +114,10 @@ class GradeOutcome:
         return bool(self.records) and all(r.get("verdict", "error") in UNGRADED for r in self.records)
 
 
-#: Modules whose code decides a verdict; their source is part of the grader version (:func:`grader_version`).
-VERDICT_MODULES = ("a5mi.grade.run", "a5mi.grade.verdict", "a5mi.sandbox.bwrap", "a5mi.sandbox.outputs", "a5mi.compare",
-                   "a5mi.platform.imageio")
+#: Modules whose code decides a record (verdict, cause); their source is part of the grader version
+#: (:func:`grader_version`).
+VERDICT_MODULES = ("a5mi.grade.run", "a5mi.grade.verdict", "a5mi.grade.cause", "a5mi.grade.needs",
+                   "a5mi.sandbox.bwrap", "a5mi.sandbox.outputs", "a5mi.compare", "a5mi.platform.imageio")
 
 
 def grader_version() -> str:
@@ -213,10 +231,13 @@ def students_of(submissions: str | Path) -> list[str]:
     return names
 
 
-def _reference_unit(args: tuple[Case, str, str, str | None]) -> Any:
-    case, scenes, cache, ref_dir = args
+def _reference_unit(args: tuple[Case, str, str, str | None, bool]) -> Any:
+    """On a worker: the case's reference, and the CPU seconds of a5mi's own render of it there (when
+    ``calibrate``; else 0)."""
+    case, scenes, cache, ref_dir, calibrate = args
     ref_file = None if ref_dir is None else Path(ref_dir) / case.reference
-    return build_reference(Path(scenes) / case.scene, case.options, cache, reference_file=ref_file)
+    ref = build_reference(Path(scenes) / case.scene, case.options, cache, reference_file=ref_file)
+    return ref, (render_cpu_seconds(Path(scenes) / case.scene, case.options) if calibrate else 0.0)
 
 
 def grade_class(s: GradeSettings, progress: Progress | None = None, client: Any = None) -> GradeOutcome:
@@ -244,8 +265,11 @@ def grade_class(s: GradeSettings, progress: Progress | None = None, client: Any 
 
     seen = [s.submissions, s.scenes, s.cache_dir, str(work_root), *(p for p in s.read_only if os.path.exists(p))]
     check_workers_see(client, seen + ([s.reference_dir] if s.reference_dir is not None else []), report_dir)
-    refs = client.gather([client.submit(_reference_unit, (c, s.scenes, s.cache_dir, s.reference_dir), pure=False,
-                                        retries=2) for c in s.cases])
+    calibrate = s.cpu is None
+    built = client.gather([client.submit(_reference_unit, (c, s.scenes, s.cache_dir, s.reference_dir, calibrate),
+                                         pure=False, retries=2) for c in s.cases])
+    refs = [r for r, _ in built]
+    a5mi_cpu = [t for _, t in built]
     (report_dir / "img" / "ref").mkdir(parents=True, exist_ok=True)
     for case, ref in zip(s.cases, refs, strict=True):
         shutil.copyfile(ref.image_path, report_dir / "img" / "ref" / f"{case.name}.png")
@@ -255,11 +279,14 @@ def grade_class(s: GradeSettings, progress: Progress | None = None, client: Any 
     units, prints = [], {}
     for student in students:
         sub_digest = tree_digest(Path(s.submissions) / student)
-        for case, ref, (ref_digest, scene_key) in zip(s.cases, refs, case_keys, strict=True):
+        for case, ref, (ref_digest, scene_key), t in zip(s.cases, refs, case_keys, a5mi_cpu, strict=True):
             task = Task(student, str(Path(s.submissions) / student), case, s.scenes, ref.image_path, ref.sigma_path,
-                        str(work_root), str(report_dir), s.limits, s.read_only, s.env, s.thresholds, s.flip)
+                        str(work_root), str(report_dir), s.bounds(t), s.read_only, s.env, s.thresholds, s.flip, t)
             units.append((task.key, task))
-            prints[task.key] = fingerprint(task, ref_digest, scene_key, sub_digest, version)
+            # the measured calibration varies from run to run: the policy (flags, factors) is fingerprinted
+            policy = dataclasses.replace(task, limits=s.limits, a5mi_cpu=0.0)
+            rule = f"cpu={s.cpu} wall={s.wall} {CPU_FACTOR} {CPU_FLOOR} {WALL_FACTOR}"
+            prints[task.key] = fingerprint(policy, ref_digest, scene_key, sub_digest, f"{version} {rule}")
     journal = Journal(report_dir / "journal.jsonl")
     before = journal.done(prints) if s.resume else set()
     records = run_units(client, units, grade_one, journal, resume=s.resume, progress=progress, fingerprints=prints)
@@ -270,6 +297,8 @@ def grade_class(s: GradeSettings, progress: Progress | None = None, client: Any 
     outcome.files = report.write_all(report_dir, s.cases, students, records,
                                      {"isolation": outcome.isolation, "thresholds": vars(s.thresholds),
                                       "references": {c.name: r.source for c, r in zip(s.cases, refs, strict=True)}})
+    for point in mounts_under(work_root):  # a run folder of a worker killed mid-run
+        unmount(point)
     shutil.rmtree(work_root, ignore_errors=True)
     return outcome
 
@@ -279,5 +308,6 @@ def run_plain(units: Sequence[Task]) -> list[dict[str, Any]]:
     return [grade_one(t) for t in units]
 
 
-__all__ = ["UNGRADED", "VERDICT_MODULES", "GradeOutcome", "GradeSettings", "check_workers_see", "fingerprint",
-           "grade_class", "grader_version", "run_plain", "students_of", "tree_digest"]
+__all__ = ["CPU_FACTOR", "CPU_FLOOR", "UNGRADED", "VERDICT_MODULES", "WALL_FACTOR", "GradeOutcome", "GradeSettings",
+           "check_workers_see", "fingerprint", "grade_class", "grader_version", "run_plain", "students_of",
+           "tree_digest"]

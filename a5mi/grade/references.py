@@ -81,6 +81,17 @@ def render_many(scene: Path, options: list[object]) -> list[np.ndarray]:
     return [quantize(session.render(desc, o).image).astype(np.float64) for o in options]  # type: ignore[arg-type]
 
 
+def render_cpu_seconds(scene: str | Path, options: object) -> float:
+    """CPU seconds (all threads of this process, :func:`time.process_time`) of one a5mi render of ``scene``
+    with ``options``, parse to image: the yardstick a case's CPU-time bound is calibrated against
+    (``docs/GRADING.md`` "Bounds")."""
+    import time
+
+    t0 = time.process_time()
+    render_many(Path(scene), [options])
+    return time.process_time() - t0
+
+
 def noise_band(renders: list[np.ndarray]) -> np.ndarray:
     """Per-pixel, per-channel sample standard deviation (ddof 1) of the renders; zeros for one render."""
     if len(renders) < 2:
@@ -125,5 +136,4 @@ def default_cache_dir() -> Path:
 
 
 __all__ = ["NOISE_SEEDS", "Reference", "build_reference", "cache_key", "default_cache_dir", "named_files",
-           "noise_band", "render_levels",
-           "render_many"]
+           "noise_band", "render_cpu_seconds", "render_levels", "render_many"]

@@ -3,7 +3,10 @@
 The page has no external resource (inline CSS and script; images are relative files under ``img/``): a class
 summary table, student x case, with coloured verdicts, points and totals, sortable by clicking a column
 header; then one section per student with, per case, reference | submission | FLIP heatmap | |diff| x8, the
-metrics, the verdict's detail and the tail of stderr. Every file is written atomically.
+one-line cause (:func:`a5mi.grade.cause.cause_of`), the metrics (once) or the verdict's detail, and the tail
+of stderr; a failure shared by all of a student's cases is said once above them. The feedback files and
+Gradescope's ``results.json`` (:mod:`a5mi.grade.feedback`) are written beside them. Every file is written
+atomically.
 
 PSNR of an image identical to its reference is infinite: it is written ``inf`` in the CSV and the string
 ``"inf"`` in the JSON (``float()`` reads both), never left empty or ``null``: an empty CSV cell and a JSON
@@ -22,13 +25,15 @@ from pathlib import Path
 from typing import Any
 
 from a5mi.grade.cases import Case
+from a5mi.grade.cause import cause_of
+from a5mi.grade.feedback import feedback_markdown, feedback_text, file_stem, gradescope_results, same_failure
 from a5mi.platform.imageio import atomic_file
 
 COLOURS = {"match": "#2e7d32", "close": "#9e9d24", "wrong": "#c62828", "wrong size": "#ad1457",
            "no output": "#616161", "unreadable": "#6d4c41", "crash": "#4a148c", "timeout": "#e65100",
-           "over memory": "#1565c0", "error": "#000000"}
+           "over memory": "#1565c0", "over disk": "#00695c", "error": "#000000"}
 CSV_FIELDS = ("student", "case", "verdict", "points", "max_points", "beyond_noise", "psnr", "mean_error",
-              "share_over_2", "flip", "detail", "wall", "isolation")
+              "share_over_2", "flip", "detail", "wall", "isolation", "cause")
 
 _CSS = """body{font-family:sans-serif;margin:1.5em;color:#222}table{border-collapse:collapse}
 td,th{border:1px solid #ccc;padding:3px 8px;text-align:center}th{background:#eee;cursor:pointer}
@@ -71,6 +76,8 @@ def _split_key(rec: dict[str, Any]) -> dict[str, Any]:
         student, _, case = rec["key"].partition("/")
         rec = {**rec, "student": student, "case": case, "verdict": "error", "points": 0.0, "max_points": 0.0,
                "detail": rec.get("error", "grader error")}
+    if "cause" not in rec:  # a grader error, or a record journaled before causes existed
+        rec = {**rec, "cause": cause_of(rec)}
     return _inf_psnr(rec)
 
 
@@ -141,13 +148,19 @@ def html_page(cases: Sequence[Case], students: Sequence[str], records: Sequence[
                        f"{_fmt(m.get('flip'), '.4f')}")
             stderr = r.get("stderr_tail") or ""
             v = _verdict(r)
+            cause = r.get("cause") or ""
+            said = metrics[4:] if metrics else e(str(r.get("detail", "")))  # the metrics once, else the detail
             blocks.append(f'<div class="case" data-case="{e(c.name)}"><b>{e(c.name)}</b> <span class="v" '
                           f'style="background:{COLOURS.get(v, "#000")}">{e(v)}</span> '
                           f'{float(r.get("points", 0)):g}/{c.points:g}<div class="imgs">{figs}</div>'
-                          f'<small>{e(str(r.get("detail", "")))}{metrics}</small>'
+                          + (f'<p class="cause"><b>cause:</b> {e(cause)}</p>' if cause else "")
+                          + f'<small>{said}</small>'
                           + (f"<pre>{e(stderr[-2000:])}</pre>" if stderr else "") + "</div>")
         p, mx = tot[s]
-        sections.append(f'<section id="s-{e(s)}"><h3>{e(s)} &mdash; {p:g} / {mx:g}</h3>{"".join(blocks)}</section>')
+        common = same_failure([by[s, c.name] for c in cases if (s, c.name) in by])
+        note = f'<p class="common"><b>{e(common)}</b></p>' if common else ""
+        sections.append(f'<section id="s-{e(s)}"><h3>{e(s)} &mdash; {p:g} / {mx:g}</h3>{note}{"".join(blocks)}'
+                        f'</section>')
     n_match = sum(1 for r in records if _verdict(r) == "match")
     legend = " ".join(f'<span class="v" style="background:{col}">{e(v)}</span>' for v, col in COLOURS.items())
     return f"""<!DOCTYPE html>
@@ -166,7 +179,8 @@ def html_page(cases: Sequence[Case], students: Sequence[str], records: Sequence[
 
 def write_all(report_dir: str | Path, cases: Sequence[Case], students: Sequence[str],
               records: Sequence[dict[str, Any]], meta: dict[str, Any]) -> dict[str, str]:
-    """Write ``report.html``, ``results.csv`` and ``results.json``; returns their paths by kind."""
+    """Write ``report.html``, ``results.csv``, ``results.json``, ``feedback/STUDENT.{txt,md}`` and
+    ``gradescope/STUDENT/results.json``; returns their paths by kind."""
     d = Path(report_dir)
     recs = [_split_key(r) for r in records]
     tot = totals(recs, students)
@@ -181,6 +195,17 @@ def write_all(report_dir: str | Path, cases: Sequence[Case], students: Sequence[
     with atomic_file(files["json"], "w") as f:
         f.write(json.dumps(doc, indent=1, default=lambda x: None if isinstance(x, float) and math.isinf(x)
                            else str(x)) + "\n")
+    (d / "feedback").mkdir(exist_ok=True)
+    for s in students:
+        stem = file_stem(s)
+        (d / "gradescope" / stem).mkdir(parents=True, exist_ok=True)
+        for suffix, text in ((".txt", feedback_text(s, cases, recs)), (".md", feedback_markdown(s, cases, recs))):
+            with atomic_file(d / "feedback" / f"{stem}{suffix}", "w") as f:
+                f.write(text)
+        with atomic_file(d / "gradescope" / stem / "results.json", "w") as f:
+            f.write(json.dumps(gradescope_results(s, cases, recs), indent=1) + "\n")
+    files["feedback"] = d / "feedback"
+    files["gradescope"] = d / "gradescope"
     return {k: str(v) for k, v in files.items()}
 
 

@@ -4,10 +4,15 @@
 :class:`Task` and returns a plain dict (one journal record). Verdict order (``docs/GRADING.md``):
 
 1. the submission has an executable ``a5``: it runs with the case's a5 command line in a private working
-   folder that holds links to every scene file (:mod:`a5mi.sandbox.bwrap`); ``timeout`` if killed at the wall
-   limit, ``over memory`` on a memory failure, ``crash`` on a signal or a non-zero exit (with stderr's tail);
+   folder that holds links to every scene file (:mod:`a5mi.sandbox`; inside bubblewrap the folder is
+   :data:`WORK_VIEW`, the submission :data:`SUBMISSION_VIEW` and the scenes :data:`SCENES_VIEW`); ``over disk``
+   if it filled its folder's tmpfs (bytes or inodes, :func:`a5mi.sandbox.bwrap.run_folder`), ``timeout`` if killed
+   at its CPU-time bound or the wall-clock backstop (the record's ``ended_by`` says which), ``over memory``
+   on a memory failure, ``crash`` on a signal or a non-zero exit (with stderr's tail);
 2. otherwise the image the case names must be in the submission folder (a student who rendered at home);
-3. ``no output`` without the image; ``unreadable`` if it is not a regular file the program wrote
+3. every record gets a one-line ``cause`` (:func:`a5mi.grade.cause.cause_of`: for a wrong image, the ray-tree
+   term that explains its worst pixels); ``no output`` without the image; ``unreadable`` if it is not a
+   regular file the program wrote
    (:func:`a5mi.sandbox.outputs.open_output`: a symbolic link anywhere on its path, a hard link, a FIFO, another
    owner, too many bytes; no byte of such a file is read) or cannot be decoded (decoded without privileges,
    :func:`a5mi.sandbox.outputs.decode_levels`); ``wrong size`` if its size is not the reference's (an image of more
@@ -28,9 +33,11 @@ from typing import Any
 import numpy as np
 
 from a5mi.grade.cases import Case
+from a5mi.grade.cause import cause_of
+from a5mi.grade.needs import missing_paths
 from a5mi.grade.verdict import Thresholds, judge, measure, points_for
 from a5mi.platform.imageio import read_levels, write_image
-from a5mi.sandbox.bwrap import Limits, OutputRefused, RunResult, run_sandboxed
+from a5mi.sandbox.bwrap import Limits, OutputRefused, RunResult, run_folder, run_sandboxed, sandbox_problem
 from a5mi.sandbox.outputs import TOO_LARGE, decode_levels, open_output
 
 #: Characters of stderr kept in a result (the tail).
@@ -39,13 +46,17 @@ STDERR_KEEP = 2000
 MAX_PIXELS_FACTOR = 4
 #: The largest output file taken (bytes): a 16384 x 16384 RGBA 8-bit image uncompressed is 1 GiB.
 MAX_IMAGE_BYTES = 256 << 20
+#: Where a sandboxed run sees its submission, the scenes and its working folder (no host path).
+SUBMISSION_VIEW, SCENES_VIEW, WORK_VIEW = "/a5/submission", "/a5/scenes", "/a5/work"
 
 
 @dataclass(frozen=True)
 class Task:
     """One unit of work: ``student`` (folder name), its ``submission`` folder, the ``case``, the ``scenes``
     folder, the reference files (``reference_png``, ``sigma_npy``), where to work (``work_root``) and to put
-    images (``report_dir``), sandbox ``limits``, extra read-only paths and environment for the sandbox."""
+    images (``report_dir``), sandbox ``limits``, extra read-only paths and environment for the sandbox;
+    ``a5mi_cpu``: the CPU seconds of a5mi's own render of the case on a worker (how ``limits.cpu`` was
+    calibrated; 0: not calibrated)."""
 
     student: str
     submission: str
@@ -60,6 +71,7 @@ class Task:
     env: tuple[tuple[str, str], ...] = ()
     thresholds: Thresholds = Thresholds()
     flip: bool = True
+    a5mi_cpu: float = 0.0
 
     @property
     def key(self) -> str:
@@ -71,15 +83,17 @@ def executable(submission: Path) -> Path | None:
     return p if p.is_file() and os.access(p, os.X_OK) else None
 
 
-def prepare_workdir(task: Task) -> Path:
-    """A fresh private folder ``work_root/student/case`` (absolute) with a link to every entry of the scenes
-    folder."""
-    work = Path(task.work_root).resolve() / task.student / task.case.name
-    if work.exists():
-        shutil.rmtree(work)
-    work.mkdir(parents=True)
+def prepare_workdir(task: Task, work: Path | None = None, scenes_at: str | None = None) -> Path:
+    """A private folder holding a link to every entry of the scenes folder: ``work`` (made by the caller), or a
+    fresh ``work_root/student/case`` (absolute). Links point to ``scenes_at/NAME`` (where the run sees the
+    scenes), else to the scenes' own paths."""
+    if work is None:
+        work = Path(task.work_root).resolve() / task.student / task.case.name
+        if work.exists():
+            shutil.rmtree(work)
+        work.mkdir(parents=True)
     for entry in sorted(Path(task.scenes).iterdir()):
-        (work / entry.name).symlink_to(entry.resolve())
+        (work / entry.name).symlink_to(f"{scenes_at}/{entry.name}" if scenes_at else entry.resolve())
     return work
 
 
@@ -120,31 +134,54 @@ def grade_one(task: Task) -> dict[str, Any]:
     prog = executable(sub)
     run_info: dict[str, Any] = {}
     if prog is not None:
-        work = prepare_workdir(task)
-        try:
-            run = run_sandboxed([str(prog.resolve()), *task.case.argv], work, task.limits,
-                                read_only=(str(sub.resolve()), str(Path(task.scenes).resolve()), *task.read_only),
-                                env=dict(task.env))
+        lim = task.limits
+        views = not sandbox_problem()  # bubblewrap: the run sees neutral paths, not the grader's
+        with run_folder(Path(task.work_root).resolve() / task.student / task.case.name, lim) as folder:
+            work = prepare_workdir(task, folder.work, SCENES_VIEW if views else None)
+            argv0 = f"{SUBMISSION_VIEW}/a5" if views else str(prog.resolve())
+            subs, scenes = str(sub.resolve()), str(Path(task.scenes).resolve())
+            where: dict[str, Any] = (
+                {"read_only": task.read_only, "views": ((subs, SUBMISSION_VIEW), (scenes, SCENES_VIEW)),
+                 "work_view": WORK_VIEW} if views else {"read_only": (subs, scenes, *task.read_only)})
+            run = run_sandboxed([argv0, *task.case.argv], work, lim, env=dict(task.env), folder=folder, **where)
             run_info = {"stderr_tail": run.stderr_tail[-STDERR_KEEP:], "wall": round(run.wall, 3),
                         "isolation": run.isolation, "stdout_bytes": run.stdout_bytes,
-                        "stderr_bytes": run.stderr_bytes}
-            if run.timed_out:
-                rec = _record(task, "timeout", f"killed after {task.limits.timeout:g} s", **run_info)
+                        "stderr_bytes": run.stderr_bytes, "cpu": run.cpu, "waited": run.waited,
+                        "ended_by": run.ended_by, "cpu_bound": lim.cpu, "wall_bound": lim.timeout, "uid": run.uid}
+            if run.over_disk:
+                rec = _record(task, "over disk", f"filled its {lim.disk_mb} MB / {lim.inodes} inodes of disk"
+                              f"{'' if run.returncode == 0 else ', ' + _crash_detail(run)}", **run_info)
+            elif run.timed_out:
+                rec = _record(task, "timeout", _bound_detail(task, run), **run_info)
             elif run.over_memory:
-                rec = _record(task, "over memory", f"out of memory (limit {task.limits.memory_mb} MB), "
+                rec = _record(task, "over memory", f"out of memory (limit {lim.memory_mb} MB), "
                               f"{_crash_detail(run)}", **run_info)
             elif run.crashed:
                 rec = _record(task, "crash", _crash_detail(run), **run_info)
             else:
                 owner = run.uid if run.uid is not None else os.geteuid()
                 rec = _judge_output(task, work, task.case.output, owner, run_info)
-        finally:
-            shutil.rmtree(work, ignore_errors=True)
+            if rec["verdict"] in ("crash", "no output"):  # could it start? (docs/GRADING.md, a5mi.grade.needs)
+                rec["needs"] = missing_paths(prog, (str(sub.resolve()), str(Path(task.scenes).resolve()),
+                                                    *task.read_only))
     else:
         rec = _judge_output(task, sub.parent, f"{sub.name}/{task.case.output}", None,
                             {"isolation": "none (image submitted)"})
         rec["wall"] = round(time.perf_counter() - t0, 3)
+    if "cause" not in rec:
+        rec["cause"] = cause_of(rec)
     return rec
+
+
+def _bound_detail(task: Task, run: RunResult) -> str:
+    """Which bound ended a run: ``CPU time: 412.0 s used, bound 400 s (a5mi: 1.60 s)`` or ``wall-clock
+    backstop: ...`` (the seconds it waited for a CPU are not counted)."""
+    lim = task.limits
+    calibrated = f" (a5mi renders this case in {task.a5mi_cpu:.2f} s of CPU)" if task.a5mi_cpu > 0 else ""
+    if run.ended_by == "cpu":
+        return f"CPU time: {run.cpu:.1f} s used, bound {lim.cpu:g} s{calibrated}"
+    return (f"wall-clock backstop: {run.wall:.1f} s, {run.waited:.1f} s of it waiting for a CPU (not counted), "
+            f"bound {lim.timeout:g} s; {run.cpu:.1f} s of CPU used")
 
 
 def _judge_output(task: Task, folder: Path, rel: str, owner: int | None, run_info: dict[str, Any]) -> dict[str, Any]:
@@ -178,13 +215,17 @@ def _judge_output(task: Task, folder: Path, rel: str, owner: int | None, run_inf
         return _record(task, "wrong size", f"{w}x{h}, expected {rw}x{rh}", images=images, **run_info)
     metrics, heat = measure(student, ref, sigma if sigma.shape == ref.shape else None, flip=task.flip)
     verdict = judge(metrics, task.thresholds)
+    cause = cause_of({"verdict": verdict, "detail": metrics.summary()}, scene=Path(task.scenes) / task.case.scene,
+                     options=task.case.options, student=student, reference=ref,
+                     sigma=sigma if sigma.shape == ref.shape else None)
     diff = np.clip(np.abs(student - ref).max(axis=2, keepdims=True) * 8.0, 0, 255).repeat(3, axis=2)
     write_image(img_dir / f"{base}.diff.png", diff / 255.0 + 0.5 / 255.0)
     images["diff"] = f"img/{task.student}/{base}.diff.png"
     if heat is not None:
         write_image(img_dir / f"{base}.flip.png", np.clip(heat, 0, 255) / 255.0 + 0.5 / 255.0)
         images["flip"] = f"img/{task.student}/{base}.flip.png"
-    return _record(task, verdict, metrics.summary(), metrics=metrics.as_dict(), images=images, **run_info)
+    return _record(task, verdict, metrics.summary(), metrics=metrics.as_dict(), images=images, cause=cause,
+                   **run_info)
 
 
 __all__ = ["MAX_IMAGE_BYTES", "MAX_PIXELS_FACTOR", "STDERR_KEEP", "Task", "executable", "grade_one",

@@ -5,8 +5,9 @@
   each key's *fingerprint* (a digest of everything that decides the unit's result), only the keys whose
   record carries that same fingerprint.
 * :func:`start_client`: a ``distributed.LocalCluster`` of ``workers`` single-threaded worker **processes**
-  bound to 127.0.0.1 (no dashboard), or, with ``scheduler="tls://HOST:PORT"``, a client of an existing
-  cluster (``dask scheduler`` / ``dask worker``, or ``dask-jobqueue`` on SLURM).
+  bound to 127.0.0.1 (no dashboard; the scheduler's HTTP server on a free loopback port, never 8787), or,
+  with ``scheduler="tls://HOST:PORT"``, a client of an existing cluster (``dask scheduler`` / ``dask
+  worker``, or ``dask-jobqueue`` on SLURM).
 * **Authentication.** Whoever can open a connection to a Dask scheduler, worker or nanny can make it run
   any Python function. The local cluster therefore speaks only ``tls://`` with mutual authentication and
   per-run credentials (:func:`per_run_security`: a fresh self-signed key and certificate, in memory only,
@@ -151,9 +152,12 @@ def start_client(workers: int = 2, scheduler: str | None = None, *,
                 client.close()
             return
         with dask.config.set({"distributed.scheduler.http.routes": [], "distributed.worker.http.routes": []}):
+            # The scheduler always opens an HTTP server; dashboard_address=None means "port 8787", which warns
+            # "Port 8787 is already in use" beside another cluster: port 0 on loopback, and no dashboard page.
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                   protocol="tls://", security=per_run_security(), dashboard_address=None,
-                                   worker_dashboard_address=None, memory_limit=memory_limit, silence_logs=50)
+                                   protocol="tls://", security=per_run_security(), dashboard_address="127.0.0.1:0",
+                                   scheduler_kwargs={"dashboard": False}, worker_dashboard_address=None,
+                                   memory_limit=memory_limit, silence_logs=50)
         client = Client(cluster)
         try:
             yield client

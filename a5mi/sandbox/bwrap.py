@@ -45,7 +45,10 @@ created, ``O_NOFOLLOW``, one link, its owner, a size bound) and decoded there in
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import functools
+import math
 import os
 import selectors
 import shutil
@@ -53,12 +56,14 @@ import signal
 import subprocess
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from a5mi.platform.errors import UserError
 
+#: Patterns in stderr that say the program ran out of disk space or inodes (errno ENOSPC, EDQUOT).
+DISK_PATTERNS: tuple[str, ...] = ("No space left on device", "Disk quota exceeded")
 #: Patterns in stderr that say the program ran out of memory (C++, Python, glibc, Rust, Go, the shell).
 MEMORY_PATTERNS: tuple[str, ...] = ("bad_alloc", "MemoryError", "Cannot allocate memory", "out of memory",
                                     "memory allocation", "Out of memory")
@@ -89,9 +94,12 @@ class OutputRefused(Exception):
 
 @dataclass(frozen=True)
 class Limits:
-    """Per-run bounds: wall ``timeout`` (s), address space ``memory_mb``, ``fsize_mb`` per written file (and the
-    size of the private ``/tmp``), ``nproc`` processes/threads of the run's user, ``keep_bytes`` of stdout (head)
-    and stderr (tail); ``require_sandbox``: refuse to run without bubblewrap (off = ``--no-sandbox``)."""
+    """Per-run bounds: ``timeout``, the wall-clock backstop (s, counted without the time the run waited for a
+    CPU, :class:`RunCgroup`), ``cpu_seconds`` of CPU time of all its processes together (None: ``timeout``),
+    address space ``memory_mb``, ``fsize_mb`` per written file, ``nproc`` processes/threads of the run's user,
+    ``disk_mb`` and ``inodes`` of everything it writes (its folder and ``/tmp`` together, :func:`run_folder`),
+    ``keep_bytes`` of stdout (head) and stderr (tail); ``require_sandbox``: refuse to run without bubblewrap
+    (off = ``--no-sandbox``)."""
 
     timeout: float = 60.0
     memory_mb: int = 4096
@@ -99,6 +107,14 @@ class Limits:
     nproc: int = 256
     keep_bytes: int = 64 * 1024
     require_sandbox: bool = True
+    cpu_seconds: float | None = None
+    disk_mb: int = 512
+    inodes: int = 4096
+
+    @property
+    def cpu(self) -> float:
+        """The CPU-time bound in seconds (``cpu_seconds``, else ``timeout``)."""
+        return self.timeout if self.cpu_seconds is None else self.cpu_seconds
 
 
 @dataclass
@@ -119,6 +135,10 @@ class RunResult:
     isolation: str
     argv: list[str] = field(default_factory=list)
     uid: int | None = None
+    cpu: float = 0.0
+    ended_by: str = ""
+    over_disk: bool = False
+    waited: float = 0.0
 
     @property
     def crashed(self) -> bool:
@@ -140,7 +160,7 @@ def _probe(bwrap: str, as_root: bool) -> str:
         uid = fresh_uid() if as_root else None
         if uid is not None:
             os.chown(work, uid, uid)
-        cmd = _bwrap_command(bwrap, ["/bin/true"], work, (), uid, 16)
+        cmd = _bwrap_command(bwrap, ["/bin/true"], work, View(), uid, 16)
         try:
             proc = subprocess.run(cmd, cwd=work, stdin=subprocess.DEVNULL, capture_output=True, timeout=30,
                                   check=False)
@@ -193,11 +213,28 @@ def _under(path: str, roots: Sequence[str]) -> bool:
     return any(path == r or path.startswith(r.rstrip("/") + "/") for r in roots)
 
 
-def _mounts(workdir: Path, read_only: Sequence[Path], tmp_mb: int, extra_ro: Sequence[str] = ()) -> list[str]:
+@dataclass(frozen=True)
+class View:
+    """Where a run sees things (``docs/GRADING.md`` "What remains visible"): ``read_only`` paths bound at their
+    own path (an interpreter a wrapper names), ``views`` (host path, path inside) bound read-only under neutral
+    names, the working folder at ``work`` inside (None: its own path) and ``tmp`` the host folder bound as
+    ``/tmp`` (None: a fresh tmpfs of ``fsize_mb``)."""
+
+    read_only: tuple[str, ...] = ()
+    views: tuple[tuple[str, str], ...] = ()
+    work: str | None = None
+    tmp: str | None = None
+
+
+def _mounts(workdir: Path, view: View, tmp_mb: int, extra_ro: Sequence[str] = ()) -> list[str]:
     """bubblewrap's namespace and file-system options (module docstring), ending with ``--chdir``."""
     args = ["--unshare-pid", "--unshare-net", "--unshare-ipc", "--unshare-uts", "--unshare-cgroup-try",
-            "--die-with-parent", "--new-session", "--ro-bind", "/usr", "/usr", "--proc", "/proc", "--dev", "/dev",
-            "--perms", "1777", "--size", str(tmp_mb << 20), "--tmpfs", "/tmp", "--perms", "0755", "--dir", "/etc"]
+            "--die-with-parent", "--new-session", "--ro-bind", "/usr", "/usr", "--proc", "/proc", "--dev", "/dev"]
+    if view.tmp is None:
+        args += ["--perms", "1777", "--size", str(tmp_mb << 20), "--tmpfs", "/tmp"]
+    else:
+        args += ["--bind", os.path.realpath(view.tmp), "/tmp"]
+    args += ["--perms", "0755", "--dir", "/etc"]
     for name in ("bin", "lib", "lib64", "sbin", "lib32", "libx32"):
         p = Path("/") / name
         if p.is_symlink():
@@ -209,7 +246,7 @@ def _mounts(workdir: Path, read_only: Sequence[Path], tmp_mb: int, extra_ro: Seq
         if p.exists() or p.is_symlink():
             args += ["--ro-bind", str(p), str(p)]
     binds: list[tuple[str, str, str]] = []  # (option, source, destination)
-    for ro in [*read_only, *map(Path, extra_ro)]:
+    for ro in [*view.read_only, *extra_ro]:
         real = os.path.realpath(ro)
         if not os.path.exists(real) or real in ("/", "/etc", "/tmp") or _under(real, ("/usr", "/proc", "/dev")):
             continue  # already there, or never bound whole
@@ -217,12 +254,15 @@ def _mounts(workdir: Path, read_only: Sequence[Path], tmp_mb: int, extra_ro: Seq
         alias = str(Path(ro).absolute())
         if alias != real and not _under(alias, ("/usr", "/etc", "/proc", "/dev")):
             binds.append(("--ro-bind", real, alias))
+    for src, dest in view.views:
+        binds.append(("--ro-bind", os.path.realpath(src), dest))
     work = os.path.realpath(workdir)
-    binds.append(("--bind", work, work))
+    inside = view.work or work
+    binds.append(("--bind", work, inside))
     mounted: list[str] = []
     made: set[str] = set()
     for opt, src, dest in sorted(set(binds), key=lambda b: (len(b[2]), b[2], b[0] == "--bind")):
-        if _under(dest, mounted) and opt == "--ro-bind":
+        if _under(dest, mounted) and opt == "--ro-bind" and (src, dest) not in view.views:
             continue  # already visible through an enclosing bind
         # parents that bwrap would otherwise create 0700 (unreadable for the run's user id)
         for parent in reversed(Path(dest).parents):
@@ -232,33 +272,36 @@ def _mounts(workdir: Path, read_only: Sequence[Path], tmp_mb: int, extra_ro: Seq
                 made.add(sp)
         args += [opt, src, dest]
         mounted.append(dest)
-    return [*args, "--chdir", work]
+    return [*args, "--chdir", inside]
 
 
-def _bwrap_command(bwrap: str, argv: Sequence[str], workdir: Path, read_only: Sequence[Path], uid: int | None,
+def _bwrap_command(bwrap: str, argv: Sequence[str], workdir: Path, view: View, uid: int | None,
                    tmp_mb: int) -> list[str]:
     """``bwrap ... argv`` (module docstring); as root: ``bwrap MOUNTS setpriv UID bwrap --unshare-user ...``."""
     unpriv = ["--unshare-user", "--disable-userns", "--cap-drop", "ALL"]
     if uid is None:
-        return [bwrap, *unpriv, *_mounts(workdir, read_only, tmp_mb), "--", *argv]
+        return [bwrap, *unpriv, *_mounts(workdir, view, tmp_mb), "--", *argv]
     tools = [os.path.realpath(bwrap), os.path.realpath(shutil.which("setpriv") or "/usr/bin/setpriv")]
     extra = [os.path.dirname(t) for t in tools if not _under(t, ("/usr",))]
     inner = [tools[1], f"--reuid={uid}", f"--regid={uid}", "--clear-groups", "--no-new-privs", "--",
-             tools[0], *unpriv, "--dev-bind", "/", "/", "--die-with-parent", "--chdir", os.path.realpath(workdir),
-             "--"]
-    return [bwrap, *_mounts(workdir, read_only, tmp_mb, extra), "--", *inner, *argv]
+             tools[0], *unpriv, "--dev-bind", "/", "/", "--die-with-parent", "--chdir",
+             view.work or os.path.realpath(workdir), "--"]
+    return [bwrap, *_mounts(workdir, view, tmp_mb, extra), "--", *inner, *argv]
 
 
-def command_line(argv: Sequence[str], workdir: Path, limits: Limits, read_only: Sequence[Path] = (),
+def command_line(argv: Sequence[str], workdir: Path, limits: Limits, read_only: Sequence[Path] | View = (),
                  uid: int | None = None, *, sandbox: bool = True) -> tuple[list[str], str]:
     """The full command: ``prlimit ... [bwrap ...] [setpriv ...] argv`` and the isolation name (``bwrap`` when
-    ``sandbox``, else ``rlimits``)."""
-    cpu = int(limits.timeout) + 1
-    prlimit = [shutil.which("prlimit") or "prlimit", f"--as={limits.memory_mb * 1024 * 1024}", f"--cpu={cpu}",
-               f"--fsize={limits.fsize_mb * 1024 * 1024}", f"--nproc={limits.nproc}", "--core=0", "--"]
+    ``sandbox``, else ``rlimits``). RLIMIT_CPU is ``ceil(cpu) + 1`` s soft (SIGXCPU), one more hard (SIGKILL):
+    the bound of one process; the cgroup (:class:`RunCgroup`) bounds all of them together."""
+    view = read_only if isinstance(read_only, View) else View(tuple(map(str, read_only)))
+    cpu = math.ceil(limits.cpu) + 1
+    prlimit = [shutil.which("prlimit") or "prlimit", f"--as={limits.memory_mb * 1024 * 1024}",
+               f"--cpu={cpu}:{cpu + 1}", f"--fsize={limits.fsize_mb * 1024 * 1024}", f"--nproc={limits.nproc}",
+               "--core=0", "--"]
     bwrap = bwrap_path()
     if sandbox and bwrap is not None:
-        return [*prlimit, *_bwrap_command(bwrap, argv, workdir, read_only, uid, limits.fsize_mb)], "bwrap"
+        return [*prlimit, *_bwrap_command(bwrap, argv, workdir, view, uid, limits.fsize_mb)], "bwrap"
     drop = ([] if uid is None else
             [shutil.which("setpriv") or "setpriv", f"--reuid={uid}", f"--regid={uid}", "--clear-groups",
              "--no-new-privs", "--"])
@@ -281,6 +324,11 @@ def _live_processes(uid: int) -> list[int]:
     return found
 
 
+def live_processes(uid: int) -> list[int]:
+    """The live processes of a run's user id ``uid`` (:attr:`RunResult.uid`): none once its run returned."""
+    return _live_processes(uid)
+
+
 def kill_uid(uid: int) -> int:
     """SIGKILL every live process whose real user id is ``uid`` (the run's leftovers, wherever they moved:
     another session, another process group), until none is left; returns how many signals were sent."""
@@ -299,12 +347,199 @@ def kill_uid(uid: int) -> int:
     return killed
 
 
+# ------------------------------------------------------------------------------------------- CPU accounting
+@functools.cache
+def _cgroup2_base() -> Path | None:
+    """This process's own cgroup v2 folder (``/proc/self/cgroup``'s ``0::`` line under the ``cgroup2`` mount),
+    when it is writable; None otherwise."""
+    try:
+        mounts = Path("/proc/self/mounts").read_text().splitlines()
+        own = next(ln[3:] for ln in Path("/proc/self/cgroup").read_text().splitlines() if ln.startswith("0::"))
+    except (OSError, StopIteration):
+        return None
+    for ln in mounts:
+        parts = ln.split()
+        if len(parts) > 2 and parts[2] == "cgroup2":
+            base = Path(parts[1]) / own.lstrip("/")
+            if os.access(base, os.W_OK) and (base / "cgroup.procs").exists():
+                return base
+    return None
+
+
+class RunCgroup:
+    """A cgroup v2 of one run: every process the run starts is in it from its first instruction (the run is
+    started by ``sh -c 'echo $$ > cgroup.procs; exec ...'``) and cannot leave it (no ``/sys`` in the sandbox).
+
+    * CPU time of all its processes together: ``cpu.stat`` ``usage_usec`` / 1e6 (Linux, cgroup v2 core);
+    * time kept waiting for a CPU: ``cpu.pressure`` ``some total`` / 1e6 (PSI: the time at least one of its
+      runnable tasks waited on a run queue), subtracted from the wall clock before the backstop applies;
+    * end: ``cgroup.kill`` (every process at once), then the folder is removed."""
+
+    _count = 0
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    @classmethod
+    def create(cls) -> RunCgroup | None:
+        """A fresh child of this process's cgroup, or None where none can be made (no cgroup v2, not root)."""
+        base = _cgroup2_base()
+        if base is None:
+            return None
+        cls._count += 1
+        path = base / f"a5mi-run-{os.getpid()}-{cls._count}-{time.monotonic_ns() % 10**9}"
+        try:
+            path.mkdir()
+        except OSError:
+            return None
+        return cls(path)
+
+    def enter(self) -> list[str]:
+        """The command prefix that moves the process into this cgroup, then execs the rest."""
+        return ["/bin/sh", "-c", 'echo $$ > "$0" && exec "$@"', str(self.path / "cgroup.procs")]
+
+    def _read(self, name: str, key: str) -> float:
+        try:
+            for ln in (self.path / name).read_text().splitlines():
+                parts = ln.split()
+                if parts and parts[0] == key:
+                    if key == "some":
+                        return float(dict(p.split("=") for p in parts[1:])["total"]) / 1e6
+                    return float(parts[1]) / 1e6
+        except (OSError, KeyError, ValueError, IndexError):
+            pass
+        return 0.0
+
+    def cpu_seconds(self) -> float:
+        return self._read("cpu.stat", "usage_usec")
+
+    def waited_seconds(self) -> float:
+        return self._read("cpu.pressure", "some")
+
+    def kill(self) -> None:
+        try:
+            (self.path / "cgroup.kill").write_text("1")
+            return
+        except OSError:
+            pass
+        try:
+            pids = [int(p) for p in (self.path / "cgroup.procs").read_text().split()]
+        except OSError:
+            return
+        for pid in pids:
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
+
+    def remove(self) -> None:
+        """Kill what is left and remove the cgroup (retried while the killed processes exit)."""
+        for _ in range(300):
+            self.kill()
+            try:
+                self.path.rmdir()
+                return
+            except FileNotFoundError:
+                return
+            except OSError:
+                time.sleep(0.01)
+
+
+# ----------------------------------------------------------------------------------------------- disk bound
+MS_NOSUID, MS_NODEV, MNT_DETACH = 2, 4, 2
+
+
+@functools.cache
+def _libc() -> ctypes.CDLL:
+    return ctypes.CDLL(None, use_errno=True)
+
+
+def _mount_tmpfs(path: Path, size_mb: int, inodes: int) -> bool:
+    """Mount a tmpfs of ``size_mb`` MiB and ``inodes`` inodes on ``path`` (root only); whether it worked."""
+    if os.geteuid() != 0:
+        return False
+    opts = f"size={size_mb}m,nr_inodes={inodes},mode=0755".encode()
+    rc = _libc().mount(b"a5mi-run", os.fsencode(path), b"tmpfs", ctypes.c_ulong(MS_NOSUID | MS_NODEV), opts)
+    return rc == 0
+
+
+def unmount(path: str | os.PathLike[str]) -> None:
+    """Detach the mount at ``path`` (a :func:`run_folder` left by a killed worker)."""
+    _libc().umount2(os.fsencode(path), MNT_DETACH)
+
+
+def mounts_under(root: str | os.PathLike[str]) -> list[str]:
+    """Mount points at or below ``root`` (from ``/proc/self/mountinfo``), deepest first."""
+    real = os.path.realpath(root)
+    found = []
+    try:
+        for ln in Path("/proc/self/mountinfo").read_text().splitlines():
+            point = ln.split()[4].encode().decode("unicode_escape")
+            if _under(point, (real,)):
+                found.append(point)
+    except (OSError, IndexError):
+        return []
+    return sorted(found, key=len, reverse=True)
+
+
+@dataclass(frozen=True)
+class RunFolder:
+    """A run's private folders: ``work`` (its working folder) and ``tmp`` (bound as its ``/tmp``; None: a
+    fresh tmpfs made by bubblewrap); ``bounded``: both live on one tmpfs of ``disk_mb`` and ``inodes``."""
+
+    work: Path
+    tmp: Path | None
+    bounded: bool
+
+
+@contextlib.contextmanager
+def run_folder(path: str | os.PathLike[str], limits: Limits) -> Iterator[RunFolder]:
+    """A fresh folder ``path`` for one run, removed afterwards. As root it is a **tmpfs of ``limits.disk_mb``
+    MiB and ``limits.inodes`` inodes** (the kernel refuses the write or the file past either: ENOSPC) holding
+    ``work/`` and ``tmp/`` (the run's ``/tmp``), so everything the run writes counts against one bound and
+    never touches the grader's disk. Otherwise a plain folder (``work/`` only): per-file ``fsize_mb`` and
+    bubblewrap's ``/tmp`` of ``fsize_mb`` bound it."""
+    root = Path(path)
+    if os.path.lexists(root):
+        for point in mounts_under(root):
+            unmount(point)
+        shutil.rmtree(root)
+    root.mkdir(parents=True)
+    mounted = _mount_tmpfs(root, limits.disk_mb, limits.inodes)
+    try:
+        work = root / "work"
+        work.mkdir()
+        tmp = None
+        if mounted:
+            tmp = root / "tmp"
+            tmp.mkdir()
+            tmp.chmod(0o1777)
+        yield RunFolder(work, tmp, mounted)
+    finally:
+        if mounted:
+            unmount(root)
+        shutil.rmtree(root, ignore_errors=True)
+
+
+def disk_full(folder: str | os.PathLike[str]) -> bool:
+    """Whether the file system of ``folder`` (a :func:`run_folder` tmpfs) has under 1 MiB or 8 inodes left."""
+    try:
+        st = os.statvfs(folder)
+    except OSError:
+        return False
+    return st.f_bavail * st.f_frsize < (1 << 20) or (st.f_files > 0 and st.f_favail < 8)
+
+
+# ------------------------------------------------------------------------------------------------ the run
 def run_sandboxed(argv: Sequence[str], workdir: str | os.PathLike[str], limits: Limits | None = None, *,
                   read_only: Sequence[str | os.PathLike[str]] = (), env: dict[str, str] | None = None,
-                  stdin: int | None = None) -> RunResult:
-    """Run ``argv`` in ``workdir`` (the private working folder, created by the caller) under the module's
-    bounds; never raises for anything the program does (raises :class:`SandboxUnavailable` when bubblewrap is
-    required and cannot be used). ``stdin``: a descriptor to read from (default ``/dev/null``)."""
+                  stdin: int | None = None, views: Sequence[tuple[str, str]] = (), work_view: str | None = None,
+                  folder: RunFolder | None = None) -> RunResult:
+    """Run ``argv`` in ``workdir`` (the private working folder, created by the caller; or ``folder.work`` of a
+    :func:`run_folder`, whose ``tmp`` becomes the run's ``/tmp``) under the module's bounds; never raises for
+    anything the program does (raises :class:`SandboxUnavailable` when bubblewrap is required and cannot be
+    used). ``stdin``: a descriptor to read from (default ``/dev/null``). With bubblewrap, ``views`` (host path,
+    path inside) are bound read-only under those names and the working folder appears as ``work_view``; its
+    options (its mounts) reach bubblewrap through a file descriptor (``--args``), so ``/proc/1/cmdline``
+    inside shows only the command after ``--``."""
     limits = limits or Limits()
     sandbox = not sandbox_problem()
     if not sandbox and limits.require_sandbox:
@@ -313,54 +548,100 @@ def run_sandboxed(argv: Sequence[str], workdir: str | os.PathLike[str], limits: 
     uid = fresh_uid()
     private_tmp = None
     if not sandbox:  # bubblewrap's /tmp is a private tmpfs; without it, a private folder beside the work folder
-        private_tmp = Path(tempfile.mkdtemp(prefix=f".{work.name}.tmp-", dir=work.parent))
+        if folder is not None and folder.tmp is not None:
+            private_tmp = folder.tmp
+        else:
+            private_tmp = Path(tempfile.mkdtemp(prefix=f".{work.name}.tmp-", dir=work.parent))
     if uid is not None:
         for p in (work, *work.rglob("*"), *([private_tmp] if private_tmp else [])):
             os.lchown(p, uid, uid)
-    cmd, how = command_line(list(argv), work, limits, [Path(p) for p in read_only], uid, sandbox=sandbox)
-    environment = {"PATH": "/usr/bin:/bin", "HOME": str(work), "LANG": "C.UTF-8",
+    view = View(tuple(str(p) for p in read_only), tuple(views) if sandbox else (),
+                work_view if sandbox else None, str(folder.tmp) if folder is not None and folder.tmp else None)
+    cmd, how = command_line(list(argv), work, limits, view, uid, sandbox=sandbox)
+    here = view.work or str(work)
+    environment = {"PATH": "/usr/bin:/bin", "HOME": here, "LANG": "C.UTF-8",
                    "TMPDIR": "/tmp" if private_tmp is None else str(private_tmp)}
     environment.update(env or {})
+    group = RunCgroup.create()
+    args_file = None
+    if how == "bwrap":  # bubblewrap reads its arguments from a descriptor: /proc/1/cmdline is "bwrap --args N"
+        at = cmd.index(bwrap_path() or "bwrap", 1)
+        end = cmd.index("--", at)  # its options; the command after "--" stays on the command line
+        args_file = tempfile.TemporaryFile()
+        args_file.write(b"".join(os.fsencode(a) + b"\0" for a in cmd[at + 1:end]))
+        args_file.seek(0)
+        cmd = [*cmd[:at + 1], "--args", str(args_file.fileno()), *cmd[end:]]
+    if group is not None:
+        cmd = [*group.enter(), *cmd]
     t0 = time.perf_counter()
     try:
         proc = subprocess.Popen(cmd, cwd=work, env=environment,
                                 stdin=subprocess.DEVNULL if stdin is None else stdin, stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, start_new_session=True, close_fds=True)
+                                stderr=subprocess.PIPE, start_new_session=True, close_fds=True,
+                                pass_fds=() if args_file is None else (args_file.fileno(),))
     except OSError as exc:
+        if group is not None:
+            group.remove()
         return RunResult(127, False, False, "", f"cannot start: {exc}", 0, 0, 0.0, how, list(argv), uid)
+    finally:
+        if args_file is not None:
+            args_file.close()
+    cpu = 0.0
     try:
-        out_head, err_tail, counts, timed_out = _drain(proc, limits, t0)
+        out_head, err_tail, counts, ended = _drain(proc, limits, t0, group)
     finally:
         try:
             os.killpg(proc.pid, signal.SIGKILL)
         except OSError:
             pass
+        if group is not None:
+            cpu = group.cpu_seconds()
+            waited = group.waited_seconds()
+            group.remove()
         if uid is not None:
             kill_uid(uid)
-        if private_tmp is not None:
+        if private_tmp is not None and (folder is None or private_tmp != folder.tmp):
             shutil.rmtree(private_tmp, ignore_errors=True)
     wall = time.perf_counter() - t0
     rc = proc.returncode if proc.returncode is not None else -signal.SIGKILL
+    if not ended and rc in (-signal.SIGXCPU, 128 + signal.SIGXCPU):
+        ended = "cpu"  # one process reached RLIMIT_CPU
     err_text = err_tail.decode("utf-8", "replace")
-    over = (not timed_out and rc != 0 and any(p in err_text for p in MEMORY_PATTERNS))
-    return RunResult(rc, timed_out, over, out_head.decode("utf-8", "replace"), err_text, counts[0], counts[1],
-                     wall, how, list(argv), uid)
+    if folder is not None and folder.bounded:  # the tmpfs says it (ENOSPC in stderr may be another limit's)
+        over_disk = disk_full(folder.work)
+    else:
+        over_disk = rc != 0 and any(p in err_text for p in DISK_PATTERNS)
+    over = (not ended and rc != 0 and any(p in err_text for p in MEMORY_PATTERNS))
+    return RunResult(rc, bool(ended), over, out_head.decode("utf-8", "replace"), err_text, counts[0], counts[1],
+                     wall, how, list(argv), uid, round(cpu, 3), ended, over_disk,
+                     round(waited, 3) if group is not None else 0.0)
 
 
-def _drain(proc: subprocess.Popen[bytes], limits: Limits, t0: float) -> tuple[bytes, bytes, list[int], bool]:
-    """Read both pipes until they close or the deadline: keep stdout's head and stderr's tail."""
+def _over(limits: Limits, t0: float, group: RunCgroup | None) -> tuple[str, float]:
+    """Which bound the run has reached (``"cpu"``, ``"wall"`` or ``""``) and the seconds left to the wall
+    backstop (wall time minus the time it waited for a CPU)."""
+    waited = group.waited_seconds() if group is not None else 0.0
+    left = limits.timeout - (time.perf_counter() - t0 - waited)
+    if group is not None and group.cpu_seconds() >= limits.cpu:
+        return "cpu", left
+    return ("wall" if left <= 0 else ""), left
+
+
+def _drain(proc: subprocess.Popen[bytes], limits: Limits, t0: float,
+           group: RunCgroup | None = None) -> tuple[bytes, bytes, list[int], str]:
+    """Read both pipes until they close or a bound is reached (:func:`_over`): keep stdout's head and
+    stderr's tail; then wait for the process under the same bounds. Returns the bound that ended it or ``""``."""
     assert proc.stdout is not None and proc.stderr is not None
     sel = selectors.DefaultSelector()
     sel.register(proc.stdout, selectors.EVENT_READ, 0)
     sel.register(proc.stderr, selectors.EVENT_READ, 1)
     head, tail = bytearray(), bytearray()
     counts = [0, 0]
-    timed_out = False
+    ended = ""
     open_pipes = 2
     while open_pipes:
-        left = limits.timeout - (time.perf_counter() - t0)
-        if left <= 0:
-            timed_out = True
+        ended, left = _over(limits, t0, group)
+        if ended:
             break
         for key, _ in sel.select(timeout=min(left, 0.5)):
             chunk = os.read(key.fileobj.fileno(), 1 << 16)  # type: ignore[union-attr]
@@ -376,26 +657,32 @@ def _drain(proc: subprocess.Popen[bytes], limits: Limits, t0: float) -> tuple[by
                 tail += chunk
                 if len(tail) > 2 * limits.keep_bytes:
                     del tail[: len(tail) - limits.keep_bytes]
-    if timed_out:
+    while not ended:
+        try:
+            proc.wait(timeout=0.5)
+            break
+        except subprocess.TimeoutExpired:
+            ended, _ = _over(limits, t0, group)
+    if ended:
         try:
             os.killpg(proc.pid, signal.SIGKILL)
         except OSError:
             pass
-    try:
-        proc.wait(timeout=max(0.5, limits.timeout - (time.perf_counter() - t0)) if not timed_out else 5)
-    except subprocess.TimeoutExpired:
-        timed_out = True
+        if group is not None:
+            group.kill()
         try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except OSError:
-            pass
-        proc.wait()
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
     sel.close()
     proc.stdout.close()
     proc.stderr.close()
-    return bytes(head), bytes(tail[-limits.keep_bytes:]), counts, timed_out
+    return bytes(head), bytes(tail[-limits.keep_bytes:]), counts, ended
 
 
-__all__ = ["ETC_FILES", "INSTALL_HINT", "Limits", "MEMORY_PATTERNS", "NOT_SANDBOXED", "OutputRefused", "RunResult",
-           "SandboxUnavailable", "UID_BASE", "UID_SPAN", "bwrap_path", "command_line", "fresh_uid", "isolation",
-           "kill_uid", "refusal", "run_sandboxed", "sandbox_problem"]
+__all__ = ["DISK_PATTERNS", "ETC_FILES", "INSTALL_HINT", "Limits", "MEMORY_PATTERNS", "NOT_SANDBOXED",
+           "OutputRefused", "RunCgroup", "RunFolder", "RunResult", "SandboxUnavailable", "UID_BASE", "UID_SPAN",
+           "View", "bwrap_path", "command_line", "disk_full", "fresh_uid", "isolation", "kill_uid",
+           "live_processes", "mounts_under", "refusal", "run_folder", "run_sandboxed", "sandbox_problem",
+           "unmount"]

@@ -148,7 +148,7 @@ def test_the_binary_is_unprivileged_and_confined_like_a_graded_program(tmp_path:
     import os
     import socket
 
-    from test_grade_sandbox import _check_confined, _confinement_probe
+    from hostile import check_confined, confinement_probe
 
     outside = tmp_path / "outside"
     outside.mkdir()
@@ -158,7 +158,7 @@ def test_the_binary_is_unprivileged_and_confined_like_a_graded_program(tmp_path:
     listener.listen(1)
     (tmp_path / "bin").mkdir()
     exe = tmp_path / "bin" / "probe"
-    exe.write_text(_confinement_probe(outside, listener.getsockname()[1]).replace(
+    exe.write_text(confinement_probe(outside, listener.getsockname()[1]).replace(
         "print(json.dumps(res))", "print(json.dumps(res), file=open('res.json', 'w'))\nraise SystemExit(4)"))
     exe.chmod(0o755)
     for p in (tmp_path, tmp_path / "bin"):
@@ -168,7 +168,7 @@ def test_the_binary_is_unprivileged_and_confined_like_a_graded_program(tmp_path:
     img, status = run_binary(exe, folder, [], timeout=20)
     assert img is None and status.startswith("binary failed"), status
     res = json.loads((folder / "res.json").read_text())
-    _check_confined(res, listener)
+    check_confined(res, listener)
     assert not (outside / "pwned").exists() and os.stat(folder / "res.json").st_uid != 0
     listener.close()
 

@@ -44,6 +44,8 @@ os.execv({A5!r}, ["a5", *args])
 """
 
 
+#: Stands for a wrapper ``exec VENV/bin/a5`` (tests/hostile.py ``pyenv_wrapper``), written by the fixture.
+PYENV_WRAPPER = "pyenv-style wrapper"
 #: student -> (script or None for an image submission, expected verdict per case)
 CLASS: dict[str, tuple[str | None, str]] = {
     "good": (f"#!/bin/sh\nexec {A5} \"$@\"\n", "match"),
@@ -63,6 +65,7 @@ CLASS: dict[str, tuple[str | None, str]] = {
                "crash"),
     "sleeper": ("#!/bin/sh\nsleep 1000\n", "timeout"),
     "hog": ("#!/usr/bin/python3\nbuf = bytearray(20 << 30)\n", "over memory"),
+    "pyenvwrap": (PYENV_WRAPPER, "crash"),  # exec VENV/bin/a5, whose interpreter is outside /usr: not allowed
 }
 
 
@@ -95,6 +98,10 @@ def klass(tmp_path_factory, scenes_dir):
     for name, (script, _) in CLASS.items():
         d = subs / name
         d.mkdir()
+        if script == PYENV_WRAPPER:
+            from hostile import pyenv_wrapper
+
+            script = f'#!/bin/sh\nexec "{pyenv_wrapper(subs)}" "$@"\n'
         if script is not None:
             (d / "a5").write_text(script)
             (d / "a5").chmod(0o755)
@@ -164,6 +171,14 @@ def test_class_gets_the_verdicts_its_defects_imply(klass, capsys) -> None:
     assert 0 < by["noshadows", "10f"]["metrics"]["flip"] < 1
     lines = {ln.split()[0]: ln for ln in out.out.splitlines()}
     assert set(lines) == set(CLASS) and "100 / 100" in lines["good"]
+    # a failure shared by every case is said once, with the paths that let the program start
+    said = [ln for ln in out.err.splitlines() if "pyenvwrap" in ln]
+    assert len(said) == 1 and said[0].startswith("a5mi grade: pyenvwrap: every case: crash: exit status 127"), said
+    assert "a5mi grade: badsize: every case: wrong size: 33x30, expected 30x30" in out.err.splitlines()
+    assert f"add --allow-read {klass / 'pyenv' / 'versions' / '3.11.7'}:{klass / 'venv'}" in said[0]
+    assert (report / "feedback" / "pyenvwrap.md").read_text().count("every case: crash") == 1
+    assert by["pyenvwrap", "cube"]["cause"] == by["pyenvwrap", "10f"]["cause"]
+    assert "shadow" in by["noshadows", "10f"]["cause"] and by["good", "10f"]["cause"] == ""
     csv = (report / "results.csv").read_text().splitlines()
     assert len(csv) == 1 + 2 * len(CLASS) and csv[0].startswith("student,case,verdict,points")
     assert not (report / ".work").exists()
