@@ -70,6 +70,7 @@ from .describe import (
     SphereShape,
     VolumeDescription,
 )
+from .errors import SceneSemanticError
 from .ext_mitsuba import (
     baked_solid,
     grid_volume,
@@ -222,6 +223,11 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
         d[lid.key] = light_dict(light, desc.centre, stock=stock)
     if desc.medium is not None:  # docs/EXTENSIONS.md E.8, E.9
         med = desc.medium
+        if not stock and options.integrator != "whitted":  # the media code lives in a5_whitted's loop only
+            kind = "Volume" if isinstance(med, VolumeDescription) else "Fog"
+            raise SceneSemanticError(f"{kind} is rendered by -integrator whitted only (docs/EXTENSIONS.md E.8, "
+                                     f"E.9); -integrator {options.integrator} has no participating media",
+                                     med.loc)
         grid = grid_volume(med, backend.grid_source(med)) if isinstance(med, VolumeDescription) else None
         if stock:
             d["integrator"]["type"] = "volpath"
