@@ -18,11 +18,8 @@ from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, real, size_flag, text
 from a5mi.errors import ExitStatus, UsageError
 from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, PHOTON_FILTERS, QUIRKS, SUBSURFACE_METHODS, RenderOptions
-from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR
+from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES
 
-#: Render-buffer samples (3W x 3H with -jitter) accepted at most (~16 GB by a5mi.resources' model); below it
-#: a render is refused when its estimated memory (a5mi.resources.render_bytes) exceeds what is available.
-MAX_SAMPLES = 1 << 28
 #: The largest finite float32 (SPEC B.6's depths are float32).
 FLOAT32_MAX = 3.4028234663852886e38
 
@@ -140,52 +137,33 @@ def render_options(args: Args, **overrides: Any) -> RenderOptions:
     return RenderOptions(**values)
 
 
-#: docs/EXTENSIONS.md E.15: most pending rays per camera ray ``(N + 1) · bounces`` that ``-indirect N`` may keep
-#: (the kernel's per-lane stack, plugins/kernel/pbr_gather.py ``stack_size``)
-MAX_PENDING = 256
-
-
 def check_render_args(args: Args) -> None:
-    """Limits that depend on several flags (SPEC B.5): the sample budget and ``-filter``'s minimum size."""
-    k = JITTER_FACTOR if args.jitter else 1
-    samples = args.width * args.height * k * k
-    if samples > MAX_SAMPLES:
-        raise UsageError(f"-size {args.width} {args.height}{' with -jitter' if args.jitter else ''} is {samples} "
-                         f"samples; the limit is {MAX_SAMPLES}")
-    indirect = args.get("indirect") or 0
-    if indirect and args.get("integrator") not in (None, "whitted"):
-        raise UsageError(f"-indirect is a mode of the whitted integrator, not of -integrator {args.integrator}")
-    if indirect and (indirect + 1) * args.bounces > MAX_PENDING:
-        pending = (indirect + 1) * args.bounces
-        raise UsageError(f"-indirect {indirect} with -bounces {args.bounces} keeps up to {pending} pending rays per "
-                         f"camera ray; the limit is {MAX_PENDING} (fewer rays or bounces)")
+    """Limits that depend on several flags, the same for the command line and the page
+    (:mod:`a5mi.render.limits`: the sample budget, ``-indirect``, ``-filter``'s minimum size, the memory), and
+    the ``-ic_records`` / ``-ic_error`` rules."""
+    from a5mi.render import limits
+
     if args.get("ic_records_output") and args.get("integrator") != "irradiancecache":
         raise UsageError("-ic_records needs -integrator irradiancecache")
     ic_error = args.get("ic_error")
     if ic_error is not None and not 0.0 < ic_error <= 1.0:
         raise UsageError(f"-ic_error must be in (0, 1], got {ic_error}")
-    if args.filter and not args.jitter and (args.width < 3 or args.height < 3):
-        raise UsageError(f"-filter without -jitter saves a W/3 x H/3 image; -size {args.width} {args.height} is "
-                         "too small")
-    check_memory(args)
+    options = render_options(args, count_rays=False)
+    limits.check_combination(options)
+    check_memory(args, options)
 
 
-def check_memory(args: Args) -> None:
-    """Refuse, before anything is read, a render whose estimated peak memory
-    (:func:`a5mi.resources.render_bytes`) exceeds the memory available (a user error: a smaller ``-size``)."""
-    from a5mi import resources
-    from a5mi.options import TILE_RAYS
+def check_memory(args: Args, options: RenderOptions) -> None:
+    """Refuse, before anything is read, a render whose estimated peak memory (:func:`a5mi.render.limits.
+    memory_need`: the render buffers, the integrator's photon maps, kd-trees, statistics or records, and the
+    bands of ``-workers`` / ``-scheduler``) exceeds the memory available (a user error: a smaller ``-size``)."""
+    from a5mi.render import limits
 
-    k = JITTER_FACTOR if args.jitter else 1
     aovs = bool(args.get("normals_output") or args.get("depth_output"))
-    need = resources.render_bytes(args.width * k, args.height * k, width=args.width, height=args.height,
-                                  aovs=aovs, jitter=bool(args.jitter), filtered=bool(args.filter),
-                                  tile_rays=TILE_RAYS)
-    enough, have = resources.fits(need)
-    if not enough:
-        hint = " (-jitter -filter streams the render buffer)" if args.jitter and not args.filter else ""
-        raise UsageError(f"-size {args.width} {args.height}{' with -jitter' if args.jitter else ''} needs about "
-                         f"{resources.gb(need)} of memory; {resources.gb(have or 0)} is available{hint}")
+    workers = args.get("workers") if args.get("workers") is not None else (
+        0 if args.get("scheduler") is not None else None)
+    hint = " (-jitter -filter streams the render buffer)" if args.jitter and not args.filter else ""
+    limits.check_memory(options, aovs=aovs, workers=workers, hint=hint)
 
 
 def outputs_of(args: Args) -> list[tuple[str, str]]:
