@@ -16,6 +16,19 @@ from a5mi.cli.flags import Args, Flag, Positional, integer, real, real_in, text
 from a5mi.errors import ExitStatus, UsageError, UserError
 from a5mi.extras import require
 
+#: How a command of ``--scheduler`` joins an existing Dask cluster (:func:`scheduler_security`; ``grade``,
+#: ``animate``, ``photons``): TLS credentials, or the explicit opt-in to a plain ``tcp://`` scheduler.
+SCHEDULER_FLAGS: tuple[Flag, ...] = (
+    Flag(("--tls-ca",), "tls_ca", "with --scheduler tls://: the CA certificate of the cluster (PEM)", 1, text,
+         metavar="FILE"),
+    Flag(("--tls-cert",), "tls_cert", "with --scheduler tls://: this client's certificate (PEM)", 1, text,
+         metavar="FILE"),
+    Flag(("--tls-key",), "tls_key", "with --scheduler tls://: this client's private key (PEM)", 1, text,
+         metavar="FILE"),
+    Flag(("--insecure-scheduler",), "insecure_scheduler", "allow a plain tcp:// --scheduler (anyone who reaches "
+         "it can run code on its workers)", default=False, show_default=False),
+)
+
 FLAGS: tuple[Flag, ...] = (
     Flag(("-o", "--output"), "output", "report folder (report.html, results.csv, results.json, journal.jsonl)",
          1, text, metavar="REPORT_DIR"),
@@ -27,14 +40,7 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--workers",), "workers", "local Dask worker processes", 1, integer(1, 512), 2, "N"),
     Flag(("--scheduler",), "scheduler", "join an existing Dask cluster instead of starting one (its workers must "
          "see every path on a shared filesystem)", 1, text, metavar="tls://HOST:PORT"),
-    Flag(("--tls-ca",), "tls_ca", "with --scheduler tls://: the CA certificate of the cluster (PEM)", 1, text,
-         metavar="FILE"),
-    Flag(("--tls-cert",), "tls_cert", "with --scheduler tls://: this client's certificate (PEM)", 1, text,
-         metavar="FILE"),
-    Flag(("--tls-key",), "tls_key", "with --scheduler tls://: this client's private key (PEM)", 1, text,
-         metavar="FILE"),
-    Flag(("--insecure-scheduler",), "insecure_scheduler", "allow a plain tcp:// --scheduler (anyone who reaches "
-         "it can run code on its workers)", default=False, show_default=False),
+    *SCHEDULER_FLAGS,
     Flag(("--timeout",), "timeout", "wall-clock seconds per case", 1, real_in(0.0, 1e6, open_lo=True), 120.0, "S"),
     Flag(("--memory",), "memory", "address-space limit per case", 1, integer(64, 1 << 22), 4096, "MB"),
     Flag(("--resume",), "resume", "skip the cases already in REPORT_DIR/journal.jsonl", default=False,
@@ -59,7 +65,7 @@ def _options_of(argv: list[str]):  # noqa: ANN202 - RenderOptions, imported lazi
     return render_options(parse_a5_args(argv))
 
 
-def _scheduler_security(args: Args):  # noqa: ANN202 - distributed.security.Security or None
+def scheduler_security(args: Args):  # noqa: ANN201 - distributed.security.Security or None
     """The client credentials of ``--scheduler`` (:func:`a5mi.cluster.check_scheduler`); TLS flags without
     ``--scheduler`` are a usage error."""
     from a5mi.cluster import check_scheduler
@@ -89,7 +95,7 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     if not 0 <= args.match <= args.close <= 1:
         raise UsageError(f"--match and --close must satisfy 0 <= match <= close <= 1 (found {args.match:g}, "
                          f"{args.close:g})")
-    security = _scheduler_security(args)
+    security = scheduler_security(args)
     scenes = args.scenes or str(require_data_dir() / "scenes")
     if not Path(scenes).is_dir():
         raise UsageError(f"--scenes: '{scenes}' is not a folder")
