@@ -174,6 +174,7 @@ def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any
     class Handler(BaseHTTPRequestHandler):
         server_version = "a5mi-view"
         protocol_version = "HTTP/1.1"
+        default_request_version = "HTTP/1.1"  # a malformed request line still gets a status line, not HTTP/0.9
 
         def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 - the base class's name
             pass  # no access log on the terminal: the page is the output
