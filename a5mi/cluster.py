@@ -207,7 +207,7 @@ def start_client(workers: int = 2, scheduler: str | None = None, *,
             return
         with dask.config.set({"distributed.scheduler.http.routes": [], "distributed.worker.http.routes": []}):
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                   protocol="tls://", security=per_run_security(), dashboard_address=None,
+                                   protocol="tls://", security=per_run_security(), dashboard_address="127.0.0.1:0",
                                    worker_dashboard_address=None, memory_limit=memory_limit, silence_logs=50)
         client = Client(cluster)
         try:
