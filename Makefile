@@ -70,7 +70,8 @@ test-all: setup lint
 	$(PYTEST)
 
 # The thorough hypothesis profile (tests/conftest.py): ten times the examples of `make test`, random seeds;
-# plus the mutation campaign (tests/fuzzing.py) through real renders, bounded in time and seeded:
+# plus the mutation campaign (tests/fuzzing.py) through real renders, bounded in time and seeded (scenes, meshes,
+# images, every sub-command, E.1-E.24 numeric keywords at their bounds, the view's HTTP surface):
 # `make fuzz FUZZ_SECONDS=300 FUZZ_SEED=7`; counts in out/fuzz-report.json.
 FUZZ_SECONDS ?= 1800
 FUZZ_SEED ?= 1

@@ -12,6 +12,7 @@ has the default that means "as SPEC B").
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Final
@@ -20,11 +21,14 @@ from a5mi.converters.builders import MaterialBuilder, SolidBuilder
 from a5mi.converters.errors import FileLoc
 from a5mi.converters.lexer import Token
 from a5mi.converters.model import AreaLight, Fog, Light, Medium, Solid, SphereLight, SpotLight, Vec3, Volume
+from a5mi.converters.obj import FLOAT32_MAX
 from a5mi.converters.subsurface import parse_subsurface
 from a5mi.converters.surface_ext import MATERIAL_RULES as SURFACE_RULES
 from a5mi.converters.tokens import Rule, TokenStream, keyword_block, quoted_raw
 from a5mi.spec import DISPERSION_RANGE_NM
 
+#: The smallest normal float32 (smaller values are flushed to 0 by the kernels).
+FLOAT32_TINY: Final = 1.1754943508222875e-38
 #: Upper bound of ``samples`` / ``glossySamples`` (one kernel loop bound / stack size, EXTENSIONS E.5).
 MAX_LIGHT_SAMPLES: Final = 4096
 MAX_GLOSSY_SAMPLES: Final = 64
@@ -149,7 +153,8 @@ LIGHTS: Final[dict[str, Callable[[TokenStream, Token], Light]]] = {
 
 def parse_camera_lens(ts: TokenStream) -> tuple[float, float]:
     """The optional ``[aperture F] [focusDistance F]`` after the camera's ``angle``, then ``}`` (E.3):
-    ``aperture >= 0`` (the lens diameter; 0, the default, is the pinhole), ``focusDistance > 0`` (default 1)."""
+    ``aperture >= 0`` (the lens diameter; 0, the default, is the pinhole), ``focusDistance > 0`` (default 1) and at
+    least the smallest normal float32 (a subnormal is flushed to 0 in the kernels)."""
     aperture, focus = 0.0, 1.0
     seen: set[str] = set()
     while True:
@@ -166,8 +171,9 @@ def parse_camera_lens(ts: TokenStream) -> tuple[float, float]:
                 raise ts.semantic_error(f"camera aperture must not be negative, found {value:g}", tok.loc)
             aperture = value
         else:
-            if value <= 0.0:
-                raise ts.semantic_error(f"camera focusDistance must be positive, found {value:g}", tok.loc)
+            if value < FLOAT32_TINY:  # a float32 subnormal is flushed to 0 by the kernels
+                raise ts.semantic_error(f"camera focusDistance must be at least {FLOAT32_TINY:.3g} (the smallest "
+                                        f"normal float32), found {value:g}", tok.loc)
             focus = value
 
 
@@ -312,11 +318,18 @@ def parse_dispersion(ts: TokenStream, tok: Token, m: MaterialBuilder) -> bool:
         raise ts.semantic_error(f"dispersion A (the index far in the infrared) must be positive, found {a:g}",
                                 a_tok.loc)
     b, b_tok = ts.number_at("dispersion")
+    top = math.sqrt(FLOAT32_MAX)  # Snell's (n/nt)² must stay finite in float32, as for refractionIndex F
+    if a > top:
+        raise ts.semantic_error(f"dispersion A {a:g} is too large: its square overflows float32 (at most 1.8e19)",
+                                a_tok.loc)
     for lam_nm in DISPERSION_RANGE_NM:
         n = a + b / (lam_nm * 1e-3) ** 2
         if n <= 0.0:
             raise ts.semantic_error(f"dispersion {a:g} {b:g} gives the index {n:g} at {lam_nm:g} nm: it must stay "
                                     "positive over the sampled range", b_tok.loc)
+        if n > top:
+            raise ts.semantic_error(f"dispersion {a:g} {b:g} gives the index {n:g} at {lam_nm:g} nm: its square "
+                                    "overflows float32 (at most 1.8e19)", b_tok.loc)
     m.refraction_index, m.dispersion = a, b
     return True
 

@@ -67,6 +67,7 @@ from a5mi.converters.describe import (
     SphereShape,
     VolumeDescription,
 )
+from a5mi.converters.errors import SceneSemanticError
 from a5mi.converters.ext_mitsuba import (
     baked_solid,
     grid_volume,
@@ -221,6 +222,11 @@ def scene_entries(desc: SceneDescription, options: RenderOptions, backend: Backe
         d[lid.key] = light_dict(light, desc.centre, stock=stock)
     if desc.medium is not None:  # docs/EXTENSIONS.md E.8, E.9
         med = desc.medium
+        if not stock and options.integrator != "whitted":  # the media code lives in a5_whitted's loop only
+            kind = "Volume" if isinstance(med, VolumeDescription) else "Fog"
+            raise SceneSemanticError(f"{kind} is rendered by -integrator whitted only (docs/EXTENSIONS.md E.8, "
+                                     f"E.9); -integrator {options.integrator} has no participating media",
+                                     med.loc)
         grid = grid_volume(med, backend.grid_source(med)) if isinstance(med, VolumeDescription) else None
         if stock:
             d["integrator"]["type"] = "volpath"

@@ -50,11 +50,11 @@ from a5mi.converters.files import Image
 from a5mi.converters.to_mitsuba import Backend, bake_cubemap_envmap, make_mesh, scene_entries
 from a5mi.platform import interrupts
 from a5mi.platform.paths import remove_stale, temp_prefix
-from a5mi.render.options import RenderOptions
+from a5mi.render.options import INTEGRATORS, RenderOptions
 from a5mi.spec import CUBE_FACES
 
 PLUGIN_TAGS: dict[str, str] = {
-    **dict.fromkeys(("a5_whitted", "path", "direct", "volpath"), "integrator"),
+    **dict.fromkeys(("a5_whitted", "path", "direct", "volpath", *INTEGRATORS.values()), "integrator"),
     **dict.fromkeys(("a5_camera", "perspective", "thinlens"), "sensor"),
     "hdrfilm": "film",
     **dict.fromkeys(("stratified", "independent"), "sampler"),
@@ -66,7 +66,7 @@ PLUGIN_TAGS: dict[str, str] = {
     **dict.fromkeys(("a5_marble", "a5_solid", "a5_bitmap", "bitmap", "srgb", "volume", "a5_btf"), "texture"),
     **dict.fromkeys(("sphere", "rectangle", "instance", "shapegroup", "ply"), "shape"),
     **dict.fromkeys(("homogeneous", "heterogeneous"), "medium"),
-    "isotropic": "phase",
+    **dict.fromkeys(("isotropic", "hg"), "phase"),
     "gridvolume": "volume",
 }
 VECTOR_NAMES = frozenset(("direction", "up"))

@@ -1,16 +1,19 @@
 """The mutation campaign of ``make fuzz``: mutated scenes, meshes, images and command lines through the real commands.
 
-Each mutant (:data:`KINDS`) is a course scene with a few token-level mutations (:func:`mutate`) and a random
-command line (:func:`random_flags`: tiny sizes, bounces <= 5 so a glass ray tree stays small); or a course
-scene whose OBJ mesh or texture / cube face is mutated (tests/fuzz_inputs.py: coincident, degenerate, sliver
-and crossing faces, bad indices, image headers, odd channel counts); or a command line of any ``a5mi``
-sub-command (tests/fuzz_inputs.py :func:`command_argv`). It is run through ``a5mi.cli.run`` (``a5``: parse ->
-describe -> ``mi.load_dict`` -> a real render -> atomic writes) or ``a5mi.cli.run_a5mi`` (``convert``, followed
-by ``mi.load_file`` of the XML, and the sub-commands), in this process (the variant is loaded once), and
-judged by :func:`verdict`: exit 0 with every output written (exit 1 too for a command that gives a verdict),
-or exit 2 with exactly one error line and no output; anything else (exit 1 elsewhere, 70, a traceback, two
-lines, an exception escaping the guard, a run longer than ``HANG_SECONDS``) is a failure, returned with its
-seed so that :func:`mutant` rebuilds it exactly.
+Each mutant (:data:`KINDS`) is a course scene with a few token-level mutations (:func:`mutate`) and a random command
+line (:func:`random_flags`: tiny sizes, bounces <= 5 so a glass ray tree stays small); or a course scene whose OBJ
+mesh or texture / cube face is mutated (tests/fuzz_inputs.py: coincident, degenerate, sliver and crossing faces, bad
+indices, image headers, odd channel counts); or a command line of any ``a5mi`` sub-command (tests/fuzz_inputs.py
+:func:`command_argv`); or (:data:`KINDS_ALL`, ``make fuzz``) a numeric keyword of docs/EXTENSIONS.md E.1-E.24, the
+E.13-E.24 ones most often, at its documented bounds, float32's edges or a random finite value
+(tests/keyword_bounds.py), rendered to an EXR whose pixels must all be finite; or one hostile request to ``a5mi
+view``'s HTTP server (tests/fuzz_http.py). It is run through ``a5mi.cli.run`` (``a5``: parse -> describe ->
+``mi.load_dict`` -> a real render -> atomic writes) or ``a5mi.cli.run_a5mi`` (``convert``, followed by
+``mi.load_file`` of the XML, and the sub-commands), in this process (the variant is loaded once), and judged by
+:func:`verdict`: exit 0 with every output written (exit 1 too for a command that gives a verdict), or exit 2 with
+exactly one error line and no output; anything else (exit 1 elsewhere, 70, a traceback, two lines, an exception
+escaping the guard, a run longer than ``HANG_SECONDS``) is a failure, returned with its seed so that :func:`mutant`
+rebuilds it exactly.
 """
 
 from __future__ import annotations
@@ -170,6 +173,8 @@ BATCH_SUMMARY = re.compile(r"a5mi render: \d+ of \d+ jobs written in ")
 #: Mutant kinds and their shares: a mutated scene through ``a5`` or ``convert``; a course scene with a mutated
 #: OBJ mesh, or with a mutated texture / cube face (tests/fuzz_inputs.py); a sub-command's command line.
 KINDS = (("scene", 0.5), ("mesh", 0.15), ("image", 0.1), ("command", 0.25))
+#: ``make fuzz``'s kinds: :data:`KINDS` and the keywords at their bounds and the view's HTTP surface.
+KINDS_ALL = (("scene", 0.35), ("mesh", 0.1), ("image", 0.07), ("command", 0.18), ("keyword", 0.15), ("http", 0.15))
 
 
 @dataclass
@@ -212,6 +217,19 @@ def mutant(seed: int, scenes: list[Path], kinds: tuple[tuple[str, float], ...] =
         scenes = [s for s in scenes if _image_files(s, s.read_text(encoding="utf-8"))] or scenes
     src = rng.choice(scenes)
     original = src.read_text(encoding="utf-8")
+    if kind == "http":
+        return Mutant(kind, src, original)
+    if kind == "keyword":
+        from keyword_bounds import EDGES, KEYWORDS, scene_of
+
+        late = [k for k in KEYWORDS if int(k.section.split(".")[1]) >= 13]
+        k = rng.choice(late if rng.random() < 0.7 else KEYWORDS)
+        value = rng.choice([*k.bounds, *EDGES, *FINITE])
+        text, flags, _ = scene_of(k, value)
+        extra = rng.sample([["-shadows"], ["-bounces", str(rng.randint(0, 5))], ["-jitter"], ["-spp", "2"]],
+                           rng.randint(0, 2))
+        return Mutant(kind, src, text, flags=["-size", str(rng.randint(1, 8)), str(rng.randint(1, 8)), *flags,
+                                              *(f for e in extra for f in e)])
     if kind == "command":
         name = rng.choice(list(SUBCOMMANDS))
         r = rng.random()  # the command's own paths need scenes that load: a third unchanged, a fifth broken
@@ -319,6 +337,12 @@ def run_one(seed: int, scenes: list[Path], work: Path, kinds: tuple[tuple[str, f
     from a5mi import cli
 
     m = mutant(seed, scenes, kinds)
+    if m.kind == "http":
+        from fuzz_http import judge
+
+        t0 = time.monotonic()
+        desc, printed, problem = judge(seed, float(HANG_SECONDS))
+        return Outcome(seed, desc, None, printed, time.monotonic() - t0, problem)
     run = work / f"m{seed}"
     run.mkdir()
     _stage(m, run)
@@ -336,10 +360,10 @@ def run_one(seed: int, scenes: list[Path], work: Path, kinds: tuple[tuple[str, f
         outputs = [run / "o.xml"]
     else:
         flags = m.flags
-        argv = ["-input", "s.txt", "-output", "o.png", *flags, "-q"]
+        argv = ["-input", "s.txt", "-output", "o.exr" if m.kind == "keyword" else "o.png", *flags, "-q"]
         names = [flags[i + 1] for i, f in enumerate(flags[:-1]) if f in ("-normals", "-output")]
         names += [flags[i + 3] for i, f in enumerate(flags[:-3]) if f == "-depth"]
-        outputs = [run / "o.png", *(run / n for n in dict.fromkeys(names) if n.endswith((".png", ".exr")))]
+        outputs = [run / argv[3], *(run / n for n in dict.fromkeys(names) if n.endswith((".png", ".exr")))]
     err = io.StringIO()
     t0 = time.monotonic()
     cwd = os.getcwd()
@@ -371,6 +395,13 @@ def run_one(seed: int, scenes: list[Path], work: Path, kinds: tuple[tuple[str, f
     if not problem:
         problem = verdict(status, text_err, outputs, may_differ=may_differ,
                           batch=m.kind == "command" and m.command == "render")
+    if not problem and m.kind == "keyword" and status == 0:
+        import numpy as np
+
+        from a5mi.platform.imageio import read_image
+
+        bad = int((~np.isfinite(read_image(run / "o.exr"))).any(axis=-1).sum())
+        problem = f"non-finite image: {bad} pixels" if bad else ""
     return Outcome(seed, [m.kind, *argv], status, text_err, seconds, problem)
 
 

@@ -13,7 +13,7 @@ import os
 from pathlib import Path
 
 import pytest
-from fuzzing import campaign, mutant
+from fuzzing import KINDS_ALL, campaign, mutant
 
 
 def _scenes(scenes_dir: Path) -> list[Path]:
@@ -62,12 +62,24 @@ def test_fuzz_commands_sample(scenes_dir: Path, tmp_path: Path, mi) -> None:
     assert len({o.argv[1] for o in result.outcomes}) >= 6, [o.argv[:2] for o in result.outcomes]
 
 
+def test_fuzz_keyword_and_http_mutants_sample(scenes_dir: Path, tmp_path: Path, mi) -> None:
+    """Numeric keywords of E.1-E.24 at their bounds and float32's edges (finite EXR or one positioned line) and
+    hostile requests to the view's HTTP server (an answer, no 5xx, no traceback, 403 without token/Host/Origin)."""
+    kinds = (("keyword", 0.5), ("http", 0.5))
+    result = campaign(_scenes(scenes_dir), tmp_path, seed=31_000, count=24, seconds=600, kinds=kinds)
+    assert len(result.outcomes) == 24
+    assert not result.failures, _report(result)
+    assert {o.argv[0] for o in result.outcomes if o.argv[0] == "http"} == {"http"}
+    counts = result.counts()
+    assert counts.get("exit 0", 0) > 0 and counts.get("exit None", 0) > 0, counts
+
+
 @pytest.mark.skipif(not os.environ.get("A5MI_FUZZ_SECONDS"), reason="the campaign runs in make fuzz")
 def test_fuzz_campaign_full(scenes_dir: Path, tmp_path: Path, mi) -> None:
     seconds = float(os.environ["A5MI_FUZZ_SECONDS"])
     seed = int(os.environ.get("A5MI_FUZZ_SEED", "1"))
     count = int(os.environ.get("A5MI_FUZZ_COUNT", "100000"))
-    result = campaign(_scenes(scenes_dir), tmp_path, seed=seed, count=count, seconds=seconds)
+    result = campaign(_scenes(scenes_dir), tmp_path, seed=seed, count=count, seconds=seconds, kinds=KINDS_ALL)
     summary = {"seed": seed, "seconds": seconds, "mutants": len(result.outcomes), "counts": result.counts(),
                "slowest_s": max((o.seconds for o in result.outcomes), default=0.0),
                "failures": [{"seed": o.seed, "argv": o.argv, "problem": o.problem} for o in result.failures]}

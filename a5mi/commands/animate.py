@@ -11,6 +11,7 @@ import time
 
 from a5mi.cli.app import Command, Console, activate_variant
 from a5mi.cli.flags import Args, Flag, Positional, integer, text
+from a5mi.commands.grade import SCHEDULER_FLAGS, scheduler_security
 from a5mi.commands.render import IMAGE_OUTPUT_DESTS, check_render_args, render_flags_except, render_options
 from a5mi.platform.errors import ExitStatus, UsageError, UserError
 from a5mi.runtime.extras import require
@@ -33,7 +34,8 @@ FLAGS: tuple[Flag, ...] = (
          frame_span, metavar="A:B"),
     Flag(("--workers",), "workers", "render on N local Dask worker processes (default: in this process)", 1,
          integer(1, 512), metavar="N"),
-    Flag(("--scheduler",), "scheduler", "render on an existing Dask cluster", 1, text, metavar="tcp://HOST:PORT"),
+    Flag(("--scheduler",), "scheduler", "render on an existing Dask cluster", 1, text, metavar="tls://HOST:PORT"),
+    *SCHEDULER_FLAGS,
     Flag(("--resume",), "resume", "render only the frames that are missing or fail their checksum",
          default=False, show_default=False),
     *render_flags_except(IMAGE_OUTPUT_DESTS | {"input"}),  # the scene is the positional SCENE.txt
@@ -43,8 +45,6 @@ FLAGS: tuple[Flag, ...] = (
 def check_animate_args(args: Args) -> None:
     if args.workers is not None and args.scheduler is not None:
         raise UsageError("give --workers or --scheduler, not both")
-    if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://", "inproc://")):
-        raise UsageError(f"--scheduler expects tcp://HOST:PORT, found '{args.scheduler[:40]}'")
     check_render_args(args)
 
 
@@ -61,6 +61,7 @@ def run_animate(args: Args, console: Console) -> int:
     require("tqdm", "animate")  # the optional modules this run uses, checked before anything renders
     if args.workers is not None or args.scheduler is not None:
         require("distributed", "animate")
+    security = scheduler_security(args)  # tcp:// only with --insecure-scheduler, as grade
     if args.video is not None:
         require("imageio_ffmpeg", "animate")
         video.check_video_path(args.video)
@@ -101,7 +102,8 @@ def run_animate(args: Args, console: Console) -> int:
     t0 = time.perf_counter()
     try:
         outcome = batch.render_animation(args.scene, out, options, range(a, b), workers=args.workers,
-                                         scheduler=args.scheduler, resume=args.resume, variant=args.variant,
+                                         scheduler=args.scheduler, security=security, resume=args.resume,
+                                         variant=args.variant,
                                          progress=progress)
     finally:
         if bar is not None:

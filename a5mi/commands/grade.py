@@ -16,6 +16,19 @@ from a5mi.cli.flags import Args, Flag, Positional, integer, real, real_in, text
 from a5mi.platform.errors import ExitStatus, UsageError, UserError
 from a5mi.runtime.extras import require
 
+#: How a command of ``--scheduler`` joins an existing Dask cluster (:func:`scheduler_security`; ``grade``,
+#: ``animate``, ``photons``): TLS credentials, or the explicit opt-in to a plain ``tcp://`` scheduler.
+SCHEDULER_FLAGS: tuple[Flag, ...] = (
+    Flag(("--tls-ca",), "tls_ca", "with --scheduler tls://: the CA certificate of the cluster (PEM)", 1, text,
+         metavar="FILE"),
+    Flag(("--tls-cert",), "tls_cert", "with --scheduler tls://: this client's certificate (PEM)", 1, text,
+         metavar="FILE"),
+    Flag(("--tls-key",), "tls_key", "with --scheduler tls://: this client's private key (PEM)", 1, text,
+         metavar="FILE"),
+    Flag(("--insecure-scheduler",), "insecure_scheduler", "allow a plain tcp:// --scheduler (anyone who reaches "
+         "it can run code on its workers)", default=False, show_default=False),
+)
+
 FLAGS: tuple[Flag, ...] = (
     Flag(("-o", "--output"), "output", "report folder (report.html, results.csv, results.json, journal.jsonl)",
          1, text, metavar="REPORT_DIR"),
@@ -27,14 +40,7 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--workers",), "workers", "local Dask worker processes", 1, integer(1, 512), 2, "N"),
     Flag(("--scheduler",), "scheduler", "join an existing Dask cluster instead of starting one (its workers must "
          "see every path on a shared filesystem)", 1, text, metavar="tls://HOST:PORT"),
-    Flag(("--tls-ca",), "tls_ca", "with --scheduler tls://: the CA certificate of the cluster (PEM)", 1, text,
-         metavar="FILE"),
-    Flag(("--tls-cert",), "tls_cert", "with --scheduler tls://: this client's certificate (PEM)", 1, text,
-         metavar="FILE"),
-    Flag(("--tls-key",), "tls_key", "with --scheduler tls://: this client's private key (PEM)", 1, text,
-         metavar="FILE"),
-    Flag(("--insecure-scheduler",), "insecure_scheduler", "allow a plain tcp:// --scheduler (anyone who reaches "
-         "it can run code on its workers)", default=False, show_default=False),
+    *SCHEDULER_FLAGS,
     Flag(("--cpu",), "cpu", "CPU seconds per case, all its processes together (default: max(120, 250 x a5mi's "
          "own CPU seconds for the case, measured on a worker))", 1, real_in(0.0, 1e6, open_lo=True), metavar="S"),
     Flag(("--timeout",), "timeout", "wall-clock backstop per case, not counting time spent waiting for a CPU "
@@ -66,7 +72,7 @@ def _options_of(argv: list[str]):  # noqa: ANN202 - RenderOptions, imported lazi
     return render_options(parse_a5_args(argv))
 
 
-def _scheduler_security(args: Args):  # noqa: ANN202 - distributed.security.Security or None
+def scheduler_security(args: Args):  # noqa: ANN201 - distributed.security.Security or None
     """The client credentials of ``--scheduler`` (:func:`a5mi.runtime.cluster.check_scheduler`); TLS flags without
     ``--scheduler`` are a usage error."""
     from a5mi.runtime.cluster import check_scheduler
@@ -96,7 +102,7 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     if not 0 <= args.match <= args.close <= 1:
         raise UsageError(f"--match and --close must satisfy 0 <= match <= close <= 1 (found {args.match:g}, "
                          f"{args.close:g})")
-    security = _scheduler_security(args)
+    security = scheduler_security(args)
     scenes = args.scenes or str(require_data_dir() / "scenes")
     if not Path(scenes).is_dir():
         raise UsageError(f"--scenes: '{scenes}' is not a folder")

@@ -12,6 +12,7 @@ import json
 
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, Positional, integer, text
+from a5mi.commands.grade import SCHEDULER_FLAGS, scheduler_security
 from a5mi.commands.render import IMAGE_OUTPUT_DESTS, check_render_args, render_flags_except, render_options
 from a5mi.platform.errors import ExitStatus, UsageError
 
@@ -27,6 +28,7 @@ FLAGS: tuple[Flag, ...] = (
          metavar="N"),
     Flag(("--scheduler",), "scheduler", "run the ppm passes on an existing Dask cluster", 1, text,
          metavar="tls://HOST:PORT"),
+    *SCHEDULER_FLAGS,
     *render_flags_except(IMAGE_OUTPUT_DESTS | {"input"}),
 )
 
@@ -38,8 +40,6 @@ def check_photons_args(args: Args) -> None:
         raise UsageError("give --workers or --scheduler, not both")
     if (args.workers is not None or args.scheduler is not None) and args.ppm is None:
         raise UsageError("--workers and --scheduler split the --ppm passes; give --ppm IMG")
-    if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://", "inproc://")):
-        raise UsageError(f"--scheduler expects tls://HOST:PORT, found '{args.scheduler[:40]}'")
     check_render_args(args)
 
 
@@ -67,10 +67,11 @@ def run_photons(args: Args, console: Console) -> int:
         from a5mi.photons.passes import render_ppm
 
         options = dataclasses.replace(render_options(args, count_rays=False), integrator="ppm")
+        security = scheduler_security(args)  # tcp:// only with --insecure-scheduler, as grade
         if args.workers is None and args.scheduler is None:
             activate_variant(args.variant)
         image, info = render_ppm(args.scene, options, args.passes, workers=args.workers,
-                                 scheduler=args.scheduler, variant=args.variant)
+                                 scheduler=args.scheduler, security=security, variant=args.variant)
         imageio.write_images([(args.ppm, image)])
         console.note(f"a5mi photons: {args.passes} ppm passes in {info['wall_s']:.1f} s on {len(info['pids'])} "
                      f"process(es), mean {sum(info['seconds']) / len(info['seconds']):.2f} s per pass")

@@ -27,11 +27,8 @@ from a5mi.render.options import (
     SUBSURFACE_METHODS,
     RenderOptions,
 )
-from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR
+from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES
 
-#: Render-buffer samples (3W x 3H with -jitter) accepted at most (~16 GB by a5mi.platform.resources' model); below it
-#: a render is refused when its estimated memory (a5mi.platform.resources.render_bytes) exceeds what is available.
-MAX_SAMPLES = 1 << 28
 #: The largest finite float32 (SPEC B.6's depths are float32).
 FLOAT32_MAX = 3.4028234663852886e38
 
@@ -162,37 +159,23 @@ def render_options(args: Args, **overrides: Any) -> RenderOptions:
     return RenderOptions(**values)
 
 
-#: docs/EXTENSIONS.md E.15: most pending rays per camera ray ``(N + 1) · bounces`` that ``-indirect N`` may keep
-#: (the kernel's per-lane stack, plugins/kernel/pbr_gather.py ``stack_size``)
-MAX_PENDING = 256
-
-
 def check_render_args(args: Args) -> None:
-    """Limits that depend on several flags (SPEC B.5): the sample budget and ``-filter``'s minimum size."""
-    k = JITTER_FACTOR if args.jitter else 1
-    samples = args.width * args.height * k * k
-    if samples > MAX_SAMPLES:
-        raise UsageError(f"-size {args.width} {args.height}{' with -jitter' if args.jitter else ''} is {samples} "
-                         f"samples; the limit is {MAX_SAMPLES}")
-    indirect = args.get("indirect") or 0
-    if indirect and args.get("integrator") not in (None, "whitted"):
-        raise UsageError(f"-indirect is a mode of the whitted integrator, not of -integrator {args.integrator}")
+    """Limits that depend on several flags, the same for the command line and the page
+    (:mod:`a5mi.render.limits`: the sample budget, ``-indirect``, ``-filter``'s minimum size, the memory), and
+    the ``-two_sided``, ``-ic_records`` / ``-ic_error`` rules."""
+    from a5mi.render import limits
+
     if args.get("two_sided") and args.get("integrator") not in (None, "whitted"):
         raise UsageError(f"-two_sided is a mode of the whitted integrator (-integrator {args.integrator} lights "
                          "both faces already)")
-    if indirect and (indirect + 1) * args.bounces > MAX_PENDING:
-        pending = (indirect + 1) * args.bounces
-        raise UsageError(f"-indirect {indirect} with -bounces {args.bounces} keeps up to {pending} pending rays per "
-                         f"camera ray; the limit is {MAX_PENDING} (fewer rays or bounces)")
     if args.get("ic_records_output") and args.get("integrator") != "irradiancecache":
         raise UsageError("-ic_records needs -integrator irradiancecache")
     ic_error = args.get("ic_error")
     if ic_error is not None and not 0.0 < ic_error <= 1.0:
         raise UsageError(f"-ic_error must be in (0, 1], got {ic_error}")
-    if args.filter and not args.jitter and (args.width < 3 or args.height < 3):
-        raise UsageError(f"-filter without -jitter saves a W/3 x H/3 image; -size {args.width} {args.height} is "
-                         "too small")
-    check_memory(args)
+    options = render_options(args, count_rays=False)
+    limits.check_combination(options)
+    check_memory(args, options)
 
 
 def outputs_of(args: Args) -> list[tuple[str, str]]:

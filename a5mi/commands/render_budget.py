@@ -8,27 +8,20 @@ from typing import Any
 
 from a5mi.cli.app import Console
 from a5mi.cli.flags import Args
-from a5mi.platform.errors import UsageError
 from a5mi.render.options import RenderOptions
-from a5mi.spec import JITTER_FACTOR
 
 
-def check_memory(args: Args) -> None:
-    """Refuse, before anything is read, a render whose estimated peak memory
-    (:func:`a5mi.platform.resources.render_bytes`) exceeds the memory available (a user error: a smaller ``-size``)."""
-    from a5mi.platform import resources
-    from a5mi.render.options import TILE_RAYS
+def check_memory(args: Args, options: RenderOptions) -> None:
+    """Refuse, before anything is read, a render whose estimated peak memory (:func:`a5mi.render.limits.
+    memory_need`: the render buffers, the integrator's photon maps, kd-trees, statistics or records, and the
+    bands of ``-workers`` / ``-scheduler``) exceeds the memory available (a user error: a smaller ``-size``)."""
+    from a5mi.render import limits
 
-    k = JITTER_FACTOR if args.jitter else 1
     aovs = bool(args.get("normals_output") or args.get("depth_output"))
-    need = resources.render_bytes(args.width * k, args.height * k, width=args.width, height=args.height,
-                                  aovs=aovs, jitter=bool(args.jitter), filtered=bool(args.filter),
-                                  tile_rays=TILE_RAYS)
-    enough, have = resources.fits(need)
-    if not enough:
-        hint = " (-jitter -filter streams the render buffer)" if args.jitter and not args.filter else ""
-        raise UsageError(f"-size {args.width} {args.height}{' with -jitter' if args.jitter else ''} needs about "
-                         f"{resources.gb(need)} of memory; {resources.gb(have or 0)} is available{hint}")
+    workers = args.get("workers") if args.get("workers") is not None else (
+        0 if args.get("scheduler") is not None else None)
+    hint = " (-jitter -filter streams the render buffer)" if args.jitter and not args.filter else ""
+    limits.check_memory(options, aovs=aovs, workers=workers, hint=hint)
 
 
 def check_work(desc: Any, options: RenderOptions, console: Console, *, force: bool, verbose: bool) -> Any:

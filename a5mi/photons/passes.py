@@ -89,10 +89,11 @@ def mean_of_passes(images: dict[int, np.ndarray]) -> np.ndarray:
 
 
 def render_ppm(scene: str | os.PathLike[str], options: RenderOptions, passes: int, *, workers: int | None = None,
-               scheduler: str | None = None, variant: str | None = None,
+               scheduler: str | None = None, security: Any = None, variant: str | None = None,
                progress: Callable[[int, int], None] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
     """The mean of ``passes`` ppm passes (module docstring) and a summary (``seconds`` per pass, ``pids``,
-    ``wall_s``). ``options.integrator`` must be ``ppm``."""
+    ``wall_s``). ``options.integrator`` must be ``ppm``. ``scheduler`` is joined with the client credentials
+    ``security`` (:func:`a5mi.runtime.cluster.check_scheduler`)."""
     if options.integrator != "ppm":
         raise ValueError(f"render_ppm needs the ppm integrator, got {options.integrator!r}")
     t0 = time.perf_counter()
@@ -116,7 +117,7 @@ def render_ppm(scene: str | os.PathLike[str], options: RenderOptions, passes: in
 
         n_workers = workers or 2
         chunks = [PassChunk(path, options, c, variant) for c in _chunks(passes, 2 * n_workers)]
-        with cluster.start_client(n_workers, scheduler) as client:
+        with cluster.start_client(n_workers, scheduler, security=security) as client:
             futures = client.map(render_chunk, chunks, retries=2, pure=False)
             for fut in futures:
                 take(fut.result())

@@ -27,7 +27,7 @@ import numpy.typing as npt
 
 from a5mi.platform import interrupts, resources
 from a5mi.platform.errors import ImageReadError, ImageWriteError
-from a5mi.platform.paths import check_target, remove_stale, short, temp_prefix
+from a5mi.platform.paths import check_target, file_kind, remove_stale, short, temp_prefix
 
 #: Extensions written as 8-bit (quantised) images.
 BYTE_FORMATS: frozenset[str] = frozenset({".png", ".bmp", ".tga", ".ppm", ".tif", ".tiff"})
@@ -263,6 +263,8 @@ def _open_input(p: Path) -> Any:
     format library printed folded in (:func:`native_stderr`)."""
     import OpenImageIO as oiio  # deferred: only the commands that read images pay for it
 
+    if not p.is_file():  # a FIFO would block the format library's open() (and with it SIGINT), a device never ends
+        raise _read_error(p, "no such image file" if not p.exists() else f"not a regular file ({file_kind(p)})")
     config = oiio.ImageSpec()
     config.attribute("oiio:UnassociatedAlpha", 1)  # the stored colour bytes, never multiplied by an alpha channel
     with native_stderr() as printed:

@@ -9,7 +9,9 @@ render buffer (RW x RH, 3W x 3H with ``-jitter``)
 * a tile in flight: ~100 bytes per ray of :data:`a5mi.render.options.TILE_RAYS` (Dr.Jit's kernel buffers);
 * with ``-jitter -filter`` the colour buffer is streamed: only the W x H result is kept.
 
-:func:`render_bytes` is that model, rounded up; a decoded texture or cube-map face costs ~8 bytes per pixel
+:func:`render_bytes` is that model, rounded up; :func:`integrator_bytes` adds what an integrator keeps beyond
+the tile (photon maps and their kd-trees, ppm statistics, irradiance records) and :func:`split_bytes` a render
+split into bands over local worker processes; a decoded texture or cube-map face costs ~8 bytes per pixel
 (:data:`IMAGE_BYTES_PER_PIXEL`: the decoded bytes, the RGB copy, the packed texel words). :func:`available`
 is the smallest of three limits the process actually has: ``MemAvailable`` of ``/proc/meminfo``, the cgroup's
 headroom (v2 ``memory.max - memory.current``, v1 ``memory.limit_in_bytes - memory.usage_in_bytes``) and the
@@ -42,6 +44,51 @@ def render_bytes(rw: int, rh: int, *, width: int, height: int, aovs: bool, jitte
     per = (0 if streamed else SAMPLE_BYTES) + (AOV_SAMPLE_BYTES if aovs else 0) + (JITTER_SAMPLE_BYTES if jitter else 0)
     out = width * height * SAMPLE_BYTES if streamed else 0
     return BASE_BYTES + min(n, tile_rays) * TILE_RAY_BYTES + n * per + out
+
+
+#: docs/EXTENSIONS.md E.16, E.17: bytes per emitted photon of ``-integrator photon`` / ``ppm`` (one map's
+#: wavefront while it is traced, the stored hits as float64 ``pos``/``dir``/``power``, their kind and shape, the
+#: concatenated copies and the kd-trees). Measured (BENCHMARKS.md): 16x16 of a closed white box with a glass
+#: sphere (every photon bounces until ``photon_depth``: the worst case), 2 x 250k photons 0.59 GB, 2 x 1M photons
+#: 1.77 GB peak resident: 782 bytes per photon, 0.86 GB for 2 x 400k against 0.83 GB by that slope; 1000
+#: leaves room for that spread.
+PHOTON_BYTES = 1000
+#: docs/EXTENSIONS.md E.17: ``-integrator ppm``'s per-sample statistics (float64 rgb sums and counts).
+PPM_SAMPLE_BYTES = 48
+#: docs/EXTENSIONS.md E.23: one irradiance record (29 float64: p, n, E, R, two 3x3 gradients, spacing; 232
+#: bytes) with its concatenation copy and grid index; at most one per render-buffer sample (a node covers itself).
+IC_RECORD_BYTES = 600
+#: docs/EXTENSIONS.md E.23: the hemisphere rays of one gather chunk (``GATHER_RAYS`` = 2^20 of them).
+IC_GATHER_RAYS = 1 << 20
+#: docs/EXTENSIONS.md E.24: a split render's band as shipped to the client (float32 rgb per sample).
+BAND_SAMPLE_BYTES = 12
+
+
+def integrator_bytes(integrator: str, samples: int, *, photons: int = 0, caustic_photons: int = 0) -> int:
+    """Estimated bytes an integrator holds beyond :func:`render_bytes` for a render of ``samples``
+    render-buffer samples: ``photon``: ``(photons + caustic) · 1000`` (:data:`PHOTON_BYTES`, the two maps and
+    their kd-trees); ``ppm``: the same per pass (one pass's maps at a time) ``+ samples · 48``;
+    ``irradiancecache``: ``samples · 600`` (records) ``+ 2^20 · 100`` (one gather chunk in flight);
+    ``whitted`` / ``path``: 0 (their buffers are the tile's, in :func:`render_bytes`)."""
+    maps = (max(photons, 0) + max(caustic_photons, 0)) * PHOTON_BYTES
+    if integrator == "photon":
+        return maps
+    if integrator == "ppm":
+        return maps + samples * PPM_SAMPLE_BYTES
+    if integrator == "irradiancecache":
+        return samples * IC_RECORD_BYTES + IC_GATHER_RAYS * TILE_RAY_BYTES
+    return 0
+
+
+def split_bytes(render: int, extra: int, samples: int, workers: int) -> int:
+    """Estimated bytes of a render split into bands (docs/EXTENSIONS.md E.24) over ``workers`` local worker
+    processes: the client keeps the one-process buffers ``render`` (:func:`render_bytes`) and the shipped bands
+    (``samples · 12``); each worker is a whole renderer with its share of the samples and the integrator's own
+    buffers ``extra`` (:func:`integrator_bytes`: every worker builds the same photon maps):
+    ``render + 12 samples + workers · (BASE + extra + (render − BASE) / workers)``. ``workers`` = 0: a remote
+    scheduler's workers are not on this machine, only the client counts."""
+    share = (render - BASE_BYTES) // workers if workers > 0 else 0
+    return render + samples * BAND_SAMPLE_BYTES + workers * (BASE_BYTES + extra + share)
 
 
 def image_bytes(width: int, height: int, channels: int) -> int:
@@ -126,4 +173,5 @@ def gb(n: int) -> str:
     return f"{n / 1e9:.1f} GB"
 
 
-__all__ = ["address_space_reserve", "available", "fits", "gb", "image_bytes", "render_bytes"]
+__all__ = ["address_space_reserve", "available", "fits", "gb", "image_bytes", "integrator_bytes", "render_bytes",
+           "split_bytes"]

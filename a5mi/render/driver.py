@@ -141,13 +141,17 @@ def _flipped(a: np.ndarray | None) -> np.ndarray | None:
 
 def _result(options: RenderOptions, main: PassBuffers, aov: PassBuffers, separate: bool, tiles: int,
             total: int, timings: dict[str, float]) -> RenderResult:
-    """The :class:`RenderResult` of the filled buffers: the colour (filtered or as traced), ``-normals``,
-    ``-depth`` as three equal channels, the class image, the counts and the kernel launches of both passes."""
+    """The :class:`RenderResult` of the filled buffers: the colour (filtered or as traced) clipped at 0,
+    ``-normals``, ``-depth`` as three equal channels, the class image, the counts and the kernel launches of both
+    passes. Only E.10's spectral weight is ever negative (its lobes outside the sRGB gamut): a pixel whose mean
+    stays out of gamut is clipped at 0 in float images as quantisation clips it in 8-bit ones, after ``-filter``,
+    so the 8-bit images are unchanged."""
     if main.stream is not None:
         image = main.stream.result()
     else:
         assert main.color is not None
         image = postprocess(main.color, filter=False)
+    image = np.maximum(image, np.float32(0.0))
     depth_img = None
     if aov.dist is not None and options.depth is not None:
         gray = depth_gray(aov.dist, *options.depth)

@@ -33,7 +33,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from a5mi.platform.errors import UsageError
+from a5mi.platform.errors import UsageError, UserError
 from a5mi.runtime.extras import require
 
 Progress = Callable[[int, int], None]
@@ -102,15 +102,22 @@ def user_security(ca: str, cert: str, key: str) -> Any:
     return security(require_encryption=True, tls_ca_file=ca, tls_client_cert=cert, tls_client_key=key)
 
 
+def spelled(flag: str, name: str) -> str:
+    """The flag ``name`` (words joined by ``-``: ``insecure-scheduler``) in the spelling of ``flag``, the
+    command's own ``--scheduler`` or ``a5``'s ``-scheduler``: ``--insecure-scheduler`` / ``-insecure_scheduler``."""
+    return f"--{name}" if flag.startswith("--") else f"-{name.replace('-', '_')}"
+
+
 def check_scheduler(address: str, tls: tuple[str, str, str] | None, insecure: bool, flag: str = "--scheduler") -> Any:
     """The client ``Security`` to join ``address`` (None: Dask's configuration decides), or a
     :class:`~a5mi.platform.errors.UsageError`: ``tcp://`` without ``insecure`` (anyone who reaches it can run code on
     its
     workers), ``tls://`` without credentials (``tls`` = (ca, cert, key) files, or the Dask configuration's
     ``distributed.comm.tls.ca-file``), credentials that are not files, or credentials for a ``tcp://``
-    address."""
+    address. Messages name the flags in the spelling of ``flag`` (:func:`spelled`)."""
     dask = require("dask", "grade")
 
+    ca, cert, key, unsafe = (spelled(flag, n) for n in ("tls-ca", "tls-cert", "tls-key", "insecure-scheduler"))
     scheme = address.partition("://")[0] if "://" in address else ""
     if scheme not in ("tcp", "tls", "inproc"):
         raise UsageError(f"{flag} expects tls://HOST:PORT, found '{address[:40]}'")
@@ -123,14 +130,57 @@ def check_scheduler(address: str, tls: tuple[str, str, str] | None, insecure: bo
             raise UsageError(f"{flag} {address}: TLS credentials given for a tcp:// address (use tls://)")
         if not insecure:
             raise UsageError(f"{flag} {address}: a plain tcp:// scheduler lets anyone who reaches it run code on "
-                             f"its workers; use tls:// with --tls-ca/--tls-cert/--tls-key, or --insecure-scheduler")
+                             f"its workers; use tls:// with {ca}/{cert}/{key}, or {unsafe}")
         return None
     if scheme == "tls" and tls is None:
         if not dask.config.get("distributed.comm.tls.ca-file", None):
-            raise UsageError(f"{flag} {address}: give --tls-ca, --tls-cert and --tls-key (or set "
+            raise UsageError(f"{flag} {address}: give {ca}, {cert} and {key} (or set "
                              f"distributed.comm.tls in the Dask configuration)")
         return None
     return None if tls is None else user_security(*tls)
+
+
+def connect_timeout() -> float:
+    """Seconds a connection to a scheduler may take, its handshake included: Dask's
+    ``distributed.comm.timeouts.connect`` (30 s unless configured, e.g.
+    ``DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT=5s``)."""
+    dask = require("dask", "grade")
+    from dask.utils import parse_timedelta
+
+    return float(parse_timedelta(dask.config.get("distributed.comm.timeouts.connect", "30s"), default="seconds"))
+
+
+def probe_scheduler(address: str, security: Any = None, timeout: float | None = None) -> None:
+    """Connect to the scheduler at ``address`` and complete Dask's handshake within ``timeout`` seconds
+    (:func:`connect_timeout`), then close; else :class:`~a5mi.platform.errors.UserError` in one line. Dask's own
+    ``Client(timeout=...)`` bounds the TCP connect but not the handshake read, so a peer that accepts and never
+    answers would hold the client for ever; this bound covers both."""
+    import asyncio
+
+    comm = require("distributed", "grade").comm
+    t = connect_timeout() if timeout is None else timeout
+    kwargs = {} if security is None else security.get_connection_args("client")
+
+    async def attempt() -> None:
+        c = await asyncio.wait_for(comm.connect(address, timeout=t, **kwargs), t)
+        await c.close()
+
+    scheme, _, rest = address.partition("://")
+    host, _, port = rest.rpartition(":")
+    if scheme in ("tcp", "tls") and host and port.isdigit():
+        import socket
+
+        try:  # refused or unroutable: at once, not after Dask's retries for the whole limit
+            socket.create_connection((host.strip("[]"), int(port)), timeout=t).close()
+        except OSError as exc:
+            raise UserError(f"scheduler {address[:80]}: cannot connect: {exc.strerror or exc}") from None
+    try:
+        asyncio.run(attempt())
+    except TimeoutError:
+        raise UserError(f"scheduler {address[:80]}: no Dask handshake within {t:g} s (is it a Dask scheduler?)") \
+            from None
+    except OSError as exc:
+        raise UserError(f"scheduler {address[:80]}: cannot connect: {str(exc)[:160]}") from None
 
 
 @contextlib.contextmanager
@@ -145,7 +195,13 @@ def start_client(workers: int = 2, scheduler: str | None = None, *,
     with dask.config.set({"distributed.scheduler.allowed-failures": 5, "distributed.worker.daemon": False,
                           "distributed.logging.distributed": "error"}):
         if scheduler is not None:
-            client = Client(scheduler, timeout=30, **({} if security is None else {"security": security}))
+            if not scheduler.startswith("inproc://"):
+                probe_scheduler(scheduler, security)
+            try:
+                client = Client(scheduler, timeout=connect_timeout(),
+                                **({} if security is None else {"security": security}))
+            except (OSError, TimeoutError) as exc:
+                raise UserError(f"scheduler {scheduler[:80]}: {str(exc)[:160]}") from None
             try:
                 yield client
             finally:
@@ -207,4 +263,5 @@ def run_units(client: Any, units: Sequence[tuple[str, Any]], fn: Callable[[Any],
     return [r for r in journal.records() if r["key"] in wanted]
 
 
-__all__ = ["Journal", "Progress", "check_scheduler", "per_run_security", "run_units", "start_client", "user_security"]
+__all__ = ["Journal", "Progress", "check_scheduler", "connect_timeout", "per_run_security", "probe_scheduler",
+           "run_units", "spelled", "start_client", "user_security"]

@@ -227,18 +227,65 @@ def run(params: SmokeParams, frames: int) -> Iterator[np.ndarray]:
         yield state.rho.astype(np.float32)
 
 
+def check_frames(folder: str | os.PathLike[str], frames: int) -> None:
+    """Raise :class:`a5mi.platform.errors.ImageWriteError` when a frame name ``folder/smoke_{f:03d}.vol`` (``f <
+    frames``)
+    exists and is not a ``.vol`` grid (a regular file starting with ``VOL`` version 3): a file this command did
+    not write is never replaced. Only the first 4 bytes are read (opened non-blocking: a FIFO never waits)."""
+    import stat
+
+    from a5mi.platform.errors import ImageWriteError
+    from a5mi.platform.paths import file_kind
+
+    out = Path(folder)
+    for f in range(frames):
+        p = out / (PATTERN % f)
+        if not os.path.lexists(p):
+            continue
+        why = f"is a {file_kind(p)}"
+        if not p.is_symlink():
+            try:
+                fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK)
+                try:
+                    head = os.read(fd, 4) if stat.S_ISREG(os.fstat(fd).st_mode) else b""
+                finally:
+                    os.close(fd)
+            except OSError as exc:
+                raise ImageWriteError(f"-o '{folder}': '{p}' exists and cannot be read: "
+                                      f"{exc.strerror or exc}") from None
+            if head == b"VOL\x03":
+                continue
+            if head:
+                why = "is not a .vol grid"
+        else:
+            why = "is a symbolic link"
+        raise ImageWriteError(f"-o '{folder}': '{p}' exists and {why}: not overwritten (remove it or choose "
+                              "another folder)")
+
+
 def write_frames(folder: str | os.PathLike[str], params: SmokeParams, frames: int,
                  progress: object = None) -> list[Path]:
     """Run :func:`run` and write frame ``f`` as ``folder/smoke_{f:03d}.vol`` (one channel, :data:`PATTERN`);
-    ``progress(done, total)`` after each frame. Returns the paths."""
+    ``progress(done, total)`` after each frame. Returns the paths. Existing frames are checked first
+    (:func:`check_frames`); each frame is written atomically, and a failed write (a full disk) raises
+    :class:`a5mi.platform.errors.ImageWriteError` naming the frame and how many were written before it."""
     from a5mi.converters.volgrid import write_vol
+    from a5mi.platform.errors import ImageWriteError
 
     out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ImageWriteError(f"-o '{folder}': {exc.strerror or exc}") from None
+    check_frames(out, frames)
     paths = []
     for f, rho in enumerate(run(params, frames)):
         p = out / (PATTERN % f)
-        write_vol(p, rho[..., None])
+        try:
+            write_vol(p, rho[..., None])
+        except OSError as exc:
+            raise ImageWriteError(f"cannot write '{p}': {exc.strerror or exc} ({f} of {frames} frames "
+                                  "written)") from None
         paths.append(p)
         if callable(progress):
             progress(f + 1, frames)

@@ -14,7 +14,7 @@ from typing import Any
 
 from a5mi.platform.errors import UsageError
 from a5mi.render.options import INTEGRATORS, RenderOptions
-from a5mi.spec import FRESNEL_MODES, JITTER_FACTOR, MAX_SIZE
+from a5mi.spec import FRESNEL_MODES, MAX_SIZE
 
 
 class ControlError(UsageError):
@@ -73,9 +73,11 @@ def _value(name: str, value: Any) -> Any:
 
 
 def apply(options: RenderOptions, values: Any) -> RenderOptions:
-    """``options`` with the page's ``values`` (a JSON object) applied, checked (module docstring)."""
-    from a5mi.platform import resources
-    from a5mi.render.options import TILE_RAYS
+    """``options`` with the page's ``values`` (a JSON object) applied, checked (module docstring): each value by
+    its control's range, then the options together by the command line's own check
+    (:func:`a5mi.render.limits.check_options`: the sample budget, ``-indirect`` with ``-bounces``, ``-filter``'s
+    minimum size, the memory of the render and of the integrator's buffers)."""
+    from a5mi.render import limits
 
     if not isinstance(values, dict):
         raise ControlError("expected a JSON object of control values")
@@ -83,16 +85,10 @@ def apply(options: RenderOptions, values: Any) -> RenderOptions:
     if unknown:
         raise ControlError(f"unknown control '{unknown[0][:40]}'")
     new = dataclasses.replace(options, **{k: _value(k, v) for k, v in values.items()})
-    if new.filter and not new.jitter and (new.width < 3 or new.height < 3):
-        raise ControlError(f"-filter without -jitter saves a W/3 x H/3 image; -size {new.width} {new.height} is "
-                           "too small")
-    k = JITTER_FACTOR if new.jitter else 1
-    need = resources.render_bytes(new.width * k, new.height * k, width=new.width, height=new.height, aovs=False,
-                                  jitter=new.jitter, filtered=new.filter, tile_rays=TILE_RAYS)
-    enough, have = resources.fits(need)
-    if not enough:
-        raise ControlError(f"-size {new.width} {new.height} needs about {resources.gb(need)} of memory; "
-                           f"{resources.gb(have or 0)} is available")
+    try:
+        limits.check_options(new)
+    except UsageError as exc:
+        raise ControlError(str(exc)) from None
     return new
 
 

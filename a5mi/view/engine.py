@@ -132,6 +132,29 @@ def project(camera: Any, options: RenderOptions, image_size: tuple[int, int], p:
     return [(i + 0.5) * sx - 0.5, (rh - 1 - j + 0.5) * sy - 0.5]
 
 
+def staged_links(folder: Path, named: list[Path], roots: tuple[Path, ...]) -> tuple[str, ...]:
+    """Link each existing regular file of ``named`` into ``folder`` at its path relative to the first of
+    ``roots`` it lies under (a name leaving ``folder`` through ``..`` is skipped); the resolved files, the
+    only paths the sandbox binds for them."""
+    out: list[str] = []
+    top = folder.resolve()
+    for path in named:
+        for root in roots:
+            try:
+                rel = path.relative_to(root)
+            except ValueError:
+                continue
+            real = path.resolve()
+            dst = folder / rel
+            if not real.is_file() or not dst.resolve().is_relative_to(top) or dst.exists() or dst.is_symlink():
+                break
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            os.symlink(real, dst)
+            out.append(str(real))
+            break
+    return tuple(dict.fromkeys(out))
+
+
 class ViewEngine:
     """The scene file, its description and the warm session (module docstring). ``reference``: an image
     path; ``binary``: a :class:`a5mi.difftest.runner.Binary`; ``timeout``: seconds a binary run may take."""
@@ -304,27 +327,19 @@ class ViewEngine:
 
     def _run_binary(self, argv: list[str]) -> np.ndarray:
         """``binary -input scene.txt -output out.bmp ARGV`` in a fresh folder holding the scene's text and links
-        to the files it names (relative to the scene's folder or the working directory), sandboxed."""
+        to the files it names, sandboxed (docs/VIEW.md). Each named file that exists is linked at its name
+        relative to the scene's folder (else the working directory: SPEC A.0 resolves names against the
+        working directory) and only that file is bound read-only: neither folder is visible as a whole."""
         from a5mi.difftest.runner import run_binary
 
         scene = Path(self.scene).absolute()
-        roots = [scene.parent, Path.cwd()]
         with tempfile.TemporaryDirectory(prefix="a5mi-view-run-") as tmp:
             os.chmod(tmp, 0o755)
             folder = Path(tmp) / "run"
             folder.mkdir()
             (folder / "scene.txt").write_bytes(scene.read_bytes())
-            for path in self.inputs[1:]:
-                for root in roots:
-                    try:
-                        top = path.relative_to(root).parts[0]
-                    except ValueError:
-                        continue
-                    if not (folder / top).exists() and (root / top).exists():
-                        os.symlink(root / top, folder / top)
-                    break
-            levels, status = run_binary(self.binary, folder, argv, self.timeout,
-                                        read_only=tuple(dict.fromkeys(str(r) for r in roots)))
+            files = staged_links(folder, self.inputs[1:], (scene.parent, Path.cwd()))
+            levels, status = run_binary(self.binary, folder, argv, self.timeout, read_only=files)
         if levels is None:
             raise UserError(f"--binary {self.binary.path}: {status}")
         return levels
@@ -447,4 +462,4 @@ def session_tracer(desc: Any, options: RenderOptions, session: Any, image: np.nd
 
 
 __all__ = ["Frame", "ViewEngine", "binary_argv", "png_bytes", "preview_options", "project", "render_stages",
-           "scene_inputs", "session_tracer"]
+           "scene_inputs", "session_tracer", "staged_links"]

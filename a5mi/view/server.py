@@ -7,7 +7,11 @@ time. Render requests coalesce: a burst of control changes or saves renders once
 
 Security: bound to 127.0.0.1 only; every request needs ``token=T`` in its query (a random
 ``secrets.token_urlsafe(24)`` made per run, compared with :func:`hmac.compare_digest`), else 403, before any
-route is looked at, so another local user cannot read the scene or its images.
+route is looked at, so another local user cannot read the scene or its images. Against DNS rebinding the
+``Host`` header must name this server (``127.0.0.1:PORT`` or ``localhost:PORT``) and an ``Origin``, when sent,
+its origin (``http://127.0.0.1:PORT`` or ``http://localhost:PORT``), else 403. A connection silent for
+:data:`IDLE_SECONDS` (a request line, headers, a body, the next keep-alive request) is closed; a request body
+must declare its ``Content-Length`` as decimal digits (else 400) of at most :data:`MAX_BODY` bytes (else 413).
 
 Routes (``?token=T`` on each): ``GET /`` the page; ``GET /static/NAME`` its script and style (package data);
 ``GET /api/state`` the state as JSON; ``GET /api/image/{render,reference,diff}.png`` the current frame's PNG
@@ -39,6 +43,10 @@ from a5mi.platform.errors import UserError
 PING_SECONDS = 15.0
 #: Seconds a trace request waits for the engine.
 TRACE_SECONDS = 600.0
+#: Seconds a connection may stay silent before the server closes it (each socket operation's limit).
+IDLE_SECONDS = 20.0
+#: The largest request body taken (bytes): a control object is a few hundred.
+MAX_BODY = 1 << 16
 #: The page's files (package data ``a5mi/view/static``) and their content types.
 STATIC = {"index.html": "text/html; charset=utf-8", "view.js": "text/javascript; charset=utf-8",
           "view.css": "text/css; charset=utf-8"}
@@ -168,6 +176,7 @@ def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any
     class Handler(BaseHTTPRequestHandler):
         server_version = "a5mi-view"
         protocol_version = "HTTP/1.1"
+        default_request_version = "HTTP/1.1"  # a malformed request line still gets a status line, not HTTP/0.9
 
         def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 - the base class's name
             pass  # no access log on the terminal: the page is the output
@@ -185,7 +194,20 @@ def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any
         def _json(self, status: int, doc: Any) -> None:
             self._reply(status, json.dumps(finite(doc), allow_nan=False).encode())
 
+        timeout = IDLE_SECONDS  # StreamRequestHandler: the socket's timeout, so no silent peer holds a thread
+
+        def _same_origin(self) -> bool:
+            port = self.server.server_address[1]
+            hosts = (f"127.0.0.1:{port}", f"localhost:{port}")
+            origin = self.headers.get("Origin")
+            return self.headers.get("Host", "") in hosts and (origin is None or origin in
+                                                               tuple(f"http://{h}" for h in hosts))
+
         def _authorised(self) -> tuple[str, dict[str, list[str]]] | None:
+            if not self._same_origin():
+                self._reply(403, b"forbidden: Host or Origin is not this server (127.0.0.1 or localhost)\n",
+                            "text/plain")
+                return None
             url = urlsplit(self.path)
             query = parse_qs(url.query)
             given = (query.get("token") or [""])[0]
@@ -228,8 +250,17 @@ def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any
             if auth is None:
                 return
             path, _ = auth
-            length = int(self.headers.get("Content-Length") or 0)
-            body = self.rfile.read(min(length, 1 << 16))
+            declared = (self.headers.get("Content-Length") or "0").strip()
+            if not declared.isascii() or not declared.isdigit():
+                self.close_connection = True
+                self._json(400, {"error": f"a5mi view: error: Content-Length '{declared[:20]}' is not a byte count"})
+                return
+            if int(declared) > MAX_BODY:
+                self.close_connection = True  # the body is not read: the connection cannot be reused
+                self._json(413, {"error": f"a5mi view: error: a request body of {int(declared)} bytes is more "
+                                          f"than {MAX_BODY}"})
+                return
+            body = self.rfile.read(int(declared))
             if path != "/api/render":
                 self._json(404, {"error": f"no route {path[:80]}"})
                 return

@@ -46,16 +46,24 @@ _vec3 = partial(vec3_param, "a5_milled")
 
 
 def ward(h: mi.Vector3f, alpha_u: mi.Float, alpha_v: mi.Float) -> mi.Float:
-    """``W`` of the module docstring for the unnormalised half vector ``h = wi + wo`` in the (t, b, n) frame."""
+    """``W`` of the module docstring for the unnormalised half vector ``h = wi + wo`` in the (t, b, n) frame,
+    evaluated as ``exp(ln(h·h) − ln π − ln αu − ln αv − 4 ln(h·n) − e)`` with ``e`` the exponent of the module
+    docstring: over the whole documented ``0 < α ≤ 1`` (and a grazing or vanishing ``h``) a factor that
+    overflows float32 meets its vanishing exponential inside one exponent, so ``W`` is finite or ``+inf``,
+    never ``inf · 0 = NaN``; 0 where ``h·n`` is 0 or below."""
     hn2 = dr.square(h.z)
     e = (dr.square(h.x / alpha_u) + dr.square(h.y / alpha_v)) / hn2
-    return dr.select(h.z > 0.0, dr.squared_norm(h) / (dr.pi * alpha_u * alpha_v * dr.square(hn2)) * dr.exp(-e), 0.0)
+    log_w = dr.log(dr.squared_norm(h)) - dr.log(dr.pi * alpha_u) - dr.log(alpha_v) - 2.0 * dr.log(hn2) - e
+    return dr.select((hn2 > 0.0) & (h.z > 0.0) & (e < dr.inf), dr.exp(log_w), 0.0)
 
 
 def half_vector_pdf(h: mi.Vector3f, alpha_u: mi.Float, alpha_v: mi.Float) -> mi.Float:
-    """``p(ĥ)`` (solid angle) of Ward's half-vector warp, ``ĥ`` a unit vector in the (t, b, n) frame."""
-    e = (dr.square(h.x / alpha_u) + dr.square(h.y / alpha_v)) / dr.square(h.z)
-    return dr.select(h.z > 0.0, dr.exp(-e) / (dr.pi * alpha_u * alpha_v * h.z * dr.square(h.z)), 0.0)
+    """``p(ĥ)`` (solid angle) of Ward's half-vector warp, ``ĥ`` a unit vector in the (t, b, n) frame, in the
+    same log form as :func:`ward` (finite or ``+inf``, never NaN, for every ``0 < α ≤ 1``)."""
+    hz2 = dr.square(h.z)
+    e = (dr.square(h.x / alpha_u) + dr.square(h.y / alpha_v)) / hz2
+    log_p = -e - dr.log(dr.pi * alpha_u) - dr.log(alpha_v) - 1.5 * dr.log(hz2)
+    return dr.select((hz2 > 0.0) & (h.z > 0.0) & (e < dr.inf), dr.exp(log_p), 0.0)
 
 
 def sample_half_vector(u: mi.Point2f, alpha_u: mi.Float, alpha_v: mi.Float) -> mi.Vector3f:

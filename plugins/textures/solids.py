@@ -93,10 +93,13 @@ class A5Solid(BlendTexture):
                        self.axis, self.center)
 
     def blend(self, p: mi.Point3f) -> mi.Float:
-        """t at the world-space point ``p`` (module docstring), as float32."""
+        """t at the world-space point ``p`` (module docstring), as float32. Where the formula is not finite
+        (``scale · p`` or ``frequency · x`` overflowing float32: the noise of an infinitely far point is
+        undefined) t is ½, the mean of ``½ sin + ½``, so the image stays finite."""
         sp = p * self.scale
         if self.kind == "turbulence":
-            return mi.Float(dr.clip(mi.Float64(self.amplitude) * turbulence(sp, self.octaves), 0.0, 1.0))
+            t = mi.Float(dr.clip(mi.Float64(self.amplitude) * turbulence(sp, self.octaves), 0.0, 1.0))
+            return dr.select(dr.isfinite(t), t, 0.5)
         if self.kind == "wood":
             q = p - self.center
             radial = q - dr.dot(q, self.axis) * self.axis
@@ -106,7 +109,8 @@ class A5Solid(BlendTexture):
             x = dr.dot(p, self.axis)
             n = turbulence(sp, self.octaves)
         arg = mi.Float64(self.frequency * x) + mi.Float64(self.amplitude) * n
-        return mi.Float(dr.clip(0.5 * dr.sin(arg) + 0.5, 0.0, 1.0))
+        t = mi.Float(dr.clip(0.5 * dr.sin(arg) + 0.5, 0.0, 1.0))
+        return dr.select(dr.isfinite(t), t, 0.5)
 
 
     def to_string(self) -> str:

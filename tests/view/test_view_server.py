@@ -128,7 +128,7 @@ def test_event_stream_and_a_closed_tab(served) -> None:  # noqa: ANN001
     with time_limit(60):
         hub.update(frame=3)
         sock = socket.create_connection(("127.0.0.1", server.port), timeout=10)
-        sock.sendall(f"GET /api/events?token={TOKEN} HTTP/1.1\r\nHost: x\r\n\r\n".encode())
+        sock.sendall(f"GET /api/events?token={TOKEN} HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\n\r\n".encode())
         buf = b""
         while b"\n\n" not in buf.partition(b"\r\n\r\n")[2]:  # the headers, then the first event
             buf += sock.recv(4096)

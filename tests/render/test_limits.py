@@ -1,0 +1,117 @@
+"""The limits a render's options keep together (a5mi/render/limits.py): one check for ``a5`` and the live page;
+the memory estimate covers the integrators' own buffers (photon maps and kd-trees, ppm statistics, irradiance
+records) and split renders' bands, so an impossible render is one line with figures, exit 2, before any work."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import resource
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from a5mi.platform import resources
+from a5mi.platform.errors import UsageError
+from a5mi.render import limits
+from a5mi.render.options import RenderOptions
+
+BOX = """PerspectiveCamera { center 0 0 3 direction 0 0 -1 up 0 1 0 angle 40 }
+Lights { numLights 1 PointLight { position 0 0.5 0 color 1 1 1 } }
+Background { color 0 0 0 ambientLight 0 0 0 }
+Materials {
+    numMaterials 2
+    Material { diffuseColor 0.9 0.9 0.9 }
+    Material { diffuseColor 0 0 0 specularColor 1 1 1 refractionIndex 1.5 }
+}
+Group {
+    numObjects 7
+    MaterialIndex 0
+    Plane { normal 0 1 0 offset -1 }
+    Plane { normal 0 -1 0 offset -1 }
+    Plane { normal 1 0 0 offset -1 }
+    Plane { normal -1 0 0 offset -1 }
+    Plane { normal 0 0 1 offset -1 }
+    Plane { normal 0 0 -1 offset -4 }
+    MaterialIndex 1
+    Sphere { center 0 -0.5 0 radius 0.4 }
+}
+"""
+BIG = str(1 << 26)
+
+
+def _a5(tmp_path: Path, capsys, *flags: str) -> tuple[int, list[str]]:  # noqa: ANN001
+    from a5mi.cli import run
+
+    (tmp_path / "box.txt").write_text(BOX)
+    status = run(["-input", str(tmp_path / "box.txt"), "-output", str(tmp_path / "o.png"), "-size", "16", "16",
+                  *flags])
+    return status, capsys.readouterr().err.strip().splitlines()
+
+
+@pytest.mark.parametrize("flags, words", [
+    (("-integrator", "photon", "-photons", BIG, "-caustic_photons", BIG),
+     f"-size 16 16 -integrator photon -photons {BIG} -caustic_photons {BIG} needs about 134.4 GB of memory"),
+    (("-integrator", "ppm", "-photons", BIG, "-caustic_photons", "0"),
+     f"-size 16 16 -integrator ppm -photons {BIG} -caustic_photons 0 needs about 67.3 GB of memory"),
+    (("-integrator", "photon", "-photons", str(1 << 24), "-caustic_photons", "0", "-workers", "4"),
+     f"-size 16 16 -integrator photon -photons {1 << 24} -caustic_photons 0 on 4 workers needs about 68.2 GB"),
+])
+def test_an_integrator_too_large_for_memory_is_one_line_before_any_work(tmp_path: Path, capsys, monkeypatch,  # noqa: ANN001
+                                                                          flags: tuple[str, ...], words: str) -> None:
+    monkeypatch.setenv("A5MI_MEMORY_LIMIT", str(16 << 30))
+    status, err = _a5(tmp_path, capsys, *flags)
+    assert status == 2 and len(err) == 1, err
+    assert words in err[0] and err[0].endswith("of memory; 17.2 GB is available"), err[0]
+    assert not (tmp_path / "o.png").exists()
+
+
+def test_irradiance_records_and_ppm_statistics_grow_with_the_samples() -> None:
+    o = RenderOptions(width=1000, height=1000)
+    base = limits.memory_need(o)
+    n = 1000 * 1000
+    ic = dataclasses.replace(o, integrator="irradiancecache")
+    assert limits.memory_need(ic) - base == n * resources.IC_RECORD_BYTES + (1 << 20) * resources.TILE_RAY_BYTES
+    ppm = dataclasses.replace(o, integrator="ppm", photons=10, caustic_photons=0)
+    assert limits.memory_need(ppm) - base == n * resources.PPM_SAMPLE_BYTES + 10 * resources.PHOTON_BYTES
+    # a split render: the client's bands, and every local worker is a renderer with its own photon maps
+    photon = dataclasses.replace(o, integrator="photon", photons=1000, caustic_photons=0)
+    one = limits.memory_need(dataclasses.replace(photon, integrator="whitted"))
+    worker = resources.BASE_BYTES + 1000 * resources.PHOTON_BYTES + (one - resources.BASE_BYTES) // 2
+    assert limits.memory_need(photon, workers=2) == one + 12 * n + 2 * worker
+    assert limits.memory_need(photon, workers=0) == one + 12 * n  # a remote scheduler: only the client here
+
+
+def test_the_photon_estimate_covers_a_measured_render(tmp_path: Path) -> None:
+    """A worst case for the maps (a closed white box: every photon bounces until photon_depth): the child's
+    peak resident memory stays under :func:`a5mi.render.limits.memory_need` of its options."""
+    (tmp_path / "box.txt").write_text(BOX)
+    n = 400_000
+    py = "import sys; from a5mi.entry import a5; sys.argv = ['a5'] + sys.argv[1:]; a5()"
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    p = subprocess.run([sys.executable, "-c", py, "-input", "box.txt", "-output", "o.png", "-size", "16", "16",
+                        "-integrator", "photon", "-photons", str(n), "-caustic_photons", str(n)], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=900, env={**os.environ, "A5MI_CACHE_DIR": str(tmp_path)})
+    assert p.returncode == 0, p.stderr
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024
+    assert peak > before * 1024, "the child's peak was not measured"
+    need = limits.memory_need(RenderOptions(width=16, height=16, integrator="photon", photons=n, caustic_photons=n))
+    assert peak <= need, (peak, need)
+    assert need <= 2 * peak, (peak, need)  # and not a wild overestimate
+
+
+def test_the_page_and_the_command_line_refuse_the_same_combinations() -> None:
+    from a5mi.view.controls import ControlError, apply
+
+    o = RenderOptions(width=16, height=16)
+    for values in ({"indirect": 200, "bounces": 2}, {"indirect": 4096, "bounces": 64},
+                   {"indirect": 5, "integrator": "path"}, {"filter": True, "width": 2}):
+        with pytest.raises(ControlError) as page:
+            apply(o, values)
+        with pytest.raises(UsageError) as line:
+            limits.check_options(dataclasses.replace(o, **values))
+        assert str(page.value) == str(line.value)
+    assert str(page.value).startswith("-filter without -jitter")
+    assert apply(o, {"indirect": 100, "bounces": 2}).indirect == 100  # (100 + 1) 2 = 202 pending: allowed
