@@ -24,7 +24,8 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--reference",), "reference", "read reference images from DIR instead of rendering them", 1, text,
          metavar="DIR"),
     Flag(("--scenes",), "scenes", "scenes folder (default: the course data's scenes/)", 1, text, metavar="DIR"),
-    Flag(("--workers",), "workers", "local Dask worker processes", 1, integer(1, 512), 2, "N"),
+    Flag(("--workers",), "workers", "local Dask worker processes (with --slurm: SLURM jobs, one worker each)", 1,
+         integer(1, 512), 2, "N"),
     Flag(("--scheduler",), "scheduler", "join an existing Dask cluster instead of starting one (its workers must "
          "see every path on a shared filesystem)", 1, text, metavar="tls://HOST:PORT"),
     Flag(("--tls-ca",), "tls_ca", "with --scheduler tls://: the CA certificate of the cluster (PEM)", 1, text,
@@ -35,6 +36,20 @@ FLAGS: tuple[Flag, ...] = (
          metavar="FILE"),
     Flag(("--insecure-scheduler",), "insecure_scheduler", "allow a plain tcp:// --scheduler (anyone who reaches "
          "it can run code on its workers)", default=False, show_default=False),
+    Flag(("--slurm",), "slurm", "start the --workers as SLURM jobs from this submit node (dask-jobqueue; per-run "
+         "TLS as on the local cluster; every path on a file system the nodes share)", default=False,
+         show_default=False),
+    Flag(("--slurm-partition",), "slurm_partition", "with --slurm: the jobs' partition (default: the site's)", 1,
+         text, metavar="NAME"),
+    Flag(("--slurm-account",), "slurm_account", "with --slurm: the account charged", 1, text, metavar="NAME"),
+    Flag(("--slurm-walltime",), "slurm_walltime", "with --slurm: each job's time limit (a job that reaches it is "
+         "submitted again)", 1, text, "01:00:00", "[D-]HH:MM:SS"),
+    Flag(("--slurm-memory",), "slurm_memory", "with --slurm: each job's memory (sbatch --mem; the worker's limit)",
+         1, text, "4GB", "SIZE"),
+    Flag(("--slurm-interface",), "slurm_interface", "with --slurm: the nodes' network interface the scheduler and "
+         "workers listen on (default: 127.0.0.1, jobs on this node only)", 1, text, metavar="IFACE"),
+    Flag(("--slurm-sbatch",), "slurm_sbatch", "with --slurm: more #SBATCH options, split like a shell line", 1,
+         text, metavar="'OPTIONS'"),
     Flag(("--timeout",), "timeout", "wall-clock seconds per case", 1, real_in(0.0, 1e6, open_lo=True), 120.0, "S"),
     Flag(("--memory",), "memory", "address-space limit per case", 1, integer(64, 1 << 22), 4096, "MB"),
     Flag(("--resume",), "resume", "skip the cases already in REPORT_DIR/journal.jsonl", default=False,
@@ -77,6 +92,35 @@ def _scheduler_security(args: Args):  # noqa: ANN202 - distributed.security.Secu
     return check_scheduler(args.scheduler, tls, args.insecure_scheduler)
 
 
+def slurm_options(args: Args):  # noqa: ANN201 - SlurmOptions or None
+    """The :class:`~a5mi.runtime.slurm.SlurmOptions` of ``--slurm`` and its flags (``--workers`` jobs), or None;
+    a ``--slurm-*`` flag without ``--slurm``, or ``--slurm`` with ``--scheduler``, is a usage error."""
+    import re
+    import shlex
+
+    given = [f"--slurm-{d}" for d in ("partition", "account", "interface", "sbatch")
+             if args.get(f"slurm_{d}") is not None]
+    if not args.slurm:
+        if given:
+            raise UsageError(f"{given[0]} needs --slurm")
+        return None
+    if args.scheduler is not None:
+        raise UsageError("give --slurm or --scheduler, not both")
+    if not re.fullmatch(r"(\d+-)?\d{1,2}(:\d{2}){0,2}", args.slurm_walltime):
+        raise UsageError(f"--slurm-walltime expects [D-]HH:MM:SS, found '{args.slurm_walltime[:40]}'")
+    if not re.fullmatch(r"\d+(\.\d+)?\s*[KMGT]i?B", args.slurm_memory, re.IGNORECASE):
+        raise UsageError(f"--slurm-memory expects a size like 4GB, found '{args.slurm_memory[:40]}'")
+    try:
+        directives = tuple(shlex.split(args.slurm_sbatch or ""))
+    except ValueError as exc:
+        raise UsageError(f"--slurm-sbatch: {exc}") from None
+    from a5mi.runtime.slurm import SlurmOptions
+
+    return SlurmOptions(jobs=args.workers, partition=args.slurm_partition, account=args.slurm_account,
+                        walltime=args.slurm_walltime, memory=args.slurm_memory.replace(" ", ""),
+                        interface=args.slurm_interface, directives=directives)
+
+
 def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     """The :class:`~a5mi.grade.batch.GradeSettings` of the flags (raises user errors for bad values)."""
     from a5mi import require_data_dir
@@ -90,6 +134,7 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
         raise UsageError(f"--match and --close must satisfy 0 <= match <= close <= 1 (found {args.match:g}, "
                          f"{args.close:g})")
     security = _scheduler_security(args)
+    slurm = slurm_options(args)
     scenes = args.scenes or str(require_data_dir() / "scenes")
     if not Path(scenes).is_dir():
         raise UsageError(f"--scenes: '{scenes}' is not a folder")
@@ -100,7 +145,7 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     return GradeSettings(
         submissions=args.submissions, report_dir=args.output, cases=cases, scenes=os.path.abspath(scenes),
         cache_dir=args.cache or str(default_cache_dir()), reference_dir=args.reference, workers=args.workers,
-        scheduler=args.scheduler, security=security, resume=args.resume,
+        scheduler=args.scheduler, security=security, slurm=slurm, resume=args.resume,
         limits=Limits(timeout=args.timeout, memory_mb=args.memory, require_sandbox=not args.no_sandbox),
         read_only=allow, thresholds=Thresholds(args.match, args.close), flip=args.flip)
 
@@ -169,6 +214,8 @@ def run_grade(args: Args, console: Console) -> int:
 
     for module in ("distributed", "cryptography", "tqdm") + (("flip_evaluator",) if args.flip else ()):
         require(module, "grade")  # before the cluster starts: a worker would journal it as each case's error
+    if args.slurm:
+        require("dask_jobqueue", "slurm")
     check_report_dir(args)
     settings = settings_of(args)
     check_reachable(args.scheduler)

@@ -64,6 +64,7 @@ class GradeSettings:
     flip: bool = True
     work_root: str | None = None
     security: Any = None  # distributed.security.Security of ``scheduler`` (None: Dask's configuration)
+    slurm: Any = None  # a5mi.runtime.slurm.SlurmOptions: ``workers`` SLURM jobs instead of a local cluster
 
     def absolute(self) -> GradeSettings:
         """These settings with every path absolute (from this process's folder)."""
@@ -238,6 +239,12 @@ def grade_class(s: GradeSettings, progress: Progress | None = None, client: Any 
     work_root.mkdir(parents=True, exist_ok=True)
     work_root.chmod(0o755)
     Path(s.cache_dir).mkdir(parents=True, exist_ok=True)
+    if client is None and s.slurm is not None:
+        from a5mi.runtime.slurm import start_slurm_client
+
+        with start_slurm_client(s.slurm, report_dir / "slurm") as c:
+            c.wait_for_workers(1)  # SLURM starts the jobs when it can; the paths are checked from a worker
+            return grade_class(s, progress, c)
     if client is None:
         with start_client(s.workers, s.scheduler, security=s.security) as c:
             return grade_class(s, progress, c)
@@ -265,7 +272,7 @@ def grade_class(s: GradeSettings, progress: Progress | None = None, client: Any 
     records = run_units(client, units, grade_one, journal, resume=s.resume, progress=progress, fingerprints=prints)
     order = {k: i for i, (k, _) in enumerate(units)}
     records.sort(key=lambda r: order[r["key"]])
-    outcome = GradeOutcome(records, students, isolation(),
+    outcome = GradeOutcome(records, students, client.submit(isolation, pure=False).result(),
                            skipped=len(before & set(order)))
     outcome.files = report.write_all(report_dir, s.cases, students, records,
                                      {"isolation": outcome.isolation, "thresholds": vars(s.thresholds),

@@ -1,0 +1,217 @@
+"""``a5mi grade --slurm`` on a real SLURM started by the test (docs/GRADING.md "On a SLURM cluster").
+
+The module fixture starts ``munged``, ``slurmctld`` and ``slurmd`` on this machine (:mod:`slurm_daemons`: one
+node, two CPUs, loopback only) and stops them afterwards. Where they cannot run (not root, no apt-get) the
+module is skipped with one line; where ``make setup`` would have installed them, their absence is a failure.
+
+The class: one 16 x 16 case without jitter (scene10, ``-shadows -bounces 4``) and students that exec the real
+``a5`` (``good``), drop ``-shadows`` (``noshadows``), or copy a prepared image after sleeping ``delay`` seconds
+(``lazy*``: a correct or a shadowless image). The same class graded on a 2-worker LocalCluster and on two SLURM
+jobs gets the same records; with jobs cancelled, jobs reaching their time limit and the client killed and
+restarted with ``--resume``, every case is journaled exactly once and the report is the uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from slurm_daemons import LocalSlurm, installable, slurm_problem
+
+A5 = str(Path(sys.executable).with_name("a5"))
+A5MI = str(Path(sys.executable).with_name("a5mi"))
+SIZE = 16
+COMMAND = f"-input scene10_sphere.txt -size {SIZE} {SIZE} -output 10.png -shadows -bounces 4"
+CASES = f'[[case]]\nname = "sphere"\ncommand = "{COMMAND}"\npoints = 10\n'
+LAZY = """#!/bin/sh
+d=$(dirname "$0")
+sleep $(cat "$d/delay")
+while [ $# -gt 0 ]; do [ "$1" = -output ] && cp "$d/img.png" "$2"; shift; done
+"""
+#: student -> expected verdict; lazy students: which prepared image they copy.
+VERDICTS = {"good": "match", "noshadows": "wrong", "lazy_ok": "match", "lazy_bad": "wrong"}
+#: The slow class: these lazy students too (10 x 20 s of sleep on two one-CPU jobs: longer than the 1-minute
+#: time limit of the jobs of the job-death test).
+SLOW = {f"lazy{i:02d}": ("match" if i % 2 else "wrong") for i in range(10)}
+
+
+@pytest.fixture(scope="module")
+def slurm():
+    why = slurm_problem()
+    if why:
+        if installable():
+            pytest.fail(f"local SLURM not started although make setup installs it here: {why}")
+        pytest.skip(f"local SLURM not available: {why}")
+    with LocalSlurm() as s:
+        yield s
+
+
+def _allow_read() -> str:
+    from a5mi import PROJECT_ROOT
+
+    paths = {sys.prefix, sys.base_prefix, str(PROJECT_ROOT)}
+    paths |= {p for p in sys.path if p and os.path.isdir(p) and not p.startswith(("/usr/", "/tmp"))}
+    return ":".join(sorted(paths))
+
+
+def _student(subs: Path, name: str, images: dict[str, Path], delay: int) -> None:
+    d = subs / name
+    d.mkdir(parents=True)
+    if name == "good":
+        (d / "a5").write_text(f'#!/bin/sh\nexec {A5} "$@"\n')
+    elif name == "noshadows":
+        (d / "a5").write_text(f"#!/bin/sh\nfor a; do shift; [ \"$a\" = -shadows ] || set -- \"$@\" \"$a\"; done\n"
+                              f'exec {A5} "$@"\n')
+    else:
+        (d / "a5").write_text(LAZY)
+        (d / "delay").write_text(str(delay))
+        verdict = VERDICTS.get(name) or SLOW[name]
+        (d / "img.png").write_bytes(images[verdict].read_bytes())
+    (d / "a5").chmod(0o755)
+
+
+@pytest.fixture(scope="module")
+def klass(tmp_path_factory, scenes_dir):
+    """The quick class (``subs``), the slow one (``slow``: delay 20 s), the cases and the reference cache."""
+    root = tmp_path_factory.mktemp("slurmclass")
+    for p in (root, *root.parents):
+        if str(p).startswith("/tmp/pytest-of"):
+            p.chmod(0o755)  # the sandbox's user id must reach the submissions
+    images = {}
+    for verdict, drop in (("match", ""), ("wrong", "-shadows")):
+        out = root / f"{verdict}.png"
+        argv = [A5, *(a for a in COMMAND.split() if a != drop)]
+        argv[argv.index("-output") + 1] = str(out)
+        subprocess.run(argv, cwd=scenes_dir, check=True, capture_output=True, timeout=300)
+        images[verdict] = out
+    for name in VERDICTS:
+        _student(root / "subs", name, images, 0)
+    for name in (*VERDICTS, *SLOW):
+        _student(root / "slow", name, images, 20 if name in SLOW else 0)
+    (root / "cases.toml").write_text(CASES)
+    return root
+
+
+def _argv(root: Path, subs: str, report: Path, *more: str) -> list[str]:
+    return ["grade", str(root / subs), "-o", str(report), "--cases", str(root / "cases.toml"), "--workers", "2",
+            "--cache", str(root / "cache"), "--timeout", "60", "--memory", "3072", "--allow-read", _allow_read(),
+            "--no-flip", *more]
+
+
+def _records(report: Path) -> dict[tuple[str, str], dict]:
+    """The records of ``results.json`` by (student, case), without what differs from run to run: ``wall`` (the
+    seconds the case ran) and ``fingerprint`` (it digests the task, whose folders name the report folder)."""
+    doc = json.loads((report / "results.json").read_text())
+    out = {}
+    for r in doc["results"]:
+        r = {k: v for k, v in r.items() if k not in ("wall", "fingerprint")}
+        out[r["student"], r["case"]] = r
+    return out
+
+
+@pytest.fixture(scope="module")
+def local_report(klass):
+    """The quick class graded on a 2-worker LocalCluster (the baseline)."""
+    from a5mi.cli import run_a5mi
+
+    report = klass / "local"
+    assert run_a5mi(_argv(klass, "subs", report)) == 0
+    return report
+
+
+def test_slurm_grades_like_a_local_cluster(slurm, klass, local_report, capsys) -> None:
+    from a5mi.cli import run_a5mi
+
+    report = klass / "slurm1"
+    assert run_a5mi(_argv(klass, "subs", report, "--slurm", "--slurm-memory", "1GB")) == 0
+    out = capsys.readouterr()
+    got, want = _records(report), _records(local_report)
+    assert {k: r["verdict"] for k, r in got.items()} == {(s, "sphere"): v for s, v in VERDICTS.items()}
+    assert got == want
+    doc = json.loads((report / "results.json").read_text())
+    assert doc["isolation"] == "bwrap"  # the sandbox inside each job
+    assert "good" in out.out and "(sandbox: bwrap)" in out.err
+    assert not slurm.jobs(), "the jobs were not cancelled at the end"
+    assert not (report / "slurm" / "tls").exists(), "the run's worker credentials were left on disk"
+
+
+def _journal(report: Path) -> list[dict]:
+    path = report / "journal.jsonl"
+    if not path.exists():
+        return []
+    out = []
+    for line in path.read_text().splitlines():
+        try:
+            out.append(json.loads(line))
+        except json.JSONDecodeError:
+            pass  # a torn last line
+    return out
+
+
+def test_jobs_die_and_the_client_restarts_yet_nothing_is_lost_or_graded_twice(slurm, klass, local_report) -> None:
+    """One run of the slow class on two jobs of a 1-minute time limit: a job is cancelled (``scancel``) once
+    the first case is journaled, the jobs reach their time limit (SLURM ends them: ``TIMEOUT``; the cluster
+    submits new ones), then the client is SIGKILLed and started again with ``--resume``. Every case is
+    journaled once, and every record is the one an uninterrupted run gives for the same image."""
+    from a5mi.runtime.slurm import job_name
+
+    report = klass / "slurm-deaths"
+    name = job_name(report / "slurm")
+    argv = [A5MI, *_argv(klass, "slow", report, "--slurm", "--slurm-memory", "1GB", "--slurm-walltime", "00:01:00")]
+    log = open(klass / "deaths-client1.log", "wb")  # noqa: SIM115
+    client = subprocess.Popen(argv, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    seen: set[str] = set()
+    cancelled = None
+    total = len(VERDICTS) + len(SLOW)
+    try:
+        deadline = time.monotonic() + 400  # a bound on SLURM's own timers (time limit: checked every 30 s)
+        while time.monotonic() < deadline and client.poll() is None:
+            seen |= set(slurm.jobs(name))
+            done = len(_journal(report))
+            if cancelled is None and done >= 1 and seen:
+                running = slurm.run("squeue", "-h", "-t", "R", f"--name={name}", "-o", "%i").split()
+                if running:
+                    cancelled = running[0]
+                    slurm.run("scancel", cancelled)
+            timed_out = [j for j in seen if j != cancelled and slurm.job_state(j) == "TIMEOUT"]
+            if cancelled and timed_out and done < total:
+                break
+            time.sleep(1)
+        assert client.poll() is None, "the class ended before a job reached its time limit"
+        assert cancelled is not None and timed_out, f"no job cancelled ({cancelled}) or timed out ({timed_out})"
+        os.killpg(client.pid, signal.SIGKILL)
+        client.wait()
+    finally:
+        if client.poll() is None:
+            os.killpg(client.pid, signal.SIGKILL)
+            client.wait()
+        log.close()
+    assert slurm.job_state(cancelled) == "CANCELLED"
+    before = len(_journal(report))
+    assert 0 < before < total
+    left = set(slurm.jobs(name))
+    assert left, "the killed client's jobs should still be there (their scheduler is gone)"
+    log = klass / "deaths-client2.log"
+    with open(log, "wb") as f:
+        rc = subprocess.run([*argv, "--resume"], stdout=f, stderr=subprocess.STDOUT, timeout=600).returncode
+    assert rc == 0, log.read_text()[-3000:]
+    assert all(slurm.job_state(j) in ("CANCELLED", "COMPLETED") for j in left)  # the restarted client ended them
+    keys = [r["key"] for r in _journal(report)]
+    assert sorted(keys) == sorted(f"{s}/sphere" for s in (*VERDICTS, *SLOW)), "a case graded twice or lost"
+    assert f"{before} cases taken from the journal (--resume)" in log.read_text()
+    got, want = _records(report), _records(local_report)
+    for (student, case), rec in got.items():
+        twin = student if student in VERDICTS else ("lazy_ok" if SLOW[student] == "match" else "lazy_bad")
+        expect = {**want[twin, case], "key": f"{student}/{case}", "student": student}
+        expect["images"] = {k: v.replace(f"/{twin}/", f"/{student}/").replace(f"{twin}_", f"{student}_")
+                            for k, v in expect["images"].items()} if "images" in expect else None
+        if expect["images"] is None:
+            expect.pop("images")
+        assert rec == expect, (student, rec, expect)
+    assert not slurm.jobs(name)
