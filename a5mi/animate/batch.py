@@ -102,10 +102,11 @@ def _dask_chunk(chunk: Chunk) -> dict[str, Any]:
 
 def render_animation(scene: str | os.PathLike[str], folder: str | os.PathLike[str], options: RenderOptions,
                      frame_range: range, *, workers: int | None = None, scheduler: str | None = None,
-                     resume: bool = False, variant: str | None = None,
+                     security: Any = None, resume: bool = False, variant: str | None = None,
                      progress: Progress | None = None) -> Outcome:
     """Render the frames of ``frame_range`` of the animated ``scene`` into ``folder`` (module docstring):
-    here when neither ``workers`` nor ``scheduler`` is given, else on Dask. With ``resume`` only the frames
+    here when neither ``workers`` nor ``scheduler`` is given, else on Dask (``scheduler``'s client credentials:
+    ``security``, else the Dask configuration's). With ``resume`` only the frames
     that are not done are rendered."""
     t0 = time.perf_counter()
     scene_path = str(Path(scene).resolve())
@@ -149,7 +150,7 @@ def render_animation(scene: str | os.PathLike[str], folder: str | os.PathLike[st
             progress(done, total)
 
     journal = cluster.Journal(Path(folder) / "animate.journal.jsonl")
-    with cluster.start_client(n_workers, scheduler) as client:
+    with cluster.start_client(n_workers, scheduler, security=security) as client:
         out.records = [r for r in cluster.run_units(client, units, _dask_chunk, journal, on_record=record)
                        if "error" not in r]
     out.rendered.sort()

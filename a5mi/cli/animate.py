@@ -33,7 +33,15 @@ FLAGS: tuple[Flag, ...] = (
          frame_span, metavar="A:B"),
     Flag(("--workers",), "workers", "render on N local Dask worker processes (default: in this process)", 1,
          integer(1, 512), metavar="N"),
-    Flag(("--scheduler",), "scheduler", "render on an existing Dask cluster", 1, text, metavar="tcp://HOST:PORT"),
+    Flag(("--scheduler",), "scheduler", "render on an existing Dask cluster", 1, text, metavar="tls://HOST:PORT"),
+    Flag(("--tls-ca",), "tls_ca", "with --scheduler tls://: the CA certificate of the cluster (PEM)", 1, text,
+         metavar="FILE"),
+    Flag(("--tls-cert",), "tls_cert", "with --scheduler tls://: this client's certificate (PEM)", 1, text,
+         metavar="FILE"),
+    Flag(("--tls-key",), "tls_key", "with --scheduler tls://: this client's private key (PEM)", 1, text,
+         metavar="FILE"),
+    Flag(("--insecure-scheduler",), "insecure_scheduler", "allow a plain tcp:// --scheduler (anyone who reaches "
+         "it can run code on its workers)", default=False, show_default=False),
     Flag(("--resume",), "resume", "render only the frames that are missing or fail their checksum",
          default=False, show_default=False),
     *render_flags_except(IMAGE_OUTPUT_DESTS | {"input"}),  # the scene is the positional SCENE.txt
@@ -44,8 +52,24 @@ def check_animate_args(args: Args) -> None:
     if args.workers is not None and args.scheduler is not None:
         raise UsageError("give --workers or --scheduler, not both")
     if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://", "inproc://")):
-        raise UsageError(f"--scheduler expects tcp://HOST:PORT, found '{args.scheduler[:40]}'")
+        raise UsageError(f"--scheduler expects tls://HOST:PORT, found '{args.scheduler[:40]}'")
     check_render_args(args)
+
+
+def scheduler_security(args: Args):  # noqa: ANN201 - distributed.security.Security or None
+    """The client credentials of ``--scheduler`` (:func:`a5mi.cluster.check_scheduler`: ``tls://`` with
+    ``--tls-ca/--tls-cert/--tls-key`` or the Dask configuration's, ``tcp://`` only with ``--insecure-scheduler``);
+    the TLS flags without ``--scheduler``, or not all three, are usage errors."""
+    from a5mi.cluster import check_scheduler
+
+    tls = [args.tls_ca, args.tls_cert, args.tls_key]
+    if args.scheduler is None:
+        if any(tls) or args.insecure_scheduler:
+            raise UsageError("--tls-ca/--tls-cert/--tls-key/--insecure-scheduler need --scheduler")
+        return None
+    if any(tls) and not all(tls):
+        raise UsageError("give --tls-ca, --tls-cert and --tls-key together")
+    return check_scheduler(args.scheduler, tuple(tls) if all(tls) else None, args.insecure_scheduler)
 
 
 def run_animate(args: Args, console: Console) -> int:
@@ -84,6 +108,7 @@ def run_animate(args: Args, console: Console) -> int:
             for path in (image, framefiles.checksum_path(image)):
                 clobber.check_outputs([("-o", path)], inputs)
     options = render_options(args, count_rays=False)
+    security = scheduler_security(args)
     if args.workers is None and args.scheduler is None:
         activate_variant(args.variant)
     bar = None
@@ -101,8 +126,8 @@ def run_animate(args: Args, console: Console) -> int:
     t0 = time.perf_counter()
     try:
         outcome = batch.render_animation(args.scene, out, options, range(a, b), workers=args.workers,
-                                         scheduler=args.scheduler, resume=args.resume, variant=args.variant,
-                                         progress=progress)
+                                         scheduler=args.scheduler, security=security, resume=args.resume,
+                                         variant=args.variant, progress=progress)
     finally:
         if bar is not None:
             bar.close()

@@ -100,9 +100,13 @@ def _private_folder(path: Path) -> Path:
 
 
 @contextlib.contextmanager
-def start_slurm_client(opts: SlurmOptions, folder: str | os.PathLike[str]) -> Iterator[Any]:
+def start_slurm_client(opts: SlurmOptions, folder: str | os.PathLike[str], *, security: Any = None) -> Iterator[Any]:
     """A ``distributed.Client`` of a ``SLURMCluster`` of ``opts.jobs`` worker jobs (module docstring); the
     jobs' logs go to ``folder/logs``, the run's worker credentials to ``folder/tls`` (removed on exit).
+    ``security``: a ``distributed.security.Security`` of PEM files on the shared file system (one CA; the
+    scheduler's, the workers' and the client's certificate and key), for a cluster that other clients join
+    (``a5 -scheduler``, ``a5mi animate --scheduler`` with the same files); default: the run's own
+    (:func:`a5mi.cluster.per_run_security`).
     ``folder`` must be on a file system the nodes share. The jobs are submitted before this returns (``sbatch``
     refusing one, e.g. an unknown partition, is a :class:`~a5mi.errors.UsageError` naming its message); the
     client may hold no worker yet (SLURM starts them when it can: ``client.wait_for_workers``). On exit the
@@ -115,7 +119,8 @@ def start_slurm_client(opts: SlurmOptions, folder: str | os.PathLike[str]) -> It
     tls_dir = _private_folder(folder / "tls")
     name = job_name(folder)
     cancel_stale(name)
-    security = per_run_security()
+    if security is None:
+        security = per_run_security()
     settings = {"distributed.scheduler.http.routes": [], "distributed.worker.http.routes": [],
                 "distributed.scheduler.allowed-failures": 5, "distributed.logging.distributed": "error"}
     cluster = None

@@ -174,22 +174,20 @@ class LocalSlurm:
         return ""
 
     def descendants(self) -> list[int]:
-        """The pids of every process below the daemons this started (job scripts, Dask workers, sandboxes)."""
-        children: dict[int, list[int]] = {}
+        """The pids of the processes this SLURM runs besides its daemons: ``slurmstepd`` (which detaches from
+        ``slurmd``), the job scripts, the Dask workers and the sandboxes under them. They are found by the
+        environment every one of them inherits: ``SLURM_CONF`` naming this cluster's ``slurm.conf``."""
+        mark = f"SLURM_CONF={self.conf}".encode()
+        daemons = {p.pid for p in self.procs}
+        out = []
         for d in os.listdir("/proc"):
-            if d.isdigit():
+            if d.isdigit() and int(d) not in daemons and int(d) != os.getpid():
                 try:
-                    with open(f"/proc/{d}/stat") as f:
-                        ppid = int(f.read().rpartition(")")[2].split()[1])
+                    with open(f"/proc/{d}/environ", "rb") as f:
+                        if mark in f.read().split(b"\0"):
+                            out.append(int(d))
                 except OSError:
                     continue
-                children.setdefault(ppid, []).append(int(d))
-        out, stack = [], [p.pid for p in self.procs]
-        while stack:
-            pid = stack.pop()
-            for c in children.get(pid, []):
-                out.append(c)
-                stack.append(c)
         return out
 
     def stop(self) -> None:
