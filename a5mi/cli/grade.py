@@ -133,8 +133,8 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     if not 0 <= args.match <= args.close <= 1:
         raise UsageError(f"--match and --close must satisfy 0 <= match <= close <= 1 (found {args.match:g}, "
                          f"{args.close:g})")
-    security = _scheduler_security(args)
     slurm = slurm_options(args)
+    security = _scheduler_security(args)
     scenes = args.scenes or str(require_data_dir() / "scenes")
     if not Path(scenes).is_dir():
         raise UsageError(f"--scenes: '{scenes}' is not a folder")

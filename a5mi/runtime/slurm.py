@@ -30,6 +30,7 @@ import pwd
 import shutil
 import subprocess
 import sys
+import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -107,10 +108,10 @@ def start_slurm_client(opts: SlurmOptions, folder: str | os.PathLike[str], *, se
     scheduler's, the workers' and the client's certificate and key), for a cluster that other clients join
     (``a5 -scheduler``, ``a5mi animate --scheduler`` with the same files); default: the run's own
     (:func:`a5mi.cluster.per_run_security`).
-    ``folder`` must be on a file system the nodes share. The jobs are submitted before this returns (``sbatch``
-    refusing one, e.g. an unknown partition, is a :class:`~a5mi.errors.UsageError` naming its message); the
-    client may hold no worker yet (SLURM starts them when it can: ``client.wait_for_workers``). On exit the
-    jobs are cancelled (``scancel``)."""
+    ``folder`` must be on a file system the nodes share. The job script is checked first
+    (:func:`check_submission`: an unknown partition is a :class:`~a5mi.errors.UsageError`); the jobs are
+    submitted in the background, so the client may hold no worker yet (SLURM starts them when it can:
+    ``client.wait_for_workers``). On exit the jobs are cancelled (``scancel``)."""
     dask, distributed = require("dask", "slurm"), require("distributed", "slurm")
     dask_jobqueue = require("dask_jobqueue", "slurm")
     if shutil.which("sbatch") is None:
@@ -127,11 +128,7 @@ def start_slurm_client(opts: SlurmOptions, folder: str | os.PathLike[str], *, se
     try:
         with dask.config.set(settings):
             cluster = dask_jobqueue.SLURMCluster(**_cluster_kwargs(opts, folder, tls_dir, security, name))
-            try:
-                cluster.scale(jobs=opts.jobs)
-                cluster.sync(cluster._correct_state)  # submit now: an sbatch error is raised here
-            except RuntimeError as exc:
-                raise UsageError(f"--slurm: sbatch refused the worker job: {_first_line(exc)}") from None
+            check_submission(cluster.job_script())
             cluster.adapt(minimum_jobs=opts.jobs, maximum_jobs=opts.jobs)
             client = distributed.Client(cluster, security=security)
             try:
@@ -147,9 +144,19 @@ def start_slurm_client(opts: SlurmOptions, folder: str | os.PathLike[str], *, se
         shutil.rmtree(tls_dir, ignore_errors=True)
 
 
-def _first_line(exc: BaseException) -> str:
-    lines = [ln.strip() for ln in str(exc).splitlines() if "error" in ln.lower()] or str(exc).splitlines() or [""]
-    return lines[0][:300]
+def check_submission(script: str) -> None:
+    """``sbatch --test-only`` of the job ``script``: SLURM checks the partition, account, time limit, memory
+    and every other directive without queueing anything; a refusal is a :class:`~a5mi.errors.UsageError` with
+    ``sbatch``'s first error line."""
+    with tempfile.NamedTemporaryFile("w", suffix=".sh", prefix="a5mi-job-") as f:
+        f.write(script)
+        f.flush()
+        r = subprocess.run(["sbatch", "--test-only", f.name], capture_output=True, text=True, timeout=60,
+                           check=False)
+    if r.returncode != 0:
+        lines = [ln.strip() for ln in r.stderr.splitlines() if "error" in ln.lower()] or r.stderr.splitlines()
+        why = (lines or [f"status {r.returncode}"])[0].removeprefix("sbatch: error: ")
+        raise UsageError(f"--slurm: sbatch refuses the worker job: {why[:300]}")
 
 
-__all__ = ["JOB_NAME", "SlurmOptions", "cancel_stale", "job_name", "start_slurm_client"]
+__all__ = ["JOB_NAME", "SlurmOptions", "cancel_stale", "check_submission", "job_name", "start_slurm_client"]

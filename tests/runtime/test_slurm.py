@@ -141,6 +141,33 @@ def test_slurm_grades_like_a_local_cluster(slurm, klass, local_report, capsys) -
     assert not (report / "slurm" / "tls").exists(), "the run's worker credentials were left on disk"
 
 
+@pytest.mark.parametrize(("more", "message"), [
+    (["--slurm-partition", "cpu"], "--slurm-partition needs --slurm"),
+    (["--slurm", "--scheduler", "tls://127.0.0.1:1"], "give --slurm or --scheduler, not both"),
+    (["--slurm", "--slurm-walltime", "1h"], "--slurm-walltime expects [D-]HH:MM:SS, found '1h'"),
+    (["--slurm", "--slurm-memory", "lots"], "--slurm-memory expects a size like 4GB, found 'lots'"),
+    (["--slurm", "--slurm-sbatch", "--qos='short"], "--slurm-sbatch: No closing quotation"),
+])
+def test_slurm_flags_are_checked_before_anything_runs(tmp_path, capsys, more, message) -> None:
+    from a5mi.cli import run_a5mi
+
+    (tmp_path / "subs" / "ann").mkdir(parents=True)
+    assert run_a5mi(["grade", str(tmp_path / "subs"), "-o", str(tmp_path / "r"), *more]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err, err
+    assert not (tmp_path / "r").exists()
+
+
+def test_a_job_sbatch_refuses_is_one_line_and_nothing_is_graded(slurm, klass, capsys) -> None:
+    from a5mi.cli import run_a5mi
+
+    report = klass / "refused"
+    assert run_a5mi(_argv(klass, "subs", report, "--slurm", "--slurm-partition", "nosuch")) == 2
+    err = capsys.readouterr().err
+    assert "a5mi grade: error: --slurm: sbatch refuses the worker job: invalid partition specified: nosuch" in err
+    assert not report.exists() and not slurm.jobs()
+
+
 def _assert_ended(slurm: LocalSlurm) -> None:
     """Every job still in the queue was cancelled (the cluster's close: ``scancel``; SLURM may still be ending
     it, ``COMPLETING``)."""
