@@ -137,9 +137,9 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
 #: Files that start sandboxed runs (user ids in a5mi.sandbox's range) run on one worker, one after the other:
 #: test_grade_sandbox and test_hostile_class check that no process of that range is left after a run, which
-#: another file's run in progress would break.
+#: another file's run in progress would break. (test_slurm grades in SLURM jobs: sandboxed runs too.)
 XDIST_GROUPS = {name: "sandbox" for name in ("test_grade_sandbox.py", "test_grade_class.py", "test_hostile_class.py",
-                                              "test_difftest.py", "test_view_engine.py")}
+                                              "test_difftest.py", "test_view_engine.py", "test_slurm.py")}
 
 if importlib.util.find_spec("xdist") is not None:
     def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:

@@ -2,6 +2,8 @@
 
 :func:`grade_class` is what ``a5mi grade`` runs (``docs/GRADING.md``):
 
+0. the cluster: a local TLS one of ``workers`` processes, the one of ``scheduler``, or ``workers`` SLURM jobs
+   (``slurm``: :mod:`a5mi.runtime.slurm`, docs/GRADING.md "On a SLURM cluster");
 1. every path of the settings is made absolute here, before anything is sent to a worker (a worker resolves a
    relative path from its own folder), and every worker is asked to see each of them
    (:func:`check_workers_see`: the submissions, scenes, references, cache and report folders, the extra
@@ -222,7 +224,9 @@ def _reference_unit(args: tuple[Case, str, str, str | None]) -> Any:
 
 def grade_class(s: GradeSettings, progress: Progress | None = None, client: Any = None) -> GradeOutcome:
     """Grade every student on every case (module docstring); ``client`` reuses a Dask client (else one is
-    started from ``s.workers`` / ``s.scheduler`` / ``s.security`` and closed)."""
+    started from ``s.workers`` / ``s.scheduler`` / ``s.security`` and closed; with ``s.slurm``, ``s.workers``
+    SLURM jobs, :func:`a5mi.runtime.slurm.start_slurm_client`, logs in ``REPORT/slurm/logs``, and the paths
+    are checked from the first worker that starts). The report's sandbox line is what a worker reports."""
     from a5mi.grade import report
 
     s = s.absolute()
