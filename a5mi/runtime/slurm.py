@@ -12,8 +12,9 @@ exports ``DASK_DISTRIBUTED__WORKER__HTTP__ROUTES=[]``).
 Jobs die: ``scancel``, a node lost, the wall-clock limit reached. The scheduler gives a dead worker's tasks to
 another worker (:func:`a5mi.cluster.run_units`' guarantee), and the cluster keeps ``jobs`` jobs alive
 (``adapt(minimum_jobs=jobs, maximum_jobs=jobs)``: a job that ended is submitted again). A client that is killed
-leaves its jobs behind (a worker without its scheduler exits after ``death_timeout`` seconds); the jobs are
-named after the folder (:func:`job_name`), and a client started again on the same folder cancels them first
+leaves its jobs behind: a running worker exits when it loses its scheduler, but a job still pending starts later
+and waits ``death_timeout`` seconds for a scheduler that is gone, holding its CPU. The jobs are named after the
+folder (:func:`job_name`), and a client started again on the same folder cancels them first
 (:func:`cancel_stale`).
 
 Where the workers listen: ``host`` (default ``127.0.0.1``, the single-node configuration the tests run) is the
@@ -52,8 +53,8 @@ def job_name(folder: str | os.PathLike[str]) -> str:
 
 
 def cancel_stale(name: str) -> None:
-    """``scancel --name NAME --user ME``: end the jobs a killed client of the same folder left (their workers wait
-    ``death_timeout`` seconds for a scheduler that is gone, holding their CPUs)."""
+    """``scancel --name NAME --user ME``: end the jobs a killed client of the same folder left (a pending one
+    would start and wait ``death_timeout`` seconds for a scheduler that is gone, holding its CPU)."""
     subprocess.run(["scancel", f"--name={name}", f"--user={pwd.getpwuid(os.getuid()).pw_name}"],
                    capture_output=True, timeout=60, check=False)
 
