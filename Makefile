@@ -21,16 +21,17 @@ STEP = step() { echo "a5mi setup: $$1"; shift; mkdir -p $(VENV); \
 setup: llvm tools $(STAMP)
 	@$(BIN)/python -m compileall -q a5mi plugins converters >/dev/null  # bytecode: ~0.3 CPU-s of each a5 start where PYTHONDONTWRITEBYTECODE is set (docs/SPEED.md)
 
-# a5mi grade's and a5mi difftest's sandbox (bubblewrap) and the report's headless-browser test (chromium):
-# install if root.
-APT_TOOLS := bwrap:bubblewrap chromium:chromium
+# a5mi grade's and a5mi difftest's sandbox (bubblewrap), the report's headless-browser test (chromium) and the
+# single-node SLURM the --slurm tests start (munge, slurmctld, slurmd, slurm-client): install if root. Debian's
+# policy-rc.d / no init system leaves the daemons stopped: the tests start their own and stop them.
+APT_TOOLS := bwrap:bubblewrap chromium:chromium munged:munge slurmctld:slurmctld slurmd:slurmd sbatch:slurm-client
 tools:
 	@missing=""; for t in $(APT_TOOLS); do command -v $${t%%:*} >/dev/null || missing="$$missing $${t#*:}"; done; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
-	    $(STEP) "apt-get install$$missing (the sandbox of a5mi grade and difftest; the report's browser test)" \
+	    $(STEP) "apt-get install$$missing (the sandbox of a5mi grade and difftest; the report's browser test; SLURM for the --slurm tests)" \
 	      sh -c "apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y$$missing"; \
-	  else echo "a5mi: note: apt-get install$$missing (sandbox for a5mi grade and difftest, report test)" >&2; fi; fi
+	  else echo "a5mi: note: apt-get install$$missing (sandbox for a5mi grade and difftest, report test, SLURM tests)" >&2; fi; fi
 
 # Dr.Jit's llvm variant needs libLLVM >= 16 (Debian 12 ships 15 by default): check, install if root.
 llvm:

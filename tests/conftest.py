@@ -206,9 +206,9 @@ def _skip_reason(report: Any) -> str | None:
 
 #: Files that start sandboxed runs (user ids in a5mi.sandbox.bwrap's range) run on one worker, one after the other:
 #: test_grade_sandbox and test_hostile_class check that no process of that range is left after a run, which
-#: another file's run in progress would break.
+#: another file's run in progress would break. (test_slurm grades in SLURM jobs: sandboxed runs too.)
 XDIST_GROUPS = {name: "sandbox" for name in ("test_grade_sandbox.py", "test_grade_class.py", "test_hostile_class.py",
-                                              "test_difftest.py", "test_view_engine.py")}
+                                              "test_difftest.py", "test_view_engine.py", "test_slurm.py")}
 
 if importlib.util.find_spec("xdist") is not None:
     def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:

@@ -11,7 +11,7 @@ import time
 
 from a5mi.cli.app import Command, Console, activate_variant
 from a5mi.cli.flags import Args, Flag, Positional, integer, text
-from a5mi.commands.grade import SCHEDULER_FLAGS, scheduler_security
+from a5mi.cli.scheduler import SCHEDULER_FLAGS, scheduler_security
 from a5mi.commands.render import IMAGE_OUTPUT_DESTS, check_render_args, render_flags_except, render_options
 from a5mi.platform.errors import ExitStatus, UsageError, UserError
 from a5mi.runtime.extras import require
@@ -45,6 +45,8 @@ FLAGS: tuple[Flag, ...] = (
 def check_animate_args(args: Args) -> None:
     if args.workers is not None and args.scheduler is not None:
         raise UsageError("give --workers or --scheduler, not both")
+    if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://", "inproc://")):
+        raise UsageError(f"--scheduler expects tls://HOST:PORT, found '{args.scheduler[:40]}'")
     check_render_args(args)
 
 
@@ -85,6 +87,7 @@ def run_animate(args: Args, console: Console) -> int:
             for path in (image, framefiles.checksum_path(image)):
                 clobber.check_outputs([("-o", path)], inputs)
     options = render_options(args, count_rays=False)
+    security = scheduler_security(args)
     if args.workers is None and args.scheduler is None:
         activate_variant(args.variant)
     bar = None

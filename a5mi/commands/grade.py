@@ -13,21 +13,9 @@ from pathlib import Path
 
 from a5mi.cli.app import Command, Console
 from a5mi.cli.flags import Args, Flag, Positional, integer, real, real_in, text
+from a5mi.cli.scheduler import SCHEDULER_FLAGS, scheduler_security
 from a5mi.platform.errors import ExitStatus, UsageError, UserError
 from a5mi.runtime.extras import require
-
-#: How a command of ``--scheduler`` joins an existing Dask cluster (:func:`scheduler_security`; ``grade``,
-#: ``animate``, ``photons``): TLS credentials, or the explicit opt-in to a plain ``tcp://`` scheduler.
-SCHEDULER_FLAGS: tuple[Flag, ...] = (
-    Flag(("--tls-ca",), "tls_ca", "with --scheduler tls://: the CA certificate of the cluster (PEM)", 1, text,
-         metavar="FILE"),
-    Flag(("--tls-cert",), "tls_cert", "with --scheduler tls://: this client's certificate (PEM)", 1, text,
-         metavar="FILE"),
-    Flag(("--tls-key",), "tls_key", "with --scheduler tls://: this client's private key (PEM)", 1, text,
-         metavar="FILE"),
-    Flag(("--insecure-scheduler",), "insecure_scheduler", "allow a plain tcp:// --scheduler (anyone who reaches "
-         "it can run code on its workers)", default=False, show_default=False),
-)
 
 FLAGS: tuple[Flag, ...] = (
     Flag(("-o", "--output"), "output", "report folder (report.html, results.csv, results.json, journal.jsonl)",
@@ -37,10 +25,25 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--reference",), "reference", "read reference images from DIR instead of rendering them", 1, text,
          metavar="DIR"),
     Flag(("--scenes",), "scenes", "scenes folder (default: the course data's scenes/)", 1, text, metavar="DIR"),
-    Flag(("--workers",), "workers", "local Dask worker processes", 1, integer(1, 512), 2, "N"),
+    Flag(("--workers",), "workers", "local Dask worker processes (with --slurm: SLURM jobs, one worker each)", 1,
+         integer(1, 512), 2, "N"),
     Flag(("--scheduler",), "scheduler", "join an existing Dask cluster instead of starting one (its workers must "
          "see every path on a shared filesystem)", 1, text, metavar="tls://HOST:PORT"),
     *SCHEDULER_FLAGS,
+    Flag(("--slurm",), "slurm", "start the --workers as SLURM jobs from this submit node (dask-jobqueue; per-run "
+         "TLS as on the local cluster; every path on a file system the nodes share)", default=False,
+         show_default=False),
+    Flag(("--slurm-partition",), "slurm_partition", "with --slurm: the jobs' partition (default: the site's)", 1,
+         text, metavar="NAME"),
+    Flag(("--slurm-account",), "slurm_account", "with --slurm: the account charged", 1, text, metavar="NAME"),
+    Flag(("--slurm-walltime",), "slurm_walltime", "with --slurm: each job's time limit (a job that reaches it is "
+         "submitted again)", 1, text, "01:00:00", "[D-]HH:MM:SS"),
+    Flag(("--slurm-memory",), "slurm_memory", "with --slurm: each job's memory (sbatch --mem; the worker's limit)",
+         1, text, "4GB", "SIZE"),
+    Flag(("--slurm-interface",), "slurm_interface", "with --slurm: the nodes' network interface the scheduler and "
+         "workers listen on (default: 127.0.0.1, jobs on this node only)", 1, text, metavar="IFACE"),
+    Flag(("--slurm-sbatch",), "slurm_sbatch", "with --slurm: more #SBATCH options, split like a shell line", 1,
+         text, metavar="'OPTIONS'"),
     Flag(("--cpu",), "cpu", "CPU seconds per case, all its processes together (default: max(120, 250 x a5mi's "
          "own CPU seconds for the case, measured on a worker))", 1, real_in(0.0, 1e6, open_lo=True), metavar="S"),
     Flag(("--timeout",), "timeout", "wall-clock backstop per case, not counting time spent waiting for a CPU "
@@ -72,22 +75,33 @@ def _options_of(argv: list[str]):  # noqa: ANN202 - RenderOptions, imported lazi
     return render_options(parse_a5_args(argv))
 
 
-def scheduler_security(args: Args):  # noqa: ANN201 - distributed.security.Security or None
-    """The client credentials of ``--scheduler`` (:func:`a5mi.runtime.cluster.check_scheduler`); TLS flags without
-    ``--scheduler`` are a usage error."""
-    from a5mi.runtime.cluster import check_scheduler
+def slurm_options(args: Args):  # noqa: ANN201 - SlurmOptions or None
+    """The :class:`~a5mi.runtime.slurm.SlurmOptions` of ``--slurm`` and its flags (``--workers`` jobs), or None;
+    a ``--slurm-*`` flag without ``--slurm``, or ``--slurm`` with ``--scheduler``, is a usage error."""
+    import re
+    import shlex
 
-    given = [f for f, v in (("--tls-ca", args.tls_ca), ("--tls-cert", args.tls_cert), ("--tls-key", args.tls_key))
-             if v is not None]
-    if args.scheduler is None:
-        if given or args.insecure_scheduler:
-            raise UsageError(f"{(given or ['--insecure-scheduler'])[0]} needs --scheduler")
+    given = [f"--slurm-{d}" for d in ("partition", "account", "interface", "sbatch")
+             if args.get(f"slurm_{d}") is not None]
+    if not args.slurm:
+        if given:
+            raise UsageError(f"{given[0]} needs --slurm")
         return None
-    if given and len(given) < 3:
-        missing = [f for f in ("--tls-ca", "--tls-cert", "--tls-key") if f not in given]
-        raise UsageError(f"{given[0]} needs {' and '.join(missing)} as well")
-    tls = (args.tls_ca, args.tls_cert, args.tls_key) if given else None
-    return check_scheduler(args.scheduler, tls, args.insecure_scheduler)
+    if args.scheduler is not None:
+        raise UsageError("give --slurm or --scheduler, not both")
+    if not re.fullmatch(r"(\d+-)?\d{1,2}(:\d{2}){0,2}", args.slurm_walltime):
+        raise UsageError(f"--slurm-walltime expects [D-]HH:MM:SS, found '{args.slurm_walltime[:40]}'")
+    if not re.fullmatch(r"\d+(\.\d+)?\s*[KMGT]i?B", args.slurm_memory, re.IGNORECASE):
+        raise UsageError(f"--slurm-memory expects a size like 4GB, found '{args.slurm_memory[:40]}'")
+    try:
+        directives = tuple(shlex.split(args.slurm_sbatch or ""))
+    except ValueError as exc:
+        raise UsageError(f"--slurm-sbatch: {exc}") from None
+    from a5mi.runtime.slurm import SlurmOptions
+
+    return SlurmOptions(jobs=args.workers, partition=args.slurm_partition, account=args.slurm_account,
+                        walltime=args.slurm_walltime, memory=args.slurm_memory.replace(" ", ""),
+                        interface=args.slurm_interface, directives=directives)
 
 
 def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
@@ -102,6 +116,7 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     if not 0 <= args.match <= args.close <= 1:
         raise UsageError(f"--match and --close must satisfy 0 <= match <= close <= 1 (found {args.match:g}, "
                          f"{args.close:g})")
+    slurm = slurm_options(args)
     security = scheduler_security(args)
     scenes = args.scenes or str(require_data_dir() / "scenes")
     if not Path(scenes).is_dir():
@@ -113,7 +128,7 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     return GradeSettings(
         submissions=args.submissions, report_dir=args.output, cases=cases, scenes=os.path.abspath(scenes),
         cache_dir=args.cache or str(default_cache_dir()), reference_dir=args.reference, workers=args.workers,
-        scheduler=args.scheduler, security=security, resume=args.resume,
+        scheduler=args.scheduler, security=security, slurm=slurm, resume=args.resume,
         limits=Limits(timeout=args.timeout or 0.0, memory_mb=args.memory, require_sandbox=not args.no_sandbox,
                       cpu_seconds=args.cpu, disk_mb=args.disk, inodes=args.inodes),
         cpu=args.cpu, wall=args.timeout, read_only=allow, thresholds=Thresholds(args.match, args.close),
@@ -184,6 +199,8 @@ def run_grade(args: Args, console: Console) -> int:
 
     for module in ("distributed", "cryptography", "tqdm") + (("flip_evaluator",) if args.flip else ()):
         require(module, "grade")  # before the cluster starts: a worker would journal it as each case's error
+    if args.slurm:
+        require("dask_jobqueue", "slurm")
     check_report_dir(args)
     settings = settings_of(args)
     check_reachable(args.scheduler)

@@ -12,7 +12,7 @@ import json
 
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, Positional, integer, text
-from a5mi.commands.grade import SCHEDULER_FLAGS, scheduler_security
+from a5mi.cli.scheduler import SCHEDULER_FLAGS, scheduler_security
 from a5mi.commands.render import IMAGE_OUTPUT_DESTS, check_render_args, render_flags_except, render_options
 from a5mi.platform.errors import ExitStatus, UsageError
 

@@ -2,6 +2,8 @@
 
 :func:`grade_class` is what ``a5mi grade`` runs (``docs/GRADING.md``):
 
+0. the cluster: a local TLS one of ``workers`` processes, the one of ``scheduler``, or ``workers`` SLURM jobs
+   (``slurm``: :mod:`a5mi.runtime.slurm`, docs/GRADING.md "On a SLURM cluster");
 1. every path of the settings is made absolute here, before anything is sent to a worker (a worker resolves a
    relative path from its own folder), and every worker is asked to see each of them
    (:func:`check_workers_see`: the submissions, scenes, references, cache and report folders, the extra
@@ -71,6 +73,7 @@ class GradeSettings:
     flip: bool = True
     work_root: str | None = None
     security: Any = None  # distributed.security.Security of ``scheduler`` (None: Dask's configuration)
+    slurm: Any = None  # a5mi.runtime.slurm.SlurmOptions: ``workers`` SLURM jobs instead of a local cluster
     cpu: float | None = None   # --cpu: a fixed CPU-time bound (s); None: calibrated (:func:`bounds`)
     wall: float | None = None  # --timeout: the wall-clock backstop (s); None: WALL_FACTOR x the CPU bound
 
@@ -242,7 +245,9 @@ def _reference_unit(args: tuple[Case, str, str, str | None, bool]) -> Any:
 
 def grade_class(s: GradeSettings, progress: Progress | None = None, client: Any = None) -> GradeOutcome:
     """Grade every student on every case (module docstring); ``client`` reuses a Dask client (else one is
-    started from ``s.workers`` / ``s.scheduler`` / ``s.security`` and closed)."""
+    started from ``s.workers`` / ``s.scheduler`` / ``s.security`` and closed; with ``s.slurm``, ``s.workers``
+    SLURM jobs, :func:`a5mi.runtime.slurm.start_slurm_client`, logs in ``REPORT/slurm/logs``, and the paths
+    are checked from the first worker that starts). The report's sandbox line is what a worker reports."""
     from a5mi.grade import report
 
     s = s.absolute()
@@ -259,6 +264,12 @@ def grade_class(s: GradeSettings, progress: Progress | None = None, client: Any 
     work_root.mkdir(parents=True, exist_ok=True)
     work_root.chmod(0o755)
     Path(s.cache_dir).mkdir(parents=True, exist_ok=True)
+    if client is None and s.slurm is not None:
+        from a5mi.runtime.slurm import start_slurm_client
+
+        with start_slurm_client(s.slurm, report_dir / "slurm") as c:
+            c.wait_for_workers(1)  # SLURM starts the jobs when it can; the paths are checked from a worker
+            return grade_class(s, progress, c)
     if client is None:
         with start_client(s.workers, s.scheduler, security=s.security) as c:
             return grade_class(s, progress, c)
@@ -292,7 +303,7 @@ def grade_class(s: GradeSettings, progress: Progress | None = None, client: Any 
     records = run_units(client, units, grade_one, journal, resume=s.resume, progress=progress, fingerprints=prints)
     order = {k: i for i, (k, _) in enumerate(units)}
     records.sort(key=lambda r: order[r["key"]])
-    outcome = GradeOutcome(records, students, isolation(),
+    outcome = GradeOutcome(records, students, client.submit(isolation, pure=False).result(),
                            skipped=len(before & set(order)))
     outcome.files = report.write_all(report_dir, s.cases, students, records,
                                      {"isolation": outcome.isolation, "thresholds": vars(s.thresholds),
