@@ -32,7 +32,7 @@ from a5mi.grade.cases import DEFAULT_COMMANDS, load_cases
 from a5mi.grade.references import build_reference
 from a5mi.grade.run import Task
 from a5mi.runtime.cluster import start_client
-from a5mi.sandbox.bwrap import Limits
+from a5mi.sandbox.records import Limits
 
 A5 = str(Path(sys.executable).with_name("a5"))
 #: defect -> what the wrapper adds to / removes from the a5 command line ("" = none, None = no a5 run)

@@ -35,7 +35,7 @@ from a5mi.grade.cases import DEFAULT_COMMANDS, load_cases
 from a5mi.grade.references import build_reference
 from a5mi.runtime.cluster import start_client
 from a5mi.runtime.slurm import SlurmOptions, start_slurm_client
-from a5mi.sandbox.bwrap import Limits
+from a5mi.sandbox.records import Limits
 
 sys.path.insert(0, str(PROJECT_ROOT / "tests" / "runtime"))
 from slurm_daemons import LocalSlurm, slurm_problem  # noqa: E402

@@ -65,9 +65,9 @@ def png_bomb(side: int = 20000) -> bytes:
 
 def sandbox_processes(uids: object) -> list[int]:
     """Live (non-zombie) processes of the runs' own user ids ``uids`` (the ``uid`` of each record or
-    :class:`a5mi.sandbox.bwrap.RunResult`; None entries are skipped): after a run, none may be left. Only what these
+    :class:`a5mi.sandbox.records.RunResult`; None entries are skipped): after a run, none may be left. Only what these
     runs started is looked at, never the machine's other sandboxes (another suite may run beside this one)."""
-    from a5mi.sandbox.bwrap import live_processes
+    from a5mi.sandbox.accounting import live_processes
 
     if uids is None or isinstance(uids, int):
         uids = [uids]

@@ -111,7 +111,7 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
     from a5mi.grade.cases import load_cases
     from a5mi.grade.references import default_cache_dir
     from a5mi.grade.verdict import Thresholds
-    from a5mi.sandbox.bwrap import Limits
+    from a5mi.sandbox.records import Limits
 
     if not 0 <= args.match <= args.close <= 1:
         raise UsageError(f"--match and --close must satisfy 0 <= match <= close <= 1 (found {args.match:g}, "

@@ -33,8 +33,9 @@ import numpy as np
 from a5mi.compare import Metrics, compare_arrays
 from a5mi.difftest.generate import GenScene
 from a5mi.platform.errors import UserError
-from a5mi.sandbox.bwrap import Limits, OutputRefused, run_sandboxed
+from a5mi.sandbox.bwrap import run_sandboxed
 from a5mi.sandbox.outputs import TOO_LARGE, decode_levels, open_output
+from a5mi.sandbox.records import Limits, OutputRefused
 
 #: Seconds a single run of the other executable may take.
 DEFAULT_TIMEOUT = 60.0

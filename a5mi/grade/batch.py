@@ -43,7 +43,9 @@ from a5mi.grade.run import Task, grade_one
 from a5mi.grade.verdict import Thresholds
 from a5mi.platform.errors import UserError
 from a5mi.runtime.cluster import Journal, Progress, run_units, start_client
-from a5mi.sandbox.bwrap import Limits, isolation, mounts_under, unmount
+from a5mi.sandbox.bwrap import isolation
+from a5mi.sandbox.folders import mounts_under, unmount
+from a5mi.sandbox.records import Limits
 
 #: A case's CPU-time bound is ``max(cpu floor, CPU_FACTOR x a5mi's CPU seconds for the case)``: the sample
 #: solution needs 70-143 CPU-s for the vase at the handout's flags where a5mi needs ~1.6 s (90x), so 250x

@@ -37,8 +37,10 @@ from a5mi.grade.cause import cause_of
 from a5mi.grade.needs import missing_paths
 from a5mi.grade.verdict import Thresholds, judge, measure, points_for
 from a5mi.platform.imageio import read_levels, write_image
-from a5mi.sandbox.bwrap import Limits, OutputRefused, RunResult, run_folder, run_sandboxed, sandbox_problem
+from a5mi.sandbox.bwrap import run_sandboxed, sandbox_problem
+from a5mi.sandbox.folders import run_folder
 from a5mi.sandbox.outputs import TOO_LARGE, decode_levels, open_output
+from a5mi.sandbox.records import Limits, OutputRefused, RunResult
 
 #: Characters of stderr kept in a result (the tail).
 STDERR_KEEP = 2000
@@ -136,7 +138,8 @@ def grade_one(task: Task) -> dict[str, Any]:
     if prog is not None:
         lim = task.limits
         views = not sandbox_problem()  # bubblewrap: the run sees neutral paths, not the grader's
-        with run_folder(Path(task.work_root).resolve() / task.student / task.case.name, lim) as folder:
+        with run_folder(Path(task.work_root).resolve() / task.student / task.case.name, lim.disk_mb,
+                        lim.inodes) as folder:
             work = prepare_workdir(task, folder.work, SCENES_VIEW if views else None)
             argv0 = f"{SUBMISSION_VIEW}/a5" if views else str(prog.resolve())
             subs, scenes = str(sub.resolve()), str(Path(task.scenes).resolve())

@@ -45,8 +45,6 @@ created, ``O_NOFOLLOW``, one link, its owner, a size bound) and decoded there in
 
 from __future__ import annotations
 
-import contextlib
-import ctypes
 import functools
 import math
 import os
@@ -56,11 +54,13 @@ import signal
 import subprocess
 import tempfile
 import time
-from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
-from a5mi.platform.errors import UserError
+from a5mi.sandbox.accounting import RunCgroup, kill_uid, live_processes
+from a5mi.sandbox.folders import RunFolder, disk_full, is_under, mounts_under, run_folder, unmount
+from a5mi.sandbox.records import Limits, OutputRefused, RunResult, SandboxUnavailable
 
 #: Patterns in stderr that say the program ran out of disk space or inodes (errno ENOSPC, EDQUOT).
 DISK_PATTERNS: tuple[str, ...] = ("No space left on device", "Disk quota exceeded")
@@ -76,73 +76,6 @@ ETC_FILES: tuple[str, ...] = ("ld.so.cache", "ld.so.conf", "ld.so.conf.d", "ld.s
                               "localtime", "nsswitch.conf", "passwd", "group")
 
 INSTALL_HINT = "apt-get install bubblewrap"
-
-
-class SandboxUnavailable(UserError):
-    """bubblewrap is missing or cannot make a sandbox here, and the run requires one (no ``--no-sandbox``)."""
-
-
-class OutputRefused(Exception):
-    """An output that is not a regular file the run wrote in its folder; ``reason`` says why (no bytes of the
-    file are read)."""
-
-    def __init__(self, reason: str, missing: bool = False) -> None:
-        super().__init__(reason)
-        self.reason = reason
-        self.missing = missing
-
-
-@dataclass(frozen=True)
-class Limits:
-    """Per-run bounds: ``timeout``, the wall-clock backstop (s, counted without the time the run waited for a
-    CPU, :class:`RunCgroup`), ``cpu_seconds`` of CPU time of all its processes together (None: ``timeout``),
-    address space ``memory_mb``, ``fsize_mb`` per written file, ``nproc`` processes/threads of the run's user,
-    ``disk_mb`` and ``inodes`` of everything it writes (its folder and ``/tmp`` together, :func:`run_folder`),
-    ``keep_bytes`` of stdout (head) and stderr (tail); ``require_sandbox``: refuse to run without bubblewrap
-    (off = ``--no-sandbox``)."""
-
-    timeout: float = 60.0
-    memory_mb: int = 4096
-    fsize_mb: int = 256
-    nproc: int = 256
-    keep_bytes: int = 64 * 1024
-    require_sandbox: bool = True
-    cpu_seconds: float | None = None
-    disk_mb: int = 512
-    inodes: int = 4096
-
-    @property
-    def cpu(self) -> float:
-        """The CPU-time bound in seconds (``cpu_seconds``, else ``timeout``)."""
-        return self.timeout if self.cpu_seconds is None else self.cpu_seconds
-
-
-@dataclass
-class RunResult:
-    """What happened: ``returncode`` (negative = killed by that signal, as :mod:`subprocess`), ``timed_out``,
-    ``over_memory`` (a memory failure per :data:`MEMORY_PATTERNS`), the kept ``stdout_head`` /
-    ``stderr_tail``, the byte counts, ``wall`` seconds, the ``isolation`` used (``bwrap`` / ``rlimits``) and the
-    run's user id ``uid`` (None: it ran as the grader's own user)."""
-
-    returncode: int
-    timed_out: bool
-    over_memory: bool
-    stdout_head: str
-    stderr_tail: str
-    stdout_bytes: int
-    stderr_bytes: int
-    wall: float
-    isolation: str
-    argv: list[str] = field(default_factory=list)
-    uid: int | None = None
-    cpu: float = 0.0
-    ended_by: str = ""
-    over_disk: bool = False
-    waited: float = 0.0
-
-    @property
-    def crashed(self) -> bool:
-        return self.returncode != 0 and not self.timed_out
 
 
 def bwrap_path() -> str | None:
@@ -209,10 +142,6 @@ def fresh_uid() -> int | None:
     return UID_BASE + (os.getpid() * 7919 + time.monotonic_ns() // 1000) % UID_SPAN
 
 
-def _under(path: str, roots: Sequence[str]) -> bool:
-    return any(path == r or path.startswith(r.rstrip("/") + "/") for r in roots)
-
-
 @dataclass(frozen=True)
 class View:
     """Where a run sees things (``docs/GRADING.md`` "What remains visible"): ``read_only`` paths bound at their
@@ -248,11 +177,11 @@ def _mounts(workdir: Path, view: View, tmp_mb: int, extra_ro: Sequence[str] = ()
     binds: list[tuple[str, str, str]] = []  # (option, source, destination)
     for ro in [*view.read_only, *extra_ro]:
         real = os.path.realpath(ro)
-        if not os.path.exists(real) or real in ("/", "/etc", "/tmp") or _under(real, ("/usr", "/proc", "/dev")):
+        if not os.path.exists(real) or real in ("/", "/etc", "/tmp") or is_under(real, ("/usr", "/proc", "/dev")):
             continue  # already there, or never bound whole
         binds.append(("--ro-bind", real, real))
         alias = str(Path(ro).absolute())
-        if alias != real and not _under(alias, ("/usr", "/etc", "/proc", "/dev")):
+        if alias != real and not is_under(alias, ("/usr", "/etc", "/proc", "/dev")):
             binds.append(("--ro-bind", real, alias))
     for src, dest in view.views:
         binds.append(("--ro-bind", os.path.realpath(src), dest))
@@ -262,12 +191,12 @@ def _mounts(workdir: Path, view: View, tmp_mb: int, extra_ro: Sequence[str] = ()
     mounted: list[str] = []
     made: set[str] = set()
     for opt, src, dest in sorted(set(binds), key=lambda b: (len(b[2]), b[2], b[0] == "--bind")):
-        if _under(dest, mounted) and opt == "--ro-bind" and (src, dest) not in view.views:
+        if is_under(dest, mounted) and opt == "--ro-bind" and (src, dest) not in view.views:
             continue  # already visible through an enclosing bind
         # parents that bwrap would otherwise create 0700 (unreadable for the run's user id)
         for parent in reversed(Path(dest).parents):
             sp = str(parent)
-            if sp not in ("/", "/tmp") and sp not in made and not _under(sp, mounted):
+            if sp not in ("/", "/tmp") and sp not in made and not is_under(sp, mounted):
                 args += ["--perms", "0755", "--dir", sp]
                 made.add(sp)
         args += [opt, src, dest]
@@ -282,7 +211,7 @@ def _bwrap_command(bwrap: str, argv: Sequence[str], workdir: Path, view: View, u
     if uid is None:
         return [bwrap, *unpriv, *_mounts(workdir, view, tmp_mb), "--", *argv]
     tools = [os.path.realpath(bwrap), os.path.realpath(shutil.which("setpriv") or "/usr/bin/setpriv")]
-    extra = [os.path.dirname(t) for t in tools if not _under(t, ("/usr",))]
+    extra = [os.path.dirname(t) for t in tools if not is_under(t, ("/usr",))]
     inner = [tools[1], f"--reuid={uid}", f"--regid={uid}", "--clear-groups", "--no-new-privs", "--",
              tools[0], *unpriv, "--dev-bind", "/", "/", "--die-with-parent", "--chdir",
              view.work or os.path.realpath(workdir), "--"]
@@ -306,226 +235,6 @@ def command_line(argv: Sequence[str], workdir: Path, limits: Limits, read_only: 
             [shutil.which("setpriv") or "setpriv", f"--reuid={uid}", f"--regid={uid}", "--clear-groups",
              "--no-new-privs", "--"])
     return [*prlimit, *drop, *argv], "rlimits"
-
-
-def _live_processes(uid: int) -> list[int]:
-    """Processes of real user id ``uid`` that are not zombies (a zombie holds no resources but its entry)."""
-    found = []
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry}/status", encoding="ascii", errors="replace") as f:
-                fields = dict(ln.split(":", 1) for ln in f if ":" in ln)
-        except OSError:
-            continue
-        if fields.get("Uid", "").split()[:1] == [str(uid)] and not fields.get("State", "").strip().startswith("Z"):
-            found.append(int(entry))
-    return found
-
-
-def live_processes(uid: int) -> list[int]:
-    """The live processes of a run's user id ``uid`` (:attr:`RunResult.uid`): none once its run returned."""
-    return _live_processes(uid)
-
-
-def kill_uid(uid: int) -> int:
-    """SIGKILL every live process whose real user id is ``uid`` (the run's leftovers, wherever they moved:
-    another session, another process group), until none is left; returns how many signals were sent."""
-    killed = 0
-    for _ in range(200):
-        found = _live_processes(uid)
-        if not found:
-            break
-        for pid in found:
-            try:
-                os.kill(pid, signal.SIGKILL)
-                killed += 1
-            except OSError:
-                pass
-        time.sleep(0.01)
-    return killed
-
-
-# ------------------------------------------------------------------------------------------- CPU accounting
-@functools.cache
-def _cgroup2_base() -> Path | None:
-    """This process's own cgroup v2 folder (``/proc/self/cgroup``'s ``0::`` line under the ``cgroup2`` mount),
-    when it is writable; None otherwise."""
-    try:
-        mounts = Path("/proc/self/mounts").read_text().splitlines()
-        own = next(ln[3:] for ln in Path("/proc/self/cgroup").read_text().splitlines() if ln.startswith("0::"))
-    except (OSError, StopIteration):
-        return None
-    for ln in mounts:
-        parts = ln.split()
-        if len(parts) > 2 and parts[2] == "cgroup2":
-            base = Path(parts[1]) / own.lstrip("/")
-            if os.access(base, os.W_OK) and (base / "cgroup.procs").exists():
-                return base
-    return None
-
-
-class RunCgroup:
-    """A cgroup v2 of one run: every process the run starts is in it from its first instruction (the run is
-    started by ``sh -c 'echo $$ > cgroup.procs; exec ...'``) and cannot leave it (no ``/sys`` in the sandbox).
-
-    * CPU time of all its processes together: ``cpu.stat`` ``usage_usec`` / 1e6 (Linux, cgroup v2 core);
-    * time kept waiting for a CPU: ``cpu.pressure`` ``some total`` / 1e6 (PSI: the time at least one of its
-      runnable tasks waited on a run queue), subtracted from the wall clock before the backstop applies;
-    * end: ``cgroup.kill`` (every process at once), then the folder is removed."""
-
-    _count = 0
-
-    def __init__(self, path: Path) -> None:
-        self.path = path
-
-    @classmethod
-    def create(cls) -> RunCgroup | None:
-        """A fresh child of this process's cgroup, or None where none can be made (no cgroup v2, not root)."""
-        base = _cgroup2_base()
-        if base is None:
-            return None
-        cls._count += 1
-        path = base / f"a5mi-run-{os.getpid()}-{cls._count}-{time.monotonic_ns() % 10**9}"
-        try:
-            path.mkdir()
-        except OSError:
-            return None
-        return cls(path)
-
-    def enter(self) -> list[str]:
-        """The command prefix that moves the process into this cgroup, then execs the rest."""
-        return ["/bin/sh", "-c", 'echo $$ > "$0" && exec "$@"', str(self.path / "cgroup.procs")]
-
-    def _read(self, name: str, key: str) -> float:
-        try:
-            for ln in (self.path / name).read_text().splitlines():
-                parts = ln.split()
-                if parts and parts[0] == key:
-                    if key == "some":
-                        return float(dict(p.split("=") for p in parts[1:])["total"]) / 1e6
-                    return float(parts[1]) / 1e6
-        except (OSError, KeyError, ValueError, IndexError):
-            pass
-        return 0.0
-
-    def cpu_seconds(self) -> float:
-        return self._read("cpu.stat", "usage_usec")
-
-    def waited_seconds(self) -> float:
-        return self._read("cpu.pressure", "some")
-
-    def kill(self) -> None:
-        try:
-            (self.path / "cgroup.kill").write_text("1")
-            return
-        except OSError:
-            pass
-        try:
-            pids = [int(p) for p in (self.path / "cgroup.procs").read_text().split()]
-        except OSError:
-            return
-        for pid in pids:
-            with contextlib.suppress(OSError):
-                os.kill(pid, signal.SIGKILL)
-
-    def remove(self) -> None:
-        """Kill what is left and remove the cgroup (retried while the killed processes exit)."""
-        for _ in range(300):
-            self.kill()
-            try:
-                self.path.rmdir()
-                return
-            except FileNotFoundError:
-                return
-            except OSError:
-                time.sleep(0.01)
-
-
-# ----------------------------------------------------------------------------------------------- disk bound
-MS_NOSUID, MS_NODEV, MNT_DETACH = 2, 4, 2
-
-
-@functools.cache
-def _libc() -> ctypes.CDLL:
-    return ctypes.CDLL(None, use_errno=True)
-
-
-def _mount_tmpfs(path: Path, size_mb: int, inodes: int) -> bool:
-    """Mount a tmpfs of ``size_mb`` MiB and ``inodes`` inodes on ``path`` (root only); whether it worked."""
-    if os.geteuid() != 0:
-        return False
-    opts = f"size={size_mb}m,nr_inodes={inodes},mode=0755".encode()
-    rc = _libc().mount(b"a5mi-run", os.fsencode(path), b"tmpfs", ctypes.c_ulong(MS_NOSUID | MS_NODEV), opts)
-    return rc == 0
-
-
-def unmount(path: str | os.PathLike[str]) -> None:
-    """Detach the mount at ``path`` (a :func:`run_folder` left by a killed worker)."""
-    _libc().umount2(os.fsencode(path), MNT_DETACH)
-
-
-def mounts_under(root: str | os.PathLike[str]) -> list[str]:
-    """Mount points at or below ``root`` (from ``/proc/self/mountinfo``), deepest first."""
-    real = os.path.realpath(root)
-    found = []
-    try:
-        for ln in Path("/proc/self/mountinfo").read_text().splitlines():
-            point = ln.split()[4].encode().decode("unicode_escape")
-            if _under(point, (real,)):
-                found.append(point)
-    except (OSError, IndexError):
-        return []
-    return sorted(found, key=len, reverse=True)
-
-
-@dataclass(frozen=True)
-class RunFolder:
-    """A run's private folders: ``work`` (its working folder) and ``tmp`` (bound as its ``/tmp``; None: a
-    fresh tmpfs made by bubblewrap); ``bounded``: both live on one tmpfs of ``disk_mb`` and ``inodes``."""
-
-    work: Path
-    tmp: Path | None
-    bounded: bool
-
-
-@contextlib.contextmanager
-def run_folder(path: str | os.PathLike[str], limits: Limits) -> Iterator[RunFolder]:
-    """A fresh folder ``path`` for one run, removed afterwards. As root it is a **tmpfs of ``limits.disk_mb``
-    MiB and ``limits.inodes`` inodes** (the kernel refuses the write or the file past either: ENOSPC) holding
-    ``work/`` and ``tmp/`` (the run's ``/tmp``), so everything the run writes counts against one bound and
-    never touches the grader's disk. Otherwise a plain folder (``work/`` only): per-file ``fsize_mb`` and
-    bubblewrap's ``/tmp`` of ``fsize_mb`` bound it."""
-    root = Path(path)
-    if os.path.lexists(root):
-        for point in mounts_under(root):
-            unmount(point)
-        shutil.rmtree(root)
-    root.mkdir(parents=True)
-    mounted = _mount_tmpfs(root, limits.disk_mb, limits.inodes)
-    try:
-        work = root / "work"
-        work.mkdir()
-        tmp = None
-        if mounted:
-            tmp = root / "tmp"
-            tmp.mkdir()
-            tmp.chmod(0o1777)
-        yield RunFolder(work, tmp, mounted)
-    finally:
-        if mounted:
-            unmount(root)
-        shutil.rmtree(root, ignore_errors=True)
-
-
-def disk_full(folder: str | os.PathLike[str]) -> bool:
-    """Whether the file system of ``folder`` (a :func:`run_folder` tmpfs) has under 1 MiB or 8 inodes left."""
-    try:
-        st = os.statvfs(folder)
-    except OSError:
-        return False
-    return st.f_bavail * st.f_frsize < (1 << 20) or (st.f_files > 0 and st.f_favail < 8)
 
 
 # ------------------------------------------------------------------------------------------------ the run

@@ -22,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from a5mi.sandbox.bwrap import Limits, OutputRefused, fresh_uid, run_sandboxed, sandbox_problem
+from a5mi.sandbox.bwrap import fresh_uid, run_sandboxed, sandbox_problem
+from a5mi.sandbox.records import Limits, OutputRefused
 
 #: How the decoder child is told no pixels were decoded (too many for the caller's bound).
 TOO_LARGE = "too large"

@@ -38,6 +38,7 @@ import numpy as np
 
 from a5mi.platform.errors import UserError
 from a5mi.render.options import RenderOptions
+from a5mi.view.binary import binary_argv, scene_inputs, staged_links
 from a5mi.view.png import png_bytes
 
 #: Largest render buffer (samples) rendered without per-tile progress: each progress step re-traces the
@@ -93,27 +94,6 @@ def render_stages(timings: dict[str, float]) -> dict[str, float]:
     return out
 
 
-def scene_inputs(desc: Any, model: Any) -> list[Path]:
-    """Every file the description read or names (:func:`a5mi.platform.clobber.input_files`), and the texture names of
-    the model resolved both ways (scene folder first, then the working directory), absolute."""
-    from a5mi.platform.clobber import input_files
-
-    out = [Path(p).absolute() for p in input_files(desc)]
-    for mat in getattr(model, "materials", None) or ():
-        tex = getattr(mat, "texture", None)
-        if tex:
-            out += [(Path(model.base_dir) / tex).absolute(), (Path.cwd() / tex).absolute()]
-    return list(dict.fromkeys(out))
-
-
-def binary_argv(options: RenderOptions) -> list[str]:
-    """The SPEC B.1 flags of ``options`` for another a5 binary (the extensions are a5mi's own)."""
-    argv = ["-size", str(options.width), str(options.height), "-bounces", str(options.bounces)]
-    argv += ["-shadows"] * options.shadows + ["-jitter"] * options.jitter + ["-filter"] * options.filter
-    argv += ["-reflection_off"] * (not options.reflection) + ["-refraction_off"] * (not options.refraction)
-    return argv
-
-
 def project(camera: Any, options: RenderOptions, image_size: tuple[int, int], p: Any) -> list[float] | None:
     """Where the world point ``p`` lies in the saved image (x right, y down, pixel centres at integers), by
     inverting SPEC B.2's camera ray ``d = f w + x u + y v`` (module docstring); None behind the eye."""
@@ -130,29 +110,6 @@ def project(camera: Any, options: RenderOptions, image_size: tuple[int, int], p:
     i, j = (x + 1.0) * 0.5 * (rw - 1), (y + 1.0) * 0.5 * (rh - 1)
     sx, sy = image_size[0] / rw, image_size[1] / rh
     return [(i + 0.5) * sx - 0.5, (rh - 1 - j + 0.5) * sy - 0.5]
-
-
-def staged_links(folder: Path, named: list[Path], roots: tuple[Path, ...]) -> tuple[str, ...]:
-    """Link each existing regular file of ``named`` into ``folder`` at its path relative to the first of
-    ``roots`` it lies under (a name leaving ``folder`` through ``..`` is skipped); the resolved files, the
-    only paths the sandbox binds for them."""
-    out: list[str] = []
-    top = folder.resolve()
-    for path in named:
-        for root in roots:
-            try:
-                rel = path.relative_to(root)
-            except ValueError:
-                continue
-            real = path.resolve()
-            dst = folder / rel
-            if not real.is_file() or not dst.resolve().is_relative_to(top) or dst.exists() or dst.is_symlink():
-                break
-            dst.parent.mkdir(parents=True, exist_ok=True)
-            os.symlink(real, dst)
-            out.append(str(real))
-            break
-    return tuple(dict.fromkeys(out))
 
 
 class ViewEngine:
@@ -461,5 +418,4 @@ def session_tracer(desc: Any, options: RenderOptions, session: Any, image: np.nd
     return SessionTracer()
 
 
-__all__ = ["Frame", "ViewEngine", "binary_argv", "png_bytes", "preview_options", "project", "render_stages",
-           "scene_inputs", "session_tracer", "staged_links"]
+__all__ = ["Frame", "ViewEngine", "png_bytes", "preview_options", "project", "render_stages", "session_tracer"]

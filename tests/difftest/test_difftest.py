@@ -203,7 +203,7 @@ def test_no_sandbox_reaches_the_runner(tmp_path: Path, monkeypatch: pytest.Monke
     runner refuses (A5MI_NO_BWRAP=1 stands in for a machine without bubblewrap)."""
     import tempfile
 
-    from a5mi.sandbox.bwrap import SandboxUnavailable
+    from a5mi.sandbox.records import SandboxUnavailable
 
     monkeypatch.setenv("A5MI_NO_BWRAP", "1")
     # the binary runs as a fresh unprivileged uid: its folder must be reachable (pytest's tmp_path is 0700)

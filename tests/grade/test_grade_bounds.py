@@ -21,7 +21,8 @@ from hostile import sandbox_processes
 from a5mi.grade.cases import make_case
 from a5mi.grade.run import Task, grade_one
 from a5mi.platform.imageio import write_image
-from a5mi.sandbox.bwrap import Limits, isolation
+from a5mi.sandbox.bwrap import isolation
+from a5mi.sandbox.records import Limits
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="the grader runs as root (a user id and a tmpfs per run)")
 

@@ -23,7 +23,8 @@ from hostile import check_confined, confinement_probe, sandbox_processes
 from a5mi.grade.cases import make_case
 from a5mi.grade.run import Task, grade_one
 from a5mi.platform.imageio import write_image
-from a5mi.sandbox.bwrap import NOT_SANDBOXED, Limits, SandboxUnavailable, isolation, run_sandboxed
+from a5mi.sandbox.bwrap import NOT_SANDBOXED, isolation, run_sandboxed
+from a5mi.sandbox.records import Limits, SandboxUnavailable
 
 LIMITS = Limits(timeout=3.0, memory_mb=512, nproc=48, keep_bytes=4096)
 

@@ -62,7 +62,7 @@ def test_the_binary_sees_the_files_the_scene_names_and_nothing_beside_them(tmp_p
 
 
 def test_staged_links_link_only_existing_files_inside_the_folder(tmp_path: Path) -> None:
-    from a5mi.view.engine import staged_links
+    from a5mi.view.binary import staged_links
 
     root, folder = tmp_path / "root", tmp_path / "run"
     (root / "tex").mkdir(parents=True)

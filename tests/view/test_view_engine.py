@@ -150,7 +150,7 @@ def test_page_png_is_write_images_file_without_its_checks(tmp_path: Path, monkey
 
 
 def test_binary_argv_is_the_spec_flags() -> None:
-    from a5mi.view.engine import binary_argv
+    from a5mi.view.binary import binary_argv
 
     opts = RenderOptions(width=30, height=20, bounces=2, shadows=True, jitter=True, filter=True, refraction=False,
                          phong=True)
