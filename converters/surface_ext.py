@@ -136,8 +136,7 @@ def describe_btf(scene: Scene, mat: Material, decoded: Decoded) -> BtfImages:
     """The images of ``mat.btf``, resolved like a texture (the scene's folder, then the working directory) and
     decoded once (:func:`.files.read_image`, errors at the ``images`` name); a Material with ``btf`` and another
     colour source (``texture``, ``Noise``, a solid) is an error at ``btf``."""
-    from a5mi.converters.files import read_image
-    from a5mi.converters.model import resolve_path
+    from a5mi.converters.files import read_image, resolve_path
 
     def read(name: str) -> Image:
         return read_image(resolve_path(name, scene.base_dir, btf.images_loc, "btf image"), btf.images_loc,
