@@ -55,6 +55,7 @@ from a5mi.converters.model import (
     TriangleMesh,
     Vec3,
     Volume,
+    VolumeBox,
 )
 from a5mi.converters.obj import NormalMode, ObjMesh
 from a5mi.converters.subsurface import Subsurface
@@ -177,18 +178,12 @@ Shape = MeshShape | SphereShape | PlaneShape
 
 
 @dataclass(frozen=True, eq=False)
-class VolumeDescription:
+class VolumeDescription(VolumeBox):
     """A ``Volume`` (docs/EXTENSIONS.md E.9) with its grid read: ``grid`` the ``(z, y, x, 1)`` float32 array of
     the resolved ``.vol`` file ``path``, stretched over the box ``[box_min, box_max]``."""
 
     grid: np.ndarray
     path: Path
-    density: float
-    box_min: Vec3
-    box_max: Vec3
-    color: Vec3
-    steps: int
-    loc: FileLoc
     #: Henyey-Greenstein asymmetry (docs/EXTENSIONS.md E.8, E.9)
     g: float = 0.0
 
@@ -212,8 +207,8 @@ def describe_volume(scene: Scene, vol: Volume) -> VolumeDescription:
                                  vol.grid_loc)
     if not np.all(np.isfinite(grid)) or float(grid.min()) < 0.0:
         raise SceneSemanticError(f"Volume grid '{path}' holds negative or non-finite densities", vol.grid_loc)
-    return VolumeDescription(grid, path.resolve(), vol.density, vol.box_min, vol.box_max, vol.color, vol.steps,
-                             vol.loc, vol.g)
+    return VolumeDescription(vol.density, vol.box_min, vol.box_max, vol.color, vol.steps, vol.loc, grid=grid,
+                             path=path.resolve(), g=vol.g)
 
 
 @dataclass(frozen=True, eq=False)

@@ -367,7 +367,8 @@ def parse_volume(ts: TokenStream, start: Token) -> Volume:
             "Volume max must exceed min in every coordinate")
     density, color, steps = _medium_common(ts, "Volume", f, 64)
     grid = f.names["grid"]
-    return Volume(grid.text, density, lo, hi, color, steps, start.loc, grid.loc, _phase_g(ts, "Volume", f))
+    return Volume(density, lo, hi, color, steps, start.loc, grid=grid.text, grid_loc=grid.loc,
+                  g=_phase_g(ts, "Volume", f))
 
 
 #: Top-level blocks (name -> parse function); each sets the scene's ``medium``.

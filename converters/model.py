@@ -133,19 +133,27 @@ class Fog:
     g: float = 0.0
 
 
-@dataclass(frozen=True)
-class Volume:
-    """``Volume { grid NAME density F min V3 max V3 [color V3] [steps I] }`` (EXTENSIONS E.9): extinction
-    ``density · grid(x)`` inside the box ``[min, max]`` (a Mitsuba ``.vol`` grid stretched over it), albedo
-    ``color``, ``steps`` ray-marching steps across the box."""
+@dataclass(frozen=True, eq=False)
+class VolumeBox:
+    """What a ``Volume`` (EXTENSIONS E.9) and its description (:class:`.describe.VolumeDescription`) share:
+    extinction ``density · grid(x)`` inside the box ``[box_min, box_max]``, albedo ``color``, ``steps``
+    ray-marching steps across the box, the block's ``loc``."""
 
-    grid: str
     density: float
     box_min: Vec3
     box_max: Vec3
     color: Vec3
     steps: int
     loc: FileLoc
+
+
+@dataclass(frozen=True)
+class Volume(VolumeBox):
+    """``Volume { grid NAME density F min V3 max V3 [color V3] [steps I] }`` (EXTENSIONS E.9): a
+    :class:`VolumeBox` with the Mitsuba ``.vol`` grid file ``grid`` (as written, at ``grid_loc``) stretched
+    over it."""
+
+    grid: str
     grid_loc: FileLoc
     #: Henyey-Greenstein asymmetry (docs/EXTENSIONS.md E.8, E.9; 0: isotropic)
     g: float = 0.0
