@@ -23,12 +23,14 @@ import shutil
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from a5mi import PROJECT_ROOT, require_data_dir
 from a5mi.commands.grade import _options_of
 from a5mi.grade.batch import GradeSettings, grade_class, run_plain
-from a5mi.grade.cases import DEFAULT_COMMANDS, load_cases
+from a5mi.grade.cases import DEFAULT_COMMANDS, Case, load_cases
 from a5mi.grade.references import build_reference
 from a5mi.grade.run import Task
 from a5mi.runtime.cluster import start_client
@@ -68,11 +70,13 @@ def make_class(root: Path, n: int) -> list[str]:
     return names
 
 
-def main(argv: list[str]) -> int:
-    n = int(argv[0]) if argv else 40
-    size = int(argv[1]) if len(argv) > 1 else 50
-    scenes = str(require_data_dir() / "scenes")
-    base = Path(tempfile.mkdtemp(prefix="a5mi-gradebench-", dir="/tmp"))
+@contextmanager
+def bench_class(prefix: str, n: int, size: int) -> Iterator[tuple[Path, str, Path, list[Case], Path, tuple[str, ...]]]:
+    """A fresh folder ``/tmp/PREFIX*`` (0755: the sandbox's user id reaches it), removed afterwards, with the
+    class of ``n`` students in ``subs`` (:func:`make_class`) and the handout's cases at ``size`` x ``size``
+    (``cases.toml``): ``(base, scenes, subs, cases, cache, allow)``, ``cache`` the reference cache folder and
+    ``allow`` the read-only paths a sandboxed run needs (this Python and the project)."""
+    base = Path(tempfile.mkdtemp(prefix=prefix, dir="/tmp"))
     base.chmod(0o755)
     try:
         subs = base / "subs"
@@ -80,10 +84,18 @@ def main(argv: list[str]) -> int:
         toml = base / "cases.toml"
         toml.write_text("".join(f'[[case]]\ncommand = "{c.replace("300 300", f"{size} {size}")}"\n\n'
                                 for c in DEFAULT_COMMANDS))
-        cases = load_cases(toml, _options_of)
-        cache = base / "cache"
         allow = tuple(sorted({sys.prefix, sys.base_prefix, str(PROJECT_ROOT)}
                              | {p for p in sys.path if p and os.path.isdir(p) and not p.startswith("/usr/")}))
+        yield (base, str(require_data_dir() / "scenes"), subs, load_cases(toml, _options_of), base / "cache",
+               allow)
+    finally:
+        shutil.rmtree(base, ignore_errors=True)
+
+
+def main(argv: list[str]) -> int:
+    n = int(argv[0]) if argv else 40
+    size = int(argv[1]) if len(argv) > 1 else 50
+    with bench_class("a5mi-gradebench-", n, size) as (base, scenes, subs, cases, cache, allow):
         t0 = time.perf_counter()
         refs = [build_reference(Path(scenes) / c.scene, c.options, cache) for c in cases]
         print(f"references: {time.perf_counter() - t0:.1f} s for {len(cases)} cases (cached afterwards)",
@@ -135,8 +147,6 @@ def main(argv: list[str]) -> int:
             print(f"| {name} | {wall:.1f} s | {cases_n / wall:.2f} | {over} | "
                   f"{', '.join(f'{p:.0f} MB' for p in peaks)} | {kid:.0f} MB |")
         return 0
-    finally:
-        shutil.rmtree(base, ignore_errors=True)
 
 
 if __name__ == "__main__":

@@ -19,19 +19,15 @@ References are rendered and cached first; both graders must give the same verdic
 from __future__ import annotations
 
 import os
-import shutil
 import statistics
 import sys
-import tempfile
 import time
 from pathlib import Path
 
-from grade_class import make_class
+from grade_class import bench_class
 
-from a5mi import PROJECT_ROOT, require_data_dir
-from a5mi.commands.grade import _options_of
+from a5mi import PROJECT_ROOT
 from a5mi.grade.batch import GradeSettings, grade_class
-from a5mi.grade.cases import DEFAULT_COMMANDS, load_cases
 from a5mi.grade.references import build_reference
 from a5mi.runtime.cluster import start_client
 from a5mi.runtime.slurm import SlurmOptions, start_slurm_client
@@ -62,19 +58,7 @@ def main(argv: list[str]) -> int:
     if why:
         print(f"grade_slurm: cannot start the local SLURM: {why}", file=sys.stderr)
         return 2
-    scenes = str(require_data_dir() / "scenes")
-    base = Path(tempfile.mkdtemp(prefix="a5mi-slurmbench-", dir="/tmp"))
-    base.chmod(0o755)
-    try:
-        subs = base / "subs"
-        make_class(subs, n)
-        toml = base / "cases.toml"
-        toml.write_text("".join(f'[[case]]\ncommand = "{c.replace("300 300", f"{size} {size}")}"\n\n'
-                                for c in DEFAULT_COMMANDS))
-        cases = load_cases(toml, _options_of)
-        cache = base / "cache"
-        allow = tuple(sorted({sys.prefix, sys.base_prefix, str(PROJECT_ROOT)}
-                             | {p for p in sys.path if p and os.path.isdir(p) and not p.startswith("/usr/")}))
+    with bench_class("a5mi-slurmbench-", n, size) as (base, scenes, subs, cases, cache, allow):
         for c in cases:
             build_reference(Path(scenes) / c.scene, c.options, cache)
         rows: dict[str, list[tuple[float, float, float, float]]] = {"LocalCluster, 2 workers": [],
@@ -110,8 +94,6 @@ def main(argv: list[str]) -> int:
                   f"{statistics.median(r[1] for r in runs):.1f} s | {med:.1f} s | {cases_n / med:.2f} | "
                   f"{', '.join(f'{r[2]:.1f}' for r in runs)} s | {', '.join(f'{r[3]:.1f}' for r in runs)} |")
         return 0
-    finally:
-        shutil.rmtree(base, ignore_errors=True)
 
 
 if __name__ == "__main__":

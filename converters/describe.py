@@ -39,11 +39,14 @@ from a5mi.converters.geometry import (
     plane_rectangle_to_world,
     world_plane,
 )
+from a5mi.converters.material_use import MaterialUse
 from a5mi.converters.model import (
     Camera,
     Fog,
     Light,
+    Material,
     Noise,
+    Placed,
     Plane,
     Scene,
     Solid,
@@ -52,11 +55,11 @@ from a5mi.converters.model import (
     TriangleMesh,
     Vec3,
     Volume,
+    VolumeBox,
 )
 from a5mi.converters.obj import NormalMode, ObjMesh
 from a5mi.converters.subsurface import Subsurface
-from a5mi.converters.surface_ext import STOCK_BTF_WARNING, STOCK_WARNING, BtfImages, Milled, describe_btf
-from a5mi.spec import CENTRE_WAVELENGTH_NM
+from a5mi.converters.surface_ext import BtfImages, Milled
 
 SceneWarning = tuple[FileLoc, str]
 
@@ -175,18 +178,12 @@ Shape = MeshShape | SphereShape | PlaneShape
 
 
 @dataclass(frozen=True, eq=False)
-class VolumeDescription:
+class VolumeDescription(VolumeBox):
     """A ``Volume`` (docs/EXTENSIONS.md E.9) with its grid read: ``grid`` the ``(z, y, x, 1)`` float32 array of
     the resolved ``.vol`` file ``path``, stretched over the box ``[box_min, box_max]``."""
 
     grid: np.ndarray
     path: Path
-    density: float
-    box_min: Vec3
-    box_max: Vec3
-    color: Vec3
-    steps: int
-    loc: FileLoc
     #: Henyey-Greenstein asymmetry (docs/EXTENSIONS.md E.8, E.9)
     g: float = 0.0
 
@@ -197,7 +194,8 @@ MediumDescription = Fog | VolumeDescription
 def describe_volume(scene: Scene, vol: Volume) -> VolumeDescription:
     """Resolve and read the ``.vol`` grid of ``vol`` (E.9); a missing, unreadable, malformed or multi-channel
     file is a :class:`SceneSemanticError` at its name."""
-    path = scene.resolve(volgrid.frame_name(vol.grid, 0), vol.grid_loc, "Volume grid")  # E.11: frame 0's grid
+    name = volgrid.frame_name(vol.grid, 0)  # E.11: frame 0's grid
+    path = files.resolve_path(name, scene.base_dir, vol.grid_loc, "Volume grid")
     try:
         grid = volgrid.read_vol(path)
     except OSError as exc:
@@ -209,8 +207,8 @@ def describe_volume(scene: Scene, vol: Volume) -> VolumeDescription:
                                  vol.grid_loc)
     if not np.all(np.isfinite(grid)) or float(grid.min()) < 0.0:
         raise SceneSemanticError(f"Volume grid '{path}' holds negative or non-finite densities", vol.grid_loc)
-    return VolumeDescription(grid, path.resolve(), vol.density, vol.box_min, vol.box_max, vol.color, vol.steps,
-                             vol.loc, vol.g)
+    return VolumeDescription(vol.density, vol.box_min, vol.box_max, vol.color, vol.steps, vol.loc, grid=grid,
+                             path=path.resolve(), g=vol.g)
 
 
 @dataclass(frozen=True, eq=False)
@@ -294,141 +292,129 @@ def placed_mesh(obj: ObjMesh, entry: files.KeptMesh | None, m: np.ndarray, norma
 
 def _describe(scene: Scene, *, stock: bool, normals: NormalMode, bump: bool = False,
               decoded: files.Decoded | None = None, kept: files.Meshes | None = None) -> SceneDescription:
+    """:func:`describe`, step by step: OBJ files, background, shapes (using their materials), materials, medium."""
     warnings: list[SceneWarning] = []
     if stock and any(scene.ambient):
         warnings.append((scene.background.loc or scene.camera.loc,  # type: ignore[arg-type]
                          "stock conversion: the ambient term has no equivalent in 'path' and is dropped"))
-
     placed = scene.objects
     for p in placed:
         check_placement(p)
-    meshes: dict[str, ObjMesh] = {}  # each OBJ file read once, in order of first use
-    obj_paths: dict[str, Path] = {}
-    reach: dict[str, np.ndarray | None] = {}  # the binary's octree rule per OBJ (object space, so once per file)
+    objs = _read_meshes(scene, placed, stock, kept, warnings)
+    centre = geometry_centre(placed, objs.meshes)
+    decoded = {} if decoded is None else decoded  # each image file decoded once, even when several materials name it
+    background = _background(scene, warnings, decoded)
+    # Materials on first use, in shape order (so errors and warnings come in the order of the objects).
+    uses = MaterialUse(scene, stock, bump, decoded, warnings)
+    cam_c = np.asarray(scene.camera.center, dtype=np.float64)
+    shapes = tuple(_shape(p, objs, normals, uses, cam_c) for p in placed)
+    materials = tuple(_material(i, mat, uses) for i, mat in enumerate(scene.materials))
+    medium = describe_volume(scene, scene.medium) if isinstance(scene.medium, Volume) else scene.medium
+    return SceneDescription(scene.path, scene.camera, scene.ambient, background, materials, shapes,
+                            tuple(scene.lights), centre, tuple(warnings), medium)
+
+
+@dataclass
+class _ObjFiles:
+    """The OBJ files of a scene (A.6), each read once in order of first use, by ``obj_file`` as written: the
+    mesh, its resolved path, the binary's octree reach masks (object space, so once per file; None with
+    ``stock``), and the caller's kept meshes (:data:`.files.Meshes`)."""
+
+    meshes: dict[str, ObjMesh]
+    paths: dict[str, Path]
+    reach: dict[str, np.ndarray | None]
+    kept: files.Meshes | None
+
+    def entry(self, name: str) -> files.KeptMesh | None:
+        """The kept entry of OBJ file ``name``, if the caller keeps meshes."""
+        return (self.kept or {}).get(self.paths[name])
+
+
+def _read_meshes(scene: Scene, placed: tuple[Placed, ...], stock: bool, kept: files.Meshes | None,
+                 warnings: list[SceneWarning]) -> _ObjFiles:
+    """Read every OBJ file the placed objects name (:func:`.files.load_mesh`), its warnings appended."""
+    objs = _ObjFiles({}, {}, {}, kept)
     for p in placed:
         prim = p.primitive
-        if isinstance(prim, TriangleMesh) and prim.obj_file not in meshes:
-            obj_paths[prim.obj_file], meshes[prim.obj_file] = files.load_mesh(scene, prim.obj_file,
-                                                                               prim.obj_file_loc, kept)
-            warnings.extend(meshes[prim.obj_file].warnings)
-            reach[prim.obj_file] = None if stock else mesh_reach(  # stock: no a5 rule attributes
-                meshes[prim.obj_file], (kept or {}).get(obj_paths[prim.obj_file]), warnings, prim.obj_file_loc)
-    centre = geometry_centre(placed, meshes)
+        if isinstance(prim, TriangleMesh) and prim.obj_file not in objs.meshes:
+            name = prim.obj_file
+            objs.paths[name], objs.meshes[name] = files.load_mesh(scene, name, prim.obj_file_loc, kept)
+            warnings.extend(objs.meshes[name].warnings)
+            objs.reach[name] = None if stock else mesh_reach(  # stock: no a5 rule attributes
+                objs.meshes[name], objs.entry(name), warnings, prim.obj_file_loc)
+    return objs
 
-    decoded = {} if decoded is None else decoded  # each image file decoded once, even when several materials name it
+
+def _background(scene: Scene, warnings: list[SceneWarning], decoded: files.Decoded) -> Background:
+    """The Background (A.1): its colour, or the six faces of its ``cubeMap`` read (:func:`.files.cube_map`)."""
     bg = scene.background
-    background: Background
-    if bg.cube_map is not None:
-        folder, faces = files.cube_map(scene, warnings, decoded)
-        background = CubeMapBackground(folder, faces, bg.cube_map_loc or bg.loc)
-    else:
-        background = ColorBackground(bg.color, bg.loc)
+    if bg.cube_map is None:
+        return ColorBackground(bg.color, bg.loc)
+    folder, faces = files.cube_map(scene, warnings, decoded)
+    return CubeMapBackground(folder, faces, bg.cube_map_loc or bg.loc)
 
-    # Materials on first use, in shape order (so errors and warnings come in the order of the objects).
-    used: set[int] = set()
-    textures: dict[int, Image] = {}
-    maps: dict[tuple[int, str], Image] = {}  # E.7: (material, 'bump' | 'normal_map') -> image, with -bump
-    btfs: dict[int, BtfImages] = {}  # E.19: material -> its images
 
-    def use_material(index: int, with_uv: bool, shape: object) -> None:
-        mat = scene.materials[index]
-        if index not in used:
-            used.add(index)
-            if stock and mat.noise is not None:
-                warnings.append((mat.noise.loc or mat.loc,  # type: ignore[arg-type]
-                                 "stock conversion: Noise (marble) replaced by its mean colour"))
-            if stock and mat.solid is not None:  # docs/EXTENSIONS.md E.6, stock mapping
-                warnings.append((mat.solid.loc or mat.loc,  # type: ignore[arg-type]
-                                 f"stock conversion: {mat.solid.kind.capitalize()} baked into an RGB grid over "
-                                 "its shapes' box (stock 'volume' texture, trilinear)"))
-            if stock and mat.dispersion is not None:  # docs/EXTENSIONS.md E.10
-                n_c = mat.refraction_index + mat.dispersion / (CENTRE_WAVELENGTH_NM * 1e-3) ** 2
-                warnings.append((mat.loc,  # type: ignore[arg-type]
-                                 "stock conversion: dispersion replaced by the index at the centre wavelength, "
-                                 f"n({CENTRE_WAVELENGTH_NM:g} nm) = {n_c:.6g}"))
-            if stock and (mat.milled is not None or mat.btf is not None):  # docs/EXTENSIONS.md E.19, E.20
-                warnings.extend((mat.loc, w) for w, on in ((STOCK_WARNING, mat.milled), (STOCK_BTF_WARNING, mat.btf))  # type: ignore[misc]
-                                if on is not None)
-        if mat.btf is not None:  # E.19: the images, read once; no texture coordinates, no lookup
-            if index not in btfs:
-                btfs[index] = describe_btf(scene, mat, decoded)
-            if not with_uv:
-                warnings.append((shape.loc, f"btf cannot show on this {type(shape).__name__}: it has no "  # type: ignore[attr-defined]
-                                 "texture coordinates (SPEC B.3)"))
-        for which in ("bump", "normal_map") if bump and with_uv else ():
-            if getattr(mat, which) is not None and (index, which) not in maps:
-                maps[(index, which)], warning = files.map_image(scene, mat, which, decoded)
-                if warning is not None:
-                    warnings.append((mat.bump_loc or mat.loc, warning))  # type: ignore[arg-type]
-        if bump and not with_uv:  # E.7: like a texture, a map cannot show without uv
-            for which, name in (("bump", mat.bump), ("normalMap", mat.normal_map)):
-                if name is not None:
-                    warnings.append((shape.loc, f"{which} '{name}' cannot show on this "  # type: ignore[attr-defined]
-                                     f"{type(shape).__name__}: it has no texture coordinates (EXTENSIONS E.7)"))
-        if mat.texture is None:
-            return
-        # A referenced file is checked wherever it is used, even where Noise hides it (SPEC B.3 kd order).
-        image = files.texture_image(scene, mat, decoded)
-        if mat.noise is None and mat.solid is None:
-            textures.setdefault(index, image)
-            if not with_uv:
-                kind = type(shape).__name__
-                # docs/FIDELITY.md "Stale texture coordinates": a5soln may show it at a mesh's uv (-quirks binary)
-                stale = "; a5soln may show it at a textured mesh's stale uv (-quirks binary)" \
-                    if kind in ("Sphere", "Plane") else ""
-                warnings.append((shape.loc, f"texture '{mat.texture}' cannot show on this "  # type: ignore[attr-defined]
-                                 f"{kind}: it has no texture coordinates (SPEC B.3){stale}"))
+def _shape(p: Placed, objs: _ObjFiles, normals: NormalMode, uses: MaterialUse, cam_c: np.ndarray) -> Shape:
+    """The world-space shape of placed object ``p``, its material used (:meth:`.MaterialUse.use`)."""
+    prim = p.primitive
+    if isinstance(prim, TriangleMesh):
+        return _mesh_shape(p, prim, objs, normals, uses)
+    uses.use(prim.material, False, prim)
+    chain = tf.binary_chain(p.levels)
+    if isinstance(prim, Sphere):
+        return _sphere_shape(p, prim, chain)
+    if isinstance(prim, Plane):
+        return _plane_shape(p, prim, chain, cam_c)
+    if isinstance(prim, Triangle):
+        data = mesh_from_triangle(prim, p.to_world)
+        check_float32(prim, data.positions)
+        return MeshShape(data, prim.material, prim.loc)
+    raise SceneSemanticError(f"unknown primitive {type(prim).__name__}", prim.loc)  # pragma: no cover
 
-    cam_c = np.asarray(scene.camera.center, dtype=np.float64)
-    shapes: list[Shape] = []
-    for p in placed:
-        prim, m = p.primitive, p.to_world
-        if isinstance(prim, TriangleMesh):
-            data = placed_mesh(meshes[prim.obj_file], (kept or {}).get(obj_paths[prim.obj_file]), m, normals,
-                               reach[prim.obj_file], p.transformed)
-            use_material(prim.material, data.has_uv, prim)
-            check_float32(prim, data.positions, 0.0 if data.normals is None else data.normals)
-            shapes.append(MeshShape(data, prim.material, prim.loc, obj_paths[prim.obj_file]))
-            continue
-        use_material(prim.material, False, prim)
-        chain = tf.binary_chain(p.levels)
-        if isinstance(prim, Sphere):
-            binary = None if chain is None else (chain, prim.center, float(prim.radius))
-            scale = tf.similarity_scale(m)
-            if scale is not None:
-                center = tf.transform_points(m, np.asarray(prim.center))
-                check_float32(prim, center, prim.radius * scale)
-                shapes.append(SphereShape(tuple(float(x) for x in center), float(prim.radius * scale),  # type: ignore[arg-type]
-                                          prim.material, prim.loc, binary=binary))
-            else:
-                check_float32(prim, m)
-                shapes.append(SphereShape(prim.center, float(prim.radius), prim.material, prim.loc, m.copy(),
-                                          binary=binary))
-        elif isinstance(prim, Plane):
-            n_w, off_w = world_plane(prim, m)
-            rect = plane_rectangle_to_world(n_w, off_w, cam_c)
-            check_float32(prim, rect)
-            mirror = n_w / np.linalg.norm(n_w) if p.transformed else n_w
-            shapes.append(PlaneShape(n_w, off_w, rect, prim.material, prim.loc, mirror_normal=mirror,
-                                     binary=None if chain is None else (chain, prim.normal, float(prim.offset))))
-        elif isinstance(prim, Triangle):
-            data = mesh_from_triangle(prim, m)
-            check_float32(prim, data.positions)
-            shapes.append(MeshShape(data, prim.material, prim.loc))
-        else:  # pragma: no cover - the model has no other primitive
-            raise SceneSemanticError(f"unknown primitive {type(prim).__name__}", prim.loc)
 
-    materials = tuple(
-        MaterialDescription(mat.diffuse_color, mat.specular_color, float(mat.shininess),
-                            float(mat.refraction_index),
-                            mat.noise if mat.noise is not None else mat.solid if mat.solid is not None
-                            else btfs.get(i, textures.get(i)),
-                            mat.loc, float(mat.roughness), int(mat.glossy_samples),
-                            None if mat.dispersion is None else float(mat.dispersion),
-                            bump=maps.get((i, "bump")), bump_scale=float(mat.bump_scale),
-                            normal_map=maps.get((i, "normal_map")), subsurface=mat.subsurface,
-                            milled=mat.milled)
-        for i, mat in enumerate(scene.materials))
-    medium = describe_volume(scene, scene.medium) if isinstance(scene.medium, Volume) else scene.medium
-    return SceneDescription(scene.path, scene.camera, scene.ambient, background, materials, tuple(shapes),
-                            tuple(scene.lights), centre, tuple(warnings), medium)
+def _mesh_shape(p: Placed, prim: TriangleMesh, objs: _ObjFiles, normals: NormalMode,
+                uses: MaterialUse) -> MeshShape:
+    """A ``TriangleMesh`` (A.6) placed in world space (:func:`placed_mesh`); its material sees its uv."""
+    name = prim.obj_file
+    data = placed_mesh(objs.meshes[name], objs.entry(name), p.to_world, normals, objs.reach[name], p.transformed)
+    uses.use(prim.material, data.has_uv, prim)
+    check_float32(prim, data.positions, 0.0 if data.normals is None else data.normals)
+    return MeshShape(data, prim.material, prim.loc, objs.paths[name])
+
+
+def _sphere_shape(p: Placed, prim: Sphere, chain: np.ndarray | None) -> SphereShape:
+    """A Sphere (A.6): in world space under a similarity ``m`` (centre ``m c``, radius ``s r``), else in
+    object space with ``m`` kept."""
+    m = p.to_world
+    binary = None if chain is None else (chain, prim.center, float(prim.radius))
+    scale = tf.similarity_scale(m)
+    if scale is None:
+        check_float32(prim, m)
+        return SphereShape(prim.center, float(prim.radius), prim.material, prim.loc, m.copy(), binary=binary)
+    center = tf.transform_points(m, np.asarray(prim.center))
+    check_float32(prim, center, prim.radius * scale)
+    return SphereShape(tuple(float(x) for x in center), float(prim.radius * scale),  # type: ignore[arg-type]
+                       prim.material, prim.loc, binary=binary)
+
+
+def _plane_shape(p: Placed, prim: Plane, chain: np.ndarray | None, cam_c: np.ndarray) -> PlaneShape:
+    """A Plane (A.6) in world space, as a rectangle around the camera centre ``cam_c``."""
+    n_w, off_w = world_plane(prim, p.to_world)
+    rect = plane_rectangle_to_world(n_w, off_w, cam_c)
+    check_float32(prim, rect)
+    mirror = n_w / np.linalg.norm(n_w) if p.transformed else n_w
+    return PlaneShape(n_w, off_w, rect, prim.material, prim.loc, mirror_normal=mirror,
+                      binary=None if chain is None else (chain, prim.normal, float(prim.offset)))
+
+
+def _material(i: int, mat: Material, uses: MaterialUse) -> MaterialDescription:
+    """Material ``i`` (A.5) with its images: kd's source is the Noise, else the solid, else the btf images, else
+    the texture (SPEC B.3 order; None for a solid diffuse colour)."""
+    return MaterialDescription(
+        mat.diffuse_color, mat.specular_color, float(mat.shininess), float(mat.refraction_index),
+        mat.noise if mat.noise is not None else mat.solid if mat.solid is not None
+        else uses.btfs.get(i, uses.textures.get(i)),
+        mat.loc, float(mat.roughness), int(mat.glossy_samples),
+        None if mat.dispersion is None else float(mat.dispersion),
+        bump=uses.maps.get((i, "bump")), bump_scale=float(mat.bump_scale),
+        normal_map=uses.maps.get((i, "normal_map")), subsurface=mat.subsurface, milled=mat.milled)

@@ -24,7 +24,7 @@ from a5mi.converters.model import AreaLight, Fog, Light, Medium, Solid, SphereLi
 from a5mi.converters.obj import FLOAT32_MAX
 from a5mi.converters.subsurface import parse_subsurface
 from a5mi.converters.surface_ext import MATERIAL_RULES as SURFACE_RULES
-from a5mi.converters.tokens import Rule, TokenStream, keyword_block, quoted_raw
+from a5mi.converters.tokens import Rule, TokenStream, block_keys, keyword_block, quoted_raw
 from a5mi.spec import DISPERSION_RANGE_NM
 
 #: The smallest normal float32 (smaller values are flushed to 0 by the kernels).
@@ -70,15 +70,8 @@ def _fields(ts: TokenStream, start: Token, block: str, kinds: dict[str, str], re
     Values are checked here for type only; the callers check ranges with :meth:`Fields.check`."""
     ts.expect("{", f"after '{block}'")
     f = Fields()
-    while True:
-        tok = ts.next()
-        if tok is not None and tok.text == "}":
-            break
-        if tok is None or tok.text not in kinds:
-            raise ts.syntax_error(f"expected {', '.join(kinds)} or '}}' in {block}, found {quoted_raw(tok)}", tok)
+    for tok in block_keys(ts, block, kinds):
         key = tok.text
-        if key in f.locs:
-            raise ts.syntax_error(f"{block} gives '{key}' twice", tok)
         kind = kinds[key]
         if kind == _N:
             f.names[key] = ts.name(key)
@@ -374,7 +367,8 @@ def parse_volume(ts: TokenStream, start: Token) -> Volume:
             "Volume max must exceed min in every coordinate")
     density, color, steps = _medium_common(ts, "Volume", f, 64)
     grid = f.names["grid"]
-    return Volume(grid.text, density, lo, hi, color, steps, start.loc, grid.loc, _phase_g(ts, "Volume", f))
+    return Volume(density, lo, hi, color, steps, start.loc, grid=grid.text, grid_loc=grid.loc,
+                  g=_phase_g(ts, "Volume", f))
 
 
 #: Top-level blocks (name -> parse function); each sets the scene's ``medium``.

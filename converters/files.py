@@ -1,7 +1,7 @@
 """The files a scene names (SPEC A.0 paths, A.4 images and cube maps, A.6 OBJ meshes), resolved and read once.
 
 Every file name of the scene (``obj_file``, ``texture``, ``cubeMap``) is resolved with
-:func:`.model.resolve_path` (scene folder first, then the working directory; SPEC A.0 used only the
+:func:`resolve_path` (scene folder first, then the working directory; SPEC A.0 used only the
 working directory) and checked here, so a bad file is a :class:`SceneSemanticError` at the keyword that named
 it, before Mitsuba is imported. Images are decoded whole, once, with the project's one OpenImageIO reader
 (:func:`a5mi.platform.imageio.read_uint8`, 8 bits per channel, row 0 = the top row: SPEC A.4 uses the file's bytes as
@@ -13,7 +13,9 @@ file's identity (:func:`file_identity`) stays the same.
 
 from __future__ import annotations
 
+import errno
 import os
+import stat
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,14 +24,42 @@ from typing import Any
 import numpy as np
 
 from a5mi.converters import obj as objfile
-from a5mi.converters.errors import FileLoc, SceneSemanticError
-from a5mi.converters.model import Material, Scene, resolve_path
+from a5mi.converters.errors import FileLoc, SceneSemanticError, shown
+from a5mi.converters.model import Material, Scene
 from a5mi.platform import imageio
 from a5mi.platform.errors import ImageReadError
 from a5mi.spec import CUBE_FACES, find_cube_face
 
 #: Largest file followed as a text "link" (a git symlink checked out as a file) for ``cubeMap``.
 LINK_FILE_MAX_BYTES = 4096
+
+
+def resolve_path(name: str, base_dir: Path, loc: FileLoc, what: str, *, directory: bool = False) -> Path:
+    """Resolve a file name of the scene: ``base_dir / name`` if it exists, else ``cwd / name`` (SPEC A.0 used
+    only the working directory; the scene folder first lets scenes run from anywhere). A missing path is a
+    :class:`SceneSemanticError` at ``loc``, naming both places tried; so is a folder where a file is expected
+    (or the reverse)."""
+    p = Path(name)
+    candidates = [p] if p.is_absolute() else [base_dir / p, Path.cwd() / p]
+    kind = "folder" if directory else "file"
+    found: list[tuple[Path, str]] = []  # (candidate, what is there) for entries of the wrong kind
+    for c in candidates:
+        try:
+            mode = os.stat(c).st_mode
+        except OSError as exc:  # missing, a name longer than the filesystem allows, a loop of links...
+            if exc.errno not in (errno.ENOENT, errno.ENOTDIR):
+                raise SceneSemanticError(f"{what} '{shown(name)}': {exc.strerror or exc}", loc) from None
+            continue
+        if stat.S_ISDIR(mode) if directory else stat.S_ISREG(mode):
+            return c
+        found.append((c, "a folder" if stat.S_ISDIR(mode) else "a file" if stat.S_ISREG(mode) else
+                      "a FIFO" if stat.S_ISFIFO(mode) else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+                      else "a special file"))
+    if found:
+        c, there = found[0]
+        raise SceneSemanticError(f"{what} '{shown(name)}' is {there}, not a {kind} ('{shown(str(c), 200)}')", loc)
+    tried = " or ".join(f"'{shown(str(c), 200)}'" for c in dict.fromkeys(candidates))
+    raise SceneSemanticError(f"{what} {kind} '{shown(name)}' not found (looked for {tried})", loc)
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,7 +174,7 @@ def map_image(scene: Scene, mat: Material, which: str, decoded: Decoded | None =
     ``normal_map``), resolved and decoded, and a warning or None. A ``bump`` that is not found falls back to
     ``STEM-bump.EXT`` beside the material's ``texture`` (the layout the course's sibenik scene ships: its
     ``bump bump/kamen.bmp`` names a folder it does not have, the height field is ``tex/kamen-bump.bmp``), with
-    a warning; otherwise the error of :func:`~.model.resolve_path` at the keyword's file name."""
+    a warning; otherwise the error of :func:`resolve_path` at the keyword's file name."""
     name = getattr(mat, which)
     loc = getattr(mat, f"{which}_loc") or mat.loc
     assert name is not None and loc is not None

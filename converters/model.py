@@ -4,17 +4,14 @@ Frozen dataclasses, one per block of the grammar, with the keyword names in snak
 (``diffuseColor`` -> ``diffuse_color``) and the SPEC defaults. Every entity keeps the :class:`FileLoc` of
 the keyword that opened it (``loc``), so later stages (the Mitsuba converter) report errors at the entity,
 as pbrt's ``SceneEntity`` does. File names (``obj_file``, ``texture``, ``cubeMap``) are stored as written,
-with their own ``*_loc``; :func:`resolve_path` turns them into files (scene folder first, then the working
-directory: the sample solution used only the working directory, SPEC A.0).
+with their own ``*_loc``; the describe step turns them into files (:func:`a5mi.converters.files.resolve_path`:
+scene folder first, then the working directory; the sample solution used only the working directory, SPEC A.0).
 
-Pure Python plus numpy: no Mitsuba import.
+Typed data and pure helpers only: no file-system access, no Mitsuba import (pure Python plus numpy).
 """
 
 from __future__ import annotations
 
-import errno
-import os
-import stat
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,7 +19,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from a5mi.converters.errors import FileLoc, SceneSemanticError, shown
+from a5mi.converters.errors import FileLoc
 
 if TYPE_CHECKING:
     from a5mi.converters.subsurface import Subsurface
@@ -136,19 +133,27 @@ class Fog:
     g: float = 0.0
 
 
-@dataclass(frozen=True)
-class Volume:
-    """``Volume { grid NAME density F min V3 max V3 [color V3] [steps I] }`` (EXTENSIONS E.9): extinction
-    ``density · grid(x)`` inside the box ``[min, max]`` (a Mitsuba ``.vol`` grid stretched over it), albedo
-    ``color``, ``steps`` ray-marching steps across the box."""
+@dataclass(frozen=True, eq=False)
+class VolumeBox:
+    """What a ``Volume`` (EXTENSIONS E.9) and its description (:class:`.describe.VolumeDescription`) share:
+    extinction ``density · grid(x)`` inside the box ``[box_min, box_max]``, albedo ``color``, ``steps``
+    ray-marching steps across the box, the block's ``loc``."""
 
-    grid: str
     density: float
     box_min: Vec3
     box_max: Vec3
     color: Vec3
     steps: int
     loc: FileLoc
+
+
+@dataclass(frozen=True)
+class Volume(VolumeBox):
+    """``Volume { grid NAME density F min V3 max V3 [color V3] [steps I] }`` (EXTENSIONS E.9): a
+    :class:`VolumeBox` with the Mitsuba ``.vol`` grid file ``grid`` (as written, at ``grid_loc``) stretched
+    over it."""
+
+    grid: str
     grid_loc: FileLoc
     #: Henyey-Greenstein asymmetry (docs/EXTENSIONS.md E.8, E.9; 0: isotropic)
     g: float = 0.0
@@ -259,7 +264,8 @@ class Triangle:
 
 @dataclass(frozen=True)
 class TriangleMesh:
-    """``TriangleMesh { obj_file NAME }`` (SPEC A.6); ``obj_file`` as written, resolved by :func:`resolve_path`."""
+    """``TriangleMesh { obj_file NAME }`` (SPEC A.6); ``obj_file`` as written, resolved by
+    :func:`.files.resolve_path`."""
 
     obj_file: str
     material: int
@@ -404,35 +410,3 @@ class Scene:
     def objects(self) -> tuple[Placed, ...]:
         """Every primitive with its object-to-world matrix, in file order (groups flattened)."""
         return tuple(iter_placed(self.root))
-
-    def resolve(self, name: str, loc: FileLoc, what: str, *, directory: bool = False) -> Path:
-        """:func:`resolve_path` against this scene's folder."""
-        return resolve_path(name, self.base_dir, loc, what, directory=directory)
-
-
-def resolve_path(name: str, base_dir: Path, loc: FileLoc, what: str, *, directory: bool = False) -> Path:
-    """Resolve a file name of the scene: ``base_dir / name`` if it exists, else ``cwd / name`` (SPEC A.0 used
-    only the working directory; the scene folder first lets scenes run from anywhere). A missing path is a
-    :class:`SceneSemanticError` at ``loc``, naming both places tried; so is a folder where a file is expected
-    (or the reverse)."""
-    p = Path(name)
-    candidates = [p] if p.is_absolute() else [base_dir / p, Path.cwd() / p]
-    kind = "folder" if directory else "file"
-    found: list[tuple[Path, str]] = []  # (candidate, what is there) for entries of the wrong kind
-    for c in candidates:
-        try:
-            mode = os.stat(c).st_mode
-        except OSError as exc:  # missing, a name longer than the filesystem allows, a loop of links...
-            if exc.errno not in (errno.ENOENT, errno.ENOTDIR):
-                raise SceneSemanticError(f"{what} '{shown(name)}': {exc.strerror or exc}", loc) from None
-            continue
-        if stat.S_ISDIR(mode) if directory else stat.S_ISREG(mode):
-            return c
-        found.append((c, "a folder" if stat.S_ISDIR(mode) else "a file" if stat.S_ISREG(mode) else
-                      "a FIFO" if stat.S_ISFIFO(mode) else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
-                      else "a special file"))
-    if found:
-        c, there = found[0]
-        raise SceneSemanticError(f"{what} '{shown(name)}' is {there}, not a {kind} ('{shown(str(c), 200)}')", loc)
-    tried = " or ".join(f"'{shown(str(c), 200)}'" for c in dict.fromkeys(candidates))
-    raise SceneSemanticError(f"{what} {kind} '{shown(name)}' not found (looked for {tried})", loc)

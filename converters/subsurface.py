@@ -23,7 +23,7 @@ from typing import Final
 
 from a5mi.converters.errors import FileLoc
 from a5mi.converters.lexer import Token
-from a5mi.converters.tokens import TokenStream, quoted_raw
+from a5mi.converters.tokens import TokenStream, block_keys
 
 Vec3 = tuple[float, float, float]
 
@@ -70,14 +70,7 @@ def parse_subsurface(ts: TokenStream, start: Token) -> Subsurface:
     preset: str | None = None
     samples = 8
     keys = ("preset", "sigma_a", "sigma_s", "eta", "g", "scale", "samples")
-    while True:
-        tok = ts.next()
-        if tok is not None and tok.text == "}":
-            break
-        if tok is None or tok.text not in keys:
-            raise ts.syntax_error(f"expected {', '.join(keys)} or '}}' in subsurface, found {quoted_raw(tok)}", tok)
-        if tok.text in seen:
-            raise ts.syntax_error(f"subsurface gives '{tok.text}' twice", tok)
+    for tok in block_keys(ts, "subsurface", keys):
         seen[tok.text] = tok
         if tok.text == "preset":
             name = ts.name("preset")

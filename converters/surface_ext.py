@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any, Final
 
 from a5mi.converters.errors import FileLoc, SceneSemanticError
 from a5mi.converters.surface_model import PATTERNS, Btf, Milled
-from a5mi.converters.tokens import FLOAT_RE, Rule, TokenStream, quoted_raw
+from a5mi.converters.tokens import FLOAT_RE, Rule, TokenStream, block_keys
 
 if TYPE_CHECKING:
     from a5mi.converters.builders import MaterialBuilder
@@ -96,12 +96,7 @@ def _milled(ts: TokenStream, tok: Token, m: MaterialBuilder) -> None:
     ts.expect("{", "after 'milled'")
     values: dict[str, Any] = {}
     locs: dict[str, FileLoc] = {}
-    while (key := ts.next()) is None or key.text != "}":
-        if key is None or key.text not in _MILLED_KINDS:
-            raise ts.syntax_error(f"expected {', '.join(_MILLED_KINDS)} or '}}' in milled, found {quoted_raw(key)}",
-                                  key)
-        if key.text in values:
-            raise ts.syntax_error(f"milled gives '{key.text}' twice", key)
+    for key in block_keys(ts, "milled", _MILLED_KINDS):
         kind = _MILLED_KINDS[key.text]
         locs[key.text] = key.loc
         if kind == "number":   # a range error sits at the number
@@ -136,8 +131,7 @@ def describe_btf(scene: Scene, mat: Material, decoded: Decoded) -> BtfImages:
     """The images of ``mat.btf``, resolved like a texture (the scene's folder, then the working directory) and
     decoded once (:func:`.files.read_image`, errors at the ``images`` name); a Material with ``btf`` and another
     colour source (``texture``, ``Noise``, a solid) is an error at ``btf``."""
-    from a5mi.converters.files import read_image
-    from a5mi.converters.model import resolve_path
+    from a5mi.converters.files import read_image, resolve_path
 
     def read(name: str) -> Image:
         return read_image(resolve_path(name, scene.base_dir, btf.images_loc, "btf image"), btf.images_loc,

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Iterator, Mapping
 from typing import Final, TypeVar
 
 from a5mi.converters.errors import FileLoc, SceneSemanticError, SceneSyntaxError, shown
@@ -235,3 +235,17 @@ def counted_block(ts: TokenStream, block: str, count_key: str, noun: str,
         if len(out) == count:
             raise too_many(ts, tok, block, count_key, count, noun)
         out.append(items[tok.text](ts, tok))
+
+
+def block_keys(ts: TokenStream, block: str, keys: Collection[str]) -> Iterator[Token]:
+    """The keys of ``BLOCK { (KEY value)* }`` (the ``{`` already read) up to its ``}``: each one of ``keys``, in
+    any order, at most once (docs/EXTENSIONS.md blocks). The caller reads each key's value before asking for the
+    next key."""
+    seen: set[str] = set()
+    while (tok := ts.next()) is None or tok.text != "}":
+        if tok is None or tok.text not in keys:
+            raise ts.syntax_error(f"expected {', '.join(keys)} or '}}' in {block}, found {quoted_raw(tok)}", tok)
+        if tok.text in seen:
+            raise ts.syntax_error(f"{block} gives '{tok.text}' twice", tok)
+        seen.add(tok.text)
+        yield tok

@@ -3,10 +3,15 @@ conftest): the project's folders, and a5 scene text rendered in-process."""
 
 from __future__ import annotations
 
+import os
 import struct
+import subprocess
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 #: tests/
 TESTS = Path(__file__).resolve().parent
@@ -14,6 +19,50 @@ TESTS = Path(__file__).resolve().parent
 ROOT = TESTS.parent
 #: the project's own scenes (scenes/)
 SCENES = ROOT / "scenes"
+#: A red sphere lit head-on (SPEC A.1-A.6): the smallest scene that renders something.
+RED_SPHERE = """PerspectiveCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 angle 30 }
+Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }
+Background { color 0 0 0 ambientLight 0.1 0.1 0.1 }
+Materials { numMaterials 1 Material { diffuseColor 1 0 0 } }
+Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }
+"""
+
+
+class FakeClock:
+    """A clock the test moves by hand (``clock.now += dt``), for code that takes a ``clock`` callable."""
+
+    def __init__(self, now: float = 100.0) -> None:
+        self.now = now
+
+    def __call__(self) -> float:
+        return self.now
+
+
+@contextmanager
+def small_tmpfs(tmp_path: Path, size: str) -> Iterator[Path]:
+    """A tmpfs of ``size`` (``mount -o size=``, e.g. ``"64k"``) mounted at ``tmp_path/fs`` for a full-disk test,
+    unmounted afterwards; the test is skipped where it cannot be mounted (root only)."""
+    if os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root")
+    mnt = tmp_path / "fs"
+    mnt.mkdir()
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(mnt)], capture_output=True)
+    if r.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {r.stderr.decode().strip()}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+def sandbox_class_root(tmp_path_factory: pytest.TempPathFactory, name: str) -> Path:
+    """A fresh folder for a graded class, opened (0755) together with the pytest folders above it, so the
+    sandbox's user id reaches the submissions."""
+    root = tmp_path_factory.mktemp(name)
+    for p in (root, *root.parents):
+        if str(p).startswith("/tmp/pytest-of"):
+            p.chmod(0o755)
+    return root
 
 
 def write_image(path: Path, pixels: np.ndarray) -> Path:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import faulthandler
 import signal
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -108,3 +108,24 @@ def time_limit(seconds: float) -> Iterator[None]:
             yield
         finally:
             faulthandler.cancel_dump_traceback_later()
+
+
+def beside_loop(check: Callable[[], None], stop: threading.Event, loop: Callable[[], None]) -> None:
+    """Run ``loop()`` on this thread (the view's render loop runs on the main thread, as in ``a5mi view``) with
+    ``check()`` on a thread beside it, which sets ``stop`` when it ends; re-raises the check's failure here."""
+    errors: list[BaseException] = []
+
+    def checks() -> None:
+        try:
+            check()
+        except BaseException as exc:  # noqa: BLE001 - re-raised on the main thread
+            errors.append(exc)
+        finally:
+            stop.set()
+
+    checker = threading.Thread(target=checks)
+    checker.start()
+    loop()
+    checker.join(timeout=10)
+    if errors:
+        raise errors[0]

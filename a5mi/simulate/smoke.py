@@ -133,25 +133,37 @@ def _stencil(pos: list[np.ndarray], n: int) -> Stencil:
 
 def sample(q: np.ndarray, stencil: Stencil) -> np.ndarray:
     """``q̃`` at the stencil's positions: periodic trilinear interpolation of the cell values."""
+    out = np.zeros(stencil[2][0].shape)
+    for w, (iz, iy, ix) in _corners(stencil):
+        out += w * q[iz, iy, ix]
+    return out
+
+
+def _corners(stencil: Stencil) -> Iterator[tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]]:
+    """The 8 cells around each stencil position with their trilinear weights ``w_z w_y w_x`` (summing to 1):
+    ``(weight, (iz, iy, ix))``."""
     i0, i1, frac = stencil
-    out = np.zeros(frac[0].shape)
     for cz in (0, 1):
         wz, iz = (frac[2], i1[2]) if cz else (1.0 - frac[2], i0[2])
         for cy in (0, 1):
             wy, iy = (frac[1], i1[1]) if cy else (1.0 - frac[1], i0[1])
             for cx in (0, 1):
                 wx, ix = (frac[0], i1[0]) if cx else (1.0 - frac[0], i0[0])
-                out += wz * wy * wx * q[iz, iy, ix]
-    return out
+                yield wz * wy * wx, (iz, iy, ix)
+
+
+def _cells(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The cell centres of an ``n^3`` grid in cell units, ``(x, y, z)``, each indexed ``[z, y, x]``."""
+    idx = np.arange(n, dtype=np.float64)
+    zz, yy, xx = np.meshgrid(idx, idx, idx, indexing="ij")
+    return xx, yy, zz
 
 
 def backtrace(u: np.ndarray, dt: float, h: float) -> Stencil:
     """The stencil of the departure points ``x − Δt u(x − ½Δt u(x))`` of the cell centres (the midpoint rule,
     second order in ``Δt``: a rotating blob's path stays on its circle)."""
     n = u.shape[1]
-    idx = np.arange(n, dtype=np.float64)
-    zz, yy, xx = np.meshgrid(idx, idx, idx, indexing="ij")
-    cells = (xx, yy, zz)
+    cells = _cells(n)
     mid = _stencil([cells[a] - 0.5 * dt * u[a] / h for a in range(3)], n)
     return _stencil([cells[a] - dt * sample(u[a], mid) / h for a in range(3)], n)
 
@@ -161,19 +173,12 @@ def carry(q: np.ndarray, u: np.ndarray, dt: float, h: float) -> np.ndarray:
     ``x + Δt u(x + ½Δt u(x))`` and is shared among the 8 cells around it with the trilinear weights, which sum
     to 1, so ``Σ q`` is kept to rounding whatever the flow (step 3 for ``ρ`` and ``θ``)."""
     n = q.shape[0]
-    idx = np.arange(n, dtype=np.float64)
-    zz, yy, xx = np.meshgrid(idx, idx, idx, indexing="ij")
-    cells = (xx, yy, zz)
+    cells = _cells(n)
     mid = _stencil([cells[a] + 0.5 * dt * u[a] / h for a in range(3)], n)
-    i0, i1, frac = _stencil([cells[a] + dt * sample(u[a], mid) / h for a in range(3)], n)
+    arrival = _stencil([cells[a] + dt * sample(u[a], mid) / h for a in range(3)], n)
     out = np.zeros(n ** 3)
-    for cz in (0, 1):
-        wz, iz = (frac[2], i1[2]) if cz else (1.0 - frac[2], i0[2])
-        for cy in (0, 1):
-            wy, iy = (frac[1], i1[1]) if cy else (1.0 - frac[1], i0[1])
-            for cx in (0, 1):
-                wx, ix = (frac[0], i1[0]) if cx else (1.0 - frac[0], i0[0])
-                out += np.bincount(((iz * n + iy) * n + ix).ravel(), (wz * wy * wx * q).ravel(), n ** 3)
+    for w, (iz, iy, ix) in _corners(arrival):
+        out += np.bincount(((iz * n + iy) * n + ix).ravel(), (w * q).ravel(), n ** 3)
     return out.reshape(q.shape)
 
 

@@ -35,13 +35,13 @@ import mitsuba as mi
 
 from a5mi.plugins.integrators.base import E13_FIXED, A5Integrator, camera_rays
 from a5mi.plugins.kernel.features import Features, SceneData
-from a5mi.plugins.kernel.intersect import intersect, mirror_normal
-from a5mi.plugins.kernel.pbr import lobes, power_heuristic, sample
+from a5mi.plugins.kernel.intersect import intersect
+from a5mi.plugins.kernel.pbr import power_heuristic, sample
 from a5mi.plugins.kernel.pbr_lights import PbrLights, direct, emission, environment, light_point
 from a5mi.plugins.kernel.pbr_lights import lights_of as pbr_lights_of
 from a5mi.plugins.kernel.pbr_record import PathRecorder, lobe_code
+from a5mi.plugins.kernel.pbr_surface import surface_lobes
 from a5mi.plugins.kernel.record import shape_id
-from a5mi.plugins.kernel.surfaces import surface_at
 from a5mi.plugins.sampling import SamplePass, Stochastic, stochastic
 from a5mi.plugins.syntax import syntax
 
@@ -169,10 +169,7 @@ def trace_paths(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
         alive &= hit & (depth <= data.max_depth)
 
         # ---- the BSDF of the hit, next-event estimation, the next direction
-        a5, kd, diffuse_color, specular, ior, dispersive, shininess, n, alpha, n_gloss = surface_at(
-            bsdf, si, alive, n, f, None, mi.UInt32(1))
-        n_mirror = mirror_normal(data.planes, on_plane, plane_idx, n)
-        b = lobes(f.fresnel, kd, specular, ior, d, n, n_mirror, n_medium, alive, f.refraction, f.reflection)
+        b, n = surface_lobes(data, f, bsdf, si, n, d, n_medium, on_plane, plane_idx, alive)
         nee, counter, n_shadow = direct(scene, data, lights, f.environment, si, p, b, alive,
                                         rng, depth * 256, counter, n_shadow)
         result += dr.select(alive, beta * nee, 0.0)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import drjit as dr
 import mitsuba as mi
 
 from a5mi.plugins.textures.atlas_texture import AtlasTexture
@@ -65,17 +64,6 @@ class A5Bitmap(AtlasTexture):
     def eval(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
         """Output tex(si.uv) per SPEC A.4 (formula in the class docstring)."""
         return self.atlas.sample(si.uv.x, si.uv.y, 0, active)
-
-    def eval_3(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
-        return self.eval(si, active)
-
-    def eval_1(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Float:
-        """Channel mean of the lookup."""
-        return dr.mean(self.eval(si, active))
-
-    def mean(self) -> float:
-        """Mean of all bytes / 255."""
-        return self._mean
 
     def resolution(self) -> mi.ScalarVector2i:
         return mi.ScalarVector2i(self.width, self.height)

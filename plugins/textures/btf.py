@@ -101,15 +101,6 @@ class A5Btf(AtlasTexture):
         c += s * t * self.atlas.sample(u, v, i1 * n_a + j1, active)
         return c
 
-    def eval_3(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
-        return self.eval(si, active)
-
-    def eval_1(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Float:
-        return dr.mean(self.eval(si, active))
-
-    def mean(self) -> float:
-        return self._mean
-
     def to_string(self) -> str:
         return f"A5Btf[elevations={self.elevations}, azimuths={self.azimuths}]"
 

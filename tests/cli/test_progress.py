@@ -5,21 +5,15 @@ from __future__ import annotations
 import io
 import time
 
+from helpers import FakeClock
+
 from a5mi.cli.progress import ProgressBar
-
-
-class _Clock:
-    def __init__(self) -> None:
-        self.now = 100.0
-
-    def __call__(self) -> float:
-        return self.now
 
 
 def test_estimate_moves_between_tiles_and_stops_at_the_tile_in_flight() -> None:
     """Tiles of 250 of 1000 samples: the first (with the compile) takes 3 s, the second 1 s, so the rate is
     250/s; 0.5 s after the second tile the estimate is 625, and it never passes 749 (the third tile's end - 1)."""
-    clock = _Clock()
+    clock = FakeClock()
     bar = ProgressBar(io.StringIO(), enabled=True, delay=1.0, clock=clock)
     clock.now += 3.0
     bar(250, 1000)
@@ -33,7 +27,7 @@ def test_estimate_moves_between_tiles_and_stops_at_the_tile_in_flight() -> None:
 
 
 def test_line_before_any_tile_sweeps_and_the_last_tile_ends_the_line() -> None:
-    clock = _Clock()
+    clock = FakeClock()
     out = io.StringIO()
     bar = ProgressBar(out, enabled=True, delay=1.0, width=10, tick=0.1, clock=clock)
     sweeps = {bar.line(clock.now + 0.1 * k) for k in range(12)}

@@ -5,22 +5,16 @@ from __future__ import annotations
 
 import io
 
+from helpers import FakeClock
+
 from a5mi.cli.progress import ProgressBar
-
-
-class _Clock:
-    def __init__(self) -> None:
-        self.now = 100.0
-
-    def __call__(self) -> float:
-        return self.now
 
 
 def test_log_lines_every_interval_with_rays_and_eta_and_none_at_the_end() -> None:
     """Tiles of 250 of 1000 samples, a bound of 1e7 rays: no line before 10 s; at 12 s, half done, one whole
     line with half the bound and the ETA (12 s elapsed for half: 12 s left); the next line not before 10 s
     more; the last tile writes none (the render's own report follows)."""
-    clock, out = _Clock(), io.StringIO()
+    clock, out = FakeClock(), io.StringIO()
     bar = ProgressBar(out, enabled=False, log=True, log_every=10.0, rays=1e7, clock=clock)
     clock.now += 4.0
     bar(250, 1000)
@@ -38,7 +32,7 @@ def test_log_lines_every_interval_with_rays_and_eta_and_none_at_the_end() -> Non
 
 
 def test_eta_before_the_first_tile_is_the_estimate_s() -> None:
-    clock = _Clock()
+    clock = FakeClock()
     bar = ProgressBar(io.StringIO(), enabled=False, log=True, seconds=300.0, unit="bands", prog="a5mi render",
                       clock=clock)
     clock.now += 30.0
@@ -62,7 +56,7 @@ def test_the_ticker_logs_while_one_long_tile_renders() -> None:
 
 
 def test_the_terminal_bar_shows_the_rays_so_far_and_the_estimate_s_eta() -> None:
-    clock = _Clock()
+    clock = FakeClock()
     bar = ProgressBar(io.StringIO(), enabled=True, rays=2e6, seconds=60.0, width=10, clock=clock)
     clock.now += 2.0
     assert bar.line(clock.now).endswith("eta <   58 s")

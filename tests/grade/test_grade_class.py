@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import sandbox_class_root
 
 A5 = str(Path(sys.executable).with_name("a5"))
 SIZE = 30
@@ -81,10 +82,7 @@ def _allow_read() -> str:
 @pytest.fixture(scope="module")
 def klass(tmp_path_factory, scenes_dir):
     """The class folder, CASES.toml and the reference cache (references rendered here for the image students)."""
-    root = tmp_path_factory.mktemp("klass")
-    for p in (root, *root.parents):
-        if str(p).startswith("/tmp/pytest-of"):
-            p.chmod(0o755)  # the sandbox's user id must reach the submissions
+    root = sandbox_class_root(tmp_path_factory, "klass")
     subs = root / "subs"
     subs.mkdir()
     (root / "cases.toml").write_text(CASES)

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import small_tmpfs
 
 from a5mi.platform import imageio, paths
 from a5mi.platform.errors import ImageWriteError, UserError
@@ -19,17 +20,8 @@ from a5mi.platform.errors import ImageWriteError, UserError
 @pytest.fixture
 def tiny_fs(tmp_path: Path):
     """A 256 KiB tmpfs at ``tmp_path/fs``, unmounted afterwards."""
-    if os.geteuid() != 0:
-        pytest.skip("mounting a tmpfs needs root")
-    mnt = tmp_path / "fs"
-    mnt.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mnt)], capture_output=True)
-    if r.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {r.stderr.decode().strip()}")
-    try:
+    with small_tmpfs(tmp_path, "256k") as mnt:
         yield mnt
-    finally:
-        subprocess.run(["umount", "-l", str(mnt)], check=False)
 
 
 def _fill(mnt: Path, leave: int) -> None:

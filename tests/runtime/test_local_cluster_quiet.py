@@ -12,15 +12,11 @@ import sys
 from pathlib import Path
 
 import pytest
+from helpers import RED_SPHERE
 
 pytest.importorskip("distributed")
 
-SCENE = """PerspectiveCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 angle 30 }
-Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }
-Background { color 0 0 0 ambientLight 0.1 0.1 0.1 }
-Materials { numMaterials 1 Material { diffuseColor 1 0 0 } }
-Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }
-"""
+SCENE = RED_SPHERE
 
 
 def test_a_taken_dashboard_port_prints_nothing(tmp_path: Path) -> None:

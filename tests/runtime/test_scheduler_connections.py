@@ -14,15 +14,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from helpers import RED_SPHERE
 
 pytest.importorskip("distributed")
 
-SCENE = """PerspectiveCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 angle 30 }
-Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }
-Background { color 0 0 0 ambientLight 0.1 0.1 0.1 }
-Materials { numMaterials 1 Material { diffuseColor 1 0 0 } }
-Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }
-"""
+SCENE = RED_SPHERE
 ANIMATED = SCENE + "Animation { frames 2 fps 24 }\n"
 
 

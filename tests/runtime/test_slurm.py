@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 import pytest
+from helpers import sandbox_class_root
 from slurm_daemons import LocalSlurm, installable, slurm_problem
 
 A5 = str(Path(sys.executable).with_name("a5"))
@@ -79,10 +80,7 @@ def _student(subs: Path, name: str, images: dict[str, Path], delay: int) -> None
 @pytest.fixture(scope="module")
 def klass(tmp_path_factory, scenes_dir):
     """The quick class (``subs``), the slow one (``slow``: delay 20 s), the cases and the reference cache."""
-    root = tmp_path_factory.mktemp("slurmclass")
-    for p in (root, *root.parents):
-        if str(p).startswith("/tmp/pytest-of"):
-            p.chmod(0o755)  # the sandbox's user id must reach the submissions
+    root = sandbox_class_root(tmp_path_factory, "slurmclass")
     images = {}
     for verdict, drop in (("match", ""), ("wrong", "-shadows")):
         out = root / f"{verdict}.png"

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from helpers import small_tmpfs
 
 from a5mi.converters.volgrid import read_vol
 
@@ -17,17 +18,8 @@ from a5mi.converters.volgrid import read_vol
 @pytest.fixture
 def tiny_fs(tmp_path: Path):  # noqa: ANN201 - a fixture
     """A 64 KiB tmpfs at ``tmp_path/fs`` (root only; skipped otherwise), unmounted afterwards."""
-    if os.geteuid() != 0:
-        pytest.skip("mounting a tmpfs needs root")
-    mnt = tmp_path / "fs"
-    mnt.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True)
-    if r.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {r.stderr.decode().strip()}")
-    try:
+    with small_tmpfs(tmp_path, "64k") as mnt:
         yield mnt
-    finally:
-        subprocess.run(["umount", "-l", str(mnt)], check=False)
 
 
 def _simulate(cwd: Path, *argv: str) -> subprocess.CompletedProcess[str]:

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from view_scenes import time_limit, write_scene
+from view_scenes import beside_loop, time_limit, write_scene
 
 from a5mi.render import estimate as est
 from a5mi.render.options import RenderOptions
@@ -59,23 +59,12 @@ def test_a_newer_control_change_pre_empts_a_long_render(tmp_path: Path, session:
         engine = ViewEngine(str(write_scene(tmp_path / "s.txt")), session)
         hub, stop = RecordingHub(), threading.Event()
         watcher = Watcher(lambda: jobs.render(reload=True), interval=0.05)
-        errors: list[BaseException] = []
 
         def drive() -> None:
-            try:
-                while hub.state().get("version", 0) < 1:
-                    time.sleep(0.02)
-            except BaseException as exc:  # noqa: BLE001 - re-raised on the main thread
-                errors.append(exc)
-            finally:
-                stop.set()
+            while hub.state().get("version", 0) < 1:
+                time.sleep(0.02)
 
-        checker = threading.Thread(target=drive)
-        checker.start()
-        run_engine(engine, hub, jobs, watcher, OPTS, stop=stop, preview=False)
-        checker.join(timeout=10)
-        if errors:
-            raise errors[0]
+        beside_loop(drive, stop, lambda: run_engine(engine, hub, jobs, watcher, OPTS, stop=stop, preview=False))
     first = [e for e in events if e[0] == 1 and e[1] == "render"]
     second = [e for e in events if e[0] == 2 and e[1] == "render"]
     assert len(first) == 2, first  # the start and the first tile: pre-empted there

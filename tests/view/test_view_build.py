@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from view_scenes import a5_png, scene_text, time_limit
+from view_scenes import a5_png, beside_loop, scene_text, time_limit
 
 from a5mi.render.options import RenderOptions
 
@@ -121,23 +121,11 @@ def run_loop(engine, options: RenderOptions, drive, **loop) -> None:  # noqa: AN
     hub, jobs, stop = Recorder(), Jobs(), threading.Event()
     watcher = Watcher(lambda: jobs.render(reload=True))
     watcher.start()
-    errors: list[BaseException] = []
-
-    def checks() -> None:
-        try:
-            drive(hub, states)
-        except BaseException as exc:  # noqa: BLE001 - re-raised on the main thread
-            errors.append(exc)
-        finally:
-            stop.set()
-
-    checker = threading.Thread(target=checks)
-    checker.start()
-    run_engine(engine, hub, jobs, watcher, options, stop=stop, **loop)
-    checker.join(timeout=10)
-    watcher.stop()
-    if errors:
-        raise errors[0]
+    try:
+        beside_loop(lambda: drive(hub, states), stop,
+                    lambda: run_engine(engine, hub, jobs, watcher, options, stop=stop, **loop))
+    finally:
+        watcher.stop()
 
 
 def wait_for(states: list[dict], pred, what: str) -> dict:  # noqa: ANN001

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from view_scenes import a5_png, scene_text, time_limit, write_scene
+from view_scenes import a5_png, beside_loop, scene_text, time_limit, write_scene
 
 from a5mi.render.options import RenderOptions
 
@@ -81,7 +81,6 @@ def test_scene_error_keeps_the_last_good_image_and_a_save_re_renders(tmp_path: P
         watcher = Watcher(lambda: jobs.render(reload=True), interval=0.05)
         watcher.start()
         done = threading.Event()
-        errors: list[BaseException] = []
 
         def wait_version(v: int) -> dict:
             t0 = time.monotonic()
@@ -91,32 +90,24 @@ def test_scene_error_keeps_the_last_good_image_and_a_save_re_renders(tmp_path: P
             return hub.state()
 
         def drive() -> None:
-            try:
-                first = wait_version(1)
-                assert first["error"] is None and hub.image("render") is not None
-                good = hub.image("render")
-                scene.write_text(scene.read_text().replace("numObjects 3", "numObjects 3\n    Sphere {\n  radius"))
-                bad = wait_version(2)
-                assert bad["error"].startswith(f"{scene}:") and ": error: " in bad["error"], bad["error"]
-                assert "\n" not in bad["error"] and hub.image("render") == good and bad["frame"] == first["frame"]
-                write_scene(scene, "0.9 0.9 0.1")
-                fixed = wait_version(3)
-                assert fixed["error"] is None and fixed["frame"] == first["frame"] + 1
-                assert hub.image("render") == a5_png(scene, tmp_path / "a5.png", "-size", "40", "40", "-shadows")
-                done.set()
-            except BaseException as exc:  # noqa: BLE001 - re-raised on the main thread
-                errors.append(exc)
-            finally:
-                stop.set()
+            first = wait_version(1)
+            assert first["error"] is None and hub.image("render") is not None
+            good = hub.image("render")
+            scene.write_text(scene.read_text().replace("numObjects 3", "numObjects 3\n    Sphere {\n  radius"))
+            bad = wait_version(2)
+            assert bad["error"].startswith(f"{scene}:") and ": error: " in bad["error"], bad["error"]
+            assert "\n" not in bad["error"] and hub.image("render") == good and bad["frame"] == first["frame"]
+            write_scene(scene, "0.9 0.9 0.1")
+            fixed = wait_version(3)
+            assert fixed["error"] is None and fixed["frame"] == first["frame"] + 1
+            assert hub.image("render") == a5_png(scene, tmp_path / "a5.png", "-size", "40", "40", "-shadows")
+            done.set()
 
         # the loop renders on this (the main) thread, as in a5mi view; the checks run beside it
-        checker = threading.Thread(target=drive)
-        checker.start()
-        run_engine(engine, hub, jobs, watcher, OPTS, stop=stop)
-        checker.join(timeout=10)
-        watcher.stop()
-        if errors:
-            raise errors[0]
+        try:
+            beside_loop(drive, stop, lambda: run_engine(engine, hub, jobs, watcher, OPTS, stop=stop))
+        finally:
+            watcher.stop()
         assert done.is_set()
 
 

@@ -29,10 +29,11 @@ import mitsuba as mi
 
 from a5mi.plugins.kernel import stack as ray_stack
 from a5mi.plugins.kernel.features import Features, SceneData
-from a5mi.plugins.kernel.intersect import intersect, mirror_normal
-from a5mi.plugins.kernel.pbr import lobes, power_heuristic, sample
+from a5mi.plugins.kernel.intersect import intersect
+from a5mi.plugins.kernel.pbr import power_heuristic, sample
 from a5mi.plugins.kernel.pbr_lights import PbrLights, direct, emission, environment, light_point
-from a5mi.plugins.kernel.surfaces import background, surface_at
+from a5mi.plugins.kernel.pbr_surface import surface_lobes
+from a5mi.plugins.kernel.surfaces import background
 from a5mi.plugins.sampling import Stochastic
 from a5mi.plugins.syntax import syntax
 
@@ -106,10 +107,7 @@ def camera_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
             le, _ = emission(scene, si, hit & ~on_plane, o, d, t_hit)
             color += dr.select(hit, weight * le, 0.0)
 
-        a5, kd, diffuse_color, specular, ior, dispersive, shininess, n, alpha, n_gloss = surface_at(
-            bsdf, si, hit, n, f, None, mi.UInt32(1))
-        n_mirror = mirror_normal(data.planes, on_plane, plane_idx, n)
-        b = lobes(f.fresnel, kd, specular, ior, d, n, n_mirror, n_medium, hit, f.refraction, f.reflection)
+        b, n = surface_lobes(data, f, bsdf, si, n, d, n_medium, on_plane, plane_idx, hit)
         inside = hit & (bounces > 0)                            # within the budget (else: emission only)
         diffuse = inside & (dr.max(b.kd) > 0.0)
         b_nee = b._replace(p_d=dr.select(diffuse, 1.0, 0.0))    # MIS partner: the cache's cos θ/π rays
@@ -188,10 +186,7 @@ def gather(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, first_pdf: mi
             result += dr.select(alive & hit, beta * le * w, 0.0)
         alive &= hit & (depth < data.max_depth)
 
-        a5, kd, diffuse_color, specular, ior, dispersive, shininess, n, alpha, n_gloss = surface_at(
-            bsdf, si, alive, n, f, None, mi.UInt32(1))
-        n_mirror = mirror_normal(data.planes, on_plane, plane_idx, n)
-        b = lobes(f.fresnel, kd, specular, ior, d, n, n_mirror, n_medium, alive, f.refraction, f.reflection)
+        b, n = surface_lobes(data, f, bsdf, si, n, d, n_medium, on_plane, plane_idx, alive)
         nee, counter, n_shadow = direct(scene, data, lights, f.environment, si, p, b, alive,
                                         rng, depth * 256, counter, n_shadow)
         result += dr.select(alive, beta * nee, 0.0)
