@@ -51,8 +51,15 @@ def render_bytes(rw: int, rh: int, *, width: int, height: int, aovs: bool, jitte
 #: concatenated copies and the kd-trees). Measured (BENCHMARKS.md): 16x16 of a closed white box with a glass
 #: sphere (every photon bounces until ``photon_depth``: the worst case), 2 x 250k photons 0.59 GB, 2 x 1M photons
 #: 1.77 GB peak resident: 782 bytes per photon, 0.86 GB for 2 x 400k against 0.83 GB by that slope; 1000
-#: leaves room for that spread.
+#: leaves room for that spread. That was at ``photon_depth`` 10, ten hits per photon: :data:`PHOTON_HIT_BYTES`
+#: per hit.
 PHOTON_BYTES = 1000
+PHOTON_DEPTH_MEASURED = 10
+PHOTON_HIT_BYTES = PHOTON_BYTES // PHOTON_DEPTH_MEASURED
+#: Hits per photon bounded for Russian roulette alone (``photon_depth`` 0, docs/EXTENSIONS.md E.16): survival is
+#: the surface's albedo (at most 1) for the first 32 hits, then at most 0.95, so a photon makes at most
+#: ``32 + 0.95/0.05 = 51`` hits on average (a lossless scene); a dimmer scene makes fewer (1/(1 - albedo)).
+ROULETTE_MEAN_HITS = 32 + 19
 #: docs/EXTENSIONS.md E.17: ``-integrator ppm``'s per-sample statistics (float64 rgb sums and counts).
 PPM_SAMPLE_BYTES = 48
 #: docs/EXTENSIONS.md E.23: one irradiance record (29 float64: p, n, E, R, two 3x3 gradients, spacing; 232
@@ -64,13 +71,16 @@ IC_GATHER_RAYS = 1 << 20
 BAND_SAMPLE_BYTES = 12
 
 
-def integrator_bytes(integrator: str, samples: int, *, photons: int = 0, caustic_photons: int = 0) -> int:
+def integrator_bytes(integrator: str, samples: int, *, photons: int = 0, caustic_photons: int = 0,
+                     photon_depth: int = 0) -> int:
     """Estimated bytes an integrator holds beyond :func:`render_bytes` for a render of ``samples``
-    render-buffer samples: ``photon``: ``(photons + caustic) · 1000`` (:data:`PHOTON_BYTES`, the two maps and
-    their kd-trees); ``ppm``: the same per pass (one pass's maps at a time) ``+ samples · 48``;
+    render-buffer samples: ``photon``: ``(photons + caustic) · 100 · H`` (:data:`PHOTON_HIT_BYTES` per hit, the
+    two maps and their kd-trees; ``H`` = ``photon_depth`` hits, or :data:`ROULETTE_MEAN_HITS` for Russian
+    roulette alone, the lossless worst case); ``ppm``: the same per pass (one pass's maps at a time) ``+ samples · 48``;
     ``irradiancecache``: ``samples · 600`` (records) ``+ 2^20 · 100`` (one gather chunk in flight);
     ``whitted`` / ``path``: 0 (their buffers are the tile's, in :func:`render_bytes`)."""
-    maps = (max(photons, 0) + max(caustic_photons, 0)) * PHOTON_BYTES
+    hits = photon_depth if photon_depth > 0 else ROULETTE_MEAN_HITS
+    maps = (max(photons, 0) + max(caustic_photons, 0)) * PHOTON_HIT_BYTES * hits
     if integrator == "photon":
         return maps
     if integrator == "ppm":

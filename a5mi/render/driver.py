@@ -140,18 +140,20 @@ def _flipped(a: np.ndarray | None) -> np.ndarray | None:
 
 
 def _result(options: RenderOptions, main: PassBuffers, aov: PassBuffers, separate: bool, tiles: int,
-            total: int, timings: dict[str, float]) -> RenderResult:
-    """The :class:`RenderResult` of the filled buffers: the colour (filtered or as traced) clipped at 0,
-    ``-normals``, ``-depth`` as three equal channels, the class image, the counts and the kernel launches of both
-    passes. Only E.10's spectral weight is ever negative (its lobes outside the sRGB gamut): a pixel whose mean
-    stays out of gamut is clipped at 0 in float images as quantisation clips it in 8-bit ones, after ``-filter``,
-    so the 8-bit images are unchanged."""
+            total: int, timings: dict[str, float], clip: bool = False) -> RenderResult:
+    """The :class:`RenderResult` of the filled buffers: the colour (filtered or as traced), ``-normals``,
+    ``-depth`` as three equal channels, the class image, the counts and the kernel launches of both passes. With
+    ``clip`` (a dispersive render) the colour is clipped at 0 after ``-filter``: E.10's spectral weight has
+    negative lobes (outside the sRGB gamut), and a pixel whose mean stays out of gamut is clipped in float images
+    as quantisation clips it in 8-bit ones, so the 8-bit images are unchanged. Any other colour, a negative
+    diffuseColor's included, stays linear (SPEC A.5 sets no range)."""
     if main.stream is not None:
         image = main.stream.result()
     else:
         assert main.color is not None
         image = postprocess(main.color, filter=False)
-    image = np.maximum(image, np.float32(0.0))
+    if clip:
+        image = np.maximum(image, np.float32(0.0))
     depth_img = None
     if aov.dist is not None and options.depth is not None:
         gray = depth_gray(aov.dist, *options.depth)
@@ -216,7 +218,7 @@ def render_scene(
         if separate:
             trace_pass(ctx, quadrant_tiles(rw, rh, rows), aov, done)
         timings["render"] = time.perf_counter() - t_start - timings["filter"]  # the streamed filter: its own stage
-    result = _result(options, main, aov, separate, len(rows), total, timings)
+    result = _result(options, main, aov, separate, len(rows), total, timings, clip=_dispersive(integrator))
     extras = getattr(integrator, "render_extras", None)
     result.extras = extras() if callable(extras) else {}
     return result
@@ -235,6 +237,12 @@ class Band:
     counts: dict[str, int] = field(default_factory=dict)
     kernels: dict[str, int] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
+    clip: bool = False   # a dispersive render's image is clipped at 0 (:func:`_result`)
+
+
+def _dispersive(integrator: Any) -> bool:
+    """Whether ``integrator`` renders E.10's dispersion (its spectral weight has negative lobes)."""
+    return bool(getattr(integrator, "dispersion", False))
 
 
 def render_band(mi_scene: mi.Scene, camera: Camera, options: RenderOptions, band: tuple[int, int], *,
@@ -263,7 +271,8 @@ def render_band(mi_scene: mi.Scene, camera: Camera, options: RenderOptions, band
         trace_pass(ctx, tiles, buf, 0)
         timings["render"] = time.perf_counter() - t0
     assert buf.color is not None
-    return Band(j0, j1, buf.color, buf.normal, buf.dist, buf.counts, buf.kernels, timings)
+    return Band(j0, j1, buf.color, buf.normal, buf.dist, buf.counts, buf.kernels, timings,
+                _dispersive(integrator))
 
 
 def assemble(options: RenderOptions, bands: list[Band], timings: dict[str, float] | None = None) -> RenderResult:
@@ -294,4 +303,5 @@ def assemble(options: RenderOptions, bands: list[Band], timings: dict[str, float
             main.kernels[k] = main.kernels.get(k, 0) + v
         for k in ("compile", "execute", "jitter"):
             timings[k] += b.timings.get(k, 0.0)
-    return _result(options, main, aov, False, len(ordered), rw * rh, timings)
+    return _result(options, main, aov, False, len(ordered), rw * rh, timings,
+                   clip=any(b.clip for b in ordered))

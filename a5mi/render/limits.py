@@ -53,7 +53,8 @@ def memory_need(o: RenderOptions, *, aovs: bool = False, workers: int | None = N
     rw, rh = o.render_size
     render = resources.render_bytes(rw, rh, width=o.width, height=o.height, aovs=aovs, jitter=o.jitter,
                                     filtered=o.filter, tile_rays=o.tile_rays)
-    extra = resources.integrator_bytes(o.integrator, rw * rh, photons=o.photons, caustic_photons=o.caustic_photons)
+    extra = resources.integrator_bytes(o.integrator, rw * rh, photons=o.photons, caustic_photons=o.caustic_photons,
+                                       photon_depth=o.photon_depth)
     if workers is None:
         return render + extra
     return resources.split_bytes(render, extra, rw * rh, workers)

@@ -144,10 +144,9 @@ def connect_timeout() -> float:
     """Seconds a connection to a scheduler may take, its handshake included: Dask's
     ``distributed.comm.timeouts.connect`` (30 s unless configured, e.g.
     ``DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT=5s``)."""
-    dask = require("dask", "grade")
-    from dask.utils import parse_timedelta
-
-    return float(parse_timedelta(dask.config.get("distributed.comm.timeouts.connect", "30s"), default="seconds"))
+    dask = require("dask", "grade")   # dask's own import brings dask.config and dask.utils
+    return float(dask.utils.parse_timedelta(dask.config.get("distributed.comm.timeouts.connect", "30s"),
+    default="seconds"))
 
 
 def probe_scheduler(address: str, security: Any = None, timeout: float | None = None) -> None:

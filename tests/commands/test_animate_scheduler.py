@@ -15,8 +15,8 @@ SCENE = str(PROJECT_ROOT / "scenes" / "animation.txt")
 @pytest.mark.parametrize(("more", "message"), [
     (["--scheduler", "tcp://127.0.0.1:1"], "a plain tcp:// scheduler lets anyone who reaches it run code on its "
      "workers"),
-    (["--tls-ca", "ca.pem"], "--tls-ca/--tls-cert/--tls-key/--insecure-scheduler need --scheduler"),
-    (["--scheduler", "tls://127.0.0.1:1", "--tls-ca", "ca.pem"], "give --tls-ca, --tls-cert and --tls-key together"),
+    (["--tls-ca", "ca.pem"], "--tls-ca needs --scheduler"),
+    (["--scheduler", "tls://127.0.0.1:1", "--tls-ca", "ca.pem"], "--tls-ca needs --tls-cert and --tls-key as well"),
     (["--scheduler", "tls://127.0.0.1:1", "--tls-ca", "a", "--tls-cert", "b", "--tls-key", "c"],
      "TLS credential 'a' is not a file"),
 ])

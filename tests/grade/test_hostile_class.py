@@ -207,7 +207,7 @@ def test_difftest_runner_blocks_the_same_class(klass, tmp_path, monkeypatch) -> 
         elif v == "unreadable" and exp.detail:
             assert status == f"binary failed: out.bmp: {exp.detail.split(': ', 1)[1]}", (name, status)
         elif v == "wrong size":
-            assert status == f"binary failed: image size {exp.detail} (not decoded)", (name, status)
+            assert status == f"binary failed: out.bmp: image size {exp.detail} (not decoded)", (name, status)
         elif v == "timeout":
             assert status in ("timeout", "binary failed: ") or status.startswith("binary failed: "), (name, status)
         else:

@@ -53,11 +53,11 @@ def _a5(tmp_path: Path, capsys, *flags: str) -> tuple[int, list[str]]:  # noqa: 
 
 @pytest.mark.parametrize("flags, words", [
     (("-integrator", "photon", "-photons", BIG, "-caustic_photons", BIG),
-     f"-size 16 16 -integrator photon -photons {BIG} -caustic_photons {BIG} needs about 134.4 GB of memory"),
+     f"-size 16 16 -integrator photon -photons {BIG} -caustic_photons {BIG} needs about 684.7 GB of memory"),
     (("-integrator", "ppm", "-photons", BIG, "-caustic_photons", "0"),
-     f"-size 16 16 -integrator ppm -photons {BIG} -caustic_photons 0 needs about 67.3 GB of memory"),
+     f"-size 16 16 -integrator ppm -photons {BIG} -caustic_photons 0 needs about 342.5 GB of memory"),
     (("-integrator", "photon", "-photons", str(1 << 24), "-caustic_photons", "0", "-workers", "4"),
-     f"-size 16 16 -integrator photon -photons {1 << 24} -caustic_photons 0 on 4 workers needs about 68.2 GB"),
+     f"-size 16 16 -integrator photon -photons {1 << 24} -caustic_photons 0 on 4 workers needs about 343.3 GB"),
 ])
 def test_an_integrator_too_large_for_memory_is_one_line_before_any_work(tmp_path: Path, capsys, monkeypatch,  # noqa: ANN001
                                                                           flags: tuple[str, ...], words: str) -> None:
@@ -75,31 +75,38 @@ def test_irradiance_records_and_ppm_statistics_grow_with_the_samples() -> None:
     ic = dataclasses.replace(o, integrator="irradiancecache")
     assert limits.memory_need(ic) - base == n * resources.IC_RECORD_BYTES + (1 << 20) * resources.TILE_RAY_BYTES
     ppm = dataclasses.replace(o, integrator="ppm", photons=10, caustic_photons=0)
-    assert limits.memory_need(ppm) - base == n * resources.PPM_SAMPLE_BYTES + 10 * resources.PHOTON_BYTES
+    per_photon = resources.PHOTON_HIT_BYTES * resources.ROULETTE_MEAN_HITS  # photon_depth 0: Russian roulette
+    assert limits.memory_need(ppm) - base == n * resources.PPM_SAMPLE_BYTES + 10 * per_photon
     # a split render: the client's bands, and every local worker is a renderer with its own photon maps
     photon = dataclasses.replace(o, integrator="photon", photons=1000, caustic_photons=0)
     one = limits.memory_need(dataclasses.replace(photon, integrator="whitted"))
-    worker = resources.BASE_BYTES + 1000 * resources.PHOTON_BYTES + (one - resources.BASE_BYTES) // 2
+    worker = resources.BASE_BYTES + 1000 * per_photon + (one - resources.BASE_BYTES) // 2
     assert limits.memory_need(photon, workers=2) == one + 12 * n + 2 * worker
     assert limits.memory_need(photon, workers=0) == one + 12 * n  # a remote scheduler: only the client here
 
 
-def test_the_photon_estimate_covers_a_measured_render(tmp_path: Path) -> None:
-    """A worst case for the maps (a closed white box: every photon bounces until photon_depth): the child's
-    peak resident memory stays under :func:`a5mi.render.limits.memory_need` of its options."""
+@pytest.mark.parametrize("depth", [10, 0])
+def test_the_photon_estimate_covers_a_measured_render(tmp_path: Path, depth: int) -> None:
+    """A bright case for the maps (a closed box of albedo 0.9): the child's peak resident memory stays under
+    :func:`a5mi.render.limits.memory_need` of its options. With ``-photon_depth 10`` every photon bounces until
+    the cut, the case the per-hit figure was measured on, and the estimate is within 2x; with Russian roulette
+    alone (0) the estimate assumes a lossless scene (51 hits), so here (10 hits on average) it is only a bound."""
     (tmp_path / "box.txt").write_text(BOX)
     n = 400_000
     py = "import sys; from a5mi.entry import a5; sys.argv = ['a5'] + sys.argv[1:]; a5()"
     before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     p = subprocess.run([sys.executable, "-c", py, "-input", "box.txt", "-output", "o.png", "-size", "16", "16",
-                        "-integrator", "photon", "-photons", str(n), "-caustic_photons", str(n)], cwd=tmp_path,
+                        "-integrator", "photon", "-photons", str(n), "-caustic_photons", str(n),
+                        "-photon_depth", str(depth), "-force"], cwd=tmp_path,
                        capture_output=True, text=True, timeout=900, env={**os.environ, "A5MI_CACHE_DIR": str(tmp_path)})
     assert p.returncode == 0, p.stderr
     peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024
     assert peak > before * 1024, "the child's peak was not measured"
-    need = limits.memory_need(RenderOptions(width=16, height=16, integrator="photon", photons=n, caustic_photons=n))
+    need = limits.memory_need(RenderOptions(width=16, height=16, integrator="photon", photons=n, caustic_photons=n,
+                                            photon_depth=depth))
     assert peak <= need, (peak, need)
-    assert need <= 2 * peak, (peak, need)  # and not a wild overestimate
+    if depth:
+        assert need <= 2 * peak, (peak, need)  # and not a wild overestimate where the model is exact
 
 
 def test_the_page_and_the_command_line_refuse_the_same_combinations() -> None:

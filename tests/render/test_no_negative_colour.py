@@ -1,7 +1,7 @@
-"""A render's colour is never negative (a5mi/render/driver.py ``_result``): E.10's spectral weight has negative
-lobes, so
-a pixel that sees a narrow band of wavelengths can average out of the sRGB gamut; it is clipped at 0 in float
-images as quantisation clips it in 8-bit ones (docs/EXTENSIONS.md E.10)."""
+"""A dispersive render's colour is never negative (a5mi/render/driver.py ``_result``): E.10's spectral weight has
+negative lobes, so a pixel that sees a narrow band of wavelengths can average out of the sRGB gamut; it is
+clipped at 0 in float images as quantisation clips it in 8-bit ones (docs/EXTENSIONS.md E.10). Other renders
+stay linear in their colours, negative ones included (tests/commands/test_faults_cli.py)."""
 
 from __future__ import annotations
 

@@ -26,7 +26,7 @@ PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
 #: The modules of the core dependencies: all that ``a5`` imports besides the standard library.
 CORE_MODULES = {"mitsuba", "drjit", "numpy", "OpenImageIO", "scipy"}  # scipy: the photon maps' k-d tree (E.16)
 #: Every module that an extra brings and the code imports.
-EXTRA_MODULES = ("distributed", "dask", "cryptography", "flip_evaluator", "imageio_ffmpeg", "tqdm")
+EXTRA_MODULES = ("distributed", "dask", "cryptography", "flip_evaluator", "imageio_ffmpeg", "tqdm", "dask_jobqueue")
 SCENE = ("PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 20 }\n"
          "Lights { numLights 1 DirectionalLight { direction -0.2 -0.2 -1 color 1 1 1 } }\n"
          "Background { color 0.2 0 0.6 ambientLight 0 0 0 }\n"

@@ -102,13 +102,19 @@ def _argv(root: Path, subs: str, report: Path, *more: str) -> list[str]:
             "--no-flip", *more]
 
 
+#: record fields that differ from run to run (:func:`_records`)
+MEASURED = frozenset({"wall", "fingerprint", "cpu", "waited", "cpu_bound", "wall_bound", "uid"})
+
+
 def _records(report: Path) -> dict[tuple[str, str], dict]:
-    """The records of ``results.json`` by (student, case), without what differs from run to run: ``wall`` (the
-    seconds the case ran) and ``fingerprint`` (it digests the task, whose folders name the report folder)."""
+    """The records of ``results.json`` by (student, case), without what differs from run to run: what the run
+    measured (``wall``, ``cpu``, ``waited``, and the bounds calibrated from a5mi's own CPU time on the worker,
+    ``cpu_bound``, ``wall_bound``), the run's own user id ``uid``, and ``fingerprint`` (it digests the task,
+    whose folders name the report folder). The verdict, its detail, cause and ``ended_by`` are compared."""
     doc = json.loads((report / "results.json").read_text())
     out = {}
     for r in doc["results"]:
-        r = {k: v for k, v in r.items() if k not in ("wall", "fingerprint")}
+        r = {k: v for k, v in r.items() if k not in MEASURED}
         out[r["student"], r["case"]] = r
     return out
 
