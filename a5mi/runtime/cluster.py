@@ -145,8 +145,8 @@ def connect_timeout() -> float:
     ``distributed.comm.timeouts.connect`` (30 s unless configured, e.g.
     ``DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT=5s``)."""
     dask = require("dask", "grade")   # dask's own import brings dask.config and dask.utils
-    return float(dask.utils.parse_timedelta(dask.config.get("distributed.comm.timeouts.connect", "30s"),
-    default="seconds"))
+    setting = dask.config.get("distributed.comm.timeouts.connect", "30s")
+    return float(dask.utils.parse_timedelta(setting, default="seconds"))
 
 
 def probe_scheduler(address: str, security: Any = None, timeout: float | None = None) -> None:
