@@ -7,7 +7,7 @@ DEMO_FLAGS := -size 300 300 -shadows -bounces 4 -jitter -filter
 # `make setup` says what it does in a line per step; what the steps print (apt-get, pip) goes to this log.
 SETUP_LOG := $(VENV)/setup.log
 
-.PHONY: setup llvm tools demo test test-all fuzz lint bench gpu-check clean
+.PHONY: setup llvm tools demo test test-all check fuzz lint bench gpu-check clean
 
 # `$(STEP) "what it does" COMMAND ARGS...`: print "a5mi setup: what it does" and append the command's output to
 # $(SETUP_LOG); when it fails, print the last 30 lines of that output and the log's path, and stop with the
@@ -69,6 +69,11 @@ test: setup lint
 
 test-all: setup lint
 	$(PYTEST)
+
+# `make check`: what a developer runs on every save: ruff and the unit tests (pytest marker `unit`: no Mitsuba
+# variant, no child process; ~20 s on 2 cores, BENCHMARKS.md "make check").
+check: setup lint
+	$(BIN)/python -m pytest -q -n $(TEST_JOBS) -m "unit and not slow and not course_data"
 
 # The thorough hypothesis profile (tests/conftest.py): ten times the examples of `make test`, random seeds;
 # plus the mutation campaign (tests/fuzzing.py) through real renders, bounded in time and seeded (scenes, meshes,

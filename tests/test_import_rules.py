@@ -20,6 +20,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 ROOT = Path(__file__).resolve().parent.parent
 #: folder -> its package name
 PACKAGES = {"a5mi": "a5mi", "converters": "a5mi.converters", "plugins": "a5mi.plugins"}

@@ -4,7 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from a5mi import spec
+
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
 
 
 def test_a4_cube_face_search_prefers_the_listed_extensions_then_any_other(tmp_path: Path) -> None:

@@ -5,9 +5,12 @@ from __future__ import annotations
 import io
 import time
 
+import pytest
 from helpers import FakeClock
 
 from a5mi.cli.progress import ProgressBar
+
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
 
 
 def test_estimate_moves_between_tiles_and_stops_at_the_tile_in_flight() -> None:

@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import io
 
+import pytest
 from helpers import FakeClock
 
 from a5mi.cli.progress import ProgressBar
+
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
 
 
 def test_log_lines_every_interval_with_rays_and_eta_and_none_at_the_end() -> None:

@@ -12,6 +12,8 @@ from a5mi.converters import lexer
 from a5mi.converters.a5_parser import MAX_NESTING, parse_file, parse_text
 from a5mi.converters.errors import EXCERPT_CHARS, SceneError, SceneSyntaxError, shown
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 HEAD = ("PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 20 }\n"
         "Materials { numMaterials 1 Material { diffuseColor 1 1 1 } }\n")
 

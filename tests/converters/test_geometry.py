@@ -12,6 +12,8 @@ from a5mi import data_dir
 from a5mi.converters.geometry import mesh_from_obj
 from a5mi.converters.obj import load_obj
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 UV_OBJS = [p for p in sorted(data_dir().rglob("*.obj")) if b"\nvt " in p.read_bytes()]
 
 

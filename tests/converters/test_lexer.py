@@ -9,6 +9,8 @@ import pytest
 from a5mi.converters.errors import FileLoc, SceneError, SceneSyntaxError
 from a5mi.converters.lexer import decode, read_source, tokenize
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 
 def test_a0_tokens_and_positions_are_1_based() -> None:
     toks = tokenize("Group {\n  numObjects\t3\n}", "s.txt")

@@ -13,6 +13,8 @@ import pytest
 from a5mi.converters.describe import MaterialDescription
 from a5mi.converters.materials import stock_bsdf
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 
 def _mat(kd, ks, ior=0.0) -> MaterialDescription:
     return MaterialDescription(tuple(kd), tuple(ks), 0.0, ior, None)

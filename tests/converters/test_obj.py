@@ -11,6 +11,8 @@ import pytest
 from a5mi.converters.errors import FileLoc, SceneSemanticError
 from a5mi.converters.obj import face_normals, load_obj, uses_smooth_normals, vertex_normals
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 
 def _write(tmp_path: Path, text: str, name: str = "m.obj") -> Path:
     p = tmp_path / name

@@ -16,6 +16,8 @@ from a5mi import data_dir
 from a5mi.converters.errors import FileLoc, SceneSemanticError
 from a5mi.converters.obj import ObjMesh, _parse_fast, _parse_slow, load_obj
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 COURSE_OBJS = sorted(data_dir().rglob("*.obj"))
 
 

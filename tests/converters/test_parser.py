@@ -20,6 +20,8 @@ from a5mi.converters.a5_parser import parse_file, parse_text
 from a5mi.converters.errors import FileLoc, SceneError, SceneSemanticError, SceneSyntaxError
 from a5mi.converters.transforms import transform_points
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 DATA = TESTS / "data"
 VALID = sorted((DATA / "valid").glob("*.txt"))
 INVALID = sorted((DATA / "invalid").glob("*.txt"))

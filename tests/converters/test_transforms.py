@@ -10,6 +10,8 @@ import pytest
 from a5mi.converters import transforms as t
 from a5mi.converters.a5_parser import parse_text
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 S = math.sqrt(0.5)  # sin 45 = cos 45
 
 

@@ -30,6 +30,8 @@ from a5mi.grade.report import write_all
 from a5mi.grade.run import Task, grade_one
 from a5mi.platform.imageio import write_image
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 SIZE = 24
 CASES = f"""
 [[case]]

@@ -10,6 +10,8 @@ import pytest
 from a5mi.platform import imageio
 from a5mi.platform.errors import ImageReadError, ImageWriteError
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 
 def test_b1_quantize_truncates() -> None:
     q = imageio.quantize([0.5, 1.2, -0.1, 1.0, 0.0, 254.9 / 255, float("nan"), float("inf")])

@@ -11,6 +11,8 @@ import pytest
 from a5mi.platform import imageio
 from a5mi.platform.errors import ImageWriteError
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 
 def _failing_create_for(monkeypatch, marker: str) -> list[str]:
     """Make OpenImageIO fail to create a writer for temporaries whose name contains ``marker``; returns the

@@ -9,8 +9,11 @@ at ``c = 8,421,504.5``, where ``cvttss2si`` stops holding the product and return
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from a5mi.platform.imageio import quantize
+
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
 
 
 def test_in_range_truncates_and_clamps() -> None:

@@ -7,6 +7,8 @@ import pytest
 
 from a5mi.render.filters import FilterStream, blur, downsample3, kernel_taps, output_size, postprocess
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 
 def _blur_loop(img: np.ndarray, taps: np.ndarray) -> np.ndarray:
     """Direct transcription: along y into a new buffer, then along x; clamp per axis; float32 sums."""

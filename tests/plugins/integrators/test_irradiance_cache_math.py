@@ -15,6 +15,8 @@ import pytest
 from a5mi.plugins.integrators.irradiance_cache import formulas as icm
 from a5mi.plugins.integrators.irradiance_cache.grid import RecordSet, cell_keys
 
+pytestmark = pytest.mark.unit  # the fast tier (`make check`): no Mitsuba, no child process
+
 
 def _hemisphere(n: np.ndarray, m: int, nn: int, seed: int) -> np.ndarray:
     return icm.directions(n, m, nn, np.random.default_rng(seed).random((n.shape[0], m, nn, 2)))
