@@ -143,6 +143,14 @@ def variant() -> str:
 
 
 @pytest.fixture(scope="session")
+def render_text(variant: str) -> Callable[..., Any]:
+    """:func:`helpers.render_text` with the session's variant active: ``render_text(text, **RenderOptions)``."""
+    from helpers import render_text as render
+
+    return render
+
+
+@pytest.fixture(scope="session")
 def mi(variant: str) -> Any:
     """The ``mitsuba`` module with the session's variant active."""
     import mitsuba

@@ -9,6 +9,7 @@ import subprocess
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -89,3 +90,15 @@ def read_bmp24(path: Path) -> np.ndarray:
     rows = [np.frombuffer(raw, np.uint8, width * 3, offset + r * stride).reshape(width, 3) for r in range(abs(height))]
     img = np.stack(rows)[:, :, ::-1]
     return img[::-1] if height > 0 else img
+
+
+def render_text(text: str, path: str = "<string>", **options: Any) -> np.ndarray:
+    """a5 scene ``text`` (positions and relative file names as if it were the file ``path``) rendered in-process
+    with ``RenderOptions(**options)``: the float image as :func:`a5mi.render.session.render` returns it (row 0
+    at the top, before quantisation). The JIT variant must be active: use the ``render_text`` fixture."""
+    from a5mi.converters.a5_parser import parse_text
+    from a5mi.converters.describe import describe
+    from a5mi.render.options import RenderOptions
+    from a5mi.render.session import render
+
+    return np.asarray(render(describe(parse_text(text, path)), RenderOptions(**options)).image)

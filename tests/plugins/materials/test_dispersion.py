@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 from conftest import positioned_error_test
-from helpers import ROOT
+from helpers import ROOT, render_text
 
 from a5mi.converters.a5_parser import parse_text
 
@@ -202,12 +202,7 @@ def test_prism_exit_angles_follow_snell_with_cauchy_index(mi: Any) -> None:
 
 # ------------------------------------------------------------------------------------------------ B = 0, paths
 def _render(text: str, **opts: Any) -> np.ndarray:
-    from a5mi.converters.describe import describe
-    from a5mi.render.options import RenderOptions
-    from a5mi.render.session import render
-
-    return np.asarray(render(describe(parse_text(text)), RenderOptions(width=32, height=32, shadows=True, bounces=4,
-                                                             **opts)).image)
+    return render_text(text, **{"width": 32, "height": 32, "shadows": True, "bounces": 4, **opts})
 
 
 def test_b_zero_renders_the_non_dispersive_image_bit_for_bit(mi: Any) -> None:

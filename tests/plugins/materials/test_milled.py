@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 from conftest import positioned_error_test
-from helpers import ROOT
+from helpers import ROOT, render_text
 
 from a5mi.converters.a5_parser import parse_text
 
@@ -154,12 +154,7 @@ def test_light_loop_adds_pi_times_the_ward_lobe(mi: Any) -> None:
 
 
 def _render(text: str, size: int = 64) -> np.ndarray:
-    from a5mi.converters.describe import describe
-    from a5mi.render.options import RenderOptions
-    from a5mi.render.session import render
-
-    img = render(describe(parse_text(text, str(SCENES / "t.txt"))), RenderOptions(width=size, height=size))
-    return np.asarray(img.image, dtype=np.float64)
+    return render_text(text, str(SCENES / "t.txt"), width=size, height=size).astype(np.float64)
 
 
 def _major_axis(img: np.ndarray) -> tuple[np.ndarray, float]:
