@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from a5mi.driver import Progress, RenderResult, render_scene
-from a5mi.options import RenderOptions
+from a5mi.options import MARBLE_MISTAKES, RenderOptions
 
 if TYPE_CHECKING:
     import mitsuba as mi
@@ -58,7 +58,21 @@ def scene_dict(desc: SceneDescription, options: RenderOptions) -> dict[str, Any]
     (:func:`a5mi.converters.to_mitsuba.to_dict`; no file is read here)."""
     from a5mi.converters.to_mitsuba import to_dict
 
-    return to_dict(desc, options)
+    return marble_mistakes(to_dict(desc, options), options.of_layer(MARBLE_MISTAKES))
+
+
+def marble_mistakes(entry: Any, mistakes: tuple[str, ...]) -> Any:
+    """``entry`` (a scene dict or part of one) with every ``a5_marble`` texture given docs/MISTAKES.md's
+    ``mistake`` parameter (plugins/marble.py; the first of ``mistakes``, which are exclusive); unchanged when
+    ``mistakes`` is empty."""
+    if not mistakes:
+        return entry
+    if isinstance(entry, dict):
+        out = {k: marble_mistakes(v, mistakes) for k, v in entry.items()}
+        if out.get("type") == "a5_marble":
+            out["mistake"] = mistakes[0]
+        return out
+    return entry
 
 
 def load(entry: dict[str, Any]) -> Any:
@@ -118,14 +132,14 @@ class RenderSession:
             raise ValueError(f"max_scenes must be >= 1, got {max_scenes}")
         self.variant = variants.activate(variant)
         self.max_scenes = max_scenes
-        self._built: OrderedDict[int, _Built] = OrderedDict()
+        self._built: OrderedDict[tuple[int, tuple[str, ...]], _Built] = OrderedDict()
         #: scenes built (``mi.load_dict`` of a whole scene) and integrators loaded on their own, so far
         self.scenes_built = 0
         self.integrators_loaded = 0
 
     def _entry(self, desc: SceneDescription, options: RenderOptions) -> tuple[_Built, float]:
         """The cached scene of ``desc`` (built now if absent) and the seconds spent building."""
-        key = id(desc)
+        key = (id(desc), options.of_layer(MARBLE_MISTAKES))   # docs/MISTAKES.md: marble mistakes live in the scene
         entry = self._built.get(key)
         if entry is not None and entry.desc is desc:
             self._built.move_to_end(key)
@@ -175,7 +189,8 @@ class RenderSession:
 
     def forget(self, desc: SceneDescription) -> None:
         """Drop the built scene of ``desc`` (its kernels stay in Dr.Jit's cache)."""
-        self._built.pop(id(desc), None)
+        for key in [k for k in self._built if k[0] == id(desc)]:
+            del self._built[key]
 
 
 def describe_file(path: str, *, bump: bool = False) -> tuple[SceneDescription, list[SceneWarning]]:

@@ -15,7 +15,7 @@ import mitsuba as mi
 from a5mi.spec import FRESNEL_MODES, TMIN
 
 from . import media, subsurface, triangle_rule
-from .kernel.features import SceneData, build_features
+from .kernel.features import KERNEL_MISTAKES, SceneData, build_features, depth_budget
 from .kernel.lights import lights_of
 from .kernel.raylog import RayLog
 from .kernel.raytree import TreeResult, trace_tree
@@ -66,6 +66,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
     indirect         int     0       rays gathered at each diffuse hit (``-indirect``, EXTENSIONS E.15)
     medium           string  none    ``fog`` / ``volume``: a participating medium (EXTENSIONS E.8,
                                      E.9; ``medium_*`` parameters, plugins/media.py)
+    mistakes         string  ""      comma-separated names of ``KERNEL_MISTAKES`` (docs/MISTAKES.md): render as
+                                     a student with those mistakes would (empty: SPEC B.3)
     plane_<id>_*     ...             an exact infinite plane: ``_normal`` vector, ``_offset`` float,
                                      ``_bsdf`` BSDF, optional ``_mirror_normal`` (SPEC A.6,
                                      plugins/planes.py)
@@ -139,6 +141,12 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         if groups is None or any(g not in AOV_CHANNELS for g in groups):
             raise ValueError(f"a5_whitted: 'aovs' must list groups of {', '.join(AOV_CHANNELS)}, got {aovs!r}")
         self.aovs = tuple(g for g in AOV_CHANNELS if g in groups)
+        mistakes = props.get("mistakes", "")   # docs/MISTAKES.md
+        names = [m.strip() for m in mistakes.split(",") if m.strip()] if isinstance(mistakes, str) else None
+        if names is None or any(m not in KERNEL_MISTAKES for m in names):
+            raise ValueError(f"a5_whitted: 'mistakes' must list names of {', '.join(KERNEL_MISTAKES)}, "
+                             f"got {mistakes!r}")
+        self.mistakes = tuple(sorted(set(names)))
         self.planes = planes_from_props(props)
         self._planes = plane_set(self.planes)
         glossy_samples = props.get("glossy_samples", 1)  # docs/EXTENSIONS.md E.4: cap on glossy children
@@ -178,9 +186,9 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         lane's ray tree (a kernel with the recording calls). Parameter ``ray_log`` (``a5mi bench``'s traversal
         floor): write every node ray and shadow ray the kernel casts into this
         :class:`~.kernel.raylog.RayLog` (a kernel with the logging calls; the colour is the same)."""
-        data = SceneData(dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, self.ambient),
-                         dr.opaque(mi.Float, self.tmin), lights_of(scene), self._planes, self._rule_table(scene),
-                         self._medium)
+        data = SceneData(dr.opaque(mi.UInt32, depth_budget(self.max_depth, self.mistakes)),
+                         dr.opaque(mi.Color3f, self.ambient), dr.opaque(mi.Float, self.tmin), lights_of(scene),
+                         self._planes, self._rule_table(scene), self._medium)
         features = build_features(self, scene, data, record=record is not None, ray_log=ray_log is not None)
         width = _width(ray, active)
         # Every loop variable must be full width (a width-1 stack pointer makes lanes loop forever).
@@ -218,6 +226,7 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
         callback.put("bump", self.bump, flags)
         callback.put("glossy", self.glossy, flags)
         callback.put("indirect", self.indirect, flags)
+        callback.put("mistakes", ",".join(self.mistakes), flags)
 
     def to_string(self) -> str:
         return (
@@ -226,7 +235,8 @@ class A5WhittedIntegrator(mi.SamplingIntegrator):
             f"reflection={self.reflection}, refraction={self.refraction}, tmin={self.tmin}, "
             f"aovs='{','.join(self.aovs)}', glossy_samples={self.glossy_samples}, "
             f"dispersion={self.dispersion}, bump={self.bump}, glossy={self.glossy}, "
-            f"medium='{self._medium.kind if self._medium is not None else 'none'}', planes={len(self.planes)}]"
+            f"medium='{self._medium.kind if self._medium is not None else 'none'}', planes={len(self.planes)}, "
+            f"mistakes='{','.join(self.mistakes)}']"
         )
 
 

@@ -17,7 +17,16 @@ from a5mi import clobber
 from a5mi.cli.app import Command, Console, activate_variant, load_scene
 from a5mi.cli.flags import Args, Flag, Positional, choice, integer, number, real, size_flag, text
 from a5mi.errors import ExitStatus, UsageError
-from a5mi.options import AOV_MODES, INTEGRATORS, KERNELS, PHOTON_FILTERS, QUIRKS, SUBSURFACE_METHODS, RenderOptions
+from a5mi.options import (
+    AOV_MODES,
+    INTEGRATORS,
+    KERNELS,
+    MISTAKES,
+    PHOTON_FILTERS,
+    QUIRKS,
+    SUBSURFACE_METHODS,
+    RenderOptions,
+)
 from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, JITTER_FACTOR
 
 #: Render-buffer samples (3W x 3H with -jitter) accepted at most (~16 GB by a5mi.resources' model); below it
@@ -50,6 +59,16 @@ def _unit(flag: str, value: str) -> float:
     if not 0.0 < x < 1.0:
         raise UsageError(f"{flag} expects a number in (0, 1), found {value}")
     return x
+
+
+def _mistakes(flag: str, values: list[str]) -> tuple[str, ...]:
+    """``-mistake NAME[,NAME]``: names of :data:`a5mi.options.MISTAKES` (docs/MISTAKES.md), each once."""
+    names = tuple(dict.fromkeys(n.strip() for n in values[0].split(",") if n.strip()))
+    unknown = [n for n in names if n not in MISTAKES]
+    if not names or unknown:
+        raise UsageError(f"{flag} expects names of docs/MISTAKES.md separated by commas, found "
+                         f"'{unknown[0] if unknown else values[0]}' (a5mi diagnose --list prints them)")
+    return names
 
 
 #: SPEC B.1 flags, then the extras; dests are RenderOptions fields (plus the output paths).
@@ -124,6 +143,8 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          "tested before it takes that mesh's uv, as a5soln (docs/FIDELITY.md)", 1, choice(QUIRKS), "none", "Q"),
     Flag(("-normals_mode", "--normals-mode"), "aov_mode", "main (-normals/-depth use the image's rays) or "
          "quadrant (a5soln's top-right-quadrant rays, SPEC B.6)", 1, choice(AOV_MODES), "main", "M"),
+    Flag(("-mistake", "--mistake"), "mistakes", "render as a student with these mistakes would (comma-separated "
+         "names of docs/MISTAKES.md; a5mi diagnose ranks them)", 1, _mistakes, metavar="NAME[,NAME]"),
     Flag(("-v", "--verbose"), "verbose", "print stage timings, ray counts and peak memory on stderr",
          default=False, show_default=False),
 )

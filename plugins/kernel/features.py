@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import mitsuba as mi
 
+from a5mi.options import KERNEL_MISTAKES
+
 from ..milled import uses_milled
 from . import pbr_gather
 from .lights import Lights, has_area_lights
@@ -53,6 +55,8 @@ class Features(NamedTuple):
     stale_uv       bool     ``-quirks binary``: some plane-set entry has a textured BSDF (``plane_<id>_bsdf_uv``)
                             and a rule mesh exists: the sample solution's stale uv (docs/FIDELITY.md)
     stack_size     int      entries of the pending-ray stack (:func:`stack_size`)
+    mistakes       tuple    docs/MISTAKES.md: names of :data:`KERNEL_MISTAKES` compiled in (sorted; empty:
+                            SPEC B.3 exactly, the default kernel's IR unchanged)
     ============== ======== ===================================================================
     """
 
@@ -76,6 +80,19 @@ class Features(NamedTuple):
     indirect: int = 0
     stale_uv: bool = False
     ray_log: bool = False
+    mistakes: tuple[str, ...] = ()
+
+
+def depth_budget(max_depth: int, mistakes: tuple[str, ...] = ()) -> int:
+    """The bounce budget the kernel runs with (SPEC B.3 ``bounces``): ``max_depth``, or with docs/MISTAKES.md's
+    ``bounces_plus_one`` ``max_depth + 1``, ``bounces_minus_one`` ``max(max_depth - 1, 0)``, ``no_recursion`` 0."""
+    if "no_recursion" in mistakes:
+        return 0
+    if "bounces_plus_one" in mistakes:
+        max_depth += 1
+    if "bounces_minus_one" in mistakes:
+        max_depth -= 1
+    return max(max_depth, 0)
 
 
 class SceneData(NamedTuple):
@@ -90,6 +107,10 @@ class SceneData(NamedTuple):
     planes: PlaneSet
     rules: RuleTable | None
     medium: MediumParams | None
+
+
+__all__ = ["KERNEL_MISTAKES", "FeatureSource", "Features", "SceneData", "build_features", "depth_budget",
+           "stack_size"]
 
 
 class FeatureSource(Protocol):
@@ -122,11 +143,13 @@ def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, reco
     environment) and what ``data`` carries (a triangle-rule table, a medium); ``indirect`` (E.15) is read where
     the integrator has it; ``record`` and ``ray_log``: the call hands a recorder / a ray log to the kernel."""
     indirect = int(getattr(source, "indirect", 0))
-    size = stack_size(source.max_depth, source.glossy_samples)
+    mistakes = tuple(sorted(getattr(source, "mistakes", ())))
+    size = stack_size(depth_budget(source.max_depth, mistakes), source.glossy_samples)
     if indirect > 0:
         size = pbr_gather.stack_size(source.max_depth, source.glossy_samples, indirect)
     return Features(
-        shadows=source.shadows, phong=source.phong, fresnel=source.fresnel, reflection=source.reflection,
+        shadows=source.shadows and "no_shadows" not in mistakes, phong=source.phong or "phong_highlight" in mistakes,
+        fresnel=source.fresnel, reflection=source.reflection,
         refraction=source.refraction, area_lights=has_area_lights(scene), glossy=source.glossy,
         bump=source.bump, media=data.medium is not None,
         media_light=data.medium is not None and data.medium.bounces > 0 and source.shadows,
@@ -135,4 +158,6 @@ def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, reco
         environment=scene.environment() is not None, triangle_rule=data.rules is not None, record=record,
         stack_size=size, indirect=indirect,
         stale_uv=data.planes.bsdf_uv is not None and data.rules is not None, ray_log=ray_log,
+        mistakes=tuple(m for m in mistakes if m not in ("no_shadows", "phong_highlight", "bounces_plus_one",
+                                                         "bounces_minus_one", "no_recursion")),
     )
