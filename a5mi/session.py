@@ -58,21 +58,7 @@ def scene_dict(desc: SceneDescription, options: RenderOptions) -> dict[str, Any]
     (:func:`a5mi.converters.to_mitsuba.to_dict`; no file is read here)."""
     from a5mi.converters.to_mitsuba import to_dict
 
-    return marble_mistakes(to_dict(desc, options), options.of_layer(MARBLE_MISTAKES))
-
-
-def marble_mistakes(entry: Any, mistakes: tuple[str, ...]) -> Any:
-    """``entry`` (a scene dict or part of one) with every ``a5_marble`` texture given docs/MISTAKES.md's
-    ``mistake`` parameter (plugins/marble.py; the first of ``mistakes``, which are exclusive); unchanged when
-    ``mistakes`` is empty."""
-    if not mistakes:
-        return entry
-    if isinstance(entry, dict):
-        out = {k: marble_mistakes(v, mistakes) for k, v in entry.items()}
-        if out.get("type") == "a5_marble":
-            out["mistake"] = mistakes[0]
-        return out
-    return entry
+    return to_dict(desc, options)
 
 
 def load(entry: dict[str, Any]) -> Any:
@@ -159,7 +145,8 @@ class RenderSession:
         """``(Mitsuba scene, the scene dict's integrator entry, the scene's integrator)`` of ``desc``: one
         ``mi.load_dict`` of :func:`scene_dict` (a subclass may reuse objects of its earlier builds)."""
         whole = scene_dict(desc, options)
-        template = dict(whole["integrator"])
+        own = options.integrator_params()   # the options' part; the template keeps the scene's (ambient, planes, ...)
+        template = {k: v for k, v in whole["integrator"].items() if k not in own}
         scene = load(whole)
         return scene, template, scene.integrator()
 
