@@ -30,7 +30,8 @@ Stages (small renders first, full size only for the finalists):
 4. The best :data:`FINALISTS` of stage 3 and the jitter mutants rendered at full size and scored by ``E``; then
    pairs (two mistakes at once): for each of the best :data:`PAIR_FROM` singles, the partners whose differences,
    added to its own, best predict the observed difference (at the scale both were rendered at), rendered together
-   at full size; a pair is kept when it explains clearly more than either alone.
+   at full size; a pair is kept when it explains clearly more than either alone (by 0.1, or by half of what the
+   better one leaves unexplained).
 5. ``diagnosis`` when the best cause explains at least :data:`NAMED_SHARE` and leaves less than a quarter of the
    error it started from beyond the noise floor; otherwise ``unexplained`` with the remaining error. Never a
    forced guess.
@@ -49,6 +50,7 @@ import numpy as np
 import numpy.typing as npt
 
 from a5mi.diagnose.catalogue import BY_NAME, Mistake, applicable, option_traits, scene_traits
+from a5mi.errors import UserError
 from a5mi.filters import image_mistakes, mistaken_postprocess, output_size, postprocess
 from a5mi.imageio import quantize
 from a5mi.options import FILTER_MISTAKES, IMAGE_MISTAKES, JITTER_MISTAKES, RenderOptions
@@ -65,8 +67,9 @@ FINALISTS = 5
 PAIR_FROM = 3
 #: A named cause explains at least this share of the difference.
 NAMED_SHARE = 0.6
-#: Causes listed (best first) in the result.
+#: Causes listed (best first) in the result, each after the first explaining at least LISTED_SHARE.
 SHOWN = 3
+LISTED_SHARE = 0.1
 #: ``match`` within this many times the seed noise σ² (two seeds differ by 2σ² on average).
 MATCH_NOISE = 2.6
 #: ``match`` at or above this PSNR (dB) whatever the noise (SPEC C's floor for a faithful renderer).
@@ -87,7 +90,19 @@ LEVELS = 2
 Image = npt.NDArray[np.float64]
 
 
-class DiagnoseError(ValueError):
+def srgb_decode(c: Image) -> Image:
+    """The inverse of :func:`a5mi.filters.srgb_encode` on [0, 1]."""
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+#: Saved-image mistakes and how to undo them (a pair's other mistake is then looked for in what is left).
+REVERSIBLE: dict[str, Callable[[Image], Image]] = {
+    "upside_down": lambda a: a[::-1], "mirrored": lambda a: a[:, ::-1], "red_blue_swapped": lambda a: a[..., ::-1],
+    "srgb_gamma": srgb_decode,
+}
+
+
+class DiagnoseError(UserError):
     """The image cannot be compared with the scene's render (a size that the flags do not give)."""
 
 
@@ -230,9 +245,10 @@ def region_words(box: tuple[int, int, int, int], w: int, h: int) -> str:
     return " ".join(p for p in (vert, horiz) if p) or "centre"
 
 
-def evidence(image: Image, reference: Image, mutant: Image) -> Evidence:
-    """The :class:`Evidence` of a mutant (module docstring)."""
-    tol = LEVELS / 255.0 + 1e-9
+def evidence(image: Image, reference: Image, mutant: Image, noise: float = 0.0) -> Evidence:
+    """The :class:`Evidence` of a mutant (module docstring); a pixel differs by more than :data:`LEVELS` levels
+    and three times the RMS jitter noise ``sqrt(noise)``."""
+    tol = max(LEVELS / 255.0, 3.0 * math.sqrt(noise)) + 1e-9
     differs = np.any(np.abs(image - reference) > tol, axis=-1)
     fixed = differs & np.all(np.abs(image - mutant) <= tol, axis=-1)
     h, w = differs.shape
@@ -347,7 +363,7 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
             m = r.full((n,))
             left = mse(img, m)
             if left <= DETERMINISTIC * noise:
-                cause = Cause((n,), explained(img, ref, m), evidence=evidence(img, ref, m))
+                cause = Cause((n,), explained(img, ref, m), evidence=evidence(img, ref, m, noise))
                 result.verdict, result.causes, result.remaining = "diagnosis", [cause], left
                 break
         else:
@@ -383,7 +399,8 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
         k = max(1, math.ceil(max(w, h) / SMALL))
         size = (max(2, w // k), max(2, h // k))
         sampled = options.jitter and options.filter
-        at = resample(img, sample_positions(size[0], w, sampled), sample_positions(size[1], h, sampled))
+        positions = (sample_positions(size[0], w, sampled), sample_positions(size[1], h, sampled))
+        at = resample(img, *positions)
         say(f"{len(rendered)} mutants at {size[0]}x{size[1]}")
         base = r.small((), size)
         observed = at - base
@@ -407,9 +424,19 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     if best_single is not None and best_single < 0.98:
         tops = [c.mistakes[0] for c in singles[:PAIR_FROM] if (c.explained or 0.0) > 0.05]
         pairs: set[tuple[str, ...]] = set()
+        if rendered:   # full-size differences at the small render's sample positions, for the additive test
+            for (n, *more), m in images.items():
+                if not more and n not in predicted:
+                    predicted[n] = resample(m - ref, *positions)
         for a in tops:
-            def additive(b: str, a: str = a) -> float:
+            undone = observed
+            if a in REVERSIBLE and rendered:   # a saved-image mistake is undone, not subtracted
+                undone = resample(REVERSIBLE[a](img), *positions) - base
+
+            def additive(b: str, a: str = a, undone: Image = undone) -> float:
                 """How well the two differences added predict the observed one (small scale, else full)."""
+                if a in REVERSIBLE and b in predicted:
+                    return -float(np.sum((undone - predicted[b]) ** 2))
                 if a in predicted and b in predicted:
                     return -float(np.sum((observed - predicted[a] - predicted[b]) ** 2))
                 if (a,) in images and (b,) in images:
@@ -428,11 +455,13 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     for c in ranked:
         if len(c.mistakes) == 2:
             parts = [scores[(m,)].explained or 0.0 for m in c.mistakes if (m,) in scores]
-            if (c.explained or 0.0) < max(parts, default=0.0) + 0.1:
+            better = max(parts, default=0.0)
+            if (c.explained or 0.0) < better + min(0.1, (1.0 - better) / 2.0):
                 continue
         shown.append(c)
+    shown = [c for k, c in enumerate(shown) if k == 0 or (c.explained or 0.0) >= LISTED_SHARE]
     for c in shown[:SHOWN]:
-        c.evidence = evidence(img, ref, images[c.mistakes])
+        c.evidence = evidence(img, ref, images[c.mistakes], noise)
     result.causes = shown[:SHOWN]
     best = result.causes[0] if result.causes else None
     remaining = mse(img, images[best.mistakes]) if best is not None else err0
