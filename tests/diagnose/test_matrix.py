@@ -1,0 +1,30 @@
+"""The confusion matrix of ``a5mi diagnose`` (tests/diagnose/matrix.py; figures in BENCHMARKS.md).
+
+Slow tier: every catalogued mistake on the three probe scenes where it shows most, with jitter seeds other than
+the diagnosis uses; 30 random pairs; the correct renders with three other seeds. Everyday tier: a few mistakes of
+each layer on one scene each, and the correct renders."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from a5mi.options import MISTAKES
+from tests.diagnose.matrix import run_matrix
+
+
+@pytest.mark.slow
+def test_confusion_matrix(tmp_path: Path, variant: str) -> None:
+    fig = run_matrix(tmp_path, list(MISTAKES))
+    print(fig.summary())
+    assert all(v == "match" for _, _, v in fig.correct), fig.correct     # never a mistake named on a correct image
+    assert fig.rate(2) >= 0.90 and fig.rate(3) >= 0.98, fig.summary()
+    assert sum(p[2] for p in fig.pairs) >= 0.8 * len(fig.pairs), fig.summary()
+
+
+def test_confusion_matrix_subset(tmp_path: Path, variant: str) -> None:
+    fig = run_matrix(tmp_path, ["no_ambient", "eta_inside_inverted", "marble_sine_unmapped", "fov_full_angle",
+                                "blur_not_normalised", "mirrored"], n_pairs=2, n_scenes=1)
+    assert all(v == "match" for _, _, v in fig.correct), fig.correct
+    assert all(t1 for _, _, t1, _ in fig.singles) and all(ok for _, _, ok in fig.pairs), fig.summary()
