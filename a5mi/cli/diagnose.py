@@ -83,6 +83,15 @@ def format_diagnosis(d: Any, image: str, scene: str) -> str:
     return "\n".join(lines)
 
 
+def hint(image: str, scene: str, options: Any) -> str:
+    """The ``a5mi diagnose`` command line for ``image`` made from ``scene`` with ``options``' SPEC B.1 flags (the
+    hint other commands print after a difference)."""
+    flags = [f"-size {options.width} {options.height}", f"-bounces {options.bounces}"]
+    flags += [f for f, on in (("-shadows", options.shadows), ("-jitter", options.jitter), ("-filter", options.filter))
+              if on]
+    return f"to name the mistake behind the difference: a5mi diagnose {image} -input {scene} {' '.join(flags)}"
+
+
 def run_diagnose(args: Args, console: Console) -> int:
     from a5mi.diagnose.catalogue import CATALOGUE
 
