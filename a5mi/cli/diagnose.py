@@ -4,7 +4,8 @@ Renders the reference and the catalogued mistakes' mutants in one warm session a
 difference each explains (:func:`a5mi.diagnose.rank.diagnose`); prints the best causes with their evidence (where,
 how much), or ``unexplained`` with the remaining error. ``--list`` prints the catalogue. ``--binary PATH`` runs
 another a5 program in the sandbox on the probe scenes instead (:mod:`a5mi.diagnose.probes`). Exit status: 0 the
-image matches (no mistake found), 1 a diagnosis or an unexplained difference, 2 a usage error.
+image matches (no mistake found), 1 a diagnosis or an unexplained difference (``--binary``: also a probe the program
+gave no image for), 2 a usage error.
 """
 
 from __future__ import annotations
@@ -135,7 +136,8 @@ def _run_binary(args: Args, console: Console) -> int:
     activate_variant(args.variant)
     report = diagnose_binary(args.binary, progress=console.note if args.verbose else None)
     console.result(json.dumps(report.to_dict()) if args.json else format_binary(report))
-    return ExitStatus.OK if not report.found and not report.unexplained else ExitStatus.DIFFER
+    clean = not report.found and not report.unexplained and all(p.diagnosis is not None for p in report.probes)
+    return ExitStatus.OK if clean else ExitStatus.DIFFER   # a probe the program failed on is a difference too
 
 
 DIAGNOSE = Command("diagnose", "Name the catalogued mistake (docs/MISTAKES.md) that explains how an image differs "

@@ -120,3 +120,14 @@ def test_binary_with_a_mistake_is_found(tmp_path: Path, variant: str) -> None:
                              require_sandbox=isolation() == "bwrap")
     assert all(p.status == "ok" for p in report.probes), [(p.probe, p.status) for p in report.probes]
     assert set(report.found) == {"eta_inverted"} and not report.unexplained, report.to_dict()["found"]
+
+
+def test_binary_that_writes_nothing_is_a_difference(tmp_path: Path, capsys) -> None:
+    """``--binary`` with a program that writes no image: each probe says so, exit 1; a missing program: exit 2."""
+    from a5mi.cli import run_a5mi
+
+    assert run_a5mi(["diagnose", "--binary", "/bin/false"]) == 1
+    out = capsys.readouterr().out
+    assert out.count("binary failed") == 4 and "no mistake found" not in out
+    assert run_a5mi(["diagnose", "--binary", str(tmp_path / "nope")]) == 2
+    assert "is not a file" in capsys.readouterr().err
