@@ -23,7 +23,8 @@ Stages (small renders first, full size only for the finalists):
 2. ``match`` when ``mse(I, R) <= max(MATCH_NOISE · σ², MATCH_MSE)``: within the seed noise, or above
    :data:`MATCH_PSNR` dB (SPEC C: a faithful implementation lands above 50 dB, anything under is a semantic
    difference).
-3. Kernel, marble and camera mutants at a small size (the longer side ``SMALL``, one ray per pixel): the predicted
+3. Kernel, marble and camera mutants at a small size (the longer side ``SMALL``, one ray per pixel; an image of at
+   most ``ALL_FULL`` pixels a side skips this stage and renders them all at full size): the predicted
    difference ``M_s - R_s`` against the observed one, ``I`` interpolated at the small render's sample positions
    (:func:`sample_positions`) minus ``R_s``; its explained share ranks them. Point samples, not block means: a
    mistake in fine detail (marble, acne) keeps its signal.
@@ -76,6 +77,9 @@ if TYPE_CHECKING:
 SMALL = 48
 #: Stage-3 mutants rendered again at full size.
 FINALISTS = 5
+#: Images whose longer side is at most this many pixels skip stage 3: every mutant is rendered at full size (as
+#: cheap as the small renders, and without their sampling mismatch).
+ALL_FULL = 2 * SMALL
 #: Pairs are formed from this many best singles.
 PAIR_FROM = 3
 #: A named cause explains at least this share of the difference.
@@ -280,6 +284,9 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     rendered = [n for n in names if n not in cheap and n not in JITTER_MISTAKES and n != "no_supersampling"
                 and n not in SPECKLED]
     observed = np.zeros((1, 1, 3))
+    all_full: list[tuple[str, ...]] = []
+    if rendered and max(img.shape[:2]) <= ALL_FULL:   # small image: all at full size (stage 4 takes them)
+        all_full, rendered = [(n,) for n in rendered], []
     if rendered:
         h, w = img.shape[:2]
         k = max(1, math.ceil(max(w, h) / SMALL))
@@ -300,7 +307,7 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     # ---- stage 4: finalists at full size, then pairs
     t1 = time.perf_counter()
     ranked_small = sorted((c for c in scores.values() if c.small is not None), key=lambda c: -(c.small or 0.0))
-    finals = [c.mistakes for c in ranked_small[:FINALISTS] if (c.small or 0.0) > 0.0]
+    finals = all_full + [c.mistakes for c in ranked_small[:FINALISTS] if (c.small or 0.0) > 0.0]
     finals += [(n,) for n in names if n in JITTER_MISTAKES or n == "no_supersampling" or n in SPECKLED]
     say(f"{len(finals)} finalists at full size")
     for key in finals:
@@ -323,6 +330,8 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
                 """How well the two differences added predict the observed one (small scale, else full)."""
                 if a in REVERSIBLE and b in predicted:
                     return -float(np.sum((undone - predicted[b]) ** 2))
+                if a in REVERSIBLE and (b,) in images:
+                    return -float(np.sum((REVERSIBLE[a](img) - images[(b,)]) ** 2))
                 if a in predicted and b in predicted:
                     return -float(np.sum((observed - predicted[a] - predicted[b]) ** 2))
                 if (a,) in images and (b,) in images:
