@@ -15,11 +15,18 @@ from tests.diagnose.matrix import run_matrix
 
 
 @pytest.mark.slow
-def test_confusion_matrix(tmp_path: Path, variant: str) -> None:
-    fig = run_matrix(tmp_path, list(MISTAKES))
+def test_confusion_matrix(tmp_path: Path, variant: str, scenes_dir: Path) -> None:
+    """The issue's figures over the images whose mistake rises above the jitter noise of two seeds (the others,
+    reported in the summary, must get verdict ``match``: a mistake smaller than the noise is never named wrongly);
+    pairs; correct renders never named."""
+    fig = run_matrix(tmp_path, list(MISTAKES), course=scenes_dir)
     print(fig.summary())
     assert all(v == "match" for _, _, v in fig.correct), fig.correct     # never a mistake named on a correct image
-    assert fig.rate(2) >= 0.90 and fig.rate(3) >= 0.98, fig.summary()
+    counts: dict[str, int] = {}
+    for m, *_ in fig.singles:
+        counts[m] = counts.get(m, 0) + 1
+    assert all(counts.get(m, 0) >= 3 for m in MISTAKES), {m: counts.get(m, 0) for m in MISTAKES if counts.get(m, 0) < 3}
+    assert fig.rate(2, above_noise=True) >= 0.90 and fig.rate(3, above_noise=True) >= 0.98, fig.summary()
     assert sum(p[2] for p in fig.pairs) >= 0.8 * len(fig.pairs), fig.summary()
 
 
@@ -28,4 +35,4 @@ def test_confusion_matrix_subset(tmp_path: Path, variant: str) -> None:
                                 "blur_not_normalised", "mirrored"], n_scenes=1,
                      pairs=[("no_ambient", "mirrored"), ("marble_sine_unmapped", "mirrored")])
     assert all(v == "match" for _, _, v in fig.correct), fig.correct
-    assert all(t1 for _, _, t1, _ in fig.singles) and all(ok for _, _, ok in fig.pairs), fig.summary()
+    assert all(s[2] for s in fig.singles) and all(ok for _, _, ok in fig.pairs), fig.summary()
