@@ -152,6 +152,17 @@ def a5_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_p
     return d if mat.milled is None else milled_bsdf(mat.milled, d)  # E.20: the a5 channel forwarded
 
 
+def with_marble_mistake(d: Any, mistake: str) -> Any:
+    """``d`` (a BSDF dict or part of one) with every ``a5_marble`` given the ``mistake`` parameter
+    (docs/MISTAKES.md, plugins/textures/marble.py)."""
+    if not isinstance(d, dict):
+        return d
+    out = {k: with_marble_mistake(v, mistake) for k, v in d.items()}
+    if out.get("type") == "a5_marble":
+        out["mistake"] = mistake
+    return out
+
+
 def stock_bsdf(mat: MaterialDescription, with_uv: bool, image: ImageParams = file_params) -> dict[str, Any]:
     """Stock approximation (module docstring): diffuse, blended with a mirror or a dielectric; bump / normal
     maps as the stock adapters around it."""

@@ -83,7 +83,7 @@ from a5mi.converters.geometry import MeshData
 from a5mi.converters.materials import rgb
 from a5mi.converters.model import AreaLight, DirectionalLight, SphereLight, SpotLight
 from a5mi.converters.names import binary_spheres, scene_ids
-from a5mi.render.options import RenderOptions
+from a5mi.render.options import MARBLE_MISTAKES, RenderOptions
 from a5mi.spec import CUBE_FACES
 
 #: Face attributes carrying :attr:`.geometry.MeshData.octree` (name -> its columns).
@@ -351,10 +351,11 @@ def bake_cubemap_envmap(bg: CubeMapBackground, size: tuple[int, int] = ENVMAP_SI
 class _DictBackend(Backend):
     """Loaded objects: BSDFs (one per material and uv variant), meshes, bitmaps (one per image)."""
 
-    def __init__(self, desc: SceneDescription, *, stock: bool) -> None:
+    def __init__(self, desc: SceneDescription, *, stock: bool, marble_mistake: str = "") -> None:
         super().__init__(desc, stock=stock)
         self.bsdfs: dict[tuple[int, bool], Any] = {}
         self.bitmaps: dict[Image, Any] = {}
+        self.marble_mistake = marble_mistake   # docs/MISTAKES.md: a5_marble's ``mistake`` parameter ("" none)
 
     def image(self, image: Image) -> Any:
         if image not in self.bitmaps:
@@ -368,6 +369,8 @@ class _DictBackend(Backend):
         key = (material, materials.without_texture(mat, with_uv))
         if key not in self.bsdfs:
             d = materials.bsdf(mat, with_uv, stock=self.stock, image=lambda img: {"bitmap": self.image(img)})
+            if self.marble_mistake:
+                d = materials.with_marble_mistake(d, self.marble_mistake)
             if self.stock:
                 d = self.stock_solids(d, material)
             self.bsdfs[key] = mi.load_dict(_transforms(d))  # the stock bitmaps' to_uv (materials.FLIP_V)
@@ -404,6 +407,9 @@ def _transforms(value: Any) -> Any:
 def to_dict(desc: SceneDescription, options: RenderOptions | None = None, *, stock: bool = False) -> dict[str, Any]:
     """A dict for ``mi.load_dict`` (module docstring), made from ``desc`` without reading any file. BSDFs are
     loaded objects (``mi.load_dict``) because the meshes built from numpy take their BSDF object at
-    construction. ``options`` (default ``RenderOptions()``): film size and the integrator's parameters."""
+    construction. ``options`` (default ``RenderOptions()``): film size and the integrator's parameters, and
+    docs/MISTAKES.md's marble mistake (given to every ``a5_marble``)."""
     options = options if options is not None else RenderOptions()
-    return _transforms(scene_entries(desc, options, _DictBackend(desc, stock=stock)))
+    marble = options.of_layer(MARBLE_MISTAKES)
+    backend = _DictBackend(desc, stock=stock, marble_mistake=marble[0] if marble else "")
+    return _transforms(scene_entries(desc, options, backend))

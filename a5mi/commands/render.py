@@ -22,6 +22,7 @@ from a5mi.render.options import (
     AOV_MODES,
     INTEGRATORS,
     KERNELS,
+    MISTAKES,
     PHOTON_FILTERS,
     QUIRKS,
     SUBSURFACE_METHODS,
@@ -56,6 +57,16 @@ def _unit(flag: str, value: str) -> float:
     if not 0.0 < x < 1.0:
         raise UsageError(f"{flag} expects a number in (0, 1), found {value}")
     return x
+
+
+def _mistakes(flag: str, values: list[str]) -> tuple[str, ...]:
+    """``-mistake NAME[,NAME]``: names of :data:`a5mi.render.options.MISTAKES` (docs/MISTAKES.md), each once."""
+    names = tuple(dict.fromkeys(n.strip() for n in values[0].split(",") if n.strip()))
+    unknown = [n for n in names if n not in MISTAKES]
+    if not names or unknown:
+        raise UsageError(f"{flag} expects names of docs/MISTAKES.md separated by commas, found "
+                         f"'{unknown[0] if unknown else values[0]}' (a5mi diagnose --list prints them)")
+    return names
 
 
 #: SPEC B.1 flags, then the extras; dests are RenderOptions fields (plus the output paths).
@@ -138,6 +149,8 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          "tested before it takes that mesh's uv, as a5soln (docs/FIDELITY.md)", 1, choice(QUIRKS), "none", "Q"),
     Flag(("-normals_mode", "--normals-mode"), "aov_mode", "main (-normals/-depth use the image's rays) or "
          "quadrant (a5soln's top-right-quadrant rays, SPEC B.6)", 1, choice(AOV_MODES), "main", "M"),
+    Flag(("-mistake", "--mistake"), "mistakes", "render as a student with these mistakes would (comma-separated "
+         "names of docs/MISTAKES.md; a5mi diagnose ranks them)", 1, _mistakes, metavar="NAME[,NAME]"),
     Flag(("-v", "--verbose"), "verbose", "print the work estimate, progress lines, stage timings, ray counts and "
          "peak memory on stderr", default=False, show_default=False),
 )

@@ -6,8 +6,10 @@ prints every node of the pixel's ray tree (the render kernel in record mode, :mo
 and checks that the contributions sum to the pixel of the real render. ``--diff STUDENT.png [--worst N]``
 renders the reference, picks the N pixels where the student's image is furthest off and names, for each,
 the term of the reference tree that best accounts for the difference; pixels within the noise threshold
-(:data:`a5mi.trace.report.DIFF_NOISE` levels) are not named, so an identical image prints "nothing differs".
-``-pixel X Y --diff STUDENT.png`` explains that pixel instead, saying so when it is within the noise threshold.
+(:data:`a5mi.trace.report.DIFF_NOISE` levels) are not named, so an identical image prints "nothing differs";
+otherwise it ends with the ``a5mi diagnose`` command that names the mistake behind the whole image
+(docs/MISTAKES.md). ``-pixel X Y --diff STUDENT.png`` explains that pixel instead, saying so when it is within
+the noise threshold.
 """
 
 from __future__ import annotations
@@ -159,6 +161,10 @@ def _run_diff(args: Args, console: Console, tracer: Any, desc: Any) -> int:
         lines.extend("    " + s for s in report.tree_lines(pt.trees[centre], tracer.options.fresnel, desc.ambient))
         blocks.append("\n".join(lines))
     console.result(report.dumps(out_json) if args.json else "\n\n".join(blocks))
+    if not args.json:   # docs/MISTAKES.md: the whole image's cause, not one pixel's term
+        from a5mi.commands.diagnose import hint
+
+        console.result("\n" + hint(args.diff, args.input, tracer.options))
     if args.svg is not None and traces:
         from a5mi.trace.svg import write_svg
 

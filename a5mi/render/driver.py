@@ -19,7 +19,11 @@
   (0 the camera ray misses, 1 opaque, 2 the SPEC B.3 ray tree touches a material with
   ``refraction_index > 0``), uint8 at the render buffer's resolution, unfiltered;
 * ``threads`` (:attr:`RenderOptions.threads`): Dr.Jit's worker threads for this render only
-  (:func:`thread_count`: the process's count is restored afterwards).
+  (:func:`thread_count`: the process's count is restored afterwards);
+* ``mistakes`` (:attr:`RenderOptions.mistakes`, docs/MISTAKES.md): the driver's own (camera, jitter, filter, the
+  saved image: :func:`mistaken`, :func:`a5mi.render.filters.mistaken_postprocess`,
+  :func:`a5mi.render.filters.image_mistakes`);
+  the kernel's travel in the integrator's ``mistakes`` parameter.
 
 The driver builds nothing: the caller loads the scene from its description (:func:`a5mi.render.session.build_scene`),
 so data flows one way, description -> dict -> Mitsuba objects -> driver -> image.
@@ -30,6 +34,7 @@ This module never prints: progress goes through a callback.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -39,8 +44,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from a5mi.render.filters import FilterStream, postprocess
-from a5mi.render.options import RenderOptions
+from a5mi.render.filters import FilterStream, image_mistakes, mistaken_postprocess, postprocess
+from a5mi.render.options import CAMERA_MISTAKES, FILTER_MISTAKES, IMAGE_MISTAKES, JITTER_MISTAKES, RenderOptions
 from a5mi.render.render_pass import CameraRays, PassBuffers, PassHook, Progress, TraceContext, trace_moving, trace_pass
 from a5mi.render.tiles import PROGRESS_STEPS, main_tiles, quadrant_tiles, tile_rows
 
@@ -114,6 +119,36 @@ def _default_camera_rays() -> CameraRays:
     return camera_rays
 
 
+def mistaken(camera: Camera, camera_rays: CameraRays, options: RenderOptions
+             ) -> tuple[Camera, CameraRays, RenderOptions]:
+    """``(camera, ray generator, options)`` with the docs/MISTAKES.md camera mistakes of ``options`` made
+    (:data:`a5mi.render.options.CAMERA_MISTAKES`, SPEC B.2, B.5):
+
+    * ``fov_full_angle``: ``f = 1/tan(angle)`` instead of ``1/tan(angle/2)``, i.e. the camera of angle ``2 angle``
+      (needs ``angle < 90``; otherwise left as is);
+    * ``camera_divides_by_w``: ``x = 2(i + jx)/W - 1`` (likewise y with H), i.e. the B.2 rays of a ``W+1 x H+1``
+      buffer through the same pixel positions;
+    * ``no_supersampling``: ``-jitter -filter`` ignored: one ray through each pixel of the W x H image.
+    """
+    made = options.of_layer(CAMERA_MISTAKES)
+    if "fov_full_angle" in made and 0.0 < camera.angle < 90.0:
+        camera = dataclasses.replace(camera, angle=2.0 * camera.angle)
+    if "camera_divides_by_w" in made:
+        base = camera_rays
+
+        def camera_rays(center, direction, up, angle, x_pix, y_pix, width, height):  # type: ignore[no-untyped-def]
+            return base(center, direction, up, angle, x_pix, y_pix, width + 1, height + 1)
+
+    return camera, camera_rays, _sampling(options)
+
+
+def _sampling(options: RenderOptions) -> RenderOptions:
+    """``options`` with docs/MISTAKES.md's ``no_supersampling`` made: ``-jitter -filter`` dropped."""
+    if "no_supersampling" in options.mistakes and options.jitter and options.filter:
+        return dataclasses.replace(options, jitter=False, filter=False)
+    return options
+
+
 def _pass_buffers(options: RenderOptions, separate: bool) -> tuple[PassBuffers, PassBuffers]:
     """``(main, aov)``: the colour pass's buffers (the whole buffer, or the ``-filter`` stream; the class image)
     and the AOV images (``|N|``, ``t``), which the main pass fills too unless ``separate``."""
@@ -123,7 +158,7 @@ def _pass_buffers(options: RenderOptions, separate: bool) -> tuple[PassBuffers, 
         normal=np.empty((rh, rw, 3), np.float32) if options.normals else None,
         dist=np.empty((rh, rw), np.float32) if options.depth is not None else None,
     )
-    if options.filter:
+    if options.filter and not options.of_layer(FILTER_MISTAKES):
         main = PassBuffers(color=None, normal=None, dist=None, stream=FilterStream(rw, rh, options.kernel))
     else:
         main = PassBuffers(color=np.empty((rh, rw, 3), np.float32), normal=None, dist=None)
@@ -149,6 +184,9 @@ def _result(options: RenderOptions, main: PassBuffers, aov: PassBuffers, separat
     diffuseColor's included, stays linear (SPEC A.5 sets no range)."""
     if main.stream is not None:
         image = main.stream.result()
+    elif options.filter and options.of_layer(FILTER_MISTAKES):   # docs/MISTAKES.md: the whole buffer, mistaken
+        assert main.color is not None
+        image = mistaken_postprocess(main.color, options.of_layer(FILTER_MISTAKES), options.kernel)
     else:
         assert main.color is not None
         image = postprocess(main.color, filter=False)
@@ -160,6 +198,8 @@ def _result(options: RenderOptions, main: PassBuffers, aov: PassBuffers, separat
         depth_img = np.repeat(gray[:, :, None], 3, axis=2)
     flipped_image = _flipped(image)
     assert flipped_image is not None
+    if options.of_layer(IMAGE_MISTAKES):   # docs/MISTAKES.md: the saved image
+        flipped_image = image_mistakes(flipped_image, options.of_layer(IMAGE_MISTAKES))
     return RenderResult(
         image=flipped_image,
         normals=_flipped(aov.normal),
@@ -199,6 +239,7 @@ def render_scene(
     with thread_count(options.threads):
         integrator = integrator if integrator is not None else mi_scene.integrator()
         camera_rays = camera_rays if camera_rays is not None else _default_camera_rays()
+        camera, camera_rays, options = mistaken(camera, camera_rays, options)
         rw, rh = options.render_size
         # progress steps only for a caller that shows them: each extra tile re-traces the integrator (~50 ms)
         rows = tile_rows(rw, rh, options.tile_rays, steps=PROGRESS_STEPS if progress is not None else 1)
@@ -211,9 +252,11 @@ def render_scene(
         ctx = TraceContext(mi_scene, camera, integrator, camera_rays, (rw, rh), timings, progress, total,
                            options.spp, options.seed or 0)
         if pass_hook is None:
-            done = trace_pass(ctx, main_tiles(rw, rows, options.seed, options.jitter, timings), main, 0)
+            done = trace_pass(ctx, main_tiles(rw, rows, options.seed, options.jitter, timings,
+                                                 options.of_layer(JITTER_MISTAKES)), main, 0)
         else:
-            trace_moving(ctx, lambda: main_tiles(rw, rows, options.seed, options.jitter, timings), main, pass_hook)
+            trace_moving(ctx, lambda: main_tiles(rw, rows, options.seed, options.jitter, timings,
+                                                 options.of_layer(JITTER_MISTAKES)), main, pass_hook)
             done = total * ctx.spp
         if separate:
             trace_pass(ctx, quadrant_tiles(rw, rh, rows), aov, done)
@@ -255,6 +298,7 @@ def render_band(mi_scene: mi.Scene, camera: Camera, options: RenderOptions, band
     j0, j1 = band
     with thread_count(options.threads):
         integrator = integrator if integrator is not None else mi_scene.integrator()
+        camera, camera_rays, options = mistaken(camera, _default_camera_rays(), options)
         rw, rh = options.render_size
         rows = [(j0 + a, j0 + b) for a, b in tile_rows(rw, j1 - j0, options.tile_rays, steps=1)]
         skipped = [(0, j0)] if j0 > 0 and options.jitter else []
@@ -262,11 +306,11 @@ def render_band(mi_scene: mi.Scene, camera: Camera, options: RenderOptions, band
         buf = PassBuffers(color=np.empty((j1 - j0, rw, 3), np.float32),
                           normal=np.empty((j1 - j0, rw, 3), np.float32) if options.normals else None,
                           dist=np.empty((j1 - j0, rw), np.float32) if options.depth is not None else None, row0=j0)
-        tiles = main_tiles(rw, skipped + rows, options.seed, options.jitter, timings)
+        tiles = main_tiles(rw, skipped + rows, options.seed, options.jitter, timings, options.of_layer(JITTER_MISTAKES))
         if skipped:
             next(tiles)
         t0 = time.perf_counter()
-        ctx = TraceContext(mi_scene, camera, integrator, _default_camera_rays(), (rw, rh), timings, None,
+        ctx = TraceContext(mi_scene, camera, integrator, camera_rays, (rw, rh), timings, None,
                            rw * (j1 - j0), options.spp, options.seed or 0)
         trace_pass(ctx, tiles, buf, 0)
         timings["render"] = time.perf_counter() - t0
@@ -279,6 +323,7 @@ def assemble(options: RenderOptions, bands: list[Band], timings: dict[str, float
     """The :class:`RenderResult` of bands covering the render buffer (any order, no overlap): colour rows in
     bottom-up order into the buffer or the streamed ``-filter`` (the same float32 operations as
     :func:`render_scene`, so the image is bit for bit its image), AOVs, summed counts and launches."""
+    options = _sampling(options)
     rw, rh = options.render_size
     main, aov = _pass_buffers(options, separate=False)
     ordered = sorted(bands, key=lambda b: b.j0)

@@ -218,3 +218,80 @@ def postprocess(img: npt.ArrayLike, *, filter: bool, kernel: str = "binary") -> 
     if not filter:
         return a
     return downsample3(blur(a, kernel))
+
+
+@_ieee
+def mistaken_postprocess(img: npt.ArrayLike, mistakes: tuple[str, ...], kernel: str = "binary") -> FloatImage:
+    """SPEC B.5's blur + downsample of a render buffer (``img[j, i, c]``, row 0 = bottom) as a student with the
+    docs/MISTAKES.md ``mistakes`` of :data:`a5mi.render.options.FILTER_MISTAKES` computes it:
+
+    * ``blur_not_normalised``: taps ``K / K[2]`` (the Gaussian's peak is 1; ΣK = 3.42 per pass);
+    * ``blur_one_direction``: the y pass only;
+    * ``blur_zero_border``: taps outside the image read 0 instead of the clamped edge pixel;
+    * ``no_blur``: no blur, the 3x3 box downsample only;
+    * ``downsample_one_sample``: ``out[y, x] = blurred[3y + 1, 3x + 1]`` (the centre sample, not the mean).
+    """
+    a = np.asarray(img, dtype=np.float32)
+    taps = kernel_taps(kernel)
+    if "blur_not_normalised" in mistakes:
+        taps = (taps / taps[2]).astype(np.float32)
+    h, w = a.shape[:2]
+    if "no_blur" not in mistakes:
+        zero = "blur_zero_border" in mistakes
+
+        def padded(axis: int) -> FloatImage:
+            n = a.shape[axis] if axis == 0 else w
+            src = a if axis == 0 else out
+            idx = np.clip(np.arange(-2, n + 2), 0, n - 1)
+            p = np.take(src, idx, axis=axis)
+            if zero:
+                edge = [slice(None)] * p.ndim
+                for s in (slice(0, 2), slice(n + 2, n + 4)):
+                    edge[axis] = s
+                    p[tuple(edge)] = 0.0
+            return p
+
+        out = _blur_axis(padded(0), taps, 0, h)
+        if "blur_one_direction" not in mistakes:
+            out = _blur_axis(padded(1), taps, 1, w)
+        a = out
+    if "downsample_one_sample" in mistakes:
+        return np.ascontiguousarray(a[1 : 3 * (h // 3) : 3, 1 : 3 * (w // 3) : 3])
+    return downsample3(a)
+
+
+def srgb_encode(c: npt.ArrayLike) -> FloatImage:
+    """The sRGB transfer function (IEC 61966-2-1): ``12.92 c`` for ``c <= 0.0031308``, else
+    ``1.055 c^(1/2.4) - 0.055``, on ``c`` clamped to [0, 1]."""
+    x = np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055).astype(np.float32)
+
+
+def image_mistakes(img: npt.ArrayLike, mistakes: tuple[str, ...]) -> FloatImage:
+    """The saved image (row 0 = **top**, float, quantised later by SPEC B.1's ``clamp(int(255 c), 0, 255)``) as a
+    student with the docs/MISTAKES.md ``mistakes`` of :data:`a5mi.render.options.IMAGE_MISTAKES` writes it:
+
+    * ``upside_down``: rows reversed (row 0 written as the bottom row); ``mirrored``: columns reversed;
+    * ``red_blue_swapped``: channels (B, G, R);
+    * ``srgb_gamma``: :func:`srgb_encode` applied before quantising;
+    * ``colours_wrapped``: ``byte = int(255 c) mod 256`` (no clamp), returned as ``(byte + 0.5) / 255`` so SPEC
+      B.1's quantisation writes that byte;
+    * ``rounding``: ``byte = clamp(round(255 c), 0, 255)`` instead of truncation, returned likewise.
+    """
+    a = np.asarray(img, dtype=np.float32)
+    if "upside_down" in mistakes:
+        a = a[::-1]
+    if "mirrored" in mistakes:
+        a = a[:, ::-1]
+    if "red_blue_swapped" in mistakes:
+        a = a[..., ::-1]
+    if "srgb_gamma" in mistakes:
+        a = srgb_encode(a)
+    with np.errstate(invalid="ignore", over="ignore"):
+        if "colours_wrapped" in mistakes:
+            byte = np.mod(np.trunc(np.nan_to_num(a.astype(np.float64) * 255.0, posinf=0.0, neginf=0.0)), 256.0)
+            a = ((byte + 0.5) / 255.0).astype(np.float32)
+        if "rounding" in mistakes:
+            byte = np.clip(np.floor(a.astype(np.float64) * 255.0 + 0.5), 0.0, 255.0)
+            a = ((byte + 0.5) / 255.0).astype(np.float32)
+    return np.ascontiguousarray(a, dtype=np.float32)

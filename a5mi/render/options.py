@@ -36,6 +36,31 @@ INTEGRATORS: dict[str, str] = {"whitted": "a5_whitted", "path": "a5_path", "irra
 PHOTON_FILTERS: tuple[str, ...] = ("none", "cone", "epanechnikov")
 #: ``-subsurface`` methods (docs/EXTENSIONS.md E.18; ``none``: the materials' ``subsurface`` blocks are ignored).
 SUBSURFACE_METHODS: tuple[str, ...] = ("none", "dipole", "walk")
+#: docs/MISTAKES.md: the student mistakes a render can make on request (``-mistake NAME[,NAME]``), by the layer
+#: that makes them. Kernel: compile-time blocks of the ``a5_whitted`` kernel (its ``mistakes`` parameter,
+#: plugins/kernel/features.py); ``no_shadows``, ``phong_highlight`` and the bounce mistakes through its flags.
+KERNEL_MISTAKES: tuple[str, ...] = (
+    "no_shadows", "shadow_acne", "shadow_beyond_light", "shadow_first_light_only", "no_ambient", "ambient_uses_kd",
+    "ndotl_unclamped", "light_dir_flipped", "normal_faces_viewer", "light_color_ignored", "kd_ignores_texture",
+    "phong_highlight", "mirror_sign", "reflection_unweighted", "refraction_unweighted", "refl_refr_added",
+    "bounces_plus_one", "bounces_minus_one", "no_recursion", "eta_inverted", "eta_inside_inverted",
+    "normal_not_flipped_inside", "tir_ignored", "schlick_wrong_c", "background_wrong_direction", "secondary_acne",
+)
+#: ``a5_marble``'s ``mistake`` parameter (plugins/textures/marble.py, SPEC B.4).
+MARBLE_MISTAKES: tuple[str, ...] = ("marble_no_octaves", "marble_sine_unmapped", "marble_freq_amp_swapped")
+#: The driver's camera (a5mi/render/driver.py, SPEC B.2) and sample layout (SPEC B.5).
+CAMERA_MISTAKES: tuple[str, ...] = ("fov_full_angle", "camera_divides_by_w", "no_supersampling")
+#: The jitter offsets (a5mi/render/tiles.py, SPEC B.5).
+JITTER_MISTAKES: tuple[str, ...] = ("no_jitter", "jitter_0_1")
+#: The blur and downsample (a5mi/render/filters.py, SPEC B.5).
+FILTER_MISTAKES: tuple[str, ...] = ("blur_not_normalised", "blur_one_direction", "blur_zero_border",
+                                   "downsample_one_sample", "no_blur")
+#: The saved image (a5mi/render/filters.py :func:`~a5mi.render.filters.image_mistakes`, SPEC B.1).
+IMAGE_MISTAKES: tuple[str, ...] = ("upside_down", "mirrored", "red_blue_swapped", "srgb_gamma", "colours_wrapped",
+                                  "rounding")
+#: Every mistake name, in docs/MISTAKES.md's order.
+MISTAKES: tuple[str, ...] = (KERNEL_MISTAKES + MARBLE_MISTAKES + CAMERA_MISTAKES + JITTER_MISTAKES
+                             + FILTER_MISTAKES + IMAGE_MISTAKES)
 #: Upper bound of camera rays per kernel launch (bounded memory; the kernel is compiled once).
 TILE_RAYS: int = 1 << 20
 
@@ -115,6 +140,8 @@ class RenderOptions:
     ic_samples: int = 256
     #: ``-quirks`` (:data:`QUIRKS`): ``binary`` emulates the sample solution's stale texture coordinates
     quirks: str = "none"
+    #: docs/MISTAKES.md: names of :data:`MISTAKES` to make on purpose (``-mistake``; empty: SPEC as written)
+    mistakes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -142,6 +169,9 @@ class RenderOptions:
             raise ValueError(f"media_bounces must be >= 0, got {self.media_bounces}")
         if self.quirks not in QUIRKS:
             raise ValueError(f"quirks must be one of {', '.join(QUIRKS)}, got '{self.quirks}'")
+        unknown = [m for m in self.mistakes if m not in MISTAKES]
+        if unknown:
+            raise ValueError(f"unknown mistake '{unknown[0]}' (docs/MISTAKES.md lists them)")
         if self.tile_rays <= 0:
             raise ValueError(f"tile_rays must be positive, got {self.tile_rays}")
 
@@ -194,4 +224,11 @@ class RenderOptions:
             params["subsurface"] = str(self.subsurface)
         if self.plugin == "a5_irradiancecache":  # docs/EXTENSIONS.md E.23
             params.update(error=float(self.ic_error), samples=int(self.ic_samples))
+        kernel_mistakes = self.of_layer(KERNEL_MISTAKES)
+        if kernel_mistakes and self.plugin == "a5_whitted":  # docs/MISTAKES.md; absent when none (dicts unchanged)
+            params["mistakes"] = ",".join(kernel_mistakes)
         return params
+
+    def of_layer(self, layer: tuple[str, ...]) -> tuple[str, ...]:
+        """The :attr:`mistakes` among ``layer`` (e.g. :data:`KERNEL_MISTAKES`), sorted."""
+        return tuple(sorted(m for m in set(self.mistakes) if m in layer))

@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from a5mi.render.driver import Progress, RenderResult, render_scene
-from a5mi.render.options import RenderOptions
+from a5mi.render.options import MARBLE_MISTAKES, RenderOptions
 
 if TYPE_CHECKING:
     import mitsuba as mi
@@ -118,14 +118,14 @@ class RenderSession:
             raise ValueError(f"max_scenes must be >= 1, got {max_scenes}")
         self.variant = variants.activate(variant)
         self.max_scenes = max_scenes
-        self._built: OrderedDict[int, _Built] = OrderedDict()
+        self._built: OrderedDict[tuple[int, tuple[str, ...]], _Built] = OrderedDict()
         #: scenes built (``mi.load_dict`` of a whole scene) and integrators loaded on their own, so far
         self.scenes_built = 0
         self.integrators_loaded = 0
 
     def _entry(self, desc: SceneDescription, options: RenderOptions) -> tuple[_Built, float]:
         """The cached scene of ``desc`` (built now if absent) and the seconds spent building."""
-        key = id(desc)
+        key = (id(desc), options.of_layer(MARBLE_MISTAKES))   # docs/MISTAKES.md: marble mistakes live in the scene
         entry = self._built.get(key)
         if entry is not None and entry.desc is desc:
             self._built.move_to_end(key)
@@ -145,7 +145,8 @@ class RenderSession:
         """``(Mitsuba scene, the scene dict's integrator entry, the scene's integrator)`` of ``desc``: one
         ``mi.load_dict`` of :func:`scene_dict` (a subclass may reuse objects of its earlier builds)."""
         whole = scene_dict(desc, options)
-        template = dict(whole["integrator"])
+        own = options.integrator_params()   # the options' part; the template keeps the scene's (ambient, planes, ...)
+        template = {k: v for k, v in whole["integrator"].items() if k not in own}
         scene = load(whole)
         return scene, template, scene.integrator()
 
@@ -175,7 +176,8 @@ class RenderSession:
 
     def forget(self, desc: SceneDescription) -> None:
         """Drop the built scene of ``desc`` (its kernels stay in Dr.Jit's cache)."""
-        self._built.pop(id(desc), None)
+        for key in [k for k in self._built if k[0] == id(desc)]:
+            del self._built[key]
 
 
 def describe_file(path: str, *, bump: bool = False) -> tuple[SceneDescription, list[SceneWarning]]:

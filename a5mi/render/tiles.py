@@ -157,13 +157,17 @@ def jittered_rows(rw: int, rows: list[tuple[int, int]], seed: int | None,
 
 
 def main_tiles(rw: int, rows: list[tuple[int, int]], seed: int | None, jitter: bool,
-               timings: dict[str, float]) -> Iterator[Tile]:
-    """The main image's tiles: sample ``(i, j)`` at ``(i + jx, j + jy)`` with ``-jitter``, else at ``(i, j)``."""
-    if not jitter:
+               timings: dict[str, float], mistakes: tuple[str, ...] = ()) -> Iterator[Tile]:
+    """The main image's tiles: sample ``(i, j)`` at ``(i + jx, j + jy)`` with ``-jitter``, else at ``(i, j)``.
+    docs/MISTAKES.md ``mistakes``: ``no_jitter`` (offsets 0 on the 3W x 3H grid), ``jitter_0_1`` (offsets
+    ``jx + 0.5`` in [0, 1) instead of [-0.5, 0.5))."""
+    if not jitter or "no_jitter" in mistakes:
         for j0, j1 in rows:
             yield Tile(j0, j1, *pixel_coords(rw, j0, j1, None))
         return
     for j0, j1, offsets in jittered_rows(rw, rows, seed, timings):
+        if "jitter_0_1" in mistakes:
+            offsets = (offsets[0] + np.float32(0.5), offsets[1] + np.float32(0.5))
         yield Tile(j0, j1, *pixel_coords(rw, j0, j1, offsets))
 
 

@@ -44,7 +44,7 @@ import mitsuba as mi
 
 from a5mi.plugins.emulation import triangle_rule
 from a5mi.plugins.emulation.planes import plane_set, planes_from_props
-from a5mi.plugins.kernel.features import Features, SceneData, build_features
+from a5mi.plugins.kernel.features import Features, SceneData, build_features, depth_budget
 from a5mi.plugins.kernel.scene import lights_of
 from a5mi.plugins.params import read_bool, read_choice, read_int, read_number, read_rgb
 from a5mi.spec import FRESNEL_MODES, TMIN
@@ -98,6 +98,8 @@ class A5Integrator(mi.SamplingIntegrator):
     indirect: int = 0
     subsurface: str = "none"
     two_sided: bool = False
+    #: docs/MISTAKES.md: the kernel mistakes compiled in (``a5_whitted``'s ``mistakes`` parameter; none elsewhere)
+    mistakes: tuple[str, ...] = ()
 
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)
@@ -153,7 +155,8 @@ class A5Integrator(mi.SamplingIntegrator):
     def scene_data(self, scene: mi.Scene) -> SceneData:
         """The opaque per-scene values of a kernel call: bounce budget, ambient, tmin, lights, planes, the
         triangle-rule table and the medium."""
-        return SceneData(dr.opaque(mi.UInt32, self.max_depth), dr.opaque(mi.Color3f, self.ambient),
+        return SceneData(dr.opaque(mi.UInt32, depth_budget(self.max_depth, self.mistakes)),
+                         dr.opaque(mi.Color3f, self.ambient),
                          dr.opaque(mi.Float, self.tmin), lights_of(scene), self._planes, self.rule_table(scene),
                          self._medium)
 
@@ -174,7 +177,7 @@ class A5Integrator(mi.SamplingIntegrator):
         flags = int(mi.ParamFlags.NonDifferentiable)
         for key in self.exposed:
             value = getattr(self, key)
-            if key == "aovs":
+            if key in ("aovs", "mistakes"):
                 value = ",".join(value)
             elif key == "ambient":
                 value = mi.ScalarColor3f(value)

@@ -16,6 +16,7 @@ import mitsuba as mi
 from a5mi.plugins.kernel import pbr_gather
 from a5mi.plugins.kernel.scene import Lights, has_area_lights
 from a5mi.plugins.materials.milled import uses_milled
+from a5mi.render.options import KERNEL_MISTAKES
 
 if TYPE_CHECKING:
     from a5mi.plugins.emulation.planes import PlaneSet
@@ -54,6 +55,8 @@ class Features(NamedTuple):
     stale_uv       bool     ``-quirks binary``: some plane-set entry has a textured BSDF (``plane_<id>_bsdf_uv``)
                             and a rule mesh exists: the sample solution's stale uv (docs/FIDELITY.md)
     stack_size     int      entries of the pending-ray stack (:func:`stack_size`)
+    mistakes       tuple    docs/MISTAKES.md: names of :data:`KERNEL_MISTAKES` compiled in (sorted; empty:
+                            SPEC B.3 exactly, the default kernel's IR unchanged)
     ============== ======== ===================================================================
     """
 
@@ -78,6 +81,19 @@ class Features(NamedTuple):
     two_sided: bool = False
     stale_uv: bool = False
     ray_log: bool = False
+    mistakes: tuple[str, ...] = ()
+
+
+def depth_budget(max_depth: int, mistakes: tuple[str, ...] = ()) -> int:
+    """The bounce budget the kernel runs with (SPEC B.3 ``bounces``): ``max_depth``, or with docs/MISTAKES.md's
+    ``bounces_plus_one`` ``max_depth + 1``, ``bounces_minus_one`` ``max(max_depth - 1, 0)``, ``no_recursion`` 0."""
+    if "no_recursion" in mistakes:
+        return 0
+    if "bounces_plus_one" in mistakes:
+        max_depth += 1
+    if "bounces_minus_one" in mistakes:
+        max_depth -= 1
+    return max(max_depth, 0)
 
 
 class SceneData(NamedTuple):
@@ -92,6 +108,10 @@ class SceneData(NamedTuple):
     planes: PlaneSet
     rules: RuleTable | None
     medium: MediumParams | None
+
+
+__all__ = ["KERNEL_MISTAKES", "FeatureSource", "Features", "SceneData", "build_features", "depth_budget",
+           "stack_size"]
 
 
 class FeatureSource(Protocol):
@@ -110,6 +130,7 @@ class FeatureSource(Protocol):
     indirect: int
     subsurface: str
     two_sided: bool
+    mistakes: tuple[str, ...]
     planes: list[Any]
 
     @property
@@ -131,15 +152,17 @@ def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, reco
                    ray_log: bool = False) -> Features:
     """The :class:`Features` of a kernel call: the integrator's flags, what ``scene`` holds (area lights, an
     environment) and what ``data`` carries (a triangle-rule table, a medium); the stack holds
-    ``source.stack_depth`` bounces (:func:`stack_size`; with E.15's ``indirect`` gathered rays
-    :func:`.pbr_gather.stack_size`); ``record`` and ``ray_log``: the call hands a recorder / a ray log to the
-    kernel."""
+    ``source.stack_depth`` bounces (:func:`stack_size`, with docs/MISTAKES.md's :func:`depth_budget`; with
+    E.15's ``indirect`` gathered rays :func:`.pbr_gather.stack_size`); ``record`` and ``ray_log``: the call
+    hands a recorder / a ray log to the kernel."""
     indirect = int(source.indirect)
-    size = stack_size(source.stack_depth, source.glossy_samples)
+    mistakes = tuple(sorted(source.mistakes))
+    size = stack_size(depth_budget(source.stack_depth, mistakes), source.glossy_samples)
     if indirect > 0:
         size = pbr_gather.stack_size(source.stack_depth, source.glossy_samples, indirect)
     return Features(
-        shadows=source.shadows, phong=source.phong, fresnel=source.fresnel, reflection=source.reflection,
+        shadows=source.shadows and "no_shadows" not in mistakes,
+        phong=source.phong or "phong_highlight" in mistakes, fresnel=source.fresnel, reflection=source.reflection,
         refraction=source.refraction, area_lights=has_area_lights(scene), glossy=source.glossy,
         bump=source.bump, media=data.medium is not None,
         media_light=data.medium is not None and data.medium.bounces > 0 and source.shadows,
@@ -148,4 +171,6 @@ def build_features(source: FeatureSource, scene: mi.Scene, data: SceneData, reco
         environment=scene.environment() is not None, triangle_rule=data.rules is not None, record=record,
         stack_size=size, indirect=indirect, two_sided=source.two_sided,
         stale_uv=data.planes.bsdf_uv is not None and data.rules is not None, ray_log=ray_log,
+        mistakes=tuple(m for m in mistakes if m not in ("no_shadows", "phong_highlight", "bounces_plus_one",
+                                                         "bounces_minus_one", "no_recursion")),
     )

@@ -7,7 +7,9 @@ scene's bounding sphere, past every object, as the binary's FLT_MAX). An area li
 stratified over its samples and the ``-spp`` passes (E.5, dimension ``node · 256 + k``), and averaged; its shadow
 ray stops short of the light's own shape (``dist · (1 − 10⁻⁴)``). With ``phong`` the handout's highlight
 ``clamp(L·R)^shininess · lightColor ⊙ ks`` (``R`` the mirror direction, normalised; ``shininess = 0``: 1) is added
-per light. An area light seen directly adds its ``eval`` (:func:`emission`).
+per light. An area light seen directly adds its ``eval`` (:func:`emission`). The docs/MISTAKES.md mistakes of the
+light loop (``light_dir_flipped``, ``ndotl_unclamped``, ``light_color_ignored``, ``shadow_acne``,
+``shadow_beyond_light``, ``shadow_first_light_only``) are compile-time blocks of ``f.mistakes``.
 """
 
 from __future__ import annotations
@@ -69,7 +71,15 @@ def sample(scene: mi.Scene, data: SceneData, f: Features, emitter: mi.EmitterPtr
     si, p, hit, n = sp.si, sp.p, sp.hit, sp.n
     ds, light_color = emitter.sample_direction(si, u, hit)
     d_light = ds.d                                               # SPEC L
-    term = dr.maximum(dr.dot(d_light, n), 0.0) * light_color * sp.kd
+    if dr.hint("light_dir_flipped" in f.mistakes, mode="scalar"):   # MISTAKES.md: L = p - light
+        d_light = -d_light
+    cosine = dr.maximum(dr.dot(d_light, n), 0.0)
+    if dr.hint("ndotl_unclamped" in f.mistakes, mode="scalar"):     # MISTAKES.md: L·N not clamped
+        cosine = dr.dot(d_light, n)
+    if dr.hint("light_color_ignored" in f.mistakes, mode="scalar"):   # MISTAKES.md: cos · kd
+        term = cosine * sp.kd
+    else:
+        term = cosine * light_color * sp.kd
     if dr.hint(f.milled, mode="scalar"):
         term += milled.light_term(si.bsdf() if sp.bsdf is None else sp.bsdf, si, d_light, hit) * light_color
     highlight = None
@@ -89,7 +99,13 @@ def sample(scene: mi.Scene, data: SceneData, f: Features, emitter: mi.EmitterPtr
             # a black kd) the shadow ray is not cast and S reads 0, which adds the same 0 (a NaN term is still
             # tested). Record mode (a5mi trace) tests every light, as the sample solution does.
             tested &= dr.any(term != 0.0)
-        seen = visible(scene, data.planes, p, d_light, data.tmin, dist, far, tested, data.rules)
+        t_shadow = data.tmin
+        if dr.hint("shadow_acne" in f.mistakes, mode="scalar"):          # MISTAKES.md: shadow rays from t = 0
+            t_shadow = dr.zeros(mi.Float, dr.width(p))
+        if dr.hint("shadow_beyond_light" in f.mistakes, mode="scalar"):  # MISTAKES.md: no upper bound on t
+            dist = dr.full(mi.Float, dr.inf, dr.width(p))
+            far = dr.full(mi.Bool, True, dr.width(p))
+        seen = visible(scene, data.planes, p, d_light, t_shadow, dist, far, tested, data.rules)
     return LightSample(term, seen, d_light, light_color, ds.dist, far, highlight, tested)
 
 
@@ -130,11 +146,14 @@ def direct(scene: mi.Scene, data: SceneData, f: Features, sp: ShadingPoint, loca
             if dr.hint(f.shadows, mode="scalar"):
                 n_shadow += dr.select(ls.tested, 1.0, 0.0)
             term = ls.term
+            seen = ls.seen
+            if dr.hint("shadow_first_light_only" in f.mistakes, mode="scalar"):   # MISTAKES.md: S of light 0 only
+                seen = ls.seen | (hit & (k > 0))
             if dr.hint(f.media_light, mode="scalar"):   # E.8, E.9: the light attenuated on its way
                 tr, counter = media_light.shadow_transmittance(data.medium, p, ls.d_light, data.tmin, ls.dist,
                                                                is_area, ls.far, ls.seen, rng, counter)
                 term = term * tr
-            acc += dr.select(ls.seen, term, 0.0)
+            acc += dr.select(seen, term, 0.0)
             if dr.hint(f.record, mode="scalar"):
                 record(rec, scene, data, f, at, k, sp, ls, is_area, n_samples)
             j += 1

@@ -9,6 +9,7 @@ import mitsuba as mi
 
 from a5mi.plugins.params import put_params
 from a5mi.plugins.textures.perlin import octave_noise
+from a5mi.render.options import MARBLE_MISTAKES
 
 
 def _rgb_param(props: mi.Properties, name: str, default: Sequence[float]) -> mi.ScalarColor3f:
@@ -96,6 +97,12 @@ class A5Marble(BlendTexture):
        * - ``amplitude``
          - float
          - Weight of the noise in the sine's phase (Default: 1)
+       * - ``mistake``
+         - string
+         - docs/MISTAKES.md: render as a student with this mistake would: ``marble_no_octaves``
+           (``N = 0``), ``marble_sine_unmapped`` (``t = clamp(M, 0, 1)``, the handout's wording),
+           ``marble_freq_amp_swapped`` (``M = sin(amplitude · p.x + frequency · N)``); a compile-time
+           choice (Default: none, SPEC B.4)
 
     With p = ``si.p``, the world-space hit point, unscaled::
 
@@ -139,6 +146,10 @@ class A5Marble(BlendTexture):
         self.octaves = mi.UInt32(octaves)
         self.frequency = mi.Float(frequency)
         self.amplitude = mi.Float(amplitude)
+        self.mistake = str(props.get("mistake", ""))
+        if self.mistake not in ("", *MARBLE_MISTAKES):
+            raise ValueError(f"a5_marble: parameter 'mistake' must be one of {', '.join(MARBLE_MISTAKES)}, "
+                             f"got {self.mistake!r}")
         self._make_opaque()
 
     def _make_opaque(self) -> None:
@@ -147,14 +158,21 @@ class A5Marble(BlendTexture):
     def blend(self, p: mi.Point3f) -> mi.Float:
         """t = clamp(0.5·sin((double)(float)(frequency·p.x) + amplitude·N) + 0.5, 0, 1), as float32."""
         n = octave_noise(p, self.octaves)
-        arg = mi.Float64(p.x * self.frequency) + mi.Float64(self.amplitude) * n
+        if self.mistake == "marble_no_octaves":          # a Python choice: the default kernel is unchanged
+            n = dr.zeros(mi.Float64, dr.width(p))
+        if self.mistake == "marble_freq_amp_swapped":
+            arg = mi.Float64(p.x * self.amplitude) + mi.Float64(self.frequency) * n
+        else:
+            arg = mi.Float64(p.x * self.frequency) + mi.Float64(self.amplitude) * n
+        if self.mistake == "marble_sine_unmapped":
+            return mi.Float(dr.clip(dr.sin(arg), 0.0, 1.0))
         t = dr.clip(0.5 * dr.sin(arg) + 0.5, 0.0, 1.0)
         return mi.Float(t)
 
     def to_string(self) -> str:
         return (
             f"A5Marble[color1={self.color1}, color2={self.color2}, octaves={self.octaves}, "
-            f"frequency={self.frequency}, amplitude={self.amplitude}]"
+            f"frequency={self.frequency}, amplitude={self.amplitude}, mistake='{self.mistake}']"
         )
 
 

@@ -127,6 +127,7 @@ def _internal_cases(tmp: Path, scene: str) -> dict[str, tuple[list[str], str]]:
         "photons": ([scene, "-o", str(tmp / "m.png")], "a5mi.commands.photons.load_scene"),
         "view": ([scene, "-size", "4", "4"], "a5mi.commands.view.activate_variant"),
         "simulate": (["smoke", "-o", str(tmp / "grids"), "--frames", "1"], "a5mi.simulate.smoke.write_frames"),
+        "diagnose": ([str(tmp / "a.png"), "-input", scene, "-size", "4", "4"], "a5mi.platform.imageio.read_uint8"),
     }
 
 
@@ -282,6 +283,7 @@ def _verdicts() -> dict[str, Callable[..., None]]:
 
 def test_every_command_that_gives_a_verdict_is_tested_for_it() -> None:
     """The commands whose ``-h`` promises a 1 are exactly those with a verdict test here (grade's verdict is
-    tested with the grader, difftest's in test_difftest_campaign.py)."""
+    tested with the grader, difftest's in test_difftest_campaign.py, diagnose's in
+    tests/diagnose/test_diagnose.py::test_cli_exit_status_and_output)."""
     promised = {name for name in COMMANDS if _command(name).exit_differ is not None}
-    assert promised - {"grade", "difftest"} == set(_verdicts())
+    assert promised - {"grade", "difftest", "diagnose"} == set(_verdicts())

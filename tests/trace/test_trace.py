@@ -257,6 +257,8 @@ def test_diff_names_the_broken_term(variant: str, scenes_dir: Path, tmp_path: Pa
     rc, text, _ = _a5mi(["trace", "-input", scene, "-size", "30", "30", "-shadows", "--diff", str(student),
                          "--worst", "1"], capsys)
     assert rc == 0 and text.splitlines()[1].startswith("  look at: ")
+    assert text.splitlines()[-1] == (f"to name the mistake behind the difference: a5mi diagnose {student} -input "
+                                     f"{scene} -size 30 30 -bounces 4 -shadows")   # docs/MISTAKES.md
 
 
 @pytest.mark.parametrize("extra, message", [

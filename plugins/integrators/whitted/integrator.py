@@ -20,6 +20,7 @@ from a5mi.plugins.kernel.record import TreeRecorder
 from a5mi.plugins.media import medium as media
 from a5mi.plugins.params import read_bool, read_int
 from a5mi.plugins.sampling import SamplePass, stochastic
+from a5mi.render.options import KERNEL_MISTAKES
 
 
 class A5WhittedIntegrator(A5Integrator):
@@ -51,6 +52,8 @@ class A5WhittedIntegrator(A5Integrator):
                                      ray; ``-two_sided``, EXTENSIONS E.15); false: SPEC B.3's front face
     medium           string  none    ``fog`` / ``volume``: a participating medium (EXTENSIONS E.8,
                                      E.9; ``medium_*`` parameters, plugins/media/medium.py)
+    mistakes         string  ""      comma-separated names of ``KERNEL_MISTAKES`` (docs/MISTAKES.md): render as
+                                     a student with those mistakes would (empty: SPEC B.3)
     plane_<id>_*     ...             an exact infinite plane: ``_normal`` vector, ``_offset`` float,
                                      ``_bsdf`` BSDF, optional ``_mirror_normal`` (SPEC A.6,
                                      plugins/emulation/planes.py)
@@ -86,12 +89,18 @@ class A5WhittedIntegrator(A5Integrator):
     aov_groups = ("normal", "depth", "class", "counts")
     has_media = True
     exposed = ("max_depth", "shadows", "ambient", "phong", "fresnel", "reflection", "refraction", "tmin", "aovs",
-               "glossy_samples", "dispersion", "bump", "glossy", "indirect", "two_sided")
+               "glossy_samples", "dispersion", "bump", "glossy", "indirect", "two_sided", "mistakes")
 
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)   # the shared parameters (plugins/integrators/base.py)
         self.indirect = read_int(self.name, props, "indirect", 0, 0)   # E.15: gathered rays per diffuse hit
         self.two_sided = read_bool(self.name, props, "two_sided", False)   # E.15: both faces lit by the light loop
+        mistakes = props.get("mistakes", "")   # docs/MISTAKES.md
+        names = [m.strip() for m in mistakes.split(",") if m.strip()] if isinstance(mistakes, str) else None
+        if names is None or any(m not in KERNEL_MISTAKES for m in names):
+            raise ValueError(f"a5_whitted: 'mistakes' must list names of {', '.join(KERNEL_MISTAKES)}, "
+                             f"got {mistakes!r}")
+        self.mistakes = tuple(sorted(set(names)))
         self._medium = media.params_from_props(props)   # docs/EXTENSIONS.md E.8, E.9 (None: no medium)
         self.subsurface = subsurface.method_from_props(props)   # docs/EXTENSIONS.md E.18
 
@@ -132,7 +141,8 @@ class A5WhittedIntegrator(A5Integrator):
             f"reflection={self.reflection}, refraction={self.refraction}, tmin={self.tmin}, "
             f"aovs='{','.join(self.aovs)}', glossy_samples={self.glossy_samples}, "
             f"dispersion={self.dispersion}, bump={self.bump}, glossy={self.glossy}, "
-            f"medium='{self._medium.kind if self._medium is not None else 'none'}', planes={len(self.planes)}]"
+            f"medium='{self._medium.kind if self._medium is not None else 'none'}', planes={len(self.planes)}, "
+            f"mistakes='{','.join(self.mistakes)}']"
         )
 
 

@@ -6,7 +6,8 @@ pixel, and its children carry ``w ⊙ specularColor ⊙ R`` (reflection) and ``w
 inside one ``@dr.syntax`` while-loop, so the whole render is one kernel. Each popped node reads as SPEC B.3:
 intersect, background on a miss, the material, ambient plus the light loop, then the children. The optional
 blocks (docs/EXTENSIONS.md E.2, E.4, E.7-E.10, E.15, record mode) are named helpers under
-``if dr.hint(f.<feature>, mode='scalar'):``, decided by the :class:`~.features.Features` ``f``.
+``if dr.hint(f.<feature>, mode='scalar'):``, decided by the :class:`~.features.Features` ``f``; so are the student
+mistakes of docs/MISTAKES.md (``if dr.hint("name" in f.mistakes, mode='scalar'):``), which change one step each.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from a5mi.plugins.kernel.raylog import RayLog
 from a5mi.plugins.kernel.record import TreeRecorder, shape_id
 from a5mi.plugins.kernel.surfaces import background, surface_at
 from a5mi.plugins.materials import spectral
-from a5mi.plugins.optics import fresnel_weight, reflect, snell
+from a5mi.plugins.optics import fresnel_weight, r0_a5, reflect, schlick, snell
 from a5mi.plugins.sampling import Stochastic
 from a5mi.plugins.syntax import syntax
 from a5mi.spec import MIRROR_THRESHOLD
@@ -102,22 +103,36 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
                                                                          t_min, origin, f.stale_uv)
         bg = dr.zeros(mi.Color3f, width)
         if dr.hint(f.environment, mode="scalar"):
-            bg = background(scene, d, ~hit)
+            if dr.hint("background_wrong_direction" in f.mistakes, mode="scalar"):   # MISTAKES.md: bg(-d)
+                bg = background(scene, -d, ~hit)
+            else:
+                bg = background(scene, d, ~hit)
 
         # ---- the material; N (bumped with E.7); the mirror direction (planes: about n as written)
         a5, kd, diffuse_color, specular, ior, dispersive, shininess, n, alpha, n_gloss = surface_at(
             bsdf, si, hit, n, f, lam, rng.glossy_cap)
         n_mirror = mirror_normal(data.planes, on_plane, plane_idx, n)
         r_view = reflect(d, n_mirror)
+        if dr.hint("mirror_sign" in f.mistakes, mode="scalar"):     # MISTAKES.md: 2(d·N)N - d
+            r_view = -r_view
 
         # ---- local shading: ambient ⊙ diffuseColor + Σ S clamp(L·N) lightColor ⊙ kd
         local = data.ambient * diffuse_color
+        if dr.hint("no_ambient" in f.mistakes, mode="scalar"):      # MISTAKES.md: no ambient term
+            local = dr.zeros(mi.Color3f, width)
+        if dr.hint("ambient_uses_kd" in f.mistakes, mode="scalar"):  # MISTAKES.md: ambient ⊙ kd
+            local = data.ambient * kd
         if dr.hint(f.subsurface != "none", mode="scalar"):   # E.18: light under the surface replaces Lambert
             kd, local, counter = subsurface.shade(scene, data, f, bsdf, si, p, d, n, hit, kd, local, rng, counter)
-        n_lit = n
+        n_light = n
+        if dr.hint("normal_faces_viewer" in f.mistakes, mode="scalar"):   # MISTAKES.md: N flipped toward -d
+            n_light = dr.select(dr.dot(d, n) > 0.0, -n, n)
         if dr.hint(f.two_sided, mode="scalar"):      # E.15: the face the ray sees is lit (physical reading)
-            n_lit = dr.select(dr.dot(d, n) > 0.0, -n, n)
-        shading = lights.ShadingPoint(si, p, hit, n_lit, kd, specular, shininess, r_view, bsdf)
+            n_light = dr.select(dr.dot(d, n) > 0.0, -n, n)
+        kd_light = kd
+        if dr.hint("kd_ignores_texture" in f.mistakes, mode="scalar"):   # MISTAKES.md: diffuseColor for kd
+            kd_light = diffuse_color
+        shading = lights.ShadingPoint(si, p, hit, n_light, kd_light, specular, shininess, r_view, bsdf)
         local, counter, n_shadow = lights.direct(scene, data, f, shading, local, rng, node, counter, n_shadow, rec,
                                                  at, log)
         if dr.hint(f.area_lights, mode="scalar"):   # E.2: an area light seen directly
@@ -152,6 +167,9 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
         share = 1.0 / mi.Float(n_children)
         leaving = dr.dot(d, n_mirror) > 0.0
         n_side = dr.select(leaving, -n_mirror, n_mirror)            # faces the incoming ray
+        t_child = data.tmin
+        if dr.hint("secondary_acne" in f.mistakes, mode="scalar"):   # MISTAKES.md: children start at tmin 0
+            t_child = dr.zeros(mi.Float, width)
         g = dr.zeros(mi.UInt32, width)
         while go & (g < n_children):
             m_facing, r_dir = n_side, r_view
@@ -162,30 +180,54 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
             if dr.hint(f.refraction, mode="scalar"):
                 refractive = go & (ior > 0.0)
                 nt = dr.select(leaving, 1.0, ior)
-                t_dir, exists = snell(d, m_facing, n_medium, nt)
+                n_in, n_out, m_snell = n_medium, nt, m_facing
+                if dr.hint("eta_inverted" in f.mistakes, mode="scalar"):          # MISTAKES.md: nt/n
+                    n_in, n_out = nt, n_medium
+                if dr.hint("eta_inside_inverted" in f.mistakes, mode="scalar"):   # MISTAKES.md: 1/ior inside
+                    n_in, n_out = dr.select(leaving, nt, n_medium), dr.select(leaving, n_medium, nt)
+                if dr.hint("normal_not_flipped_inside" in f.mistakes, mode="scalar"):   # MISTAKES.md: N as is
+                    m_snell = n_mirror
+                t_dir, exists = snell(d, m_snell, n_in, n_out)
                 exists &= ~glossy | (dr.dot(t_dir, n_side) < 0.0)
                 push_refr = refractive & exists
                 r_fresnel = dr.select(push_refr, fresnel_weight(f.fresnel, d, m_facing, t_dir, n_medium, nt), 1.0)
-                w_t = weight * specular * (1.0 - r_fresnel) * share
+                if dr.hint("schlick_wrong_c" in f.mistakes, mode="scalar"):   # MISTAKES.md: c from the other ray
+                    c = dr.select(nt > n_medium, dr.abs(dr.dot(t_dir, m_facing)), dr.abs(dr.dot(d, m_facing)))
+                    r_fresnel = dr.select(push_refr, schlick(c, r0_a5(nt)), 1.0)
+                if dr.hint("tir_ignored" in f.mistakes, mode="scalar"):   # MISTAKES.md: R = Schlick(|d·N|) at TIR
+                    r_fresnel = dr.select(refractive & ~exists, schlick(dr.abs(dr.dot(d, m_facing)), r0_a5(nt)),
+                                          r_fresnel)
+                r_mirror = r_fresnel
+                if dr.hint("refl_refr_added" in f.mistakes, mode="scalar"):   # MISTAKES.md: refl + refr
+                    r_mirror = dr.full(mi.Float, 1.0, width)
+                    r_fresnel = dr.zeros(mi.Float, width)
+                spec_t = specular
+                if dr.hint("refraction_unweighted" in f.mistakes, mode="scalar"):   # MISTAKES.md: no ks
+                    spec_t = dr.full(mi.Color3f, 1.0, width)
+                w_t = weight * spec_t * (1.0 - r_fresnel) * share
                 weighted_t = weighted
                 if dr.hint(f.dispersion, mode="scalar"):   # E.10: the first dispersive refraction weighs w(λ)
                     w_t, weighted_t = spectral.weigh(w_t, weighted, dispersive, lam)
-                top = ray_stack.push(stack, top, push_refr, p, t_dir, w_t, bounces - 1, nt, data.tmin, row,
+                top = ray_stack.push(stack, top, push_refr, p, t_dir, w_t, bounces - 1, nt, t_child, row,
                                      weighted_t)
                 n_refr += dr.select(push_refr, 1.0, 0.0)
                 if dr.hint(f.record, mode="scalar"):
                     rec.node(at, refractive=refractive, leaving=leaving, nt=nt, refr_exists=exists, t_dir=t_dir,
                              r_fresnel=r_fresnel, push_refr=push_refr,
-                             w_refr=weight * specular * (1.0 - r_fresnel) * share)
+                             w_refr=weight * spec_t * (1.0 - r_fresnel) * share)
+                r_fresnel = r_mirror
             if dr.hint(f.reflection, mode="scalar"):
                 push_refl = go & (dr.norm(specular) > MIRROR_THRESHOLD)
                 push_refl &= ~glossy | (dr.dot(r_dir, n_side) > 0.0)
-                top = ray_stack.push(stack, top, push_refl, p, r_dir, weight * specular * r_fresnel * share,
-                                     bounces - 1, n_medium, data.tmin, row, weighted)
+                spec_r = specular
+                if dr.hint("reflection_unweighted" in f.mistakes, mode="scalar"):   # MISTAKES.md: no ks
+                    spec_r = dr.full(mi.Color3f, 1.0, width)
+                top = ray_stack.push(stack, top, push_refl, p, r_dir, weight * spec_r * r_fresnel * share,
+                                     bounces - 1, n_medium, t_child, row, weighted)
                 n_refl += dr.select(push_refl, 1.0, 0.0)
                 if dr.hint(f.record, mode="scalar"):
                     rec.node(at, push_refl=push_refl, r_dir=r_dir, r_fresnel=r_fresnel,
-                             w_refl=weight * specular * r_fresnel * share)
+                             w_refl=weight * spec_r * r_fresnel * share)
             g += 1
         if dr.hint(f.indirect > 0, mode="scalar"):   # E.15: N cosine-weighted rays gather indirect light
             top, counter, n_refl = pbr_gather.gather(stack, top, go, p, d, n, kd, weight, bounces, n_medium,

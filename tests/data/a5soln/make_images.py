@@ -23,7 +23,7 @@ sys.path.insert(0, str(ROOT / "tests" / "fidelity"))
 
 from test_a5soln_own_scenes import CASES  # noqa: E402
 
-from a5mi.imageio import read_levels, write_image  # noqa: E402
+from a5mi.platform.imageio import read_levels, write_image  # noqa: E402
 
 HEAD = """# a5soln's images of the project's own scenes
 

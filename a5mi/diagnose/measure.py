@@ -1,0 +1,145 @@
+"""The measures of ``a5mi diagnose`` (docs/MISTAKES.md "The measure: explained share", "Evidence").
+
+:func:`explained` is ``E(M) = 1 - ||I - M||² / ||I - R||²`` over the 8-bit images, :func:`explained_at` the larger
+of it over pixels and over 4x4-pixel block means; :func:`sample_positions` and :func:`resample` put the image at a
+small render's sample positions (SPEC B.2, B.5); :func:`evidence` says where a cause acts; :data:`REVERSIBLE`
+undoes saved-image mistakes. numpy only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from a5mi.platform.imageio import quantize
+
+Image = npt.NDArray[np.float64]
+
+#: A pixel "differs" when some channel is more than this many levels away.
+LEVELS = 2
+
+
+def srgb_decode(c: Image) -> Image:
+    """The inverse of :func:`a5mi.render.filters.srgb_encode` on [0, 1]."""
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+#: Saved-image mistakes and how to undo them (a pair's other mistake is then looked for in what is left).
+REVERSIBLE: dict[str, Callable[[Image], Image]] = {
+    "upside_down": lambda a: a[::-1], "mirrored": lambda a: a[:, ::-1], "red_blue_swapped": lambda a: a[..., ::-1],
+    "srgb_gamma": srgb_decode,
+}
+
+
+@dataclass
+class Evidence:
+    """Where a cause acts: ``box`` (x0, y0, x1, y1, pixels, row 0 = top, end exclusive) of the pixels that differ
+    from the reference, ``region`` (its place in words), ``differing`` (share of the image's pixels that differ),
+    ``fixed`` (share of those the mutant reproduces within :data:`LEVELS` levels), ``psnr_before`` (image vs
+    reference) and ``psnr_after`` (image vs mutant), dB."""
+
+    box: tuple[int, int, int, int] | None
+    region: str
+    differing: float
+    fixed: float
+    psnr_before: float
+    psnr_after: float
+
+
+def psnr_of(mse: float) -> float:
+    """PSNR in dB of a mean squared error of [0, 1] images (inf for 0)."""
+    return math.inf if mse <= 0.0 else -10.0 * math.log10(mse)
+
+
+def as_levels(img: npt.ArrayLike) -> Image:
+    """A float render quantised as SPEC B.1 writes it, scaled to [0, 1] (float64, 3 channels)."""
+    return quantize(np.asarray(img)[..., :3]).astype(np.float64) / 255.0
+
+
+def mse(a: Image, b: Image) -> float:
+    return float(np.mean((a - b) ** 2))
+
+
+def explained(image: Image, reference: Image, mutant: Image) -> float:
+    """``E = 1 - ||I - M||² / ||I - R||²`` (module docstring); 0 when ``I = R``."""
+    base = float(np.sum((image - reference) ** 2))
+    return 0.0 if base == 0.0 else 1.0 - float(np.sum((image - mutant) ** 2)) / base
+
+
+#: Side of the blocks of the coarse scale (pixels).
+BLOCK = 4
+
+
+def blocks(img: Image, k: int = BLOCK) -> Image:
+    """``img`` averaged over ``k x k`` blocks (cropped to whole blocks; unchanged when smaller than a block)."""
+    h, w = img.shape[:2]
+    if h < k or w < k:
+        return img
+    c = img[: h - h % k, : w - w % k]
+    return c.reshape(h // k, k, w // k, k, -1).mean(axis=(1, 3))
+
+
+def explained_at(image: Image, reference: Image, mutant: Image) -> tuple[float, str]:
+    """``(E, scale)``: the larger of :func:`explained` over pixels and over :func:`blocks`, and which
+    (``pixels`` or ``blocks``)."""
+    fine = explained(image, reference, mutant)
+    coarse = explained(blocks(image), blocks(reference), blocks(mutant))
+    return (fine, "pixels") if fine >= coarse else (coarse, "blocks")
+
+
+def sample_positions(n_small: int, n_full: int, supersampled: bool) -> npt.NDArray[np.float64]:
+    """Continuous pixel positions in the full image of the ``n_small`` pixel centres of a small render along one
+    axis (SPEC B.2: the small render's pixel ``k`` looks along ``x = 2k/(n-1) - 1``; the full image's pixel ``i``
+    along ``2i/(N-1) - 1``, or, with ``-jitter -filter``, along its 3x3 block's centre sample
+    ``2(3i+1)/(3N-1) - 1``)."""
+    x = 2.0 * np.arange(n_small) / max(n_small - 1, 1) - 1.0
+    if supersampled:
+        return ((x + 1.0) * (3 * n_full - 1) / 2.0 - 1.0) / 3.0
+    return (x + 1.0) * (n_full - 1) / 2.0
+
+
+def resample(img: Image, xs: npt.NDArray[np.float64], ys: npt.NDArray[np.float64]) -> Image:
+    """``img`` (row 0 = top) bilinearly interpolated at columns ``xs`` and rows ``ys`` counted from the bottom
+    (positions clamped to the image)."""
+    h, w = img.shape[:2]
+    up = img[::-1]
+    xs, ys = np.clip(xs, 0.0, w - 1.0), np.clip(ys, 0.0, h - 1.0)
+    x0, y0 = np.minimum(xs.astype(int), w - 2 if w > 1 else 0), np.minimum(ys.astype(int), h - 2 if h > 1 else 0)
+    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+    a, b = (xs - x0)[None, :, None], (ys - y0)[:, None, None]
+    out = ((1 - a) * (1 - b) * up[np.ix_(y0, x0)] + a * (1 - b) * up[np.ix_(y0, x1)]
+           + (1 - a) * b * up[np.ix_(y1, x0)] + a * b * up[np.ix_(y1, x1)])
+    return out[::-1]
+
+
+def region_words(box: tuple[int, int, int, int], w: int, h: int) -> str:
+    """Where a box lies in the image, in words: ``whole image``, or e.g. ``top left``, ``centre``, ``bottom``."""
+    x0, y0, x1, y1 = box
+    if (x1 - x0) * (y1 - y0) >= 0.6 * w * h:
+        return "whole image"
+    cx, cy = (x0 + x1) / 2 / w, (y0 + y1) / 2 / h
+    vert = "top" if cy < 1 / 3 else "bottom" if cy > 2 / 3 else ""
+    horiz = "left" if cx < 1 / 3 else "right" if cx > 2 / 3 else ""
+    return " ".join(p for p in (vert, horiz) if p) or "centre"
+
+
+def evidence(image: Image, reference: Image, mutant: Image, noise: float = 0.0) -> Evidence:
+    """The :class:`Evidence` of a mutant (module docstring); a pixel differs by more than :data:`LEVELS` levels
+    and three times the RMS jitter noise ``sqrt(noise)``."""
+    tol = max(LEVELS / 255.0, 3.0 * math.sqrt(noise)) + 1e-9
+    differs = np.any(np.abs(image - reference) > tol, axis=-1)
+    fixed = differs & np.all(np.abs(image - mutant) <= tol, axis=-1)
+    h, w = differs.shape
+    box = None
+    region = "nowhere"
+    if differs.any():
+        ys, xs = np.nonzero(differs)
+        box = (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1)
+        region = region_words(box, w, h)
+    n = int(differs.sum())
+    return Evidence(box, region, n / differs.size, (int(fixed.sum()) / n) if n else 0.0,
+                    psnr_of(mse(image, reference)), psnr_of(mse(image, mutant)))

@@ -1,0 +1,377 @@
+"""Rank the catalogued mistakes by how much of an image's difference from the reference each explains.
+
+:func:`diagnose` (docs/MISTAKES.md "How the diagnosis works"): the image ``I`` (8-bit, row 0 = top) against the
+reference ``R`` that a5mi renders from the scene and flags (SPEC B), and the mutants ``M`` of every applicable
+mistake (:func:`a5mi.diagnose.catalogue.applicable`) rendered with ``RenderOptions.mistakes`` in one warm
+:class:`~a5mi.render.session.RenderSession`. Every comparison is on the quantised images (SPEC B.1) scaled to [0, 1].
+
+The measure is the **explained share** ``E(M) = 1 - ||I - M||² / ||I - R||²`` (sums over pixels and channels):
+the share of the squared difference that assuming the mistake removes. 1: the mutant reproduces the image; 0 or
+less: no better than the correct render. Squared error because it is additive over pixels (a mistake that fixes
+half of the differing pixels exactly explains about half), independent of how large the difference is, and the
+quantity PSNR is built from (``E = 1 - 10^(-ΔPSNR/10)``). It is taken at two scales, pixels and 4x4-pixel block
+means, and the larger counts (:func:`explained_at`): with ``-jitter`` the image was made with other jitter offsets
+than the diagnosis uses, and a mistake whose pixels depend on them (acne, sampling) agrees with the image only in
+its block means.
+
+Stages (small renders first, full size only for the finalists):
+
+1. ``R`` at full size; with ``-jitter`` the render buffer is kept, so ``R`` and every blur/downsample mistake come
+   from one render (:func:`a5mi.render.filters.mistaken_postprocess`), and the saved-image mistakes are
+   :func:`a5mi.render.filters.image_mistakes` of ``R``: both scored at full size for free. The noise floor ``σ²`` (the
+   mean squared difference two jitter seeds make, halved) comes from a second full render with another seed.
+2. ``match`` when ``mse(I, R) <= max(MATCH_NOISE · σ², MATCH_MSE)``: within the seed noise, or above
+   :data:`MATCH_PSNR` dB (SPEC C: a faithful implementation lands above 50 dB, anything under is a semantic
+   difference).
+3. Kernel, marble and camera mutants at a small size (the longer side ``SMALL``, one ray per pixel; an image of at
+   most ``ALL_FULL`` pixels a side skips this stage and renders them all at full size): the predicted
+   difference ``M_s - R_s`` against the observed one, ``I`` interpolated at the small render's sample positions
+   (:func:`sample_positions`) minus ``R_s``; its explained share ranks them. Point samples, not block means: a
+   mistake in fine detail (marble, acne) keeps its signal.
+4. The best :data:`FINALISTS` of stage 3 and the jitter mutants rendered at full size and scored by ``E``; then
+   pairs (two mistakes at once): for each of the best :data:`PAIR_FROM` singles, the partners whose differences,
+   added to its own, best predict the observed difference (at the scale both were rendered at), rendered together
+   at full size; a pair is kept when it explains clearly more than either alone (by 0.1, or by half of what the
+   better one leaves unexplained).
+5. ``diagnosis`` when the best cause explains at least :data:`NAMED_SHARE` and leaves less than a quarter of the
+   error it started from beyond the noise floor; otherwise ``unexplained`` with the remaining error. Never a
+   forced guess.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from a5mi.diagnose.catalogue import BY_NAME, Mistake, applicable, option_traits, scene_traits
+from a5mi.diagnose.measure import (
+    REVERSIBLE,
+    Evidence,
+    Image,
+    as_levels,
+    blocks,
+    evidence,
+    explained,
+    explained_at,
+    mse,
+    psnr_of,
+    resample,
+    sample_positions,
+)
+from a5mi.platform.errors import UserError
+from a5mi.render.filters import image_mistakes, mistaken_postprocess, output_size, postprocess
+from a5mi.render.options import FILTER_MISTAKES, IMAGE_MISTAKES, JITTER_MISTAKES, RenderOptions
+
+if TYPE_CHECKING:
+    from a5mi.converters.describe import SceneDescription
+    from a5mi.render.session import RenderSession
+
+#: Longer side of the stage-3 renders (pixels).
+SMALL = 48
+#: Stage-3 mutants rendered again at full size.
+FINALISTS = 5
+#: Images whose longer side is at most this many pixels skip stage 3: every mutant is rendered at full size (as
+#: cheap as the small renders, and without their sampling mismatch).
+ALL_FULL = 2 * SMALL
+#: Pairs are formed from this many best singles.
+PAIR_FROM = 3
+#: A named cause explains at least this share of the difference.
+NAMED_SHARE = 0.6
+#: Causes listed (best first) in the result, each after the first explaining at least LISTED_SHARE.
+SHOWN = 3
+LISTED_SHARE = 0.1
+#: ``match`` within this many times the seed noise σ² (two seeds differ by 2σ² on average).
+MATCH_NOISE = 2.6
+#: ``match`` at or above this PSNR (dB) whatever the noise (SPEC C's floor for a faithful renderer).
+MATCH_PSNR = 50.0
+MATCH_MSE = 10.0 ** (-MATCH_PSNR / 10.0)
+#: The second jitter seed of the noise floor.
+NOISE_SEED = 977
+#: Mistakes whose pixels depend on the float noise of the ray origin (random speckles): scored at full size always
+#: (a small render's point samples do not meet the same speckles).
+SPECKLED: tuple[str, ...] = ("shadow_acne", "secondary_acne")
+#: Mistakes without jitter noise: when one reproduces a seemingly matching image within DETERMINISTIC · σ², it is
+#: named (a correct image made with other jitter offsets is never reproduced that closely).
+DETERMINISTIC_MISTAKES: tuple[str, ...] = ("no_jitter", "no_supersampling")
+DETERMINISTIC = 0.1
+
+class DiagnoseError(UserError):
+    """The image cannot be compared with the scene's render (a size that the flags do not give)."""
+
+
+@dataclass
+class Cause:
+    """One mutant: its mistakes (one or two names), the explained share at full size (``explained``, None when
+    it was only ranked small), the small-render share (``small``), the :class:`Evidence`."""
+
+    mistakes: tuple[str, ...]
+    explained: float | None
+    small: float | None = None
+    evidence: Evidence | None = None
+    #: where ``explained`` was measured: ``pixels`` or ``blocks`` (4x4 means, :func:`explained_at`)
+    scale: str = "pixels"
+
+    @property
+    def catalogue(self) -> list[Mistake]:
+        return [BY_NAME[m] for m in self.mistakes]
+
+
+@dataclass
+class Diagnosis:
+    """What :func:`diagnose` found: ``verdict`` (``match``, ``diagnosis`` or ``unexplained``), ``psnr`` and ``mse``
+    of the image against the reference, ``noise`` (σ², the seed noise; 0 without ``-jitter``), ``causes`` (best
+    first, at most :data:`SHOWN`), ``remaining`` (mse left by the best cause, or by the reference when none),
+    ``considered`` (mistakes rendered), ``renders`` (small, full) and ``seconds`` by stage."""
+
+    verdict: str
+    psnr: float
+    mse: float
+    noise: float
+    causes: list[Cause] = field(default_factory=list)
+    remaining: float = 0.0
+    considered: list[str] = field(default_factory=list)
+    renders: dict[str, int] = field(default_factory=dict)
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def best(self) -> Cause | None:
+        return self.causes[0] if self.verdict == "diagnosis" and self.causes else None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready data (``a5mi diagnose --json``, the grade report, the view page)."""
+        out = dataclasses.asdict(self)
+        for c, cause in zip(out["causes"], self.causes, strict=True):
+            c["catalogue"] = [{"name": m.name, "section": m.section, "change": m.change, "symptom": m.symptom}
+                              for m in cause.catalogue]
+        return out
+
+
+def combinable(a: str, b: str) -> bool:
+    """Whether two mistakes can be made together (the marble texture takes one mistake; two jitter mistakes or
+    ``no_supersampling`` with a sampling mistake leave one of them without effect)."""
+    layer = {n: m.layer for n, m in BY_NAME.items()}
+    if layer[a] == layer[b] == "marble":
+        return False
+    sampling = set(JITTER_MISTAKES) | set(FILTER_MISTAKES) | {"no_supersampling"}
+    return not ({a, b} <= sampling and "no_supersampling" in (a, b))
+
+
+class _Renderer:
+    """The renders of one diagnosis through one warm session, counted and timed."""
+
+    def __init__(self, session: RenderSession, desc: SceneDescription, options: RenderOptions) -> None:
+        self.session, self.desc, self.options = session, desc, options
+        self.counts = {"small": 0, "full": 0}
+        self.buffer: np.ndarray | None = None   # the reference's render buffer (row 0 = top) with -jitter -filter
+
+    def full(self, mistakes: tuple[str, ...] = (), seed: int | None = None) -> Image:
+        """The image at full size with ``mistakes``; the filter and saved-image mistakes from the buffer."""
+        opts = self.options
+        other_seed = seed is not None
+        seed = seed if seed is not None else opts.seed
+        sampling = opts.jitter and opts.filter
+        post = tuple(m for m in mistakes if m in FILTER_MISTAKES)
+        saved = tuple(m for m in mistakes if m in IMAGE_MISTAKES)
+        render = tuple(m for m in mistakes if m not in post and m not in saved)
+        if sampling and "no_supersampling" not in render:
+            if render or other_seed or self.buffer is None:
+                buf = self._render(dataclasses.replace(opts, filter=False, seed=seed, mistakes=render), "full")
+                if not render and not other_seed:
+                    self.buffer = buf
+            else:
+                buf = self.buffer
+            flipped = buf[::-1]
+            img = (mistaken_postprocess(flipped, post, opts.kernel) if post
+                   else postprocess(flipped, filter=True, kernel=opts.kernel))[::-1]
+        else:
+            img = self._render(dataclasses.replace(opts, seed=seed, mistakes=render), "full")
+        if saved:
+            img = image_mistakes(img, saved)
+        return as_levels(img)
+
+    def small(self, mistakes: tuple[str, ...], size: tuple[int, int]) -> Image:
+        """The image at ``size`` without supersampling, unquantised (stage 3)."""
+        opts = dataclasses.replace(self.options, width=size[0], height=size[1], jitter=False, filter=False,
+                                   mistakes=mistakes)
+        return np.asarray(self._render(opts, "small")[..., :3], np.float64)
+
+    def _render(self, options: RenderOptions, kind: str) -> np.ndarray:
+        self.counts[kind] += 1
+        return self.session.render(self.desc, options).image
+
+
+def candidates_for(desc: SceneDescription, options: RenderOptions) -> list[Mistake]:
+    """The catalogued mistakes that can show with this scene and these flags."""
+    return applicable(scene_traits(desc) | option_traits(options))
+
+
+def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOptions, *,
+             session: RenderSession | None = None, candidates: list[str] | None = None,
+             progress: Callable[[str], None] | None = None) -> Diagnosis:
+    """Diagnose ``image`` (uint8 or [0, 1] float, H x W x 3, row 0 = top) made from scene ``desc`` with the a5 flags
+    ``options`` (module docstring). ``session``: a warm :class:`~a5mi.render.session.RenderSession` (one is made
+    otherwise); ``candidates``: mistake names to consider (default: every applicable one); ``progress(text)``:
+    called at each stage. Raises :class:`DiagnoseError` when the image has another size than the flags give."""
+    from a5mi.render.session import RenderSession
+
+    t0 = time.perf_counter()
+    seconds: dict[str, float] = {}
+    arr = np.asarray(image)
+    img = arr[..., :3].astype(np.float64) / 255.0 if arr.dtype == np.uint8 else as_levels(arr)
+    want = output_size(options.width, options.height, jitter=options.jitter, filter=options.filter)
+    if img.ndim != 3 or (img.shape[1], img.shape[0]) != want:
+        got = f"{img.shape[1]}x{img.shape[0]}" if img.ndim == 3 else f"shape {img.shape}"
+        raise DiagnoseError(f"the image is {got}, but these flags make {want[0]}x{want[1]} images (SPEC B.5)")
+    say = progress or (lambda _text: None)
+    session = session if session is not None else RenderSession()
+    r = _Renderer(session, desc, options)
+    pool = candidates_for(desc, options)
+    if candidates is not None:
+        pool = [m for m in pool if m.name in candidates]
+    names = [m.name for m in pool]
+    predicted: dict[str, Image] = {}   # stage 3: M_s - R_s
+
+    say("reference")
+    ref = r.full()
+    err0 = mse(img, ref)
+    noise = noise_blocks = 0.0
+    if options.jitter:
+        other = r.full(seed=NOISE_SEED)
+        noise, noise_blocks = mse(ref, other) / 2.0, mse(blocks(ref), blocks(other)) / 2.0
+    seconds["reference"] = time.perf_counter() - t0
+    result = Diagnosis("match", psnr_of(err0), err0, noise, considered=names)
+    if err0 <= max(MATCH_NOISE * noise, MATCH_MSE):
+        # within the jitter noise: only a mistake without jitter noise can reproduce the image more closely
+        for n in (n for n in DETERMINISTIC_MISTAKES if n in names and noise > 0.0):
+            m = r.full((n,))
+            left = mse(img, m)
+            if left <= DETERMINISTIC * noise:
+                cause = Cause((n,), explained(img, ref, m), evidence=evidence(img, ref, m, noise))
+                result.verdict, result.causes, result.remaining = "diagnosis", [cause], left
+                break
+        else:
+            result.remaining = err0
+        result.renders, result.seconds = dict(r.counts), seconds
+        seconds["total"] = time.perf_counter() - t0
+        return result
+
+    # ---- full size for free: saved-image and blur/downsample mistakes; then the sampling ones
+    scores: dict[tuple[str, ...], Cause] = {}
+    images: dict[tuple[str, ...], Image] = {}
+
+    def score_full(key: tuple[str, ...]) -> None:
+        m = r.full(key)
+        images[key] = m
+        cause = scores.get(key) or Cause(key, None)
+        cause.explained, cause.scale = explained_at(img, ref, m)
+        scores[key] = cause
+
+    t1 = time.perf_counter()
+    cheap = [n for n in names if n in IMAGE_MISTAKES or (n in FILTER_MISTAKES and options.jitter and options.filter)]
+    for n in cheap:
+        score_full((n,))
+    seconds["image"] = time.perf_counter() - t1
+
+    # ---- stage 3: the rendered mistakes, small
+    t1 = time.perf_counter()
+    rendered = [n for n in names if n not in cheap and n not in JITTER_MISTAKES and n != "no_supersampling"
+                and n not in SPECKLED]
+    observed = np.zeros((1, 1, 3))
+    all_full: list[tuple[str, ...]] = []
+    if rendered and max(img.shape[:2]) <= ALL_FULL:   # small image: all at full size (stage 4 takes them)
+        all_full, rendered = [(n,) for n in rendered], []
+    if rendered:
+        h, w = img.shape[:2]
+        k = max(1, math.ceil(max(w, h) / SMALL))
+        size = (max(2, w // k), max(2, h // k))
+        sampled = options.jitter and options.filter
+        positions = (sample_positions(size[0], w, sampled), sample_positions(size[1], h, sampled))
+        at = resample(img, *positions)
+        say(f"{len(rendered)} mutants at {size[0]}x{size[1]}")
+        base = r.small((), size)
+        observed = at - base
+        total = float(np.sum(observed ** 2))
+        for n in rendered:
+            predicted[n] = r.small((n,), size) - base
+            share = 1.0 - float(np.sum((observed - predicted[n]) ** 2)) / total if total > 0 else 0.0
+            scores[(n,)] = Cause((n,), None, small=share)
+    seconds["small"] = time.perf_counter() - t1
+
+    # ---- stage 4: finalists at full size, then pairs
+    t1 = time.perf_counter()
+    ranked_small = sorted((c for c in scores.values() if c.small is not None), key=lambda c: -(c.small or 0.0))
+    finals = all_full + [c.mistakes for c in ranked_small[:FINALISTS] if (c.small or 0.0) > 0.0]
+    finals += [(n,) for n in names if n in JITTER_MISTAKES or n == "no_supersampling" or n in SPECKLED]
+    say(f"{len(finals)} finalists at full size")
+    for key in finals:
+        score_full(key)
+    singles = sorted((c for c in scores.values() if c.explained is not None), key=lambda c: -(c.explained or 0.0))
+    best_single = singles[0].explained if singles else 0.0
+    if best_single is not None and best_single < 0.98:
+        # no pairs with a mistake free of jitter noise: beside any mutant it removes the noise, which an image made
+        # with other jitter offsets rewards by itself (named alone by the match step's deterministic test)
+        tops = [c.mistakes[0] for c in singles[:PAIR_FROM]
+                if (c.explained or 0.0) > 0.05 and c.mistakes[0] not in DETERMINISTIC_MISTAKES]
+        pairs: set[tuple[str, ...]] = set()
+        if rendered:   # full-size differences at the small render's sample positions, for the additive test
+            for (n, *more), m in images.items():
+                if not more and n not in predicted:
+                    predicted[n] = resample(m - ref, *positions)
+        for a in tops:
+            undone = observed
+            if a in REVERSIBLE and rendered:   # a saved-image mistake is undone, not subtracted
+                undone = resample(REVERSIBLE[a](img), *positions) - base
+
+            def additive(b: str, a: str = a, undone: Image = undone) -> float:
+                """How well the two differences added predict the observed one (small scale, else full)."""
+                if a in REVERSIBLE and b in predicted:
+                    return -float(np.sum((undone - predicted[b]) ** 2))
+                if a in REVERSIBLE and (b,) in images:
+                    return -float(np.sum((REVERSIBLE[a](img) - images[(b,)]) ** 2))
+                if a in predicted and b in predicted:
+                    return -float(np.sum((observed - predicted[a] - predicted[b]) ** 2))
+                if (a,) in images and (b,) in images:
+                    return -float(np.sum((img - images[(a,)] - images[(b,)] + ref) ** 2))
+                return -math.inf
+            partners = sorted((b for b in names if b != a and combinable(a, b) and b not in DETERMINISTIC_MISTAKES),
+                              key=additive, reverse=True)
+            pairs.update(tuple(sorted((a, b), key=names.index)) for b in partners[:2] if additive(b) > -math.inf)
+        for key in sorted(pairs, key=lambda k: (names.index(k[0]), names.index(k[1]))):
+            score_full(key)
+    seconds["finalists"] = time.perf_counter() - t1
+
+    ranked = sorted((c for c in scores.values() if c.explained is not None),
+                    key=lambda c: (-(c.explained or 0.0), len(c.mistakes)))
+    # a pair replaces its singles only when it explains clearly more than the better of them
+    shown: list[Cause] = []
+    for c in ranked:
+        if len(c.mistakes) == 2:
+            parts = [scores[(m,)].explained or 0.0 for m in c.mistakes if (m,) in scores]
+            better = max(parts, default=0.0)
+            if (c.explained or 0.0) < better + min(0.1, (1.0 - better) / 2.0):
+                continue
+        shown.append(c)
+    shown = [c for k, c in enumerate(shown) if k == 0 or (c.explained or 0.0) >= LISTED_SHARE]
+    for c in shown[:SHOWN]:
+        c.evidence = evidence(img, ref, images[c.mistakes], noise)
+    result.causes = shown[:SHOWN]
+    best = result.causes[0] if result.causes else None
+    remaining = mse(img, images[best.mistakes]) if best is not None else err0
+    named = False
+    if best is not None and (best.explained or 0.0) >= NAMED_SHARE:
+        view = blocks if best.scale == "blocks" else (lambda a: a)
+        floor = 2.0 * (noise_blocks if best.scale == "blocks" else noise)
+        before, after = mse(view(img), view(ref)), mse(view(img), view(images[best.mistakes]))
+        named = after - floor <= 0.25 * (before - floor) + MATCH_MSE
+    result.verdict = "diagnosis" if named else "unexplained"
+    result.remaining = remaining if named else err0
+    result.renders, result.seconds = dict(r.counts), seconds
+    seconds["total"] = time.perf_counter() - t0
+    return result

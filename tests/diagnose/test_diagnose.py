@@ -1,0 +1,143 @@
+"""``a5mi diagnose`` and :func:`a5mi.diagnose.rank.diagnose` on small renders of a scene of our own (the
+everyday tier: a handful of candidates per call, so few kernels compile). Images are made by a5mi itself with
+``-mistake`` and another jitter seed than the diagnosis uses (``-seed 7``; the diagnosis replays glibc's seed 1)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from a5mi.cli import run_a5mi
+from a5mi.render.options import RenderOptions
+
+SCENE = """PerspectiveCamera { center 0 1.2 6 direction 0 -0.2 -1 up 0 1 0 angle 40 }
+Lights { numLights 2
+  DirectionalLight { direction -0.4 -1 -0.5 color 0.7 0.7 0.7 }
+  PointLight { position 2 3 2 color 0.5 0.5 0.4 } }
+Background { color 0.2 0.3 0.5 ambientLight 0.2 0.2 0.2 }
+Materials { numMaterials 3
+  Material { diffuseColor 0.8 0.3 0.2 }
+  Material { diffuseColor 0.6 0.6 0.6 specularColor 0.4 0.4 0.4 }
+  Material { diffuseColor 0.1 0.1 0.1 specularColor 0.8 0.8 0.8 refractionIndex 1.5 } }
+Group { numObjects 4
+  MaterialIndex 1 Plane { normal 0 1 0 offset -1 }
+  MaterialIndex 0 Sphere { center -1 0 0 radius 1 }
+  MaterialIndex 2 Sphere { center 1.2 -0.2 0.8 radius 0.8 }
+  MaterialIndex 0 Sphere { center 0.2 1.6 -1.5 radius 0.5 } }
+"""
+FLAGS = ["-size", "36", "36", "-shadows", "-jitter", "-filter", "-bounces", "3"]
+ONLY = "no_shadows,no_ambient,mirror_sign,eta_inverted,upside_down,srgb_gamma,no_jitter,blur_not_normalised"
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("diag") / "scene.txt"
+    path.write_text(SCENE)
+    return path
+
+
+@pytest.fixture(scope="module")
+def session(variant: str):  # noqa: ANN201
+    from a5mi.render.session import RenderSession
+
+    return RenderSession()
+
+
+def _image(session, scene: Path, mistakes: tuple[str, ...] = (), seed: int = 7) -> np.ndarray:  # noqa: ANN001
+    from a5mi.platform.imageio import quantize
+    from a5mi.render.session import describe_file
+
+    desc = describe_file(str(scene))[0]
+    opts = RenderOptions(width=36, height=36, shadows=True, jitter=True, filter=True, bounces=3, seed=seed,
+                         mistakes=mistakes)
+    return quantize(session.render(desc, opts).image)
+
+
+def _diagnose(session, scene: Path, img: np.ndarray, only: str = ONLY):  # noqa: ANN001, ANN202
+    from a5mi.diagnose.rank import diagnose
+    from a5mi.render.session import describe_file
+
+    desc = describe_file(str(scene))[0]
+    opts = RenderOptions(width=36, height=36, shadows=True, jitter=True, filter=True, bounces=3)
+    return diagnose(img, desc, opts, session=session, candidates=only.split(","))
+
+
+@pytest.mark.parametrize("mistake", ONLY.split(","))
+def test_single_mistake_named_first(session, scene: Path, mistake: str) -> None:
+    d = _diagnose(session, scene, _image(session, scene, (mistake,)))
+    assert d.verdict == "diagnosis" and d.causes[0].mistakes == (mistake,), d.causes
+    assert d.causes[0].explained >= 0.6 and d.causes[0].evidence is not None
+
+
+def test_two_mistakes_both_named(session, scene: Path) -> None:
+    d = _diagnose(session, scene, _image(session, scene, ("no_shadows", "upside_down")))
+    assert d.verdict == "diagnosis" and set(d.causes[0].mistakes) == {"no_shadows", "upside_down"}
+
+
+@pytest.mark.parametrize("seed", [7, 123])
+def test_correct_image_other_seed_names_nothing(session, scene: Path, seed: int) -> None:
+    d = _diagnose(session, scene, _image(session, scene, seed=seed))
+    assert d.verdict == "match" and d.causes == []
+
+
+def test_edit_no_mistake_explains_is_unexplained(session, scene: Path) -> None:
+    img = _image(session, scene).copy()
+    img[5:15, 20:30] = (255, 0, 255)   # a painted square: no catalogued mistake does that
+    d = _diagnose(session, scene, img)
+    assert d.verdict == "unexplained" and d.remaining == d.mse > 0
+
+
+def test_cli_exit_status_and_output(session, scene: Path, tmp_path: Path, capsys) -> None:
+    from a5mi.platform.imageio import write_image
+
+    wrong = tmp_path / "wrong.png"
+    write_image(wrong, _image(session, scene, ("mirror_sign",)).astype(np.float32) / 255 + 0.5 / 255)
+    assert run_a5mi(["diagnose", str(wrong), "-input", str(scene), *FLAGS, "--only", ONLY]) == 1
+    out = capsys.readouterr().out
+    assert "verdict: diagnosis" in out and "1. mirror_sign: explains" in out and "symptom:" in out
+    assert run_a5mi(["diagnose", str(wrong), "-input", str(scene), *FLAGS, "--only", ONLY, "--json"]) == 1
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["verdict"] == "diagnosis" and doc["causes"][0]["mistakes"] == ["mirror_sign"]
+    right = tmp_path / "right.png"
+    write_image(right, _image(session, scene, seed=11).astype(np.float32) / 255 + 0.5 / 255)
+    assert run_a5mi(["diagnose", str(right), "-input", str(scene), *FLAGS, "--only", ONLY]) == 0
+    assert "verdict: match" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["diagnose"], "give IMG"),
+    (["diagnose", "IMG", "-input", "S", "-jitter"], "-jitter without -filter"),
+    (["diagnose", "IMG", "-input", "S", "--only", "nonsense"], "--only expects"),
+])
+def test_cli_usage_errors_exit_2(argv: list[str], message: str, scene: Path, tmp_path: Path, capsys,
+                                 session) -> None:
+    from a5mi.platform.imageio import write_image
+
+    img = tmp_path / "i.png"
+    write_image(img, np.zeros((36, 36, 3), np.float32))
+    argv = [str(img) if a == "IMG" else str(scene) if a == "S" else a for a in argv]
+    if "-size" not in argv and len(argv) > 1:
+        argv += ["-size", "36", "36"]
+    assert run_a5mi(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+
+
+def test_cli_wrong_size_is_a_usage_error(scene: Path, tmp_path: Path, capsys, session) -> None:
+    from a5mi.platform.imageio import write_image
+
+    img = tmp_path / "small.png"
+    write_image(img, np.zeros((20, 20, 3), np.float32))
+    assert run_a5mi(["diagnose", str(img), "-input", str(scene), *FLAGS]) == 2
+    assert "these flags make 36x36 images" in capsys.readouterr().err
+
+
+def test_cli_list_prints_the_catalogue(capsys) -> None:
+    from a5mi.render.options import MISTAKES
+
+    assert run_a5mi(["diagnose", "--list"]) == 0
+    out = capsys.readouterr().out
+    assert all(m in out for m in MISTAKES) and len(out.strip().splitlines()) == len(MISTAKES)
