@@ -21,7 +21,8 @@ estimation of E.13), the bound per integrator is:
   pass, each ``M · N`` hemisphere paths (:func:`hemisphere_rays` of ``-ic_samples``) of at most ``B + 1``
   vertices with a ray and ``L`` shadow rays each: ``C T (1 + L) + (C/spp) T · samples · (B + 1)(1 + L)``;
 * ``photon`` (E.16): the camera path (``B + 1`` rays, ``L`` shadow rays and ``-final_gather M`` gather rays per
-  vertex) plus ``(photons + caustic_photons) · 10`` photon rays (10 = the photon walk's depth) and the 4,096
+  vertex) plus ``(photons + caustic_photons) · H`` photon rays (``H`` = ``-photon_depth``, or 51 for Russian
+  roulette alone: its mean hits in a lossless scene) and the 4,096
   pilot rays per light of the light powers; ``ppm`` (E.17): the same without final gather, the photon part
   once per ``-spp`` pass.
 
@@ -40,6 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from a5mi.platform.resources import ROULETTE_MEAN_HITS
 from a5mi.render.options import RenderOptions
 from a5mi.spec import MIRROR_THRESHOLD
 
@@ -55,9 +57,9 @@ CONSERVATIVE_RATE: float = 2.0e6
 REFUSE_SECONDS: float = 3600.0
 #: Above this many estimated seconds ``a5`` warns (one minute).
 WARN_SECONDS: float = 60.0
-#: The photon walk's depth (``a5_photon`` ``photon_depth``, default 10) and the pilot photons per light of
-#: the light powers (plugins/integrators/photon/emit.py ``light_powers``).
-PHOTON_DEPTH: int = 10
+#: The pilot photons per light of the light powers (plugins/integrators/photon/emit.py ``light_powers``); a
+#: photon's hits are ``photon_depth``, or with Russian roulette alone (0) at most
+#: :data:`a5mi.platform.resources.ROULETTE_MEAN_HITS` on average (a lossless scene).
 PHOTON_PILOT: int = 4096
 #: A measured rate is kept only from a render that traced at least this many rays (a tiny render's rate is
 #: dominated by start-up costs and would understate the machine).
@@ -182,7 +184,8 @@ def estimate(desc: SceneDescription, options: RenderOptions, *, rate: float | No
         gather = options.final_gather if options.integrator == "photon" else 0
         per = (b + 1) * (1 + n_lights + gather)
         maps = 1 if options.integrator == "photon" else options.spp
-        extra = maps * ((options.photons + options.caustic_photons) * PHOTON_DEPTH + PHOTON_PILOT * len(desc.lights))
+        hits = options.photon_depth if options.photon_depth > 0 else ROULETTE_MEAN_HITS
+        extra = maps * ((options.photons + options.caustic_photons) * hits + PHOTON_PILOT * len(desc.lights))
         cause = (f"{_num(options.photons + options.caustic_photons)} photons"
                  + (f" x {maps} passes" if maps > 1 else "") + f", paths of up to {_num(per)} rays per camera ray")
         hints += ["-photons", "-caustic_photons"] + (["-final_gather"] if gather else [])
