@@ -11,23 +11,11 @@ import numpy as np
 import pytest
 
 from a5mi.cli import run_a5mi
+from a5mi.diagnose.probes import SPHERES
 from a5mi.render.options import RenderOptions
 
-SCENE = """PerspectiveCamera { center 0 1.2 6 direction 0 -0.2 -1 up 0 1 0 angle 40 }
-Lights { numLights 2
-  DirectionalLight { direction -0.4 -1 -0.5 color 0.7 0.7 0.7 }
-  PointLight { position 2 3 2 color 0.5 0.5 0.4 } }
-Background { color 0.2 0.3 0.5 ambientLight 0.2 0.2 0.2 }
-Materials { numMaterials 3
-  Material { diffuseColor 0.8 0.3 0.2 }
-  Material { diffuseColor 0.6 0.6 0.6 specularColor 0.4 0.4 0.4 }
-  Material { diffuseColor 0.1 0.1 0.1 specularColor 0.8 0.8 0.8 refractionIndex 1.5 } }
-Group { numObjects 4
-  MaterialIndex 1 Plane { normal 0 1 0 offset -1 }
-  MaterialIndex 0 Sphere { center -1 0 0 radius 1 }
-  MaterialIndex 2 Sphere { center 1.2 -0.2 0.8 radius 0.8 }
-  MaterialIndex 0 Sphere { center 0.2 1.6 -1.5 radius 0.5 } }
-"""
+#: the spheres probe (a5mi/diagnose/probes.py) with a plain background colour instead of its cube map
+SCENE = SPHERES.replace("Background { cubeMap cube", "Background { color 0.2 0.3 0.5")
 FLAGS = ["-size", "36", "36", "-shadows", "-jitter", "-filter", "-bounces", "3"]
 ONLY = "no_shadows,no_ambient,mirror_sign,eta_inverted,upside_down,srgb_gamma,no_jitter,blur_not_normalised"
 

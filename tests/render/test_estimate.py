@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from helpers import TESTS
 
 from a5mi.render import estimate as est
 from a5mi.render.options import RenderOptions
@@ -21,23 +22,7 @@ PROJECT_SCENES = Path(__file__).resolve().parents[2] / "scenes"
 A5 = str(Path(sys.executable).with_name("a5"))
 
 #: A diffuse room (the shape of the scene that ran for 22 minutes): a sphere and two planes, a point light.
-ROOM = """PerspectiveCamera { center 0 1 5 direction 0 0 -1 up 0 1 0 angle 40 }
-Lights { numLights 1 PointLight { position 0 3 2 color 1 1 1 } }
-Background { color 0.2 0.2 0.2 ambientLight 0.1 0.1 0.1 }
-Materials {
-    numMaterials 2
-    PhongMaterial { diffuseColor 0.8 0.8 0.8 }
-    PhongMaterial { diffuseColor 0.7 0.3 0.2 }
-}
-Group {
-    numObjects 3
-    MaterialIndex 0
-    Plane { normal 0 1 0 offset 0 }
-    Plane { normal 0 0 1 offset -2 }
-    MaterialIndex 1
-    Sphere { center 0 1 0 radius 1 }
-}
-"""
+ROOM = (TESTS / "data" / "scenes" / "room.txt").read_text()
 #: (line, column) of the room's first material: the diffuse one the refusal points at
 ROOM_MATERIAL = (6, 5)
 

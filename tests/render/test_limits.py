@@ -12,33 +12,14 @@ import sys
 from pathlib import Path
 
 import pytest
+from helpers import TESTS
 
 from a5mi.platform import resources
 from a5mi.platform.errors import UsageError
 from a5mi.render import limits
 from a5mi.render.options import RenderOptions
 
-BOX = """PerspectiveCamera { center 0 0 3 direction 0 0 -1 up 0 1 0 angle 40 }
-Lights { numLights 1 PointLight { position 0 0.5 0 color 1 1 1 } }
-Background { color 0 0 0 ambientLight 0 0 0 }
-Materials {
-    numMaterials 2
-    Material { diffuseColor 0.9 0.9 0.9 }
-    Material { diffuseColor 0 0 0 specularColor 1 1 1 refractionIndex 1.5 }
-}
-Group {
-    numObjects 7
-    MaterialIndex 0
-    Plane { normal 0 1 0 offset -1 }
-    Plane { normal 0 -1 0 offset -1 }
-    Plane { normal 1 0 0 offset -1 }
-    Plane { normal -1 0 0 offset -1 }
-    Plane { normal 0 0 1 offset -1 }
-    Plane { normal 0 0 -1 offset -4 }
-    MaterialIndex 1
-    Sphere { center 0 -0.5 0 radius 0.4 }
-}
-"""
+BOX = (TESTS / "data" / "scenes" / "photon_box.txt").read_text()
 BIG = str(1 << 26)
 
 
