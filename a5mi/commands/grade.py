@@ -118,12 +118,15 @@ def settings_of(args: Args):  # noqa: ANN201 - GradeSettings
                          f"{args.close:g})")
     slurm = slurm_options(args)
     security = scheduler_security(args)
-    scenes = args.scenes or str(require_data_dir() / "scenes")
-    if not Path(scenes).is_dir():
-        raise UsageError(f"--scenes: '{scenes}' is not a folder")
+    if not Path(args.submissions).is_dir():   # the user's own inputs first, the course data after them
+        raise UserError(f"submissions folder '{args.submissions}' does not exist")
     if args.reference is not None and not Path(args.reference).is_dir():
         raise UsageError(f"--reference: '{args.reference}' is not a folder")
     cases = load_cases(args.cases, _options_of)
+    check_reachable(args.scheduler)
+    scenes = args.scenes or str(require_data_dir() / "scenes")
+    if not Path(scenes).is_dir():
+        raise UsageError(f"--scenes: '{scenes}' is not a folder")
     allow = tuple(p for p in (args.allow_read or "").split(":") if p)
     return GradeSettings(
         submissions=args.submissions, report_dir=args.output, cases=cases, scenes=os.path.abspath(scenes),
@@ -203,7 +206,6 @@ def run_grade(args: Args, console: Console) -> int:
         require("dask_jobqueue", "slurm")
     check_report_dir(args)
     settings = settings_of(args)
-    check_reachable(args.scheduler)
     fresh = not os.path.lexists(args.output)
     why = sandbox.refusal()
     if why and _has_executables(args.submissions):
