@@ -33,11 +33,11 @@ def _a5(tmp_path: Path, capsys, *flags: str) -> tuple[int, list[str]]:  # noqa: 
 
 @pytest.mark.parametrize("flags, words", [
     (("-integrator", "photon", "-photons", BIG, "-caustic_photons", BIG),
-     f"-size 16 16 -integrator photon -photons {BIG} -caustic_photons {BIG} needs about 684.7 GB of memory"),
+     f"-size 16 16 -integrator photon -photons {BIG} -caustic_photons {BIG} needs about 1027.0 GB of memory"),
     (("-integrator", "ppm", "-photons", BIG, "-caustic_photons", "0"),
-     f"-size 16 16 -integrator ppm -photons {BIG} -caustic_photons 0 needs about 342.5 GB of memory"),
+     f"-size 16 16 -integrator ppm -photons {BIG} -caustic_photons 0 needs about 513.6 GB of memory"),
     (("-integrator", "photon", "-photons", str(1 << 24), "-caustic_photons", "0", "-workers", "4"),
-     f"-size 16 16 -integrator photon -photons {1 << 24} -caustic_photons 0 on 4 workers needs about 343.3 GB"),
+     f"-size 16 16 -integrator photon -photons {1 << 24} -caustic_photons 0 on 4 workers needs about 514.4 GB"),
 ])
 def test_an_integrator_too_large_for_memory_is_one_line_before_any_work(tmp_path: Path, capsys, monkeypatch,  # noqa: ANN001
                                                                           flags: tuple[str, ...], words: str) -> None:
