@@ -45,8 +45,6 @@ FLAGS: tuple[Flag, ...] = (
 def check_animate_args(args: Args) -> None:
     if args.workers is not None and args.scheduler is not None:
         raise UsageError("give --workers or --scheduler, not both")
-    if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://", "inproc://")):
-        raise UsageError(f"--scheduler expects tls://HOST:PORT, found '{args.scheduler[:40]}'")
     check_render_args(args)
 
 

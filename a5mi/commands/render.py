@@ -175,12 +175,9 @@ def render_options(args: Args, **overrides: Any) -> RenderOptions:
 def check_render_args(args: Args) -> None:
     """Limits that depend on several flags, the same for the command line and the page
     (:mod:`a5mi.render.limits`: the sample budget, ``-indirect``, ``-filter``'s minimum size, the memory), and
-    the ``-two_sided``, ``-ic_records`` / ``-ic_error`` rules."""
+    the ``-ic_records`` / ``-ic_error`` rules."""
     from a5mi.render import limits
 
-    if args.get("two_sided") and args.get("integrator") not in (None, "whitted"):
-        raise UsageError(f"-two_sided is a mode of the whitted integrator (-integrator {args.integrator} lights "
-                         "both faces already)")
     if args.get("ic_records_output") and args.get("integrator") != "irradiancecache":
         raise UsageError("-ic_records needs -integrator irradiancecache")
     ic_error = args.get("ic_error")

@@ -4,8 +4,8 @@ Each flag's own range is its flag table's (``a5mi/commands/render.py``, the page
 these are the limits that involve several options (SPEC B.1, B.5 and docs/EXTENSIONS.md):
 
 * the sample budget: ``W · H · k²`` render-buffer samples (``k = 3`` with ``-jitter``) at most :data:`MAX_SAMPLES`;
-* ``-indirect N`` (E.15) is a mode of the Whitted integrator, and keeps up to ``(N + 1) · bounces`` pending rays
-  per camera ray: at most :data:`MAX_PENDING` (the kernel's per-lane stack);
+* ``-indirect N`` and ``-two_sided`` (E.15) are modes of the Whitted integrator; ``-indirect N`` keeps up to
+  ``(N + 1) · bounces`` pending rays per camera ray: at most :data:`MAX_PENDING` (the kernel's per-lane stack);
 * ``-filter`` without ``-jitter`` saves a ``W/3 x H/3`` image: ``W, H >= 3``;
 * the memory: :func:`a5mi.platform.resources.render_bytes` plus :func:`a5mi.platform.resources.integrator_bytes`
   (photon maps and kd-trees, ppm statistics, irradiance records), and for a split render
@@ -38,6 +38,9 @@ def check_combination(o: RenderOptions) -> None:
                          f"samples; the limit is {MAX_SAMPLES}")
     if o.indirect and o.integrator != "whitted":
         raise UsageError(f"-indirect is a mode of the whitted integrator, not of -integrator {o.integrator}")
+    if o.two_sided and o.integrator != "whitted":
+        raise UsageError(f"-two_sided is a mode of the whitted integrator (-integrator {o.integrator} lights "
+                         "both faces already)")
     if o.indirect and (o.indirect + 1) * o.bounces > MAX_PENDING:
         pending = (o.indirect + 1) * o.bounces
         raise UsageError(f"-indirect {o.indirect} with -bounces {o.bounces} keeps up to {pending} pending rays per "
