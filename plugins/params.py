@@ -74,6 +74,16 @@ def read_choice(plugin: str, props: mi.Properties, name: str, default: str, choi
     return str(value)
 
 
+def read_names(plugin: str, props: mi.Properties, name: str, allowed: Sequence[str], what: str) -> set[str]:
+    """``props[name]``, a comma-separated string (empty when absent), as the set of its names, each of which must
+    be one of ``allowed`` (``what`` names them in the error: ``'aovs' must list groups of ...``)."""
+    value = props.get(name, "")
+    names = {n.strip() for n in value.split(",") if n.strip()} if isinstance(value, str) else None
+    if names is None or not names <= set(allowed):
+        raise ValueError(f"{plugin}: '{name}' must list {what} of {', '.join(allowed)}, got {value!r}")
+    return names
+
+
 def read_rgb(plugin: str, props: mi.Properties, name: str, default: float = 0.0) -> list[float]:
     """``props[name]`` as three floats: an rgb colour, or one number for a grey (``default`` when absent)."""
     value = props.get(name, mi.ScalarColor3d(default))

@@ -46,7 +46,7 @@ from a5mi.plugins.emulation import triangle_rule
 from a5mi.plugins.emulation.planes import plane_set, planes_from_props
 from a5mi.plugins.kernel.features import Features, SceneData, build_features, depth_budget
 from a5mi.plugins.kernel.scene import lights_of
-from a5mi.plugins.params import read_bool, read_choice, read_int, read_number, read_rgb
+from a5mi.plugins.params import read_bool, read_choice, read_int, read_names, read_number, read_rgb
 from a5mi.spec import FRESNEL_MODES, TMIN
 
 #: every AOV group (a5mi.render.options.AOV_GROUPS) and the channels it adds, in order: first-hit shading normal
@@ -132,10 +132,7 @@ class A5Integrator(mi.SamplingIntegrator):
 
     def _read_aovs(self, props: mi.Properties) -> tuple[str, ...]:
         """The ``aovs`` groups, in the order of :data:`AOV_CHANNELS`."""
-        aovs = props.get("aovs", "")
-        groups = [g.strip() for g in aovs.split(",") if g.strip()] if isinstance(aovs, str) else None
-        if groups is None or any(g not in self.aov_groups for g in groups):
-            raise ValueError(f"{self.name}: 'aovs' must list groups of {', '.join(self.aov_groups)}, got {aovs!r}")
+        groups = read_names(self.name, props, "aovs", self.aov_groups, "groups")
         return tuple(g for g in AOV_CHANNELS if g in groups)
 
     # ------------------------------------------------------------------ kernel inputs

@@ -18,7 +18,7 @@ from a5mi.plugins.integrators.whitted.raytree import TreeResult, trace_tree
 from a5mi.plugins.kernel.raylog import RayLog
 from a5mi.plugins.kernel.record import TreeRecorder
 from a5mi.plugins.media import medium as media
-from a5mi.plugins.params import read_bool, read_int
+from a5mi.plugins.params import read_bool, read_int, read_names
 from a5mi.plugins.sampling import SamplePass, stochastic
 from a5mi.render.options import KERNEL_MISTAKES
 
@@ -95,12 +95,8 @@ class A5WhittedIntegrator(A5Integrator):
         super().__init__(props)   # the shared parameters (plugins/integrators/base.py)
         self.indirect = read_int(self.name, props, "indirect", 0, 0)   # E.15: gathered rays per diffuse hit
         self.two_sided = read_bool(self.name, props, "two_sided", False)   # E.15: both faces lit by the light loop
-        mistakes = props.get("mistakes", "")   # docs/MISTAKES.md
-        names = [m.strip() for m in mistakes.split(",") if m.strip()] if isinstance(mistakes, str) else None
-        if names is None or any(m not in KERNEL_MISTAKES for m in names):
-            raise ValueError(f"a5_whitted: 'mistakes' must list names of {', '.join(KERNEL_MISTAKES)}, "
-                             f"got {mistakes!r}")
-        self.mistakes = tuple(sorted(set(names)))
+        # docs/MISTAKES.md: the kernel mistakes compiled in
+        self.mistakes = tuple(sorted(read_names(self.name, props, "mistakes", KERNEL_MISTAKES, "names")))
         self._medium = media.params_from_props(props)   # docs/EXTENSIONS.md E.8, E.9 (None: no medium)
         self.subsurface = subsurface.method_from_props(props)   # docs/EXTENSIONS.md E.18
 
