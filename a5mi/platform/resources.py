@@ -52,9 +52,10 @@ def render_bytes(rw: int, rh: int, *, width: int, height: int, aovs: bool, jitte
 #: sphere (every photon bounces until ``photon_depth``: the worst case), 2 x 250k photons 0.59 GB, 2 x 1M photons
 #: 1.77 GB peak resident: 782 bytes per photon, 0.86 GB for 2 x 400k against 0.83 GB by that slope; 1000
 #: leaves room for that spread. That was at ``photon_depth`` 10, ten hits per photon. Later, 2 x 400k at
-#: ``photon_depth`` 10 peaked at 0.79-0.83 GB alone (cold and warm caches) but at 1.05 and 1.20 GB inside the
-#: test suite's worker processes (BENCHMARKS.md "Test suite"): 1500 bytes per photon, 150 per hit, covers those.
-PHOTON_BYTES = 1500
+#: ``photon_depth`` 10 peaked at 0.79-0.83 GB alone (cold and warm caches) but at 1.05, 1.20 and 1.54 GB inside
+#: the test suite's worker processes on the loaded machine (BENCHMARKS.md "Test suite"): the same command's peak
+#: spreads about 2x; 2000 bytes per photon, 200 per hit, covers the highest seen.
+PHOTON_BYTES = 2000
 PHOTON_DEPTH_MEASURED = 10
 PHOTON_HIT_BYTES = PHOTON_BYTES // PHOTON_DEPTH_MEASURED
 #: Hits per photon bounded for Russian roulette alone (``photon_depth`` 0, docs/EXTENSIONS.md E.16): survival is
@@ -75,7 +76,7 @@ BAND_SAMPLE_BYTES = 12
 def integrator_bytes(integrator: str, samples: int, *, photons: int = 0, caustic_photons: int = 0,
                      photon_depth: int = 0) -> int:
     """Estimated bytes an integrator holds beyond :func:`render_bytes` for a render of ``samples``
-    render-buffer samples: ``photon``: ``(photons + caustic) · 150 · H`` (:data:`PHOTON_HIT_BYTES` per hit, the
+    render-buffer samples: ``photon``: ``(photons + caustic) · 200 · H`` (:data:`PHOTON_HIT_BYTES` per hit, the
     two maps and their kd-trees; ``H`` = ``photon_depth`` hits, or :data:`ROULETTE_MEAN_HITS` for Russian
     roulette alone, the lossless worst case); ``ppm``: the same per pass (one pass's maps at a time) ``+ samples · 48``;
     ``irradiancecache``: ``samples · 600`` (records) ``+ 2^20 · 100`` (one gather chunk in flight);

@@ -33,11 +33,11 @@ def _a5(tmp_path: Path, capsys, *flags: str) -> tuple[int, list[str]]:  # noqa: 
 
 @pytest.mark.parametrize("flags, words", [
     (("-integrator", "photon", "-photons", BIG, "-caustic_photons", BIG),
-     f"-size 16 16 -integrator photon -photons {BIG} -caustic_photons {BIG} needs about 1027.0 GB of memory"),
+     f"-size 16 16 -integrator photon -photons {BIG} -caustic_photons {BIG} needs about 1369.2 GB of memory"),
     (("-integrator", "ppm", "-photons", BIG, "-caustic_photons", "0"),
-     f"-size 16 16 -integrator ppm -photons {BIG} -caustic_photons 0 needs about 513.6 GB of memory"),
+     f"-size 16 16 -integrator ppm -photons {BIG} -caustic_photons 0 needs about 684.7 GB of memory"),
     (("-integrator", "photon", "-photons", str(1 << 24), "-caustic_photons", "0", "-workers", "4"),
-     f"-size 16 16 -integrator photon -photons {1 << 24} -caustic_photons 0 on 4 workers needs about 514.4 GB"),
+     f"-size 16 16 -integrator photon -photons {1 << 24} -caustic_photons 0 on 4 workers needs about 685.6 GB"),
 ])
 def test_an_integrator_too_large_for_memory_is_one_line_before_any_work(tmp_path: Path, capsys, monkeypatch,  # noqa: ANN001
                                                                           flags: tuple[str, ...], words: str) -> None:
@@ -69,7 +69,7 @@ def test_irradiance_records_and_ppm_statistics_grow_with_the_samples() -> None:
 def test_the_photon_estimate_covers_a_measured_render(tmp_path: Path, depth: int) -> None:
     """A bright case for the maps (a closed box of albedo 0.9): the child's peak resident memory stays under
     :func:`a5mi.render.limits.memory_need` of its options. With ``-photon_depth 10`` every photon bounces until
-    the cut, the case the per-hit figure was measured on, and the estimate is within 2x; with Russian roulette
+    the cut, the case the per-hit figure was measured on, and the estimate is within 2.5x; with Russian roulette
     alone (0) the estimate assumes a lossless scene (51 hits), so here (10 hits on average) it is only a bound."""
     (tmp_path / "box.txt").write_text(BOX)
     n = 400_000
@@ -87,7 +87,9 @@ def test_the_photon_estimate_covers_a_measured_render(tmp_path: Path, depth: int
                                             photon_depth=depth))
     assert peak <= need, (peak, need)
     if depth:
-        assert need <= 2 * peak, (peak, need)  # and not a wild overestimate where the model is exact
+        # and not a wild overestimate where the model is exact: the same command's own peak spreads from 0.79 GB
+        # (alone) to 1.54 GB (inside a loaded suite), and the model covers the highest, so 2.5x the lowest
+        assert need <= 2.5 * peak, (peak, need)
 
 
 def test_the_page_and_the_command_line_refuse_the_same_combinations() -> None:
