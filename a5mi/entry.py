@@ -21,21 +21,30 @@ a full disk) with one line and 2. The console scripts exit with the status the c
 from __future__ import annotations
 
 import _signal  # the interpreter's built-in module: no search of the import path
+import sys
 
 _EARLY: list[int] = []
+#: True in a process that ``multiprocessing`` spawned from the console script (a ``-workers`` Dask worker
+#: runs the parent's main script again as ``__mp_main__``): it is not a command and gets no handlers.
+_CHILD = "__mp_main__" in sys.modules
 
 
 def _early(signum: int, frame: object) -> None:
     _EARLY.append(signum)  # held until :mod:`a5mi.platform.interrupts` is installed, then raised at its first check
 
 
-for _sig in (_signal.SIGINT, _signal.SIGTERM, _signal.SIGHUP):  # first thing: before any other import
-    if _sig == _signal.SIGINT or _signal.getsignal(_sig) != _signal.SIG_IGN:  # nohup's SIG_IGN stays
-        _signal.signal(_sig, _early)
+if _CHILD:
+    # A terminal's Ctrl-C goes to the whole foreground process group: the parent command owns it (it closes the
+    # cluster, which ends its workers with SIGTERM); a worker that died of it first would lose its band and
+    # leave the parent's semaphores to the resource tracker.
+    _signal.signal(_signal.SIGINT, _signal.SIG_IGN)
+else:
+    for _sig in (_signal.SIGINT, _signal.SIGTERM, _signal.SIGHUP):  # first thing: before any other import
+        if _sig == _signal.SIGINT or _signal.getsignal(_sig) != _signal.SIG_IGN:  # nohup's SIG_IGN stays
+            _signal.signal(_sig, _early)
 
 import os  # noqa: E402 - after the handlers above
 import signal  # noqa: E402
-import sys  # noqa: E402
 
 from a5mi.platform import interrupts  # noqa: E402
 
@@ -71,7 +80,8 @@ def _reopen_closed() -> tuple[int, ...]:
 
 
 _CLOSED = _reopen_closed()  # before any descriptor is opened (the watchdog's pipe would take a closed 0, 1 or 2)
-interrupts.install(_report)  # replaces the early handler
+if not _CHILD:
+    interrupts.install(_report)  # replaces the early handler
 if _EARLY:
     interrupts.hold(_EARLY[0])  # raised by the first interrupts.check()
 

@@ -33,10 +33,13 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from a5mi.platform import interrupts
 from a5mi.platform.errors import UsageError, UserError
 from a5mi.runtime.extras import require
 
 Progress = Callable[[int, int], None]
+#: Seconds Dask is given to close the client and the local cluster (then its workers are killed).
+CLOSE_TIMEOUT = 20
 
 
 class Journal:
@@ -206,19 +209,24 @@ def start_client(workers: int = 2, scheduler: str | None = None, *,
             finally:
                 client.close()
             return
-        with dask.config.set({"distributed.scheduler.http.routes": [], "distributed.worker.http.routes": []}):
+        # A signal while the cluster starts or closes waits for it (interrupts.protected: Dask's own time-outs
+        # bound both): a cluster left half-started or half-closed by an exception fails Dask's exit hook with
+        # a traceback and leaves its workers' semaphores to the resource tracker's "leaked" warning.
+        with interrupts.protected(), dask.config.set({"distributed.scheduler.http.routes": [],
+                                                      "distributed.worker.http.routes": []}):
             # The scheduler always opens an HTTP server; dashboard_address=None means "port 8787", which warns
             # "Port 8787 is already in use" beside another cluster: port 0 on loopback, and no dashboard page.
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                                    protocol="tls://", security=per_run_security(), dashboard_address="127.0.0.1:0",
                                    scheduler_kwargs={"dashboard": False}, worker_dashboard_address=None,
                                    memory_limit=memory_limit, silence_logs=50)
-        client = Client(cluster)
+            client = Client(cluster)
         try:
             yield client
         finally:
-            client.close()
-            cluster.close()
+            with interrupts.protected():
+                client.close(timeout=CLOSE_TIMEOUT)
+                cluster.close(timeout=CLOSE_TIMEOUT)
 
 
 def run_units(client: Any, units: Sequence[tuple[str, Any]], fn: Callable[[Any], dict[str, Any]],

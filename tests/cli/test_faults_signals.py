@@ -92,6 +92,53 @@ def test_endless_render_stops_soon_after_a_signal(tmp_path: Path, sig: signal.Si
     assert _leftovers(tmp_path) == []
 
 
+def _group(pgid: int) -> dict[int, float]:
+    """The processes of process group ``pgid`` (the test's own session) and their CPU seconds."""
+    found = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[2]) == pgid:
+                found[int(entry.name)] = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return found
+
+
+def test_ctrl_c_of_a_split_render_ends_its_workers_with_one_line(tmp_path: Path,
+                                                                 reference_render: tuple[float, float]) -> None:
+    """``a5 -workers 2`` and a terminal's Ctrl-C, which reaches the whole foreground process group (the
+    command, its two Dask worker processes and the resource tracker): the command alone reports it, closes its
+    cluster and ends with one line and 130; no worker traceback or second line, no Dask exit-hook traceback,
+    no "leaked semaphore" warning, and nothing of its process group is left. The signal comes once the workers
+    have used the CPU time of the whole reference render (they are rendering, however busy the machine)."""
+    ref_wall, ref_cpu = reference_render
+    (tmp_path / "s.txt").write_text(ENDLESS)
+    p = subprocess.Popen([*A5, "-input", "s.txt", "-output", "o.png", "-size", "60", "60", "-bounces", "64",
+                          "-force", "-workers", "2"], cwd=tmp_path, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, start_new_session=True)
+    t0 = time.monotonic()
+    while True:
+        workers = {pid: cpu for pid, cpu in _group(p.pid).items() if pid != p.pid}
+        if len(workers) >= 3 and sum(sorted(workers.values())[-2:]) > 2 * ref_cpu + 0.5:
+            break
+        assert p.poll() is None, p.communicate()[1].decode()
+        assert time.monotonic() - t0 < 120 + 60 * ref_wall, "the workers used no CPU: a hang before the render"
+        time.sleep(0.1)
+    os.killpg(p.pid, signal.SIGINT)
+    _, err = p.communicate(timeout=120 + 30 * ref_wall)
+    lines = err.decode().splitlines()
+    assert p.returncode == 130, err.decode()
+    assert len(lines) == 2 and ": warning: this render may trace up to " in lines[0], lines
+    assert lines[1:] == ["a5: error: interrupted (SIGINT)"]
+    deadline = time.monotonic() + 30 + 10 * ref_wall  # the resource tracker ends after its last client
+    while _group(p.pid) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert _group(p.pid) == {}
+    assert _leftovers(tmp_path) == []
+
+
 @pytest.mark.slow
 def test_sigint_at_random_moments(tmp_path: Path) -> None:
     """SIGINT at random moments of a short render (seeded): each run either finished before the signal
