@@ -156,7 +156,7 @@ def trace_paths(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
             w = dr.select(prev_delta, 1.0, power_heuristic(prev_pdf, pdf_l))
             emitted += dr.select(alive & ~hit, beta * le * w, 0.0)
         if dr.hint(f.area_lights, mode="scalar"):
-            le, pdf_l = emission(scene, si, alive & hit & ~on_plane, o, d, t_hit)
+            le, pdf_l = emission(scene, lights, si, alive & hit & ~on_plane, o, d, t_hit)
             w = dr.select(prev_delta, 1.0, power_heuristic(prev_pdf, pdf_l))
             emitted += dr.select(alive & hit, beta * le * w, 0.0)
         result += emitted

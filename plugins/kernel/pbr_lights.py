@@ -31,6 +31,7 @@ or the environment.
 
 from __future__ import annotations
 
+from functools import partial
 from typing import TYPE_CHECKING, NamedTuple
 
 import drjit as dr
@@ -56,13 +57,19 @@ ENV_SLOT = 254
 
 
 class PbrLights(NamedTuple):
-    """The lights of next-event estimation as gatherable arrays: ``emitters``, ``shapes`` (the emitter's shape,
-    null for the others), ``kind`` (:data:`DELTA`, :data:`SURFACE`, :data:`POINTS`) and ``count`` (opaque)."""
+    """The lights of next-event estimation as gatherable arrays: ``emitters``, ``kind`` (:data:`DELTA`,
+    :data:`SURFACE`, :data:`POINTS`), ``count`` (opaque), and for the lights on a shape: ``shapes`` (the shapes,
+    Python objects), ``slot`` (per light, its shape's index in ``shapes``; 0 for the others) and ``slot_of`` (per
+    emitter registry id, the same index). The shapes are called through :func:`drjit.switch` over ``shapes``
+    alone, never as a virtual call on a shape pointer: that would trace every shape of the scene, and a
+    non-uniformly scaled sphere (an ``instance``) has no ``sample_position`` or ``pdf_direction``."""
 
     emitters: mi.EmitterPtr
-    shapes: mi.ShapePtr
     kind: mi.UInt32
     count: mi.UInt32
+    slot: mi.UInt32
+    slot_of: mi.UInt32
+    shapes: tuple[mi.Shape, ...]
 
 
 def _kind(e: mi.Emitter) -> int | None:
@@ -77,27 +84,40 @@ def lights_of(scene: mi.Scene) -> PbrLights:
     """The :class:`PbrLights` of ``scene`` (module docstring), in ``scene.emitters()`` order; the environment
     is not among them (:func:`direct` samples it when asked)."""
     emitters = scene.emitters()
-    shapes = list(scene.shapes())
-    idx, kinds, shape_idx = [], [], []
+    idx, kinds, slots, shapes, slot_of = [], [], [], [], {}
     for i, e in enumerate(emitters):
         kind = _kind(e)
         if kind is None:
             continue
         idx.append(i)
         kinds.append(kind)
-        shape = e.get_shape()
-        shape_idx.append(next((j for j, s in enumerate(shapes) if shape is not None and s is shape), -1))
+        slots.append(len(shapes) if kind == SURFACE else 0)
+        if kind == SURFACE:
+            slot_of[_registry_id(e)] = len(shapes)
+            shapes.append(e.get_shape())
+    table = [0] * (max(slot_of, default=0) + 1)
+    for rid, slot in slot_of.items():
+        table[rid] = slot
     if not idx:
-        return PbrLights(dr.zeros(mi.EmitterPtr, 1), dr.zeros(mi.ShapePtr, 1), mi.UInt32([DELTA]),
-                         dr.opaque(mi.UInt32, 0))
+        return PbrLights(dr.zeros(mi.EmitterPtr, 1), mi.UInt32([DELTA]), dr.opaque(mi.UInt32, 0), mi.UInt32([0]),
+                         mi.UInt32(table), ())
     ptrs = dr.gather(mi.EmitterPtr, scene.emitters_dr(), mi.UInt32(idx))
-    has_shape = mi.Bool([j >= 0 for j in shape_idx])
-    if any(j >= 0 for j in shape_idx):
-        shape_ptrs = dr.gather(mi.ShapePtr, scene.shapes_dr(), mi.UInt32([max(j, 0) for j in shape_idx]), has_shape)
-    else:  # no light has a shape (a scene may hold no Mitsuba shape at all: exact planes only)
-        shape_ptrs = dr.zeros(mi.ShapePtr, len(idx))
-    dr.eval(ptrs, shape_ptrs)
-    return PbrLights(ptrs, shape_ptrs, mi.UInt32(kinds), dr.opaque(mi.UInt32, len(idx)))
+    dr.eval(ptrs)
+    return PbrLights(ptrs, mi.UInt32(kinds), dr.opaque(mi.UInt32, len(idx)), mi.UInt32(slots), mi.UInt32(table),
+                     tuple(shapes))
+
+
+def _registry_id(emitter: mi.Emitter) -> int:
+    """The registry id of an emitter (what ``dr.reinterpret_array(mi.UInt32, ptr)`` gives for its pointer)."""
+    return int(dr.reinterpret_array(mi.UInt32, mi.EmitterPtr(emitter))[0])
+
+
+def _sample_on(shape: mi.Shape, si: mi.SurfaceInteraction3f, u: mi.Point2f, active: mi.Bool) -> mi.DirectionSample3f:
+    return shape.sample_direction(si, u, active)
+
+
+def _pdf_on(shape: mi.Shape, it: mi.Interaction3f, ds: mi.DirectionSample3f, active: mi.Bool) -> mi.Float:
+    return shape.pdf_direction(it, ds, active)
 
 
 class LightSample(NamedTuple):
@@ -121,8 +141,11 @@ def sample_light(lights: PbrLights, k: mi.UInt32, si: mi.SurfaceInteraction3f, u
     emitter = dr.gather(mi.EmitterPtr, lights.emitters, k, active)
     kind = dr.gather(mi.UInt32, lights.kind, k, active)
     on_shape = active & (kind == SURFACE)
-    shape = dr.gather(mi.ShapePtr, lights.shapes, k, on_shape)
-    ds_s = shape.sample_direction(si, u, on_shape)
+    if lights.shapes:
+        slot = dr.gather(mi.UInt32, lights.slot, k, on_shape)
+        ds_s = dr.switch(slot, [partial(_sample_on, shape) for shape in lights.shapes], si, u, on_shape)
+    else:  # no light on a shape: nothing to sample
+        ds_s = dr.zeros(mi.DirectionSample3f, dr.width(si.p))
     le = mi.Color3f(emitter.eval_direction(si, ds_s, on_shape))
     ok = on_shape & (ds_s.pdf > 0.0)
     ds_e, value = emitter.sample_direction(si, u, active & ~on_shape)
@@ -178,8 +201,8 @@ def direct(scene: mi.Scene, data: SceneData, lights: PbrLights, env: bool, si: m
     return result, counter, n_shadow
 
 
-def emission(scene: mi.Scene, si: mi.SurfaceInteraction3f, on_shape: mi.Bool, o: mi.Point3f, d: mi.Vector3f,
-             t: mi.Float) -> tuple[mi.Color3f, mi.Float]:
+def emission(scene: mi.Scene, lights: PbrLights, si: mi.SurfaceInteraction3f, on_shape: mi.Bool, o: mi.Point3f,
+             d: mi.Vector3f, t: mi.Float) -> tuple[mi.Color3f, mi.Float]:
     """``(Le, pdf_ω)`` of the emitter on the shape a ray ``o + t d`` (unit ``d``) hits at ``si``, on the lanes
     ``on_shape`` (hits not on a plane): the radiance arriving at ``o`` (``a5_area``: ``color / (1 + falloff
     t²)``) and the solid-angle pdf with which :func:`sample_light` would have chosen that point from ``o``."""
@@ -193,7 +216,11 @@ def emission(scene: mi.Scene, si: mi.SurfaceInteraction3f, on_shape: mi.Bool, o:
     ds.p, ds.n, ds.uv, ds.time = si.p, si.n, si.uv, si.time
     ds.d, ds.dist, ds.emitter = mi.Vector3f(d), mi.Float(t), emitter
     le = mi.Color3f(emitter.eval_direction(it, ds, has))
-    pdf = si.shape.pdf_direction(it, ds, has)
+    if lights.shapes:
+        slot = dr.gather(mi.UInt32, lights.slot_of, dr.reinterpret_array(mi.UInt32, emitter), has)
+        pdf = dr.switch(slot, [partial(_pdf_on, shape) for shape in lights.shapes], it, ds, has)
+    else:  # no light on a shape: no emitter to find
+        pdf = dr.zeros(mi.Float, width)
     return dr.select(has, le, 0.0), dr.select(has, pdf, 0.0)
 
 

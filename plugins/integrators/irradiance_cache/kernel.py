@@ -104,7 +104,7 @@ def camera_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: 
         if dr.hint(f.environment, mode="scalar"):               # escaping after the camera or a delta lobe
             color += dr.select(~hit, weight * background(scene, d, ~hit), 0.0)
         if dr.hint(f.area_lights, mode="scalar"):               # a light's shape, seen through delta lobes
-            le, _ = emission(scene, si, hit & ~on_plane, o, d, t_hit)
+            le, _ = emission(scene, lights, si, hit & ~on_plane, o, d, t_hit)
             color += dr.select(hit, weight * le, 0.0)
 
         b, n = surface_lobes(data, f, bsdf, si, n, d, n_medium, on_plane, plane_idx, hit)
@@ -181,7 +181,7 @@ def gather(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, first_pdf: mi
             w = dr.select(prev_delta | (depth == 0), 1.0, power_heuristic(prev_pdf, pdf_l))
             result += dr.select(alive & ~hit, beta * le * w, 0.0)
         if dr.hint(f.area_lights, mode="scalar"):
-            le, pdf_l = emission(scene, si, alive & hit & ~on_plane, o, d, t_hit)
+            le, pdf_l = emission(scene, lights, si, alive & hit & ~on_plane, o, d, t_hit)
             w = dr.select(prev_delta, 1.0, power_heuristic(prev_pdf, pdf_l))
             result += dr.select(alive & hit, beta * le * w, 0.0)
         alive &= hit & (depth < data.max_depth)

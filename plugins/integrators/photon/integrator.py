@@ -178,6 +178,7 @@ class A5PhotonIntegrator(A5Integrator):
         t_min = dr.zeros(mi.Float, width)
         origin = dr.zeros(mi.UInt32, width)
         n_medium = dr.full(mi.Float, 1.0, width)
+        lights = self._pbr_lights(scene)
         for depth in range(self.max_depth + 1):
             h = intersect(scene, data.planes, data.rules, o, d, t_min, origin)
             hit = h.hit & live
@@ -185,14 +186,14 @@ class A5PhotonIntegrator(A5Integrator):
             if f.environment:
                 local += dr.select(live & ~h.hit, pbr_lights.environment(scene, d, live & ~h.hit)[0], 0.0)
             if f.area_lights:
-                local += pbr_lights.emission(scene, h.si, hit & ~h.on_plane, o, d, h.t)[0]
+                local += pbr_lights.emission(scene, lights, h.si, hit & ~h.on_plane, o, d, h.t)[0]
             s = surface_at(h.bsdf, h.si, hit, h.n, f, None, mi.UInt32(1))
             n_f = facing(d, s.n)
             diffuse = hit & (dr.max(s.kd) > 0.0)
             lambert = pbr.lobes(self.fresnel, s.kd, dr.zeros(mi.Color3f, width), mi.Float(0.0), d, s.n, s.n,
                                 n_medium, diffuse, False, False)
             lambert = lambert._replace(p_d=dr.select(lambert.p_d > 0.0, 1e-30, 0.0))   # MIS weight 1
-            nee, counter, n_shadow = pbr_lights.direct(scene, data, self._pbr_lights(scene), f.environment, h.si,
+            nee, counter, n_shadow = pbr_lights.direct(scene, data, lights, f.environment, h.si,
                                                        h.p, lambert, diffuse, rng,
                                                        dr.opaque(mi.UInt32, depth * 256), counter, n_shadow)
             local += nee

@@ -184,7 +184,7 @@ def test_sphere_light_irradiance_and_mis_pdf(mi: Any) -> None:
     ray = mi.Ray3f(si.p, ls.d)
     hit = scene.ray_intersect(ray)
     assert np.all(np.asarray(hit.is_valid()))
-    le, pdf = emission(scene, hit, hit.is_valid(), si.p, ls.d, hit.t)
+    le, pdf = emission(scene, lights, hit, hit.is_valid(), si.p, ls.d, hit.t)
     np.testing.assert_allclose(np.asarray(le)[0], c, rtol=1e-6)
     np.testing.assert_allclose(np.asarray(pdf), np.asarray(ls.pdf), rtol=1e-3)
 
@@ -214,7 +214,7 @@ def test_area_light_falloff_and_pdf(mi: Any) -> None:
     est = np.asarray(ls.weight)[0] * np.asarray(ls.d.z)
     assert est.mean() == pytest.approx(c * side * side / (h * h * (1 + f * h * h)), rel=1e-3)
     hit = scene.ray_intersect(mi.Ray3f(si.p, ls.d))
-    le, pdf = emission(scene, hit, hit.is_valid(), si.p, ls.d, hit.t)
+    le, pdf = emission(scene, lights, hit, hit.is_valid(), si.p, ls.d, hit.t)
     np.testing.assert_allclose(np.asarray(le)[0], c / (1 + f * dist ** 2), rtol=1e-4)
     np.testing.assert_allclose(np.asarray(pdf), np.asarray(ls.pdf), rtol=1e-3)
 
