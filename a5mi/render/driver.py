@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from a5mi.render import crop
 from a5mi.render.filters import FilterStream, image_mistakes, mistaken_postprocess, postprocess
 from a5mi.render.options import CAMERA_MISTAKES, FILTER_MISTAKES, IMAGE_MISTAKES, JITTER_MISTAKES, RenderOptions
 from a5mi.render.render_pass import CameraRays, PassBuffers, PassHook, Progress, TraceContext, trace_moving, trace_pass
@@ -240,6 +241,10 @@ def render_scene(
         integrator = integrator if integrator is not None else mi_scene.integrator()
         camera_rays = camera_rays if camera_rays is not None else _default_camera_rays()
         camera, camera_rays, options = mistaken(camera, camera_rays, options)
+        if options.crop is not None:
+            if pass_hook is not None:
+                raise ValueError("a crop render takes no pass hook (motion blur renders the whole image)")
+            return _render_crop(mi_scene, camera, options, integrator, camera_rays, progress)
         rw, rh = options.render_size
         # progress steps only for a caller that shows them: each extra tile re-traces the integrator (~50 ms)
         rows = tile_rows(rw, rh, options.tile_rays, steps=PROGRESS_STEPS if progress is not None else 1)
@@ -262,6 +267,34 @@ def render_scene(
             trace_pass(ctx, quadrant_tiles(rw, rh, rows), aov, done)
         timings["render"] = time.perf_counter() - t_start - timings["filter"]  # the streamed filter: its own stage
     result = _result(options, main, aov, separate, len(rows), total, timings, clip=_dispersive(integrator))
+    extras = getattr(integrator, "render_extras", None)
+    result.extras = extras() if callable(extras) else {}
+    return result
+
+
+def _render_crop(mi_scene: mi.Scene, camera: Camera, options: RenderOptions, integrator: mi.SamplingIntegrator,
+                 camera_rays: CameraRays, progress: Progress | None) -> RenderResult:
+    """:func:`render_scene` of ``options.crop`` alone (:mod:`a5mi.render.crop`): its samples traced, its colour
+    filtered from them, its AOVs cut to its own samples; the images are the region's, row 0 = top."""
+    plan = crop.plan(options)
+    timings: dict[str, float] = {"compile": 0.0, "execute": 0.0, "jitter": 0.0, "filter": 0.0}
+    total = len(plan.samples)
+    ctx = TraceContext(mi_scene, camera, integrator, camera_rays, options.render_size, timings, progress, total,
+                       options.spp, options.seed or 0)
+    traced = crop.region_buffers(options, plan)
+    t_start = time.perf_counter()
+    launches = crop.trace_region(ctx, options, plan, traced)
+    timings["render"] = time.perf_counter() - t_start
+    assert traced.color is not None
+    t0 = time.perf_counter()
+    color = (crop.filter_region(traced.color, plan, options.render_size, options.kernel) if options.filter
+             else traced.color)
+    timings["filter"] = time.perf_counter() - t0
+    main = PassBuffers(color=color, normal=None, dist=None, classes=crop.own(traced.classes, plan),
+                       counts=traced.counts, kernels=traced.kernels)
+    aov = PassBuffers(color=None, normal=crop.own(traced.normal, plan), dist=crop.own(traced.dist, plan))
+    result = _result(dataclasses.replace(options, filter=False), main, aov, False, launches, total, timings,
+                     clip=_dispersive(integrator))
     extras = getattr(integrator, "render_extras", None)
     result.extras = extras() if callable(extras) else {}
     return result

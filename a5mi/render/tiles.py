@@ -166,9 +166,15 @@ def main_tiles(rw: int, rows: list[tuple[int, int]], seed: int | None, jitter: b
             yield Tile(j0, j1, *pixel_coords(rw, j0, j1, None))
         return
     for j0, j1, offsets in jittered_rows(rw, rows, seed, timings):
-        if "jitter_0_1" in mistakes:
-            offsets = (offsets[0] + np.float32(0.5), offsets[1] + np.float32(0.5))
-        yield Tile(j0, j1, *pixel_coords(rw, j0, j1, offsets))
+        yield Tile(j0, j1, *pixel_coords(rw, j0, j1, mistaken_offsets(offsets, mistakes)))
+
+
+def mistaken_offsets(offsets: Offsets, mistakes: tuple[str, ...]) -> Offsets:
+    """The ``-jitter`` offsets as docs/MISTAKES.md's ``jitter_0_1`` makes them (``jx + 0.5``, ``jy + 0.5`` in
+    float32, in [0, 1)); unchanged without it."""
+    if "jitter_0_1" in mistakes:
+        return offsets[0] + np.float32(0.5), offsets[1] + np.float32(0.5)
+    return offsets
 
 
 def quadrant_tiles(rw: int, rh: int, rows: list[tuple[int, int]]) -> Iterator[Tile]:
