@@ -84,7 +84,8 @@ RENDER_FLAGS: tuple[Flag, ...] = (
     Flag(("-filter", "--filter"), "filter", "blur + 3x3 downsample (with -jitter: W x H; alone: W/3 x H/3)",
          default=False, show_default=False),
     Flag(("-crop", "--crop"), "crop", "render only the saved image's pixels X0 <= x < X1, Y0 <= y < Y1 (row 0 the "
-         "top; pbrt's --pixelbounds), bit for bit as in the whole image, and save that region alone", 4,
+         "top; pbrt's --pixelbounds), bit for bit as in the whole image, and save that region alone (-normals, "
+         "-depth: its own samples; docs/USAGE.md \"Crop renders\")", 4,
          integer(0, 3 * MAX_SIZE), metavar="X0 X1 Y0 Y1"),
     Flag(("-normals", "--normals"), "normals_output", "also write |N| of the first hit (render size, unfiltered)",
          1, text, metavar="IMG"),
@@ -378,10 +379,10 @@ A5 = Command("a5", _SUMMARY, (*RENDER_FLAGS, FORCE_FLAG, *SPLIT_FLAGS), run_rend
              check=check_render_args, epilog="Flags in any order; a flag given twice keeps its last value.",
              exit_ok="every image written")
 
-#: Render flags that name an image to write or say how its AOV rays are cast: not offered by the commands
-#: that write no a5 image (trace) or write their own (animate).
+#: Render flags that name an image to write, say how its AOV rays are cast or which of its pixels it holds
+#: (``-crop``): not offered by the commands that write no a5 image (trace) or write their own (animate, view).
 IMAGE_OUTPUT_DESTS = frozenset({"output", "normals_output", "depth", "depth_output", "aov_mode",
-                                "ic_records_output"})
+                                "ic_records_output", "crop"})
 
 
 def render_flags_except(dests: frozenset[str] | set[str]) -> tuple[Flag, ...]:
