@@ -18,6 +18,8 @@
 * ``classes`` (:attr:`RenderOptions.classes`): the ``class`` AOV of ``a5_whitted`` per sample of the main pass
   (0 the camera ray misses, 1 opaque, 2 the SPEC B.3 ray tree touches a material with
   ``refraction_index > 0``), uint8 at the render buffer's resolution, unfiltered;
+* ``crop`` (:attr:`RenderOptions.crop`, ``-crop``): one region of the saved image alone, bit for bit its pixels
+  of the whole render (:mod:`a5mi.render.crop`: its samples and the blur's margin traced, then filtered);
 * ``threads`` (:attr:`RenderOptions.threads`): Dr.Jit's worker threads for this render only
   (:func:`thread_count`: the process's count is restored afterwards);
 * ``mistakes`` (:attr:`RenderOptions.mistakes`, docs/MISTAKES.md): the driver's own (camera, jitter, filter, the
