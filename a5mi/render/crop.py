@@ -31,6 +31,7 @@ whose samples carry all their state crop (``whitted``, ``path``: :func:`refusal`
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -198,13 +199,21 @@ def _launches(options: RenderOptions, plan: CropPlan) -> Iterator[tuple[np.ndarr
 def trace_region(ctx: TraceContext, options: RenderOptions, plan: CropPlan, buffers: PassBuffers) -> int:
     """Trace ``plan.samples`` (module docstring) in launches of at most ``options.tile_rays`` and fill
     ``buffers``, each ``plan.trace``-sized, bottom-up: ``color`` (required), ``normal``, ``dist``, ``classes``
-    (when set), the ray counts and kernel launches; returns the launches."""
+    (when set), the ray counts and kernel launches; returns the launches. The offsets' draw (the skipped part
+    of the stream included) and the pixel coordinates are timed as ``ctx.timings["jitter"]``."""
     rw = ctx.size[0]
     t = plan.trace
     launches = done = 0
     sampler = _sampler()
+    launch = _launches(options, plan)
     with kernel_history():
-        for idx, x_pix, y_pix in _launches(options, plan):
+        while True:
+            t0 = time.perf_counter()
+            item = next(launch, None)     # the jitter draw and the pixel coordinates: timings["jitter"]
+            ctx.timings["jitter"] = ctx.timings.get("jitter", 0.0) + time.perf_counter() - t0
+            if item is None:
+                break
+            idx, x_pix, y_pix = item
             with interrupts.deferred():
                 n = len(idx)
                 j, i = idx // rw, idx % rw
