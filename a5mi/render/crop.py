@@ -9,7 +9,9 @@ render buffer (``RW x RH``, row ``j = 0`` at the bottom), with ``k = 3`` under `
 and the region's rows counted from the bottom ``y0 = OH - Y1``, ``y1 = OH - Y0`` (``OH`` the saved height):
 
 * the region's own samples (:attr:`CropPlan.aov`): ``k X0 <= i < k X1``, ``k y0 <= j < k y1``; the ``-normals``,
-  ``-depth`` and class images, unfiltered at the render buffer's resolution, are these samples;
+  ``-depth`` and class images, unfiltered at the render buffer's resolution, are these samples (with SPEC B.6's
+  ``-normals_mode quadrant`` traced again in a second pass with the sample solution's AOV rays,
+  :func:`quadrant_launches`);
 * the traced samples (:attr:`CropPlan.trace`): with ``-filter`` the region's samples grown by the blur's reach,
   2 samples on each side (SPEC B.5's 5-tap kernel), clipped to the buffer: ``max(0, 3X0-2) <= i < min(RW,
   3X1+2)``, likewise ``j``; the blur then reads them exactly as the whole render's clamped taps do
@@ -51,7 +53,7 @@ from a5mi.render.render_pass import (
     kernel_history,
     named_aovs,
 )
-from a5mi.render.tiles import Tile, jitter_stream, mistaken_offsets
+from a5mi.render.tiles import Tile, jitter_stream, mistaken_offsets, quadrant_axes
 
 #: Traced samples come in blocks of this many consecutive indices, each starting on a multiple of it: the
 #: widest SIMD packet of Dr.Jit's LLVM backend (16 lanes with AVX-512; 8 with AVX2, 4 with SSE or NEON).
@@ -96,8 +98,8 @@ class CropPlan:
 def refusal(options: RenderOptions) -> str | None:
     """None when ``options.crop`` can be rendered, else why not (one line naming the flags): the region must lie
     in the saved image (``0 <= X0 < X1 <= OW``, ``0 <= Y0 < Y1 <= OH``); only ``-integrator whitted`` and
-    ``path`` (the others keep state across the image: photon maps per pass, irradiance records in pixel
-    order), ``-normals_mode main``, and no :data:`NONLOCAL_MISTAKES`."""
+    ``path`` (the others keep state across the image: photon maps per pass, final-gather streams and
+    irradiance records in the order of the image's points), and no :data:`NONLOCAL_MISTAKES`."""
     if options.crop is None:
         return None
     x0, x1, y0, y1 = options.crop
@@ -108,8 +110,6 @@ def refusal(options: RenderOptions) -> str | None:
     if options.integrator not in ("whitted", "path"):
         return (f"-crop renders -integrator whitted or path; -integrator {options.integrator} keeps state across "
                 "the image")
-    if (options.normals or options.depth is not None) and options.aov_mode == "quadrant":
-        return "-crop traces the image's rays; -normals_mode quadrant casts others (use -normals_mode main)"
     nonlocal_ = [m for m in options.mistakes if m in NONLOCAL_MISTAKES]
     if nonlocal_:
         return f"-crop cannot make the mistake {nonlocal_[0]}: it reads pixels outside the region"
@@ -176,16 +176,17 @@ def region_offsets(samples: np.ndarray, seed: int | None, chunk: int) -> Iterato
         yield idx, (jx[idx - lo], jy[idx - lo])
 
 
-def _launches(options: RenderOptions, plan: CropPlan) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """``(indices, x_pix, y_pix)`` per kernel launch: float32 ``x_pix = i + jx``, ``y_pix = j + jy`` (SPEC B.2,
-    B.5; the offsets 0 without ``-jitter`` or with docs/MISTAKES.md's ``no_jitter``)."""
+def launches(options: RenderOptions, samples: np.ndarray) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """``(indices, x_pix, y_pix)`` per kernel launch of at most ``options.tile_rays`` of ``samples``: float32
+    ``x_pix = i + jx``, ``y_pix = j + jy`` (SPEC B.2, B.5; the offsets 0 without ``-jitter`` or with
+    docs/MISTAKES.md's ``no_jitter``)."""
     rw = options.render_size[0]
     chunk = max(ALIGN, options.tile_rays // ALIGN * ALIGN)
     mistakes = options.of_layer(JITTER_MISTAKES)
     if options.jitter and "no_jitter" not in mistakes:
-        pieces: Iterator[tuple[np.ndarray, Any]] = region_offsets(plan.samples, options.seed, chunk)
+        pieces: Iterator[tuple[np.ndarray, Any]] = region_offsets(samples, options.seed, chunk)
     else:
-        pieces = ((plan.samples[a:a + chunk], None) for a in range(0, len(plan.samples), chunk))
+        pieces = ((samples[a:a + chunk], None) for a in range(0, len(samples), chunk))
     for idx, offsets in pieces:
         i = (idx % rw).astype(np.float32)
         j = (idx // rw).astype(np.float32)
@@ -196,20 +197,33 @@ def _launches(options: RenderOptions, plan: CropPlan) -> Iterator[tuple[np.ndarr
             yield idx, i + jx, j + jy
 
 
-def trace_region(ctx: TraceContext, options: RenderOptions, plan: CropPlan, buffers: PassBuffers) -> int:
-    """Trace ``plan.samples`` (module docstring) in launches of at most ``options.tile_rays`` and fill
-    ``buffers``, each ``plan.trace``-sized, bottom-up: ``color`` (required), ``normal``, ``dist``, ``classes``
-    (when set), the ray counts and kernel launches; returns the launches. The offsets' draw (the skipped part
-    of the stream included) and the pixel coordinates are timed as ``ctx.timings["jitter"]``."""
+def quadrant_launches(options: RenderOptions, samples: np.ndarray
+                      ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """As :func:`launches` with the sample solution's AOV rays (SPEC B.6 ``-normals_mode quadrant``,
+    :func:`a5mi.render.tiles.quadrant_coords`) of each sample."""
+    rw, rh = options.render_size
+    chunk = max(ALIGN, options.tile_rays // ALIGN * ALIGN)
+    x_of, y_of = quadrant_axes(rw, rh)
+    for a in range(0, len(samples), chunk):
+        idx = samples[a:a + chunk]
+        yield idx, x_of[idx % rw], y_of[idx // rw]
+
+
+def trace_region(ctx: TraceContext, launched: Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]], rect: Rect,
+                 buffers: PassBuffers, done: int = 0) -> tuple[int, int]:
+    """Trace the ``launched`` samples (:func:`launches`, :func:`quadrant_launches`; module docstring) and fill
+    ``buffers``, each ``rect``-sized, bottom-up: ``color``, ``normal``, ``dist``, ``classes`` (those set), the
+    ray counts (of a colour pass) and kernel launches; ``done`` samples were traced before. Returns ``(launches,
+    done)``. Drawing the offsets (the skipped part of the stream included) and the pixel coordinates is timed as
+    ``ctx.timings["jitter"]``."""
     rw = ctx.size[0]
-    t = plan.trace
-    launches = done = 0
+    t = rect
+    count = 0
     sampler = _sampler()
-    launch = _launches(options, plan)
     with kernel_history():
         while True:
             t0 = time.perf_counter()
-            item = next(launch, None)     # the jitter draw and the pixel coordinates: timings["jitter"]
+            item = next(launched, None)     # the jitter draw and the pixel coordinates: timings["jitter"]
             ctx.timings["jitter"] = ctx.timings.get("jitter", 0.0) + time.perf_counter() - t0
             if item is None:
                 break
@@ -225,8 +239,8 @@ def trace_region(ctx: TraceContext, options: RenderOptions, plan: CropPlan, buff
                 evaluate(outputs, counted)
                 keep = (i >= t.i0) & (i < t.i1) & (j >= t.j0) & (j < t.j1)
                 at = (j[keep] - t.j0, i[keep] - t.i0)
-                assert buffers.color is not None
-                buffers.color[at] = np.asarray(rgb).T[keep]
+                if buffers.color is not None:
+                    buffers.color[at] = np.asarray(rgb).T[keep]
                 if buffers.normal is not None:
                     nrm = np.stack([np.asarray(named[c]) for c in ("nx", "ny", "nz")], axis=-1)
                     buffers.normal[at] = np.abs(nrm)[keep]
@@ -236,11 +250,11 @@ def trace_region(ctx: TraceContext, options: RenderOptions, plan: CropPlan, buff
                     buffers.classes[at] = np.asarray(named["class"])[keep].astype(np.uint8)
                 buffers.add_counts(counted)
                 account_kernels(buffers.kernels, ctx.timings)
-                launches += 1
+                count += 1
                 done += n
                 if ctx.progress is not None:
                     ctx.progress(done, ctx.total)
-    return launches
+    return count, done
 
 
 def _sampler() -> Any:
@@ -249,13 +263,14 @@ def _sampler() -> Any:
     return mi.load_dict({"type": "independent", "sample_count": 1})
 
 
-def region_buffers(options: RenderOptions, plan: CropPlan) -> PassBuffers:
-    """Empty ``plan.trace``-sized buffers for :func:`trace_region`: colour, and the AOVs ``options`` asks for."""
-    h, w = plan.trace.height, plan.trace.width
-    return PassBuffers(color=np.empty((h, w, 3), np.float32),
-                       normal=np.empty((h, w, 3), np.float32) if options.normals else None,
-                       dist=np.empty((h, w), np.float32) if options.depth is not None else None,
-                       classes=np.empty((h, w), np.uint8) if options.classes else None)
+def region_buffers(options: RenderOptions, rect: Rect, *, color: bool = True, aovs: bool = True) -> PassBuffers:
+    """Empty ``rect``-sized buffers for :func:`trace_region`: the colour and the class image (``color``), the
+    ``-normals`` / ``-depth`` AOVs ``options`` asks for (``aovs``)."""
+    h, w = rect.height, rect.width
+    return PassBuffers(color=np.empty((h, w, 3), np.float32) if color else None,
+                       normal=np.empty((h, w, 3), np.float32) if aovs and options.normals else None,
+                       dist=np.empty((h, w), np.float32) if aovs and options.depth is not None else None,
+                       classes=np.empty((h, w), np.uint8) if color and options.classes else None)
 
 
 def own(a: np.ndarray | None, plan: CropPlan) -> np.ndarray | None:
@@ -275,5 +290,6 @@ def traced_samples(options: RenderOptions) -> int:
     return len(plan(options).samples)
 
 
-__all__ = ["ALIGN", "NONLOCAL_MISTAKES", "CropPlan", "Rect", "aligned_samples", "filter_region", "own",
-           "plan", "refusal", "region_buffers", "region_offsets", "trace_region", "traced_samples"]
+__all__ = ["ALIGN", "NONLOCAL_MISTAKES", "CropPlan", "Rect", "aligned_samples", "filter_region", "launches",
+           "own", "plan", "quadrant_launches", "refusal", "region_buffers", "region_offsets", "trace_region",
+           "traced_samples"]

@@ -277,24 +277,33 @@ def render_scene(
 def _render_crop(mi_scene: mi.Scene, camera: Camera, options: RenderOptions, integrator: mi.SamplingIntegrator,
                  camera_rays: CameraRays, progress: Progress | None) -> RenderResult:
     """:func:`render_scene` of ``options.crop`` alone (:mod:`a5mi.render.crop`): its samples traced, its colour
-    filtered from them, its AOVs cut to its own samples; the images are the region's, row 0 = top."""
+    filtered from them, its AOVs cut to its own samples (with ``aov_mode="quadrant"`` a second pass over its
+    own samples); the images are the region's, row 0 = top."""
     plan = crop.plan(options)
+    rw, rh = options.render_size
+    separate = (options.normals or options.depth is not None) and options.aov_mode == "quadrant"
+    own_samples = crop.aligned_samples(rw, rh, plan.aov) if separate else plan.samples[:0]
     timings: dict[str, float] = {"compile": 0.0, "execute": 0.0, "jitter": 0.0, "filter": 0.0}
-    total = len(plan.samples)
-    ctx = TraceContext(mi_scene, camera, integrator, camera_rays, options.render_size, timings, progress, total,
+    total = len(plan.samples) + len(own_samples)
+    ctx = TraceContext(mi_scene, camera, integrator, camera_rays, (rw, rh), timings, progress, total,
                        options.spp, options.seed or 0)
-    traced = crop.region_buffers(options, plan)
+    traced = crop.region_buffers(options, plan.trace, aovs=not separate)
+    aov = crop.region_buffers(options, plan.aov, color=False)
     t_start = time.perf_counter()
-    launches = crop.trace_region(ctx, options, plan, traced)
+    launches, done = crop.trace_region(ctx, crop.launches(options, plan.samples), plan.trace, traced)
+    if separate:
+        launches += crop.trace_region(ctx, crop.quadrant_launches(options, own_samples), plan.aov, aov, done)[0]
+        traced.kernels = {k: traced.kernels.get(k, 0) + aov.kernels.get(k, 0) for k in {*traced.kernels, *aov.kernels}}
+    else:
+        aov.normal, aov.dist = crop.own(traced.normal, plan), crop.own(traced.dist, plan)
     timings["render"] = time.perf_counter() - t_start
     assert traced.color is not None
     t0 = time.perf_counter()
-    color = (crop.filter_region(traced.color, plan, options.render_size, options.kernel) if options.filter
+    color = (crop.filter_region(traced.color, plan, (rw, rh), options.kernel) if options.filter
              else traced.color)
     timings["filter"] = time.perf_counter() - t0
     main = PassBuffers(color=color, normal=None, dist=None, classes=crop.own(traced.classes, plan),
                        counts=traced.counts, kernels=traced.kernels)
-    aov = PassBuffers(color=None, normal=crop.own(traced.normal, plan), dist=crop.own(traced.dist, plan))
     result = _result(dataclasses.replace(options, filter=False), main, aov, False, launches, total, timings,
                      clip=_dispersive(integrator))
     extras = getattr(integrator, "render_extras", None)

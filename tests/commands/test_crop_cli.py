@@ -42,6 +42,7 @@ def test_crop_writes_the_regions_pixels_of_the_whole_file(tmp_path: Path) -> Non
     (("-crop", "0", "4", "0", "5", "-integrator", "photon"), "a5: error: -crop renders -integrator whitted or path"),
     (("-crop", "0", "4", "0", "5", "-workers", "2"), "a5: error: -workers/-scheduler: -crop renders one region"),
     (("-crop", "0", "4", "0", "5", "-mistake", "upside_down"), "a5: error: -crop cannot make the mistake"),
+    (("-crop", "0", "4", "0", "5", "-integrator", "irradiancecache"), "a5: error: -crop renders -integrator whitted"),
 ])
 def test_bad_regions_are_one_line_exit_2(tmp_path: Path, flags: tuple[str, ...], message: str) -> None:
     p = a5(tmp_path, "-output", "o.png", "-size", "20", "16", *flags)
