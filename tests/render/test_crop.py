@@ -120,6 +120,22 @@ def test_modes_that_read_the_whole_image_are_refused() -> None:
     assert crop.refusal(dataclasses.replace(base, mistakes=("red_blue_swapped", "jitter_0_1"))) is None
 
 
+def test_the_work_estimate_counts_the_regions_samples() -> None:
+    """docs/USAGE.md "Work estimate": a crop's camera rays are its traced samples, the bound per camera ray is
+    the whole image's."""
+    from a5mi.render.estimate import estimate
+    from a5mi.render.session import describe_file
+
+    desc = describe_file(str(SCENES / "spec_glass.txt"))[0]
+    whole = RenderOptions(width=300, height=300, jitter=True, filter=True, shadows=True)
+    part = dataclasses.replace(whole, crop=(120, 180, 100, 150))
+    e_whole, e_part = estimate(desc, whole, rate=1e6), estimate(desc, part, rate=1e6)
+    assert e_whole.camera_rays == 810000
+    assert e_part.camera_rays == crop.traced_samples(part) == len(crop.plan(part).samples)
+    assert 184 * 154 <= e_part.camera_rays <= 184 * 154 + 2 * (crop.ALIGN - 1) * 154
+    assert e_part.per_camera_ray == e_whole.per_camera_ray
+
+
 # ------------------------------------------------------------------------------------------------- renders
 @pytest.fixture(scope="module")
 def session(variant: str):  # type: ignore[no-untyped-def]
