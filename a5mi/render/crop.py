@@ -56,7 +56,10 @@ from a5mi.render.render_pass import (
 from a5mi.render.tiles import Tile, jitter_stream, mistaken_offsets, quadrant_axes
 
 #: Traced samples come in blocks of this many consecutive indices, each starting on a multiple of it: the
-#: widest SIMD packet of Dr.Jit's LLVM backend (16 lanes with AVX-512; 8 with AVX2, 4 with SSE or NEON).
+#: widest SIMD packet of Dr.Jit's LLVM backend (16 lanes with AVX-512; 8 with AVX2, 4 with SSE or NEON). A
+#: precaution: with blocks of 1 sample, 21 regions of scene10 at 30x30 ``-jitter -shadows`` starting at every
+#: column mod 8 were bit-identical too on the 8-wide machine this was written on (the packet dependence of
+#: a5mi.render.tiles.PACKET_ALIGN did not show); the blocks cost at most 2 (ALIGN - 1) samples a row.
 ALIGN = 16
 #: docs/MISTAKES.md mistakes that read pixels outside the region (the whole image turned, the whole buffer filtered
 #: the mistaken way): refused with ``-crop``
