@@ -25,7 +25,7 @@ so a render is reproducible for a given ``-seed`` whatever the tile size or thre
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import drjit as dr
 import mitsuba as mi
@@ -134,6 +134,10 @@ class SamplePass(NamedTuple):
     #: ``L``: sample ``first_pixel + L mod stride`` in pass ``index + L div stride``); 1: every lane pass ``index``
     batch: int = 1
     stride: int = 0
+    #: the lanes' render-buffer samples when they are not consecutive (a crop render, a5mi/render/crop.py): a
+    #: ``mi.UInt32`` of one absolute sample index per sample (lane ``i`` of a pass is sample ``pixels[i]``, not
+    #: ``first_pixel + i``); None: consecutive from ``first_pixel``
+    pixels: Any = None
 
 
 class Stochastic(NamedTuple):
@@ -152,10 +156,15 @@ def stochastic(sample_pass: SamplePass | None, sampler: mi.Sampler | None, width
     """The :class:`Stochastic` state of ``width`` camera rays: keys of ``sample_pass``, or without one keys
     drawn from ``sampler`` (pass 0 of 1, seed 0; no sampler: key 0)."""
     if sample_pass is not None and int(sample_pass.batch) > 1:
-        first, index, count, seed, _batch, stride = (int(v) for v in sample_pass)
+        first, index, count, seed, _batch, stride = (int(v) for v in sample_pass[:6])
         lane = dr.arange(mi.UInt32, width)
         k = lane // dr.opaque(mi.UInt32, stride)
-        pixel = lane - k * dr.opaque(mi.UInt32, stride) + dr.opaque(mi.UInt32, first)
+        pixel = lane - k * dr.opaque(mi.UInt32, stride)
+        if sample_pass.pixels is None:
+            pixel = pixel + dr.opaque(mi.UInt32, first)
+        else:   # the padding lanes (inactive) take the pass's last sample
+            last = dr.opaque(mi.UInt32, dr.width(sample_pass.pixels) - 1)
+            pixel = dr.gather(mi.UInt32, sample_pass.pixels, dr.minimum(pixel, last))
         pass_index = k + dr.opaque(mi.UInt32, index)
         pixel_key, pass_key = pixel_keys(pixel, dr.opaque(mi.UInt32, seed & 0xFFFFFFFF), pass_index)
         return Stochastic(pixel_key, pass_key, pass_index, dr.opaque(mi.UInt32, count),
@@ -163,7 +172,8 @@ def stochastic(sample_pass: SamplePass | None, sampler: mi.Sampler | None, width
     if sample_pass is not None:
         first, index, count, seed = (int(v) for v in sample_pass[:4])
         seed &= 0xFFFFFFFF
-        pixel = dr.arange(mi.UInt32, width) + dr.opaque(mi.UInt32, first)
+        pixel = (dr.arange(mi.UInt32, width) + dr.opaque(mi.UInt32, first) if sample_pass.pixels is None
+                 else mi.UInt32(sample_pass.pixels))
     else:
         index, count, seed = 0, 1, 0
         rnd = sampler.next_1d() if sampler is not None else dr.zeros(mi.Float, width)

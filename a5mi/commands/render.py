@@ -28,7 +28,7 @@ from a5mi.render.options import (
     SUBSURFACE_METHODS,
     RenderOptions,
 )
-from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES
+from a5mi.spec import DEFAULT_BOUNCES, DEFAULT_SIZE, FRESNEL_MODES, MAX_SIZE
 
 #: The largest finite float32 (SPEC B.6's depths are float32).
 FLOAT32_MAX = 3.4028234663852886e38
@@ -83,6 +83,10 @@ RENDER_FLAGS: tuple[Flag, ...] = (
          "the 3W x 3H image)", default=False, show_default=False),
     Flag(("-filter", "--filter"), "filter", "blur + 3x3 downsample (with -jitter: W x H; alone: W/3 x H/3)",
          default=False, show_default=False),
+    Flag(("-crop", "--crop"), "crop", "render only the saved image's pixels X0 <= x < X1, Y0 <= y < Y1 (row 0 the "
+         "top; pbrt's --pixelbounds), bit for bit as in the whole image, and save that region alone (-normals, "
+         "-depth: its own samples; docs/USAGE.md \"Crop renders\")", 4,
+         integer(0, 3 * MAX_SIZE), metavar="X0 X1 Y0 Y1"),
     Flag(("-normals", "--normals"), "normals_output", "also write |N| of the first hit (render size, unfiltered)",
          1, text, metavar="IMG"),
     Flag(("-depth", "--depth"), ("depth", "depth_output"), "also write the depth image (1 at DMIN, 0 at DMAX)", 3,
@@ -330,7 +334,9 @@ def _render_and_write(args: Args, console: Console, activate: Any, render: Any, 
     timings.update(result.timings)
     if args.verbose:
         t0 = time.perf_counter()
-        counting = dataclasses.replace(options, count_rays=True, normals=False, depth=None, filter=False)
+        # (a crop keeps -filter: its region is in the saved image's pixels, and -filter traces the blur's margin)
+        counting = dataclasses.replace(options, count_rays=True, normals=False, depth=None,
+                                       filter=options.filter and options.crop is not None)
         result.ray_counts = render(desc, counting).ray_counts
         timings["counts"] = time.perf_counter() - t0
 
@@ -373,10 +379,10 @@ A5 = Command("a5", _SUMMARY, (*RENDER_FLAGS, FORCE_FLAG, *SPLIT_FLAGS), run_rend
              check=check_render_args, epilog="Flags in any order; a flag given twice keeps its last value.",
              exit_ok="every image written")
 
-#: Render flags that name an image to write or say how its AOV rays are cast: not offered by the commands
-#: that write no a5 image (trace) or write their own (animate).
+#: Render flags that name an image to write, say how its AOV rays are cast or which of its pixels it holds
+#: (``-crop``): not offered by the commands that write no a5 image (trace) or write their own (animate, view).
 IMAGE_OUTPUT_DESTS = frozenset({"output", "normals_output", "depth", "depth_output", "aov_mode",
-                                "ic_records_output"})
+                                "ic_records_output", "crop"})
 
 
 def render_flags_except(dests: frozenset[str] | set[str]) -> tuple[Flag, ...]:

@@ -46,9 +46,9 @@ def report_work(console: Console, work: Any, options: RenderOptions, result: Any
     """``-v``: the rays the render traced against the estimate's bound, and this machine's ray rate kept for
     the next estimate (:func:`a5mi.render.estimate.record_rate`, from the plain render's kernel time)."""
     from a5mi.render import estimate as est
+    from a5mi.render.crop import traced_samples
 
-    rw, rh = options.render_size
-    traced = rw * rh * options.spp + sum(result.ray_counts.values())
+    traced = traced_samples(options) * options.spp + sum(result.ray_counts.values())
     console.note(f"{console.prog}: traced {traced} rays of the estimate's {work.rays:.3g} "
                  f"({work.rays / max(traced, 1):.1f} x)")
     if not work.extra_rays:  # photons and cache records are not in the counts: their rate would be wrong

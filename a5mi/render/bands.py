@@ -78,6 +78,8 @@ def splittable(options: RenderOptions) -> str | None:
     """None when a render with ``options`` can be split into bands, else why not: only the integrators whose
     samples carry all their state (``whitted``, ``path``: :func:`a5mi.render.passes.wavefront`), no quadrant AOV
     rays."""
+    if options.crop is not None:
+        return "-crop renders one region in one process"
     if options.integrator not in ("whitted", "path"):
         return f"-integrator {options.integrator} keeps state across the image; only whitted and path split"
     if (options.normals or options.depth is not None) and options.aov_mode == "quadrant":

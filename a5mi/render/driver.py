@@ -18,6 +18,8 @@
 * ``classes`` (:attr:`RenderOptions.classes`): the ``class`` AOV of ``a5_whitted`` per sample of the main pass
   (0 the camera ray misses, 1 opaque, 2 the SPEC B.3 ray tree touches a material with
   ``refraction_index > 0``), uint8 at the render buffer's resolution, unfiltered;
+* ``crop`` (:attr:`RenderOptions.crop`, ``-crop``): one region of the saved image alone, bit for bit its pixels
+  of the whole render (:mod:`a5mi.render.crop`: its samples and the blur's margin traced, then filtered);
 * ``threads`` (:attr:`RenderOptions.threads`): Dr.Jit's worker threads for this render only
   (:func:`thread_count`: the process's count is restored afterwards);
 * ``mistakes`` (:attr:`RenderOptions.mistakes`, docs/MISTAKES.md): the driver's own (camera, jitter, filter, the
@@ -44,6 +46,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from a5mi.render import crop
 from a5mi.render.filters import FilterStream, image_mistakes, mistaken_postprocess, postprocess
 from a5mi.render.options import CAMERA_MISTAKES, FILTER_MISTAKES, IMAGE_MISTAKES, JITTER_MISTAKES, RenderOptions
 from a5mi.render.render_pass import CameraRays, PassBuffers, PassHook, Progress, TraceContext, trace_moving, trace_pass
@@ -240,6 +243,10 @@ def render_scene(
         integrator = integrator if integrator is not None else mi_scene.integrator()
         camera_rays = camera_rays if camera_rays is not None else _default_camera_rays()
         camera, camera_rays, options = mistaken(camera, camera_rays, options)
+        if options.crop is not None:
+            if pass_hook is not None:
+                raise ValueError("a crop render takes no pass hook (motion blur renders the whole image)")
+            return _render_crop(mi_scene, camera, options, integrator, camera_rays, progress)
         rw, rh = options.render_size
         # progress steps only for a caller that shows them: each extra tile re-traces the integrator (~50 ms)
         rows = tile_rows(rw, rh, options.tile_rays, steps=PROGRESS_STEPS if progress is not None else 1)
@@ -262,6 +269,43 @@ def render_scene(
             trace_pass(ctx, quadrant_tiles(rw, rh, rows), aov, done)
         timings["render"] = time.perf_counter() - t_start - timings["filter"]  # the streamed filter: its own stage
     result = _result(options, main, aov, separate, len(rows), total, timings, clip=_dispersive(integrator))
+    extras = getattr(integrator, "render_extras", None)
+    result.extras = extras() if callable(extras) else {}
+    return result
+
+
+def _render_crop(mi_scene: mi.Scene, camera: Camera, options: RenderOptions, integrator: mi.SamplingIntegrator,
+                 camera_rays: CameraRays, progress: Progress | None) -> RenderResult:
+    """:func:`render_scene` of ``options.crop`` alone (:mod:`a5mi.render.crop`): its samples traced, its colour
+    filtered from them, its AOVs cut to its own samples (with ``aov_mode="quadrant"`` a second pass over its
+    own samples); the images are the region's, row 0 = top."""
+    plan = crop.plan(options)
+    rw, rh = options.render_size
+    separate = (options.normals or options.depth is not None) and options.aov_mode == "quadrant"
+    own_samples = crop.aligned_samples(rw, rh, plan.aov) if separate else plan.samples[:0]
+    timings: dict[str, float] = {"compile": 0.0, "execute": 0.0, "jitter": 0.0, "filter": 0.0}
+    total = len(plan.samples) + len(own_samples)
+    ctx = TraceContext(mi_scene, camera, integrator, camera_rays, (rw, rh), timings, progress, total,
+                       options.spp, options.seed or 0)
+    traced = crop.region_buffers(options, plan.trace, aovs=not separate)
+    aov = crop.region_buffers(options, plan.aov, color=False)
+    t_start = time.perf_counter()
+    launches, done = crop.trace_region(ctx, crop.launches(options, plan.samples), plan.trace, traced)
+    if separate:
+        launches += crop.trace_region(ctx, crop.quadrant_launches(options, own_samples), plan.aov, aov, done)[0]
+        traced.kernels = {k: traced.kernels.get(k, 0) + aov.kernels.get(k, 0) for k in {*traced.kernels, *aov.kernels}}
+    else:
+        aov.normal, aov.dist = crop.own(traced.normal, plan), crop.own(traced.dist, plan)
+    timings["render"] = time.perf_counter() - t_start
+    assert traced.color is not None
+    t0 = time.perf_counter()
+    color = (crop.filter_region(traced.color, plan, (rw, rh), options.kernel) if options.filter
+             else traced.color)
+    timings["filter"] = time.perf_counter() - t0
+    main = PassBuffers(color=color, normal=None, dist=None, classes=crop.own(traced.classes, plan),
+                       counts=traced.counts, kernels=traced.kernels)
+    result = _result(dataclasses.replace(options, filter=False), main, aov, False, launches, total, timings,
+                     clip=_dispersive(integrator))
     extras = getattr(integrator, "render_extras", None)
     result.extras = extras() if callable(extras) else {}
     return result

@@ -42,6 +42,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from a5mi.platform.resources import ROULETTE_MEAN_HITS
+from a5mi.render.crop import traced_samples
 from a5mi.render.options import RenderOptions
 from a5mi.spec import MIRROR_THRESHOLD
 
@@ -134,9 +135,8 @@ def hemisphere_rays(samples: int) -> int:
 def estimate(desc: SceneDescription, options: RenderOptions, *, rate: float | None = None) -> Estimate:
     """The :class:`Estimate` of rendering ``desc`` with ``options`` (module docstring); ``rate`` (rays/s)
     overrides :func:`measured_rate`."""
-    rw, rh = options.render_size
     separate = (options.normals or options.depth is not None) and options.aov_mode == "quadrant"
-    camera = rw * rh * options.spp * (2 if separate else 1)
+    camera = traced_samples(options) * options.spp * (2 if separate else 1)   # a -crop: its samples alone
     b = options.bounces
     lights, light = light_samples(desc)
     n_lights = len(desc.lights) + 1  # E.13: every light and the environment

@@ -7,6 +7,7 @@ these are the limits that involve several options (SPEC B.1, B.5 and docs/EXTENS
 * ``-indirect N`` and ``-two_sided`` (E.15) are modes of the Whitted integrator; ``-indirect N`` keeps up to
   ``(N + 1) · bounces`` pending rays per camera ray: at most :data:`MAX_PENDING` (the kernel's per-lane stack);
 * ``-filter`` without ``-jitter`` saves a ``W/3 x H/3`` image: ``W, H >= 3``;
+* ``-crop``: a region of the saved image, of a mode that crops (:func:`a5mi.render.crop.refusal`);
 * the memory: :func:`a5mi.platform.resources.render_bytes` plus :func:`a5mi.platform.resources.integrator_bytes`
   (photon maps and kd-trees, ppm statistics, irradiance records), and for a split render
   :func:`a5mi.platform.resources.split_bytes`, must fit in :func:`a5mi.platform.resources.available`.
@@ -19,6 +20,7 @@ from __future__ import annotations
 
 from a5mi.platform import resources
 from a5mi.platform.errors import UsageError
+from a5mi.render import crop
 from a5mi.render.options import RenderOptions
 from a5mi.spec import JITTER_FACTOR
 
@@ -48,6 +50,9 @@ def check_combination(o: RenderOptions) -> None:
     if o.filter and not o.jitter and (o.width < 3 or o.height < 3):
         raise UsageError(f"-filter without -jitter saves a W/3 x H/3 image; -size {o.width} {o.height} is "
                          "too small")
+    why = crop.refusal(o)
+    if why is not None:
+        raise UsageError(why)
 
 
 def memory_need(o: RenderOptions, *, aovs: bool = False, workers: int | None = None) -> int:

@@ -142,6 +142,9 @@ class RenderOptions:
     quirks: str = "none"
     #: docs/MISTAKES.md: names of :data:`MISTAKES` to make on purpose (``-mistake``; empty: SPEC as written)
     mistakes: tuple[str, ...] = ()
+    #: ``-crop X0 X1 Y0 Y1``: render only the saved image's pixels ``X0 <= x < X1``, ``Y0 <= y < Y1`` (row 0 the
+    #: top), bit for bit as in the whole image (a5mi/render/crop.py); None: the whole image
+    crop: tuple[int, int, int, int] | None = None
 
     def __post_init__(self) -> None:
         check_size_and_bounces(self.width, self.height, self.bounces)
@@ -172,6 +175,8 @@ class RenderOptions:
         unknown = [m for m in self.mistakes if m not in MISTAKES]
         if unknown:
             raise ValueError(f"unknown mistake '{unknown[0]}' (docs/MISTAKES.md lists them)")
+        if self.crop is not None and (len(self.crop) != 4 or not all(isinstance(v, int) for v in self.crop)):
+            raise ValueError(f"crop must be four integers X0 X1 Y0 Y1, got {self.crop!r}")
         if self.tile_rays <= 0:
             raise ValueError(f"tile_rays must be positive, got {self.tile_rays}")
 

@@ -87,18 +87,34 @@ def _lens_rays(ray: Any, camera: Any, pixel: Any, seed: int, pass_index: Any, sp
 
 
 def sample_passes(scene: Any, integrator: Any, sampler: Any, ray: Any, camera: Any, first: int, n: int,
-                  spp: int, seed: int, only: int | None = None) -> tuple[Any, list[Any]]:
+                  spp: int, seed: int, only: int | None = None, pixels: Any = None) -> tuple[Any, list[Any]]:
     """``(mean colour over spp passes, AOVs of pass 0)`` for the camera rays ``ray`` of samples
     ``first .. first + n - 1`` (module docstring); each pass is evaluated as it is traced (one kernel).
-    ``only = k``: pass ``k`` of ``spp`` alone, its colour not scaled (motion blur, docs/EXTENSIONS.md E.12)."""
+    ``only = k``: pass ``k`` of ``spp`` alone, its colour not scaled (motion blur, docs/EXTENSIONS.md E.12).
+    ``pixels``: the rays' samples when they are not consecutive (a crop, :mod:`a5mi.render.crop`): ``n``
+    absolute sample indices (numpy), the E.5 keys of ray ``i`` those of sample ``pixels[i]``."""
     stride = -(-n // PACKET) * PACKET
     if only is None and spp > 1 and wavefront(integrator) and 2 * stride <= WAVEFRONT_LANES:
-        return _wavefront_passes(scene, integrator, ray, camera, first, n, spp, seed, stride)
-    return _pass_by_pass(scene, integrator, sampler, ray, camera, first, n, spp, seed, only)
+        return _wavefront_passes(scene, integrator, ray, camera, first, n, spp, seed, stride, _lanes(pixels, stride))
+    return _pass_by_pass(scene, integrator, sampler, ray, camera, first, n, spp, seed, only, _lanes(pixels, n))
+
+
+def _lanes(pixels: Any, width: int) -> Any:
+    """``pixels`` (numpy) as a ``mi.UInt32`` of ``width`` lanes, the last sample repeated on the padding
+    lanes; None stays None."""
+    if pixels is None:
+        return None
+    import mitsuba as mi
+    import numpy as np
+
+    padded = np.empty(width, np.uint32)
+    padded[:len(pixels)] = pixels
+    padded[len(pixels):] = pixels[-1]
+    return mi.UInt32(padded)
 
 
 def _wavefront_passes(scene: Any, integrator: Any, ray: Any, camera: Any, first: int, n: int, spp: int,
-                      seed: int, stride: int) -> tuple[Any, list[Any]]:
+                      seed: int, stride: int, pixels: Any) -> tuple[Any, list[Any]]:
     """:func:`sample_passes` in batches of passes, one integrator call each (module docstring, Wavefront)."""
     import drjit as dr
     import mitsuba as mi
@@ -122,10 +138,10 @@ def _wavefront_passes(scene: Any, integrator: Any, ray: Any, camera: Any, first:
         src = dr.minimum(i, dr.opaque(mi.UInt32, n - 1))
         traced = mi.Ray3f(dr.gather(mi.Point3f, origins, src), dr.gather(mi.Vector3f, directions, src))
         if aperture > 0.0:
-            traced = _lens_rays(traced, camera, i + dr.opaque(mi.UInt32, first), seed,
-                                k + dr.opaque(mi.UInt32, k0), spp)
-        sample_pass = SamplePass(first, k0, spp, seed, batch, stride) if batch > 1 else SamplePass(first, k0, spp,
-                                                                                                   seed)
+            pixel = i + dr.opaque(mi.UInt32, first) if pixels is None else dr.gather(mi.UInt32, pixels, i)
+            traced = _lens_rays(traced, camera, pixel, seed, k + dr.opaque(mi.UInt32, k0), spp)
+        sample_pass = SamplePass(first, k0, spp, seed, batch if batch > 1 else 1, stride if batch > 1 else 0,
+                                 pixels)
         rgb, _valid, aovs = integrator.sample(scene, None, mi.RayDifferential3f(traced), None, active,
                                               sample_pass=sample_pass)
         if k0 == 0:
@@ -137,7 +153,7 @@ def _wavefront_passes(scene: Any, integrator: Any, ray: Any, camera: Any, first:
 
 
 def _pass_by_pass(scene: Any, integrator: Any, sampler: Any, ray: Any, camera: Any, first: int, n: int,
-                  spp: int, seed: int, only: int | None) -> tuple[Any, list[Any]]:
+                  spp: int, seed: int, only: int | None, pixels: Any) -> tuple[Any, list[Any]]:
     """:func:`sample_passes` one integrator call per pass."""
     import drjit as dr
     import mitsuba as mi
@@ -154,10 +170,10 @@ def _pass_by_pass(scene: Any, integrator: Any, sampler: Any, ray: Any, camera: A
     for k in range(spp) if only is None else (only,):
         traced = ray
         if aperture > 0.0:
-            pixel = dr.arange(mi.UInt32, n) + dr.opaque(mi.UInt32, first)
+            pixel = dr.arange(mi.UInt32, n) + dr.opaque(mi.UInt32, first) if pixels is None else pixels
             traced = _lens_rays(ray, camera, pixel, seed, dr.opaque(mi.UInt32, k), spp)
         sampler.seed(k, n)
-        extra = {"sample_pass": SamplePass(first, k, spp, seed)} if a5 else {}
+        extra = {"sample_pass": SamplePass(first, k, spp, seed, pixels=pixels)} if a5 else {}
         rgb, _valid, aovs = integrator.sample(scene, sampler, mi.RayDifferential3f(traced), None, mi.Bool(True),
                                               **extra)
         if total is None:

@@ -125,12 +125,17 @@ def quadrant_coords(rw: int, rh: int, j0: int, j1: int) -> tuple[np.ndarray, np.
     pixel coordinates of the B.2 camera rays: ``x_pix = (p_x + 1)(W-1)/2`` (likewise y), in float64 then
     rounded to float32, so the rays agree with the binary's to float precision, not bit for bit.
     """
+    x_pix, y_pix = quadrant_axes(rw, rh, j0, j1)
+    return np.tile(x_pix, j1 - j0), np.repeat(y_pix, rw)
+
+
+def quadrant_axes(rw: int, rh: int, j0: int = 0, j1: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`quadrant_coords`' ``x_pix`` of each column ``0 .. rw-1`` and ``y_pix`` of each row ``j0 .. j1-1``
+    (default all ``rh``), float32, each computed elementwise (a subset of rows gives the same values)."""
     m = float(max(rw, rh))
     xs = (np.arange(rw) + 0.5 - rw / 2) / m + 0.5
-    ys = (np.arange(j0, j1) + 0.5 - rh / 2) / m + 0.5
-    x_pix = ((xs + 1.0) * (rw - 1) / 2.0).astype(np.float32)
-    y_pix = ((ys + 1.0) * (rh - 1) / 2.0).astype(np.float32)
-    return np.tile(x_pix, j1 - j0), np.repeat(y_pix, rw)
+    ys = (np.arange(j0, rh if j1 is None else j1) + 0.5 - rh / 2) / m + 0.5
+    return ((xs + 1.0) * (rw - 1) / 2.0).astype(np.float32), ((ys + 1.0) * (rh - 1) / 2.0).astype(np.float32)
 
 
 def jittered_rows(rw: int, rows: list[tuple[int, int]], seed: int | None,
@@ -166,9 +171,15 @@ def main_tiles(rw: int, rows: list[tuple[int, int]], seed: int | None, jitter: b
             yield Tile(j0, j1, *pixel_coords(rw, j0, j1, None))
         return
     for j0, j1, offsets in jittered_rows(rw, rows, seed, timings):
-        if "jitter_0_1" in mistakes:
-            offsets = (offsets[0] + np.float32(0.5), offsets[1] + np.float32(0.5))
-        yield Tile(j0, j1, *pixel_coords(rw, j0, j1, offsets))
+        yield Tile(j0, j1, *pixel_coords(rw, j0, j1, mistaken_offsets(offsets, mistakes)))
+
+
+def mistaken_offsets(offsets: Offsets, mistakes: tuple[str, ...]) -> Offsets:
+    """The ``-jitter`` offsets as docs/MISTAKES.md's ``jitter_0_1`` makes them (``jx + 0.5``, ``jy + 0.5`` in
+    float32, in [0, 1)); unchanged without it."""
+    if "jitter_0_1" in mistakes:
+        return offsets[0] + np.float32(0.5), offsets[1] + np.float32(0.5)
+    return offsets
 
 
 def quadrant_tiles(rw: int, rh: int, rows: list[tuple[int, int]]) -> Iterator[Tile]:
