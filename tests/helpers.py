@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 import struct
 import subprocess
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -102,3 +102,27 @@ def render_text(text: str, path: str = "<string>", **options: Any) -> np.ndarray
     from a5mi.render.session import render
 
     return np.asarray(render(describe(parse_text(text, path)), RenderOptions(**options)).image)
+
+
+def files_under(root: Path) -> dict[str, bytes]:
+    """Every path below ``root`` -> its bytes (``b""`` for a folder or a symlink): a snapshot to compare."""
+    return {str(p.relative_to(root)): (p.read_bytes() if p.is_file() and not p.is_symlink() else b"")
+            for p in sorted(root.rglob("*"))}
+
+
+def one_error_line(capsys: pytest.CaptureFixture[str]) -> str:
+    """What a command printed on stderr, asserted to be one line and no traceback (docs/GUARANTEES.md); the line."""
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+def refused(capsys: pytest.CaptureFixture[str], root: Path, run: Callable[[list[str]], int], argv: list[str]) -> str:
+    """``run(argv)`` (``a5mi.cli.run`` for ``a5``, ``run_a5mi``) refuses (docs/GUARANTEES.md): exit status 2, one
+    line on stderr (:func:`one_error_line`), every file below ``root`` as it was (:func:`files_under`); the line."""
+    before = files_under(root)
+    assert run(argv) == 2
+    line = one_error_line(capsys)
+    assert files_under(root) == before
+    return line
