@@ -126,3 +126,17 @@ def refused(capsys: pytest.CaptureFixture[str], root: Path, run: Callable[[list[
     line = one_error_line(capsys)
     assert files_under(root) == before
     return line
+
+
+def converted_material(text: str) -> tuple[Any, dict[str, Any], dict[str, Any], list[str]]:
+    """The first material of a5 scene ``text`` (read as ``scenes/x.txt``, so its files resolve in :data:`SCENES`)
+    through the converter with ``stock=True``: its model value, its a5 and stock BSDF dicts (on a shape with uv)
+    and the description's warnings."""
+    from a5mi.converters.a5_parser import parse_text
+    from a5mi.converters.describe import describe
+    from a5mi.converters.materials import a5_bsdf, stock_bsdf
+
+    model = parse_text(text, str(SCENES / "x.txt"))
+    desc = describe(model, stock=True)
+    material = desc.materials[0]
+    return model.materials[0], a5_bsdf(material, True), stock_bsdf(material, True), [w for _, w in desc.warnings]
