@@ -1,5 +1,6 @@
 """Helpers shared by the test folders (importable from any of them: tests/ is on ``sys.path`` through its
-conftest): the project's folders, and a5 scene text rendered in-process."""
+conftest): the project's folders, a5 scene text rendered in-process or converted, and a command's refusal (exit
+2, one line, nothing written) checked in one place."""
 
 from __future__ import annotations
 
