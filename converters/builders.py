@@ -1,20 +1,20 @@
 """Typed builders: the mutable state the grammar's rules fill while a block is read (SPEC A.1-A.6, EXTENSIONS).
 
-Each builder has the fields of one frozen entity of :mod:`.model`, with the same defaults (SPEC A's), and
-``build(loc)`` returns that entity; a rule (:data:`.tokens.Rule`) sets fields. Where a block has required
-fields (``Animation``'s ``frames`` and ``fps``, A.1's camera and ``Group``) the builder keeps None until they
-are read and the parser, which reports their absence at a position, builds the entity. :class:`GroupState` is
-the parser's "current material" of A.6; :class:`SceneBuilder` collects the top-level blocks of A.1.
+Each builder has the fields of one frozen entity of :mod:`.model`, with the same defaults (SPEC A's; the
+material's builder takes them from the model), and ``build(loc)`` (``build()``) returns that entity; a rule
+(:data:`.tokens.Rule`) sets fields. Where a block has required fields (``Animation``'s ``frames`` and ``fps``,
+A.1's camera and ``Group``) the builder keeps None until they are read and the parser, which reports their
+absence at a position, builds the entity. :class:`GroupState` is the parser's "current material" of A.6;
+:class:`SceneBuilder` collects the top-level blocks of A.1.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 from a5mi.converters.errors import FileLoc
 from a5mi.converters.lexer import Token
 from a5mi.converters.model import (
-    BUMP_SCALE,
     Animation,
     Background,
     Camera,
@@ -28,8 +28,6 @@ from a5mi.converters.model import (
     Track,
     Vec3,
 )
-from a5mi.converters.subsurface import Subsurface
-from a5mi.converters.surface_model import Btf, Milled
 
 _ZERO: Vec3 = (0.0, 0.0, 0.0)
 
@@ -94,40 +92,21 @@ class SolidBuilder:
                      self.scale, self.axis, self.center, loc)
 
 
-@dataclass
 class MaterialBuilder:
-    """``Material`` / ``PhongMaterial`` (A.5; EXTENSIONS E.4, E.6, E.7, E.10): filled by the rules of
-    :mod:`.a5_parser` (the course's keywords) and :mod:`.ext_parser` (the extensions')."""
+    """``Material`` / ``PhongMaterial`` (A.5; EXTENSIONS E.4, E.6, E.7, E.10, E.18-E.20) while it is read: an
+    attribute per field of :class:`.model.Material` (the one declaration of the fields and their defaults),
+    set by the rules of :mod:`.a5_parser` (the course's keywords), :mod:`.ext_parser` and :mod:`.surface_ext`
+    (the extensions'); a name the model lacks is an ``AttributeError``."""
 
-    loc: FileLoc
-    diffuse_color: Vec3 = (1.0, 1.0, 1.0)
-    specular_color: Vec3 = _ZERO
-    shininess: float = 0.0
-    refraction_index: float = 0.0
-    dispersion: float | None = None
-    texture: str | None = None
-    texture_loc: FileLoc | None = None
-    bump: str | None = None
-    bump_loc: FileLoc | None = None
-    bump_scale: float = BUMP_SCALE
-    normal_map: str | None = None
-    normal_map_loc: FileLoc | None = None
-    noise: Noise | None = None
-    solid: Solid | None = None
-    roughness: float = 0.0
-    glossy_samples: int = 1
-    subsurface: Subsurface | None = None   # docs/EXTENSIONS.md E.18
-    btf: Btf | None = None          # E.19
-    milled: Milled | None = None    # E.20
+    __slots__ = tuple(f.name for f in fields(Material))
+
+    def __init__(self, loc: FileLoc) -> None:
+        for f in fields(Material):
+            setattr(self, f.name, f.default)
+        self.loc = loc
 
     def build(self) -> Material:
-        return Material(diffuse_color=self.diffuse_color, specular_color=self.specular_color,
-                        shininess=self.shininess, refraction_index=self.refraction_index, texture=self.texture,
-                        texture_loc=self.texture_loc, bump=self.bump, noise=self.noise, loc=self.loc,
-                        roughness=self.roughness, glossy_samples=self.glossy_samples, dispersion=self.dispersion,
-                        solid=self.solid, bump_loc=self.bump_loc, bump_scale=self.bump_scale,
-                        normal_map=self.normal_map, normal_map_loc=self.normal_map_loc, subsurface=self.subsurface,
-                        btf=self.btf, milled=self.milled)
+        return Material(**{name: getattr(self, name) for name in self.__slots__})
 
 
 @dataclass

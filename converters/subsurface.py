@@ -11,14 +11,17 @@ uses are ``σ · scale`` per scene unit. ``eta`` (> 0, default 1.3) the relative
 boundary, ``g`` in (−1, 1) (default 0) the Henyey-Greenstein asymmetry inside, ``samples`` (1..256, default 8)
 the probe points (dipole) or walks (random walk) per hit and pass.
 
-Presets (:data:`PRESETS`): Jensen, Marschner, Levoy, Hanrahan 2001, "A Practical Model for Subsurface Light
-Transport", Figure 5: the reduced scattering ``σ_s'`` and ``σ_a`` in mm⁻¹ (R, G, B), measured with ``η = 1.3``;
-a preset sets ``sigma_s = σ_s'`` with ``g = 0`` (the reduced coefficients of an isotropic medium).
+Presets (:func:`presets`, read from :data:`PRESETS_FILE` on first use): Jensen, Marschner, Levoy, Hanrahan 2001,
+"A Practical Model for Subsurface Light Transport", Figure 5: the reduced scattering ``σ_s'`` and ``σ_a`` in mm⁻¹
+(R, G, B), measured with ``η = 1.3``; a preset sets ``sigma_s = σ_s'`` with ``g = 0`` (the reduced coefficients
+of an isotropic medium).
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
+from importlib import resources
 from typing import Final
 
 from a5mi.converters.errors import FileLoc
@@ -27,24 +30,21 @@ from a5mi.converters.tokens import TokenStream, block_keys
 
 Vec3 = tuple[float, float, float]
 
-#: name -> (σ_s' mm⁻¹, σ_a mm⁻¹), Jensen et al. 2001, Figure 5.
-PRESETS: Final[dict[str, tuple[Vec3, Vec3]]] = {
-    "apple": ((2.29, 2.39, 1.97), (0.0030, 0.0034, 0.046)),
-    "chicken1": ((0.15, 0.21, 0.38), (0.015, 0.077, 0.19)),
-    "chicken2": ((0.19, 0.25, 0.32), (0.018, 0.088, 0.20)),
-    "cream": ((7.38, 5.47, 3.15), (0.0002, 0.0028, 0.0163)),
-    "ketchup": ((0.18, 0.07, 0.03), (0.061, 0.97, 1.45)),
-    "marble": ((2.19, 2.62, 3.00), (0.0021, 0.0041, 0.0071)),
-    "potato": ((0.68, 0.70, 0.55), (0.0024, 0.0090, 0.12)),
-    "skimmilk": ((0.70, 1.22, 1.90), (0.0014, 0.0025, 0.0142)),
-    "skin1": ((0.74, 0.88, 1.01), (0.032, 0.17, 0.48)),
-    "skin2": ((1.09, 1.59, 1.79), (0.013, 0.070, 0.145)),
-    "spectralon": ((11.6, 20.4, 14.9), (0.0, 0.0, 0.0)),
-    "wholemilk": ((2.55, 3.21, 3.77), (0.0011, 0.0024, 0.014)),
-}
+#: The presets' file (package data): name -> ``sigma_s`` (σ_s') and ``sigma_a`` in mm⁻¹, Jensen et al. 2001, Figure 5.
+PRESETS_FILE: Final = "subsurface_presets.toml"
 #: Jensen et al. 2001's index of refraction of every preset.
 PRESET_ETA: Final = 1.3
 MAX_SAMPLES: Final = 256
+
+
+@functools.cache
+def presets() -> dict[str, tuple[Vec3, Vec3]]:
+    """name -> ``(σ_s', σ_a)`` in mm⁻¹ (module docstring), in the file's order; read once, when a ``preset`` is
+    first named (the parse of a scene without one does not import ``tomllib``)."""
+    import tomllib
+
+    table = tomllib.loads(resources.files(__package__).joinpath(PRESETS_FILE).read_text(encoding="utf-8"))
+    return {name: (tuple(row["sigma_s"]), tuple(row["sigma_a"])) for name, row in table.items()}
 
 
 @dataclass(frozen=True)
@@ -74,8 +74,8 @@ def parse_subsurface(ts: TokenStream, start: Token) -> Subsurface:
         seen[tok.text] = tok
         if tok.text == "preset":
             name = ts.name("preset")
-            if name.text.lower() not in PRESETS:
-                raise ts.semantic_error(f"unknown subsurface preset '{name.text}' (one of {', '.join(PRESETS)})",
+            if name.text.lower() not in presets():
+                raise ts.semantic_error(f"unknown subsurface preset '{name.text}' (one of {', '.join(presets())})",
                                         name.loc)
             preset = name.text.lower()
         elif tok.text in ("sigma_a", "sigma_s"):
@@ -91,7 +91,7 @@ def parse_subsurface(ts: TokenStream, start: Token) -> Subsurface:
         else:
             nums[tok.text] = ts.number(tok.text)
     if preset is not None:
-        sigma_s, sigma_a = PRESETS[preset]
+        sigma_s, sigma_a = presets()[preset]
         vecs.setdefault("sigma_s", sigma_s)
         vecs.setdefault("sigma_a", sigma_a)
     for key in ("sigma_a", "sigma_s"):

@@ -1,12 +1,13 @@
 """Helpers shared by the test folders (importable from any of them: tests/ is on ``sys.path`` through its
-conftest): the project's folders, and a5 scene text rendered in-process."""
+conftest): the project's folders, a5 scene text rendered in-process or converted, and a command's refusal (exit
+2, one line, nothing written) checked in one place."""
 
 from __future__ import annotations
 
 import os
 import struct
 import subprocess
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -102,3 +103,41 @@ def render_text(text: str, path: str = "<string>", **options: Any) -> np.ndarray
     from a5mi.render.session import render
 
     return np.asarray(render(describe(parse_text(text, path)), RenderOptions(**options)).image)
+
+
+def files_under(root: Path) -> dict[str, bytes]:
+    """Every path below ``root`` -> its bytes (``b""`` for a folder or a symlink): a snapshot to compare."""
+    return {str(p.relative_to(root)): (p.read_bytes() if p.is_file() and not p.is_symlink() else b"")
+            for p in sorted(root.rglob("*"))}
+
+
+def one_error_line(capsys: pytest.CaptureFixture[str]) -> str:
+    """What a command printed on stderr, asserted to be one line and no traceback (docs/GUARANTEES.md); the line."""
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+def refused(capsys: pytest.CaptureFixture[str], root: Path, run: Callable[[list[str]], int], argv: list[str]) -> str:
+    """``run(argv)`` (``a5mi.cli.run`` for ``a5``, ``run_a5mi``) refuses (docs/GUARANTEES.md): exit status 2, one
+    line on stderr (:func:`one_error_line`), every file below ``root`` as it was (:func:`files_under`); the line."""
+    before = files_under(root)
+    assert run(argv) == 2
+    line = one_error_line(capsys)
+    assert files_under(root) == before
+    return line
+
+
+def converted_material(text: str) -> tuple[Any, dict[str, Any], dict[str, Any], list[str]]:
+    """The first material of a5 scene ``text`` (read as ``scenes/x.txt``, so its files resolve in :data:`SCENES`)
+    through the converter with ``stock=True``: its model value, its a5 and stock BSDF dicts (on a shape with uv)
+    and the description's warnings."""
+    from a5mi.converters.a5_parser import parse_text
+    from a5mi.converters.describe import describe
+    from a5mi.converters.materials import a5_bsdf, stock_bsdf
+
+    model = parse_text(text, str(SCENES / "x.txt"))
+    desc = describe(model, stock=True)
+    material = desc.materials[0]
+    return model.materials[0], a5_bsdf(material, True), stock_bsdf(material, True), [w for _, w in desc.warnings]

@@ -22,7 +22,8 @@ def test_one_version_source_and_a_licence_file() -> None:
 
 def test_the_wheel_builds_without_deprecation_warnings(tmp_path: Path) -> None:
     """What `make setup` runs, as a wheel build (same backend, same configuration): no setuptools deprecation
-    warning (the old ``license = { text = ... }`` table printed three), and the wheel holds the three packages."""
+    warning (the old ``license = { text = ... }`` table printed three), and the wheel holds the three packages
+    and their data files."""
     p = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(ROOT)],
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr[-2000:]
@@ -34,3 +35,4 @@ def test_the_wheel_builds_without_deprecation_warnings(tmp_path: Path) -> None:
                 for p in (ROOT / folder).rglob("*.py")}
     assert sources <= set(names), f"missing from the wheel: {sorted(sources - set(names))}"  # every package listed
     assert any(n.endswith("licenses/LICENSE") for n in names)
+    assert "a5mi/converters/subsurface_presets.toml" in names  # package data read at run time

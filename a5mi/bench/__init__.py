@@ -58,7 +58,7 @@ import resource
 import shutil
 import tempfile
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -92,7 +92,19 @@ from a5mi.bench.scenes import (
     resolve_scenes,
     scene_name,
 )
+from a5mi.render.options import RenderOptions
 from a5mi.spec import MAX_SIZE
+
+#: The parts of a run (module docstring; ``--no-process``, ``--no-inprocess``, ``--no-stock`` leave one out): the
+#: ``a5`` child processes (and a5soln's, the 4K run, the batch process), the in-process stages, floor and batch,
+#: and the stock Mitsuba comparison (in-process too).
+PARTS: frozenset[str] = frozenset({"process", "inprocess", "stock"})
+
+
+def assignment_command(width: int = 300, height: int = 300, bounces: int = 4) -> RenderOptions:
+    """The assignment's test command (SPEC B.1, B.5) at a size: ``-size W H -shadows -bounces N -jitter -filter``
+    as in-process options (:func:`~a5mi.bench.process.render_flags` are its flags)."""
+    return RenderOptions(width=width, height=height, bounces=bounces, shadows=True, jitter=True, filter=True)
 
 # --------------------------------------------------------------------------------------------------------
 # The benchmark
@@ -105,14 +117,13 @@ def bench_scene(path: Path, args: BenchSettings, published: dict[str, float], lo
     res = SceneResult(name=name, path=str(path))
     key = published_key(name)
     res.a5soln_published = published.get(key) if key else None
-    w, h = args.size
-    flags = render_flags(w, h, args.bounces)
+    flags = render_flags(args.test.width, args.test.height, args.test.bounces)
     if args.wait_idle > 0:
         log(f"{name}: waiting for idle CPUs (up to {args.wait_idle:.0f} s) ...")
         res.busy_before = wait_for_idle(args.wait_idle)
     with tempfile.TemporaryDirectory(prefix="a5bench-") as tmp:
         out = str(Path(tmp) / "out.png")
-        if not args.no_process:
+        if "process" in args.parts:
             cache = Path(tmp) / "drjit-cache"
             cache.mkdir()
             cmd = a5_command() + ["-input", path.name, "-output", out, *flags]
@@ -141,22 +152,20 @@ def bench_scene(path: Path, args: BenchSettings, published: dict[str, float], lo
                 res.a5soln = run.wall
             else:
                 res.errors.append(f"a5soln exited {run.returncode}: {run.stderr.strip()[-300:]}")
-    if args.no_inprocess:
+    if "inprocess" not in args.parts:
         return res
     from a5mi.converters.a5_parser import parse_file
-    from a5mi.render.options import RenderOptions
 
-    options = RenderOptions(width=w, height=h, bounces=args.bounces, shadows=True, jitter=True, filter=True)
     with _chdir(path.parent):
         log(f"{name}: stages and floor ...")
         try:
-            res.inproc = measure_in_process(Path(path.name), options, repeat=args.repeat)
+            res.inproc = measure_in_process(Path(path.name), args.test, repeat=args.repeat)
         except Exception as exc:  # noqa: BLE001 - a benchmark reports what failed and goes on
             res.errors.append(f"floor: {type(exc).__name__}: {exc}")
-        if not args.no_stock:
+        if "stock" in args.parts:
             log(f"{name}: stock ...")
             try:
-                res.stock = measure_stock(parse_file(path.name), options, repeat=args.repeat)
+                res.stock = measure_stock(parse_file(path.name), args.test, repeat=args.repeat)
             except Exception as exc:  # noqa: BLE001
                 res.errors.append(f"stock: {type(exc).__name__}: {exc}")
     return res
@@ -164,18 +173,15 @@ def bench_scene(path: Path, args: BenchSettings, published: dict[str, float], lo
 
 @dataclass(frozen=True)
 class BenchSettings:
-    """What ``a5mi bench`` measures (its flags): image size and bounces of the test command, repetitions,
-    which parts run, the optional a5soln binary and the 4K run, idle wait and child timeout (s)."""
+    """What ``a5mi bench`` measures (its flags): the test command (:func:`assignment_command`: image size and
+    bounces), in-process repetitions, the optional a5soln binary, the scene of the 4K run (None: no 4K run), which
+    :data:`PARTS` run, warm and ``-v`` process runs per scene, idle wait and child timeout (s), batch renders."""
 
-    size: tuple[int, int] = (300, 300)
-    bounces: int = 4
+    test: RenderOptions = field(default_factory=assignment_command)
     repeat: int = 3
     a5soln: str | None = None
-    k4: bool = False
-    k4_scene: str = "scene10"
-    no_process: bool = False
-    no_inprocess: bool = False
-    no_stock: bool = False
+    k4_scene: str | None = None
+    parts: frozenset[str] = PARTS
     warm_runs: int = 2
     verbose_runs: int = 2
     wait_idle: float = 30.0
@@ -183,10 +189,12 @@ class BenchSettings:
     batch_renders: int = 3
 
     def __post_init__(self) -> None:
-        if min(self.size) <= 0 or self.bounces < 0 or self.repeat < 1 or self.warm_runs < 1 or self.verbose_runs < 0:
-            raise ValueError("--size, --repeat and --warm-runs must be positive, --bounces and --verbose-runs >= 0")
-        if max(self.size) > MAX_SIZE:
-            raise ValueError(f"--size {self.size[0]} {self.size[1]}: the largest side is {MAX_SIZE} (SPEC B.1)")
+        if self.repeat < 1 or self.warm_runs < 1 or self.verbose_runs < 0:
+            raise ValueError("--repeat and --warm-runs must be positive, --verbose-runs >= 0")
+        if max(self.test.width, self.test.height) > MAX_SIZE:
+            raise ValueError(f"--size {self.test.width} {self.test.height}: the largest side is {MAX_SIZE} (SPEC B.1)")
+        if not self.parts <= PARTS:
+            raise ValueError(f"parts must be among {', '.join(sorted(PARTS))}, got {', '.join(sorted(self.parts))}")
 
 
 @dataclass
@@ -238,21 +246,19 @@ def find_executable(path: str) -> str:
 def _bench_batch(results: list[SceneResult], settings: BenchSettings, extra: dict[str, Any], log: Any) -> None:
     """The batch figures (module docstring) over the test scenes among ``results``, into ``extra``."""
     from a5mi.bench.batch import measure_batch, measure_batch_process
-    from a5mi.render.options import RenderOptions
 
     tests = [r for r in results if r.name in TEST_SCENES] or results
     paths = [Path(r.path).resolve() for r in tests]
-    w, h = settings.size
-    if not settings.no_inprocess:
-        options = RenderOptions(width=w, height=h, bounces=settings.bounces, shadows=True, jitter=True, filter=True)
+    test = settings.test
+    if "inprocess" in settings.parts:
         try:
-            extra["batch"] = measure_batch(paths, options, settings.batch_renders, log)
+            extra["batch"] = measure_batch(paths, test, settings.batch_renders, log)
         except Exception as exc:  # noqa: BLE001 - a benchmark reports what failed and goes on
             extra["batch_error"] = f"{type(exc).__name__}: {exc}"
-    if not settings.no_process:
+    if "process" in settings.parts:
         log("batch process ...")
         with tempfile.TemporaryDirectory(prefix="a5bench-bcache-") as cache:
-            runs = [measure_batch_process(paths, render_flags(w, h, settings.bounces), cache_env(cache),
+            runs = [measure_batch_process(paths, render_flags(test.width, test.height, test.bounces), cache_env(cache),
                                           settings.timeout) for _ in range(1 + settings.warm_runs)]
         best = min((r for r, _ in runs[1:]), key=lambda r: r.wall)  # the first run fills the kernel cache
         extra["batch_process"] = {"cmd": runs[0][1], "cold": runs[0][0], "warm": best,
@@ -262,17 +268,18 @@ def _bench_batch(results: list[SceneResult], settings: BenchSettings, extra: dic
 
 def run_benchmark(paths: Sequence[Path], settings: BenchSettings, log: Any) -> BenchRun:
     """Measure every scene of ``paths`` (and the 4K run) as the module docstring says; ``log(msg)`` receives
-    progress lines. Needs the variant active unless ``no_inprocess``."""
+    progress lines. Needs the variant active where ``"inprocess"`` is among its parts."""
     published = load_published()
     results = [bench_scene(p, settings, published, log) for p in paths]
-    extra: dict[str, Any] = {"flags": render_flags(*settings.size, settings.bounces)}
+    test = settings.test
+    extra: dict[str, Any] = {"flags": render_flags(test.width, test.height, test.bounces)}
     if settings.batch_renders > 0:
         _bench_batch(results, settings, extra, log)
-    if settings.k4:
+    if settings.k4_scene is not None:
         (p4,) = resolve_scenes([settings.k4_scene])
         with tempfile.TemporaryDirectory(prefix="a5bench-4k-") as tmp:
             cmd = a5_command() + ["-input", p4.name, "-output", str(Path(tmp) / "4k.png"),
-                                  *render_flags(3840, 2160, settings.bounces)]
+                                  *render_flags(3840, 2160, test.bounces)]
             log(f"4K: {scene_name(p4)} ...")
             extra["4k"] = run_process(cmd, cwd=p4.parent, timeout=settings.timeout)
             extra["4k_cmd"] = " ".join(["a5", *cmd[len(a5_command()):]]).replace(str(Path(tmp)) + "/", "")
@@ -280,10 +287,10 @@ def run_benchmark(paths: Sequence[Path], settings: BenchSettings, log: Any) -> B
 
 
 __all__ = [
-    "PUBLISHED_A5SOLN", "RAY_KINDS", "SCENES", "STAGES", "TARGET_COLD_S", "TARGET_FLOOR_RATIO", "TARGET_PEAK_MB",
-    "TARGET_WARM_S", "TEST_SCENES", "VERBOSE_STAGES", "BenchRun", "BenchSettings", "InProcess", "ProcessRun",
-    "SceneResult", "a5_command", "bench_scene", "cache_env", "cpu_busy", "find_executable", "format_table",
-    "lane_repeat", "load_published", "machine_info", "measure_in_process", "measure_stock", "parse_verbose",
-    "published_key", "published_times", "rank_within_lane", "render_flags", "report", "resolve_scenes",
-    "run_benchmark", "run_process", "scene_name", "wait_for_idle",
+    "PARTS", "PUBLISHED_A5SOLN", "RAY_KINDS", "SCENES", "STAGES", "TARGET_COLD_S", "TARGET_FLOOR_RATIO",
+    "TARGET_PEAK_MB", "TARGET_WARM_S", "TEST_SCENES", "VERBOSE_STAGES", "BenchRun", "BenchSettings", "InProcess",
+    "ProcessRun", "SceneResult", "a5_command", "assignment_command", "bench_scene", "cache_env", "cpu_busy",
+    "find_executable", "format_table", "lane_repeat", "load_published", "machine_info", "measure_in_process",
+    "measure_stock", "parse_verbose", "published_key", "published_times", "rank_within_lane", "render_flags",
+    "report", "resolve_scenes", "run_benchmark", "run_process", "scene_name", "wait_for_idle",
 ]

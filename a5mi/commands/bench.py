@@ -36,12 +36,13 @@ def run_bench(args: Args, console: Console) -> int:
     from a5mi.platform.imageio import atomic_file
 
     try:
+        skipped = {"process": args.no_process, "inprocess": args.no_inprocess, "stock": args.no_stock}
         settings = bench.BenchSettings(
-            size=(args.width, args.height), bounces=args.bounces, repeat=args.repeat,
-            a5soln=bench.find_executable(args.a5soln) if args.a5soln else None, k4=args.k4, k4_scene=args.k4_scene,
-            no_process=args.no_process, no_inprocess=args.no_inprocess, no_stock=args.no_stock,
+            test=bench.assignment_command(args.width, args.height, args.bounces), repeat=args.repeat,
+            a5soln=bench.find_executable(args.a5soln) if args.a5soln else None,
+            k4_scene=args.k4_scene if args.k4 else None, parts=bench.PARTS - {p for p, off in skipped.items() if off},
             warm_runs=args.warm_runs, verbose_runs=args.verbose_runs, wait_idle=args.wait_idle,
-            timeout=args.timeout, batch_renders=args.batch_renders)  # fmt: skip
+            timeout=args.timeout, batch_renders=args.batch_renders)
         paths = bench.resolve_scenes(args.scenes)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
@@ -52,7 +53,7 @@ def run_bench(args: Args, console: Console) -> int:
         check_target(args.json_file)
         clobber.check_outputs([("--json-file", args.json_file)],
                               [*paths, *([settings.a5soln] if settings.a5soln else [])], of="")
-    if not settings.no_inprocess:
+    if "inprocess" in settings.parts:
         activate_variant(None)
 
     def log(msg: str) -> None:

@@ -192,6 +192,28 @@ def test_negative_verbose_runs_exit_2(capsys: pytest.CaptureFixture[str]) -> Non
     assert "a5mi bench: error:" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(("argv", "settings"), [
+    ([], bench.BenchSettings()),
+    (["--size", "40", "30", "--bounces", "2", "--4k", "--no-stock", "--warm-runs", "3", "--timeout", "9"],
+     bench.BenchSettings(test=bench.assignment_command(40, 30, 2), k4_scene="scene10",
+                         parts=frozenset({"process", "inprocess"}), warm_runs=3, timeout=9.0)),
+    (["--no-process", "--no-inprocess", "--no-stock", "--4k-scene", "scene12", "--repeat", "5"],
+     bench.BenchSettings(repeat=5, parts=frozenset())),
+])
+def test_flags_become_the_settings(argv: list[str], settings: bench.BenchSettings, monkeypatch,
+                                   capsys: pytest.CaptureFixture[str]) -> None:
+    """The command's flags and their defaults are the settings the library measures with: the test command's
+    options (-shadows -jitter -filter at -size and -bounces), the parts left out, the 4K scene only with --4k."""
+    seen: list[bench.BenchSettings] = []
+    monkeypatch.setattr(bench, "resolve_scenes", lambda scenes: [])
+    monkeypatch.setattr(bench, "run_benchmark", lambda paths, s, log: seen.append(s) or
+                        bench.BenchRun([], {}, {"flags": []}, 0.0))
+    monkeypatch.setattr("a5mi.commands.bench.activate_variant", lambda variant: None)
+    assert run_a5mi(["bench", *argv, "-q"]) == 0
+    assert seen == [settings]
+    assert (settings.test.shadows, settings.test.jitter, settings.test.filter) == (True, True, True)
+
+
 # --------------------------------------------------------------------------------------------------------
 # The kernel's ray-log mode (plugins/kernel/raylog.py), which the floor traverses
 # --------------------------------------------------------------------------------------------------------

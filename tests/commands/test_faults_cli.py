@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import files_under, one_error_line, refused
 
 from a5mi import cli
 from a5mi.cli.app import Console, load_scene
@@ -27,18 +28,6 @@ HEAD = ("PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 20 }\
 def _scene(material: str, objects: str = "Sphere { center 0 0 0 radius 1 }", n: int = 1) -> str:
     return HEAD + (f"Materials {{ numMaterials 1 Material {{ {material} }} }}\n"
                    f"Group {{ numObjects {n} MaterialIndex 0 {objects} }}\n")
-
-
-def _one_line(capsys) -> str:
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in err, err
-    return lines[0]
-
-
-def _files(root: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(root)): (p.read_bytes() if p.is_file() and not p.is_symlink() else b"")
-            for p in sorted(root.rglob("*"))}
 
 
 # ------------------------------------------------------------------------------- colours
@@ -97,7 +86,7 @@ def test_camera_degenerate_in_float32(tmp_path: Path, capsys, camera: str, match
     text = _scene("diffuseColor 1 1 1").replace("direction 0 0 -1 up 0 1 0", camera)
     (tmp_path / "s.txt").write_text(text)
     assert cli.run(["-input", str(tmp_path / "s.txt"), "-output", str(tmp_path / "o.png")]) == 2
-    line = _one_line(capsys)
+    line = one_error_line(capsys)
     assert line.startswith(f"{tmp_path / 's.txt'}:1:") and match in line
     assert not (tmp_path / "o.png").exists()
 
@@ -113,7 +102,7 @@ def test_mesh_names_that_cannot_be_files(tmp_path: Path, capsys, name: str, matc
     os.symlink("/dev/zero", tmp_path / "dev.obj")
     (tmp_path / "s.txt").write_text(_scene("diffuseColor 1 1 1", f"TriangleMesh {{ obj_file {name} }}"))
     assert cli.run(["-input", str(tmp_path / "s.txt"), "-output", str(tmp_path / "o.png")]) == 2
-    line = _one_line(capsys)
+    line = one_error_line(capsys)
     assert line.startswith(f"{tmp_path / 's.txt'}:5:") and match in line and len(line) < 400
 
 
@@ -187,11 +176,9 @@ def test_outputs_never_overwrite_inputs_or_each_other(tmp_path: Path, capsys, mo
     os.link(tmp_path / "o.png", tmp_path / "hard.png")
     shutil.copy(scene, tmp_path / "scene.png")
     monkeypatch.chdir(tmp_path)
-    before = _files(tmp_path)
     inp = "scene.png" if "scene.png" in argv else "s.txt"
-    assert cli.run(["-input", inp, *argv, "-size", "8", "8", "-q"]) == 2  # -q: the texture has no uv here (warned)
-    assert match in _one_line(capsys)
-    assert _files(tmp_path) == before
+    # -q: the texture has no uv here (warned)
+    assert match in refused(capsys, tmp_path, cli.run, ["-input", inp, *argv, "-size", "8", "8", "-q"])
 
 
 # ------------------------------------------------------------------------------- items 4, 6: convert
@@ -216,7 +203,7 @@ def test_convert_never_writes_through_symlinks_and_replaces_the_set(convert_dir:
     victim = convert_dir / "victim.ply"
     victim.write_bytes(b"precious")
     assert cli.run_a5mi(["convert", str(convert_dir / "in" / "s.txt"), "-o", str(out / "o.xml"), "-q"]) == 0
-    first = _files(out)
+    first = files_under(out)
     assert sorted(first) == ["o.xml", "o_meshes", "o_meshes/.a5mi-convert", "o_meshes/mesh_000.ply"]
     os.unlink(out / "o_meshes" / "mesh_000.ply")
     os.symlink(victim, out / "o_meshes" / "mesh_000.ply")
@@ -225,7 +212,7 @@ def test_convert_never_writes_through_symlinks_and_replaces_the_set(convert_dir:
     assert cli.run_a5mi(["convert", str(convert_dir / "in" / "s.txt"), "-o", str(out / "o.xml"), "-q"]) == 0
     assert victim.read_bytes() == b"precious"
     assert not (out / "o_meshes" / "mesh_000.ply").is_symlink()
-    assert _files(out) == first
+    assert files_under(out) == first
     capsys.readouterr()
 
 
@@ -249,10 +236,7 @@ def test_convert_refuses_before_writing(convert_dir: Path, capsys, case: str, ma
         shutil.copy(convert_dir / "in" / "m.obj", out / "o_meshes" / "m.obj")
         shutil.copy(scene, out / "o_meshes" / "s.txt")
         scene = out / "o_meshes" / "s.txt"
-    before = _files(convert_dir)
-    assert cli.run_a5mi(["convert", str(scene), "-o", str(out / "o.xml")]) == 2
-    assert match in _one_line(capsys)
-    assert _files(convert_dir) == before
+    assert match in refused(capsys, convert_dir, cli.run_a5mi, ["convert", str(scene), "-o", str(out / "o.xml")])
 
 
 def test_convert_into_a_read_only_folder_leaves_nothing(convert_dir: Path, capsys, monkeypatch) -> None:
@@ -262,7 +246,7 @@ def test_convert_into_a_read_only_folder_leaves_nothing(convert_dir: Path, capsy
     os.chmod(out, 0o555)
     monkeypatch.setattr(os, "access", lambda path, mode, **kw: not str(path).endswith("out"))
     assert cli.run_a5mi(["convert", str(convert_dir / "in" / "s.txt"), "-o", str(out / "o.xml")]) == 2
-    line = _one_line(capsys)
+    line = one_error_line(capsys)
     assert "output folder" in line and line.endswith("is not writable")
     assert list(out.iterdir()) == []
 
@@ -291,7 +275,7 @@ def test_render_xml_checks_the_files_it_names_first(textured_xml: Path, capsys, 
     monkeypatch.chdir(textured_xml.parent / "s_meshes" if remove == "s_images" else textured_xml.parent)
     capsys.readouterr()
     assert cli.run_a5mi(["render-xml", str(textured_xml), "-o", str(textured_xml.parent / "o.png")]) == 2
-    line = _one_line(capsys)
+    line = one_error_line(capsys)
     assert re.search(match, line), line
     assert not (textured_xml.parent / "o.png").exists()
 
@@ -302,7 +286,7 @@ def test_render_xml_plugin_errors_are_one_positioned_line(textured_xml: Path, ca
     bad.write_text(re.sub(r'name="angle" value="[^"]*"', 'name="angle" value="nan"', textured_xml.read_text()))
     capsys.readouterr()
     assert cli.run_a5mi(["render-xml", str(bad), "-o", str(bad.parent / "o.png")]) == 2
-    line = _one_line(capsys)
+    line = one_error_line(capsys)
     assert re.fullmatch(rf"{re.escape(str(bad))}:\d+:\d+: error: failed to instantiate sensor plugin of type "
                         r'"a5_camera": ValueError: a5_camera: camera angle .*got nan', line), line
     assert "Traceback" not in line and "File " not in line
@@ -313,7 +297,7 @@ def test_render_xml_names_an_unused_define(textured_xml: Path, capsys) -> None:
     capsys.readouterr()
     assert cli.run_a5mi(["render-xml", str(textured_xml), "-o", str(textured_xml.parent / "o.png"), "-D",
                          "nosuch=1"]) == 2
-    line = _one_line(capsys)
+    line = one_error_line(capsys)
     assert line.endswith("Found unused parameters: $nosuch=1"), line
     assert not (textured_xml.parent / "o.png").exists()
 
@@ -322,7 +306,7 @@ def test_render_xml_refuses_a_film_beyond_memory(textured_xml: Path, capsys) -> 
     capsys.readouterr()
     assert cli.run_a5mi(["render-xml", str(textured_xml), "-o", str(textured_xml.parent / "o.png"), "-D",
                          "width=100000", "-D", "height=100000"]) == 2
-    line = _one_line(capsys)
+    line = one_error_line(capsys)
     assert "a 100000x100000 film at 1 samples per pixel needs about" in line and "is available" in line
 
 
@@ -334,7 +318,7 @@ def test_render_xml_image_bomb_is_refused_by_its_header(textured_xml: Path, caps
     monkeypatch.setenv("A5MI_MEMORY_LIMIT", str(4 << 30))
     capsys.readouterr()
     assert cli.run_a5mi(["render-xml", str(textured_xml), "-o", str(textured_xml.parent / "o.png")]) == 2
-    assert "30000x30000 pixels need about" in _one_line(capsys)
+    assert "30000x30000 pixels need about" in one_error_line(capsys)
 
 
 @pytest.mark.parametrize("obj", ["Sphere { center 0 0 0 radius 1e-40 }", "Sphere { center 0 0 0 radius 3e38 }",
@@ -411,11 +395,8 @@ def test_unwritable_output_names_are_one_line_before_rendering(tmp_path: Path, m
     out = {"loop": "loop.png", "name300": "a" * 296 + ".png", "name240": "b" * 236 + ".png",
            "path_max": "/".join(["c" * 200] * 21) + "/o.png"}[case]
     _no_render(monkeypatch)
-    before = _files(tmp_path)
-    assert cli.run(["-input", "s.txt", "-output", out, "-size", "8", "8"]) == 2
-    line = _one_line(capsys)
+    line = refused(capsys, tmp_path, cli.run, ["-input", "s.txt", "-output", out, "-size", "8", "8"])
     assert line.startswith("a5: error: ") and match in line and len(line) < 300, line
-    assert _files(tmp_path) == before
 
 
 def test_immutable_output_is_refused_before_rendering(tmp_path: Path, monkeypatch, capsys) -> None:
@@ -432,8 +413,8 @@ def test_immutable_output_is_refused_before_rendering(tmp_path: Path, monkeypatc
             monkeypatch.chdir(tmp_path)
             _no_render(monkeypatch)
             assert cli.run(["-input", "s.txt", "-output", "o.png", "-size", "8", "8"]) == 2
-            assert _one_line(capsys) == "a5: error: o.png: cannot replace it: the file is immutable or append-only " \
-                                        "(chattr)"
+            assert one_error_line(capsys) == \
+                "a5: error: o.png: cannot replace it: the file is immutable or append-only (chattr)"
         finally:
             subprocess.run(["chattr", flag.replace("+", "-"), str(tmp_path / "o.png")], check=True)
         assert (tmp_path / "o.png").read_bytes() == b"kept"
@@ -460,10 +441,7 @@ def test_grade_mistakes_fail_fast_and_leave_nothing(tmp_path: Path, monkeypatch,
     (tmp_path / "subs" / "alice").mkdir(parents=True)
     (tmp_path / "file").write_text("mine")
     monkeypatch.chdir(tmp_path)
-    before = _files(tmp_path)
-    assert cli.run_a5mi(["grade", "subs", *argv]) == 2
-    assert _one_line(capsys).startswith(match)
-    assert _files(tmp_path) == before
+    assert refused(capsys, tmp_path, cli.run_a5mi, ["grade", "subs", *argv]).startswith(match)
 
 
 # ------------------------------------------------------------------- float32 limits that would give NaN pixels
@@ -474,7 +452,7 @@ def test_refraction_index_whose_square_overflows_float32_is_refused(tmp_path: Pa
     scene.write_text(_scene("diffuseColor 0.5 0.5 0.5 specularColor 0.5 0.5 0.5 refractionIndex 1e20"))
     capsys.readouterr()
     assert cli.run(["-input", str(scene), "-output", str(tmp_path / "o.exr"), "-size", "50", "50"]) == 2
-    line = _one_line(capsys)
+    line = one_error_line(capsys)
     assert re.fullmatch(rf"{re.escape(str(scene))}:4:\d+: error: refractionIndex 1e\+20 is too large: .*", line), line
     assert not (tmp_path / "o.exr").exists()
     scene.write_text(_scene("diffuseColor 0.5 0.5 0.5 specularColor 0.5 0.5 0.5 refractionIndex 1.8e19"))
@@ -490,7 +468,7 @@ def test_camera_angle_whose_ray_length_overflows_float32_is_refused(tmp_path: Pa
     scene.write_text(text.replace("angle 20", "angle 5e-18"))
     capsys.readouterr()
     assert cli.run(["-input", str(scene), "-output", str(tmp_path / "o.png"), "-size", "8", "8"]) == 2
-    assert "camera angle 5e-18 is too small" in _one_line(capsys)
+    assert "camera angle 5e-18 is too small" in one_error_line(capsys)
     scene.write_text(text.replace("angle 20", "angle 1e-17"))
     assert cli.run(["-input", str(scene), "-output", str(tmp_path / "o.png"), "-size", "8", "8"]) == 0
     img = imageio.read_uint8(tmp_path / "o.png")
@@ -503,8 +481,8 @@ def test_depth_bounds_beyond_float32_are_refused(tmp_path: Path, capsys) -> None
     capsys.readouterr()
     assert cli.run(["-input", str(scene), "-output", str(tmp_path / "o.png"), "-size", "8", "8",
                     "-depth", "1e39", "1e40", str(tmp_path / "d.png")]) == 2
-    assert _one_line(capsys) == ("a5: error: -depth expects depths within float32 (|d| <= 3.4e38, the sample "
-                                 "solution's precision), found '1e39'")
+    assert one_error_line(capsys) == ("a5: error: -depth expects depths within float32 (|d| <= 3.4e38, the sample "
+                                      "solution's precision), found '1e39'")
     assert not (tmp_path / "o.png").exists() and not (tmp_path / "d.png").exists()
 
 

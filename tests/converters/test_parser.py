@@ -310,14 +310,19 @@ def test_a6_current_material_persists_into_a_later_group_block() -> None:
 # ----------------------------------------------------------------------------------- rules and builders
 def test_a5_a6_builders_start_from_the_model_defaults() -> None:
     """A block's builder starts from the SPEC defaults its frozen entity has (an empty block builds exactly
-    the default entity), and the material builder has every field of the model's Material."""
+    the default entity), and the material builder carries every field of the model's Material and no other."""
     import dataclasses
 
     from a5mi.converters import builders as b
 
     loc = FileLoc("s.txt", 1, 1)
     assert b.MaterialBuilder(loc).build() == m.Material(loc=loc)
-    assert {f.name for f in dataclasses.fields(b.MaterialBuilder)} == {f.name for f in dataclasses.fields(m.Material)}
+    full = b.MaterialBuilder(loc)
+    for i, f in enumerate(dataclasses.fields(m.Material)):
+        setattr(full, f.name, i)  # a value of its own per field: build() passes every one
+    assert dataclasses.astuple(full.build()) == tuple(range(len(dataclasses.fields(m.Material))))
+    with pytest.raises(AttributeError):
+        full.colour = (1.0, 0.0, 0.0)  # type: ignore[attr-defined]  # not a field of Material
     assert b.BackgroundBuilder().build(loc) == m.Background(loc=loc)
     assert b.NoiseBuilder().build(loc) == m.Noise(loc=loc)
     two = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]

@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import refused
 
 from a5mi.cli import run_a5mi
 from a5mi.platform import imageio
-from a5mi.platform.errors import ExitStatus
 
 HEAD = ("PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 20 }\n"
         "Lights { numLights 1 DirectionalLight { direction -0.2 -0.2 -1 color 1 1 1 } }\n"
@@ -29,18 +29,6 @@ XML = """<scene version="3.0.0">
     <shape type="ply"><string name="filename" value="mesh.ply"/></shape>
 </scene>
 """
-
-
-def _files(root: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(root)): (p.read_bytes() if p.is_file() and not p.is_symlink() else b"")
-            for p in sorted(root.rglob("*"))}
-
-
-def _one_line(capsys) -> str:
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in err, err
-    return lines[0]
 
 
 @pytest.fixture
@@ -82,47 +70,34 @@ def test_no_command_overwrites_its_inputs(work: Path, capsys, argv: list[str], m
     """One line, exit 2, nothing written or changed, before anything renders."""
     if argv[:2] == ["render-xml", "S.xml"] and "-D" in argv:
         imageio.write_image(work / "x.png", np.zeros((2, 2, 3), np.float32))
-    before = _files(work)
-    assert run_a5mi(argv) == ExitStatus.USAGE
-    assert match in _one_line(capsys)
-    assert _files(work) == before
+    assert match in refused(capsys, work, run_a5mi, argv)
 
 
 def test_animate_frames_never_overwrite_the_scene(work: Path, capsys) -> None:
     """A frame's file name that is the scene (the scene kept in the frames folder under that name)."""
     (work / "frames").mkdir()
     (work / "frames" / "frame_00001.png").write_text(ANIMATION)
-    before = _files(work)
-    assert run_a5mi(["animate", "frames/frame_00001.png", "-o", "frames", "--size", "8", "8", "-q"]) == 2
-    assert "is the input file 'frames/frame_00001.png'" in _one_line(capsys)
-    assert _files(work) == before
+    argv = ["animate", "frames/frame_00001.png", "-o", "frames", "--size", "8", "8", "-q"]
+    line = refused(capsys, work, run_a5mi, argv)
+    assert "is the input file 'frames/frame_00001.png'" in line
 
 
-def test_convert_never_replaces_the_users_folders(work: Path, capsys) -> None:
+def test_convert_uses_only_empty_folders_or_its_own(work: Path, mi, capsys) -> None:
     """``q_images/`` and ``q_meshes/`` the user made (no marker) are refused, before the scene is read; an empty
     one is used; a conversion's own folders (with the marker) are replaced on the next run."""
-    (work / "q.txt").write_text(SCENE)
+    (work / "q.txt").write_text(SCENE.replace("Sphere { center 0 0 0 radius 1 }", "TriangleMesh { obj_file m.obj }"))
+    (work / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     for folder in ("q_images", "q_meshes"):
         (work / folder).mkdir()
         (work / folder / "mine.jpg").write_bytes(b"holiday")
-        before = _files(work)
-        assert run_a5mi(["convert", "q.txt", "-o", "q.xml"]) == ExitStatus.USAGE
-        line = _one_line(capsys)
+        line = refused(capsys, work, run_a5mi, ["convert", "q.txt", "-o", "q.xml"])
         assert line.startswith(f"a5mi convert: error: {folder}: this folder was not written by a5mi convert")
-        assert _files(work) == before
-        (work / folder / "mine.jpg").unlink()  # empty: nothing to lose
-
-
-def test_convert_replaces_its_own_folders(work: Path, mi, capsys) -> None:
-    (work / "q.txt").write_text(SCENE.replace("Sphere { center 0 0 0 radius 1 }", "TriangleMesh { obj_file m.obj }"))
-    (work / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
-    (work / "q_meshes").mkdir()  # empty: used
+        (work / folder / "mine.jpg").unlink()  # empty: nothing to lose, used
     assert run_a5mi(["convert", "q.txt", "-o", "q.xml", "-q"]) == 0
     assert sorted(os.listdir(work / "q_meshes")) == [".a5mi-convert", "mesh_000.ply"]
     (work / "q_meshes" / "mesh_009.ply").write_bytes(b"stale")
     assert run_a5mi(["convert", "q.txt", "-o", "q.xml", "-q"]) == 0
     assert sorted(os.listdir(work / "q_meshes")) == [".a5mi-convert", "mesh_000.ply"]
-    capsys.readouterr()
 
 
 @pytest.mark.parametrize("report,match", [
@@ -134,7 +109,4 @@ def test_grade_never_writes_its_report_among_the_submissions(work: Path, capsys,
     (work / "subs" / "alice").mkdir(parents=True)
     imageio.write_image(work / "subs" / "alice" / "a.png", np.zeros((2, 2, 3), np.float32))
     os.symlink("subs", work / "link")
-    before = _files(work)
-    assert run_a5mi(["grade", "subs", "-o", report]) == ExitStatus.USAGE
-    assert match in _one_line(capsys)
-    assert _files(work) == before
+    assert match in refused(capsys, work, run_a5mi, ["grade", "subs", "-o", report])

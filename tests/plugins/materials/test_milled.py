@@ -1,6 +1,7 @@
 """Milled surfaces (docs/EXTENSIONS.md E.20): the ``a5_milled`` BSDF's reciprocity, energy (hemisphere quadrature and
 a white furnace of its own sampling), the a5 light loop's term, the highlight's orientation on a rendered tile,
-the grammar, and the stock ``roughconductor`` it is converted to (the agreement figure of E.20)."""
+the grammar (its errors: tests/converters/test_surface_ext.py), and the stock ``roughconductor`` it is converted
+to (the agreement figure of E.20)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from conftest import positioned_error_test
-from helpers import ROOT, render_text
+from helpers import ROOT, converted_material, render_text
 
 from a5mi.converters.a5_parser import parse_text
 
@@ -194,28 +194,13 @@ def test_circular_milling_gives_a_radial_streak(mi: Any) -> None:
 
 
 def test_grammar_and_conversion() -> None:
-    from a5mi.converters.describe import describe
-    from a5mi.converters.materials import a5_bsdf, stock_bsdf
-
-    mat = parse_text(_text()).materials[0]
+    mat, d, s, warnings = converted_material(_text())
     assert mat.milled is not None and (mat.milled.alpha_u, mat.milled.alpha_v, mat.milled.pattern) == \
         (0.05, 0.3, "straight")
-    desc = describe(parse_text(_text(), str(SCENES / "t.txt")), stock=True)
-    d = a5_bsdf(desc.materials[0], True)
     assert d["type"] == "a5_milled" and d["bsdf"]["type"] == "a5_material" and d["axis"] == [1.0, 0.0, 0.0]
-    s = stock_bsdf(desc.materials[0], True)
     assert s["type"] == "blendbsdf" and s["bsdf_1"]["type"] == "roughconductor"
     assert (s["bsdf_1"]["alpha_u"], s["bsdf_1"]["alpha_v"], s["bsdf_1"]["distribution"]) == (0.05, 0.3, "beckmann")
-    assert any("milled replaced by roughconductor" in w for _, w in desc.warnings)
-
-
-test_milled_errors_are_positioned = positioned_error_test(lambda frag: _text(frag), [
-    ("milled { alphaU ^0 alphaV 0.3 pattern straight axis 1 0 0 }", "milled alphaU must be in (0, 1]"),
-    ("milled { alphaU 0.1 alphaV 0.3 pattern ^zigzag axis 1 0 0 }", "pattern must be straight or circular"),
-    ("milled { alphaU 0.1 alphaV 0.3 pattern straight ^axis 0 0 0 }", "axis must not be the zero vector"),
-    ("milled { alphaU 0.1 alphaV 0.3 pattern straight axis 1 0 0 ^center 0 0 0 }", "only used by pattern circular"),
-    ("milled { alphaU 0.1 ^alphaU 0.3 }", "milled gives 'alphaU' twice"),
-])
+    assert any("milled replaced by roughconductor" in w for w in warnings)
 
 
 def _highlight(mi: Any, bsdf: dict[str, Any], spp: int = 64) -> np.ndarray:

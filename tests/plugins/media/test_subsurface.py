@@ -20,7 +20,7 @@ from conftest import positioned_error_test
 from test_media import _scene, _trace
 
 from a5mi.converters.a5_parser import parse_text
-from a5mi.converters.subsurface import PRESETS
+from a5mi.converters.subsurface import presets
 
 HALF_SPACE = """PerspectiveCamera {{ center 0 5 0 direction 0 -1 0 up 0 0 -1 angle 20 }}
 Lights {{ numLights 1 DirectionalLight {{ direction 0 -1 0 color 1 1 1 }} }}
@@ -70,7 +70,7 @@ def test_presets_and_scale() -> None:
     a keyword after it overrides one value."""
     m = parse_text(HALF_SPACE.format(sss="subsurface { preset skin1 scale 10 sigma_a 1 2 3 }")).materials[0]
     assert m.subsurface is not None
-    np.testing.assert_allclose(m.subsurface.sigma_s, np.array(PRESETS["skin1"][0]) * 10)
+    np.testing.assert_allclose(m.subsurface.sigma_s, np.array(presets()["skin1"][0]) * 10)
     np.testing.assert_allclose(m.subsurface.sigma_a, [10, 20, 30])
     assert m.subsurface.eta == 1.3 and m.subsurface.g == 0.0
 
@@ -79,7 +79,7 @@ def test_presets_and_scale() -> None:
 @pytest.mark.parametrize("name", ["marble", "skin1", "ketchup"])
 def test_profile_is_jensens_formula(mi: Any, name: str) -> None:
     """``R_d(r)`` on 200 radii from 0 to ``10/σ_tr`` of each channel against eq. 4, 1e-4 relative (float32)."""
-    sigma_sp, sigma_a = PRESETS[name]
+    sigma_sp, sigma_a = presets()[name]
     sigma_tr = np.sqrt(3 * np.array(sigma_a) * (np.array(sigma_a) + sigma_sp))
     for c in range(3):
         r = np.linspace(0.0, 10.0 / sigma_tr[c], 200)
@@ -93,7 +93,7 @@ def test_total_reflectance_is_the_integral(mi: Any, name: str, eta: float) -> No
     ``(α'/2)(1 + e^{−4/3 A sqrt(3(1−α'))}) e^{−sqrt(3(1−α'))}`` to 1 %."""
     from a5mi.plugins.media.dipole import dipole, total_reflectance
 
-    sigma_sp, sigma_a = (np.array(v) for v in PRESETS[name])
+    sigma_sp, sigma_a = (np.array(v) for v in presets()[name])
     dp = dipole(sigma_a, sigma_sp, 0.0, eta, xp=np)
     r = np.concatenate([[0.0], np.geomspace(1e-4 * dp.z_r.min(), 60.0 / dp.sigma_tr.min(), 20000)])
     rd = _profile(mi, tuple(sigma_a), tuple(sigma_sp), eta, r)

@@ -1,5 +1,6 @@
 """View-dependent textures (docs/EXTENSIONS.md E.19): the ``a5_btf`` lookup at the sampled angles and between them
-against the bilinear formula, the render kernel's view direction, the grammar and its positioned errors."""
+against the bilinear formula, the render kernel's view direction, the grammar (its errors:
+tests/converters/test_surface_ext.py)."""
 
 from __future__ import annotations
 
@@ -9,8 +10,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from conftest import positioned_error_test
-from helpers import ROOT
+from helpers import ROOT, converted_material
 
 from a5mi.converters.a5_parser import parse_text
 
@@ -150,26 +150,12 @@ def test_render_kernel_looks_up_with_the_view_direction(mi: Any, tmp_path: Path)
 
 
 def test_btf_parses_and_converts() -> None:
-    from a5mi.converters.describe import describe
-    from a5mi.converters.materials import a5_bsdf, stock_bsdf
-
-    mat = parse_text(_scene_text()).materials[0]
+    mat, d, stock, warnings = converted_material(_scene_text())
     assert mat.btf is not None and mat.btf.elevations == ELEV and mat.btf.azimuths == AZIM
     assert mat.btf.file_name(2, 3) == "tex/btf/silk_2_3.bmp"
-    desc = describe(parse_text(_scene_text(), str(SCENES / "x.txt")), stock=True)
-    d = a5_bsdf(desc.materials[0], True)
     assert d["kd"]["type"] == "a5_btf" and d["kd"]["filename_2_3"].endswith("silk_2_3.bmp")
-    assert stock_bsdf(desc.materials[0], True)["reflectance"]["type"] == "bitmap"
-    assert any("btf replaced by its first image" in w for _, w in desc.warnings)
-
-
-test_btf_errors_are_positioned = positioned_error_test(lambda frag: _scene_text(frag), [
-    ("btf { images ^tex/btf/silk_%d.bmp elevations 0 azimuths 0 }", "needs two integer conversions"),
-    ("btf { images a_%d_%d elevations ^azimuths 0 }", "expected a number after 'elevations'"),
-    ("btf { images a_%d_%d ^elevations 0 30 20 azimuths 0 }", "btf elevations must increase strictly"),
-    ("btf { images a_%d_%d elevations 0 ^azimuths 0 360 }", "btf azimuths must increase strictly within [0, 360)"),
-    ("btf { images a_%d_%d elevations 0 azimuths 0 } ^btf", "a Material takes one 'btf'"),
-])
+    assert stock["reflectance"]["type"] == "bitmap"
+    assert any("btf replaced by its first image" in w for w in warnings)
 
 
 def test_btf_with_another_colour_source_is_an_error() -> None:
