@@ -161,7 +161,9 @@ def traversal_sees(table: triangle_rule.RuleTable, si: mi.SurfaceInteraction3f, 
     kind = vec("face_a5_octree").z
     mesh = mi.UInt32(dr.gather(mi.Float, table.rows, at + triangle_rule.MESH_SLOT, m))
     walked = m & (kind != 2.0)
-    seen = octree_leaves.sees(table.leaves, row, mesh, [vec("face_a5_inv0"), vec("face_a5_inv1"),
+    v0, v1, v2 = vec("face_a5_v0"), vec("face_a5_v1"), vec("face_a5_v2")
+    box = (dr.minimum(dr.minimum(v0, v1), v2), dr.maximum(dr.maximum(v0, v1), v2))
+    seen = octree_leaves.sees(table.nodes, mesh, box, [vec("face_a5_inv0"), vec("face_a5_inv1"),
                               vec("face_a5_inv2")], vec("face_a5_inv_t"), kind == 1.0, o, d, walked)
     return dr.select(walked, seen, binary_sees(si, d, active))
 
@@ -170,7 +172,7 @@ def traversal_sees(table: triangle_rule.RuleTable, si: mi.SurfaceInteraction3f, 
 def occluded(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, t_max: mi.Float,
              active: mi.Bool, table: triangle_rule.RuleTable | None = None) -> mi.Bool:
     """SPEC B.3's shadow test against the Mitsuba scene: a hit the binary sees with ``t_min < t < t_max``;
-    with ``table`` (its octree leaves built) a rule-mesh hit of a ray with a zero component is decided by the
+    with ``table`` (its octree node table built) a rule-mesh hit of a ray with a zero component is decided by the
     binary's traversal of that ray (:func:`traversal_sees`), else by the reach masks."""
     # One any-hit query for every lane: it decides the lanes without a zero component, and a zero-component
     # lane that meets nothing at all (most shadow rays) needs no nearest-hit walk to ask which hits the binary
@@ -184,7 +186,7 @@ def occluded(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, t_
     while slow & (n < MAX_SKIPS):
         si = scene.ray_intersect(mi.Ray3f(mi.Ray3f(o + offset * d, d), t_max - offset), slow)
         found = si.is_valid()
-        if dr.hint(table is not None and table.leaves is not None, mode="scalar"):
+        if dr.hint(table is not None and table.nodes is not None, mode="scalar"):
             seen = found & traversal_sees(table, si, o, d, found)
         else:
             seen = found & binary_sees(si, d, found)

@@ -85,8 +85,8 @@ class RuleTable:
     #: whether it has texture coordinates (the sample solution's stale texture coordinates, docs/FIDELITY.md).
     place: mi.UInt32 | None = None
     has_uv: mi.Bool | None = None
-    #: The binary's octree leaves of every face (plugins/emulation/octree_leaves.py; None past its budget).
-    leaves: octree_leaves.LeafTable | None = None
+    #: The binary's octree of every rule mesh (plugins/emulation/octree_leaves.py; None past its budget).
+    nodes: octree_leaves.NodeTable | None = None
 
 
 def _shape_id(shape: mi.Shape) -> int:
@@ -126,7 +126,7 @@ def rule_table(scene: mi.Scene, cached: RuleTable | None = None) -> RuleTable | 
     dr.make_opaque(rows, ids)
     table = RuleTable(rows, ids, dr.opaque(mi.UInt32, len(base) - 1), key)
     if axis_lights(scene):   # only shadow rays toward such a light meet the octree's zero-component traversal
-        table.leaves = octree_leaves.build([np.stack([np.asarray(b, dtype=np.float32).reshape(-1, 3)
+        table.nodes = octree_leaves.build([np.stack([np.asarray(b, dtype=np.float32).reshape(-1, 3)
                                                       for b in bufs[_SLOT["face_a5_v0"]:_SLOT["face_a5_v2"] + 1]],
                                                      axis=1) for bufs in buffers])
     table.place, table.has_uv = mi.UInt32(place.tolist()), mi.Bool(has_uv.tolist())
@@ -141,7 +141,7 @@ def rule_table(scene: mi.Scene, cached: RuleTable | None = None) -> RuleTable | 
 
 def axis_lights(scene: mi.Scene) -> bool:
     """Whether some directional light's direction toward the light (``ds.d``, what shadow rays follow) has an
-    exactly zero component: the rays for which :attr:`RuleTable.leaves` is built
+    exactly zero component: the rays for which :attr:`RuleTable.nodes` is built
     (plugins/emulation/octree_leaves.py)."""
     for emitter in scene.emitters():
         flags = emitter.flags()

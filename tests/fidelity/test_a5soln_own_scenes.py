@@ -99,6 +99,9 @@ CASES = [
          "A.6 B.3: a closed smooth mesh (258 vertices) of glass (n 1.33), refraction in and out, falloff"),
     Case("colour_bleeding", "colour_bleeding.txt", (40, 40), ("-shadows",),
          "A.6: a box of Triangles, two spheres"),
+    Case("octree_budget", "octree_budget.txt", (64, 64), ("-shadows",),
+         "A.6: three different meshes' octrees (2.30 M leaf references) under a light 0 -1 0: shadow rays "
+         "with an exactly zero component"),
 ]
 
 

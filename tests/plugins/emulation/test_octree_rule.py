@@ -187,26 +187,28 @@ def test_reach_equals_the_low_side_leaves(zmask: int, child_ok) -> None:
     assert got == want and 0 < len(got) < 400
 
 
-def test_leaf_table_is_the_binarys_octree(a5_data) -> None:
-    """plugins/emulation/octree_leaves.py builds the octree a level at a time; its leaves (face, path, depth) are
-    those of
-    the node-by-node builder of converters/octree.py (the binary's split rule) on the course's diamond."""
-    from a5mi.plugins.emulation.octree_leaves import MAX_REFS, mesh_leaves
+def test_node_table_is_the_binarys_octree(a5_data) -> None:
+    """plugins/emulation/octree_leaves.py builds the octree a level at a time as a node table (first child's
+    index, 0 for a leaf); its nodes are those of the node-by-node builder of converters/octree.py (the binary's
+    split rule) on the course's diamond: the same root box, every node a leaf exactly where that one's is,
+    children in the same order."""
+    from a5mi.plugins.emulation.octree_leaves import mesh_nodes
 
     mesh = load_obj(a5_data / "scenes" / "diamond.obj")
     v, f = np.asarray(mesh.vertices, dtype=np.float32), np.asarray(mesh.faces, dtype=np.int64)
-    expected: set[tuple[int, int, int]] = set()
-    stack = [(octree.build(v, f), 0)]
+    mn, mx, child = mesh_nodes(v[f])
+    root = octree.build(v, f)
+    assert np.array_equal(mn, root.mn) and np.array_equal(mx, root.mx)
+    stack, visited, levels = [(root, 0)], 0, set()
     while stack:
-        node, code = stack.pop()
-        if node.is_leaf:
-            expected |= {(int(t), code, node.level) for t in node.trigs}
-            continue
-        stack += [(child, code | (i << (3 * node.level))) for i, child in enumerate(node.children)]
-    _, _, levels = mesh_leaves(v[f], MAX_REFS)
-    got = {(int(t), int(c), depth) for faces, codes, depth in levels for t, c in zip(faces, codes, strict=True)}
-    assert len(expected) > 1000
-    assert got == expected
+        node, index = stack.pop()
+        visited += 1
+        levels.add(node.level)
+        assert (child[index] == 0) == node.is_leaf, (index, node.level)
+        if not node.is_leaf:
+            stack += [(kid, int(child[index]) + i) for i, kid in enumerate(node.children)]
+    assert visited == len(child) > 1000
+    assert max(levels) == octree.MAX_LEVEL + 1       # down to the level-9 leaves
 
 
 def test_shadow_rays_follow_the_binarys_traversal_per_ray(variant: str, scenes_dir) -> None:
