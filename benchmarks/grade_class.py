@@ -183,7 +183,7 @@ def terms_of(tasks: Sequence[dict[str, Any]], kind: str = "correct") -> dict[str
     """Per case, the model's terms from measured tasks (:func:`measure`'s ``tasks``): p, s and g medians over the
     students of ``kind``; x = median g of the ``wrong`` students - g of ``kind``'s (0 without wrong ones)."""
     out = {}
-    for case in sorted({t["case"] for t in tasks}):
+    for case in sorted({t["case"] for t in tasks}, key=lambda c: (len(c), c)):  # 6f 10f 11f 12f
         mine = [t for t in tasks if t["case"] == case and t["kind"] == kind]
         bad = [t for t in tasks if t["case"] == case and t["kind"] == "wrong"]
         g = statistics.median(t["busy"] - t["run_wall"] for t in mine)
@@ -203,11 +203,12 @@ def point_model(point: dict[str, Any]) -> float:
 
 
 # ---------------------------------------------------------------------------------------------- the measuring
-def _usage() -> float:
+def _own_cpu() -> float:
+    """CPU seconds of this process, every thread (user + system): on a worker, the grader's own work."""
     import resource
 
-    return sum(getattr(resource.getrusage(w), f) for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)
-               for f in ("ru_utime", "ru_stime"))
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
 
 
 def measure(program: str, n: int, workers: int, size: int, cache: Path | None = None,
@@ -215,7 +216,9 @@ def measure(program: str, n: int, workers: int, size: int, cache: Path | None = 
     """Grade a class of ``n`` sample-solution students at ``size`` on ``workers`` workers (references built
     first, in this process, and timed; ``cache`` reuses a folder of them): the point's wall, load averages,
     cluster start, F (grading start to the first student task's start) and, per task, its student's kind, case,
-    compute time on its worker (``busy``), the run's wall, CPU and CPU wait, and verdict."""
+    compute time on its worker (``busy``), the run's wall, CPU and CPU wait, and verdict; ``grader_cpu``: the CPU
+    seconds of the workers and of this process (client and scheduler) while grading, the student programs' not
+    included (they run in their own processes)."""
     from distributed import get_task_stream
 
     from a5mi.grade.batch import GradeSettings, grade_class
@@ -235,12 +238,13 @@ def measure(program: str, n: int, workers: int, size: int, cache: Path | None = 
         with start_client(workers) as client:
             client.run(lambda: None)
             started = time.perf_counter() - t0
-            cpu0, own0 = client.run(_usage), _usage()
+            cpu0, own0 = client.run(_own_cpu), _own_cpu()
             with get_task_stream(client) as stream:
                 w0 = time.time()
                 out = grade_class(settings, client=client)
                 wall = time.time() - w0
-            cpu = sum(client.run(_usage).values()) - sum(cpu0.values()) + _usage() - own0
+            cpu1, own1 = client.run(_own_cpu), _own_cpu()
+            grader_cpu = sum(cpu1.values()) - sum(cpu0.values()) + own1 - own0
         load1 = os.getloadavg()
     records = {r["key"]: r for r in out.records}
     tasks, first = [], math.inf
@@ -258,7 +262,7 @@ def measure(program: str, n: int, workers: int, size: int, cache: Path | None = 
                       "busy": sum(s["stop"] - s["start"] for s in span), "run_wall": r.get("wall", 0.0),
                       "cpu": r.get("cpu", 0.0), "waited": r.get("waited", 0.0), "verdict": r["verdict"]})
     return {"students": n, "workers": workers, "size": size, "cores": os.cpu_count() or 1, "wall": wall,
-            "fixed": first - w0, "cluster_start": started, "references": refs, "grader_cpu": cpu,
+            "fixed": first - w0, "cluster_start": started, "references": refs, "grader_cpu": grader_cpu,
             "load": [load0[0], load1[0]], "tasks": tasks}
 
 
@@ -281,7 +285,7 @@ def report(data: dict[str, Any], students: int, workers: Sequence[int], wrong_sh
              f"Scaling points (size {points[0]['size'] if points else '-'}): the model's T from each point's own "
              "tasks beside the measured wall", "",
              "| students | workers | load (1 min, start-end) | F s | sum p s | sum s s | sum g s | model T s | "
-             "measured T s | stretch | cases/s |", "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "measured T s | stretch | cases/s | grader CPU s |", "|---:|---:|---|" + "---:|" * 9]
     for pt in points:
         ts = pt["tasks"]
         model = point_model(pt)
@@ -289,49 +293,60 @@ def report(data: dict[str, Any], students: int, workers: Sequence[int], wrong_sh
                      f"{pt['fixed']:.1f} | {sum(t['cpu'] for t in ts):.1f} | "
                      f"{sum(max(0.0, t['run_wall'] - t['cpu'] - t['waited']) for t in ts):.1f} | "
                      f"{sum(t['busy'] - t['run_wall'] for t in ts):.1f} | {model:.1f} | {pt['wall']:.1f} | "
-                     f"{pt['wall'] / model:.2f} | {len(ts) / pt['wall']:.2f} |")
-    stretch: dict[int, float] = {}
+                     f"{pt['wall'] / model:.2f} | {len(ts) / pt['wall']:.2f} | {_cpu(pt)} |")
+    slopes = {}
     for k in sorted({pt["workers"] for pt in points}):
         mine = [pt for pt in points if pt["workers"] == k]
-        stretch[k] = statistics.median(pt["wall"] / point_model(pt) for pt in mine)
         if len(mine) >= 2:
-            a, b = fit_line([pt["students"] for pt in mine], [pt["wall"] for pt in mine])
-            lines.append(f"\nfit, {k} worker(s): T = {a:.1f} s + {b:.2f} s x N")
-    slopes = {k: fit_line([p["students"] for p in points if p["workers"] == k],
-                          [p["wall"] for p in points if p["workers"] == k])[1]
-              for k in stretch if sum(p["workers"] == k for p in points) >= 2}
+            a, slopes[k] = fit_line([pt["students"] for pt in mine], [pt["wall"] for pt in mine])
+            lines.append(f"\nfit, {k} worker(s): T = {a:.1f} s + {slopes[k]:.2f} s x N")
+            if all("grader_cpu" in pt for pt in mine):
+                ca, cb = fit_line([pt["students"] for pt in mine], [pt["grader_cpu"] for pt in mine])
+                lines.append(f"grader CPU = {ca:.1f} s + {cb:.2f} s x N (wall s + g + x per student: "
+                             f"{statistics.fmean(_overhead(pt) / pt['students'] for pt in mine):.2f} s)")
     if 1 in slopes and len(slopes) > 1:
         lines.append("speed-up (slope at 1 worker / slope at k): " + ", ".join(
             f"{k} workers {slopes[1] / b:.2f}x" for k, b in sorted(slopes.items()) if k > 1))
     terms = terms_of(full["tasks"])
     fixed = full["cluster_start"] + full["references"] + full["fixed"]
     u = per_student(list(terms.values()), wrong_share)
+    program = sum(c.p for c in terms.values())
     tail = max(c.per_task(0.0) for c in terms.values())
+    stretch = full["wall"] / point_model(full)
     lines += ["", f"The terms at {full['size']} x {full['size']} (one correct and one wrong sample-solution "
-              f"student on {full['workers']} workers, load {full['load'][0]:.1f}-{full['load'][1]:.1f}), s:", "",
-              "| case | p (program CPU) | s (sandbox) | g (grading) | x (cause of a wrong image) | u at f = "
+              f"student on {full['workers']} workers, load {full['load'][0]:.1f}-{full['load'][1]:.1f}; "
+              f"measured T {full['wall']:.1f} s, the model's {point_model(full):.1f} s: stretch {stretch:.2f}), s:",
+              "", "| case | p (program CPU) | s (sandbox) | g (grading) | x (cause of a wrong image) | u at f = "
               f"{wrong_share:g} |", "|---|---:|---:|---:|---:|---:|"]
     for case, c in terms.items():
         lines.append(f"| {case} | {c.p:.2f} | {c.s:.2f} | {c.g:.2f} | {c.x:.2f} | {c.per_task(wrong_share):.2f} |")
-    lines += [f"| **U (one student)** | {sum(c.p for c in terms.values()):.1f} | "
-              f"{sum(c.s for c in terms.values()):.1f} | {sum(c.g for c in terms.values()):.1f} | "
-              f"{sum(c.x for c in terms.values()):.1f} | **{u:.1f}** |", "",
+    lines += [f"| **U (one student)** | {program:.1f} | {sum(c.s for c in terms.values()):.1f} | "
+              f"{sum(c.g for c in terms.values()):.1f} | {sum(c.x for c in terms.values()):.1f} | **{u:.1f}** |", "",
               f"F = {fixed:.1f} s: cluster start {full['cluster_start']:.1f} + references {full['references']:.1f} "
               f"(4 cases x 8 renders, in one process) + calibration and checks {full['fixed']:.1f}; "
-              f"tail at most one task, {tail:.1f} s", "",
+              f"tail at most one task, {tail:.1f} s; the grader's own CPU in this point (calibration included): "
+              f"{_cpu(full)} s, against {_overhead(full):.1f} s of s + g + x wall", "",
               f"{students} students x 4 cases at {full['size']} x {full['size']}, {wrong_share:.0%} of the images "
               f"wrong: T = F + N U / min(k, C)", "",
-              f"| workers k | k free cores | this machine (C = {cores}) | at the measured load (stretch) |",
-              "|---:|---:|---:|---:|"]
+              f"| workers k | k free cores | this machine (C = {cores}) | this machine at the 300 x 300 point's load "
+              f"(x {stretch:.2f}) | programs' CPU alone (N p / k) |", "|---:|---:|---:|---:|---:|"]
     for k in workers:
         here = class_wall(students, k, fixed, u, cores)
-        s = stretch.get(min(k, cores), stretch.get(max(stretch), 1.0)) if stretch else 1.0
         lines.append(f"| {k} | {_hours(class_wall(students, k, fixed, u))} | {_hours(here)} | "
-                     f"{_hours(here * s)} ({s:.2f}) |")
+                     f"{_hours(here * stretch)} | {_hours(class_wall(students, k, 0.0, program))} |")
     need = workers_for(students, 3600.0, fixed, u, tail)
-    lines += ["", f"one hour for {students} students: {need} workers on free cores (F + N U / k + tail <= 3600 s)"
+    lines += ["", f"one hour for {students} students: {need} worker(s) on free cores (F + N U / k + tail <= 3600 s)"
               if need else f"one hour for {students} students: not reachable (F + tail > 3600 s)"]
     return "\n".join(lines)
+
+
+def _overhead(point: dict[str, Any]) -> float:
+    """Sum over a point's tasks of the wall seconds beyond the program's CPU and its wait: s + g (+ x)."""
+    return sum(t["busy"] - t["cpu"] - t["waited"] for t in point["tasks"])
+
+
+def _cpu(point: dict[str, Any]) -> str:
+    return f"{point['grader_cpu']:.1f}" if "grader_cpu" in point else "-"
 
 
 def _hours(seconds: float) -> str:
@@ -387,16 +402,17 @@ def run_all(a: argparse.Namespace) -> dict[str, Any]:
     cpu_model = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
                       if line.startswith("model name")), "?")
     when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
-    full = measure(a.a5soln, 2, 2, a.full_size, kinds=("correct", "wrong"))
-    say(full)
-    points = []
+    data: dict[str, Any] = {"commit": commit, "cpu_model": cpu_model, "when": when, "points": []}
+    data["full"] = measure(a.a5soln, 2, 2, a.full_size, kinds=("correct", "wrong"))
+    say(data["full"])
     with tempfile.TemporaryDirectory(prefix="a5mi-gradeclass-refs-") as cache:
         for n in a.measure:
             for k in a.measure_workers:
-                pt = measure(a.a5soln, n, k, a.size, Path(cache))
-                say(pt)
-                points.append(pt)
-    return {"commit": commit, "cpu_model": cpu_model, "when": when, "full": full, "points": points}
+                if a.json:  # what is measured so far survives an interrupted run
+                    Path(a.json).write_text(json.dumps(data, indent=1))
+                data["points"].append(measure(a.a5soln, n, k, a.size, Path(cache)))
+                say(data["points"][-1])
+    return data
 
 
 if __name__ == "__main__":

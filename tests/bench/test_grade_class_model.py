@@ -96,10 +96,15 @@ def test_the_report_states_the_estimate_from_json(tmp_path: Path, capsys: pytest
     # U = sum (p + s + g) = 185 + 4 x 0.5 + 4 x 1.0 = 191 s; F = 5 + 45 + 10 = 60 s
     u, f = 191.0, 60.0
     assert f"**{u:.1f}**" in out and "F = 60.0 s" in out
-    assert f"| 4 | {(f + 200 * u / 4) / 3600:.2f} h | {(f + 200 * u / 2) / 3600:.2f} h |" in out
+    # the 300 x 300 point's own model: F 10 + (4 correct tasks of p + 1.5, 4 wrong of 4.0) / 2 workers
+    stretch = 200.0 / (10.0 + (185.0 + 4 * 1.5 + 4 * 4.0) / 2)
+    assert f"stretch {stretch:.2f}" in out
+    here = (f + 200 * u / 2) / 3600
+    assert (f"| 4 | {(f + 200 * u / 4) / 3600:.2f} h | {here:.2f} h | {here * stretch:.2f} h | "
+            f"{200 * 185.0 / 4 / 3600:.2f} h |") in out
     assert "fit, 1 worker(s): T = 10.0 s + 8.00 s x N" in out and "2 workers 2.00x" in out
     need = math.ceil(200 * u / (3600 - f - 151.5))
-    assert f"one hour for 200 students: {need} workers" in out
+    assert f"one hour for 200 students: {need} worker(s)" in out
 
 
 def test_without_the_binary_it_says_so_and_measures_nothing(capsys: pytest.CaptureFixture[str]) -> None:
