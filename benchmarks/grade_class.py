@@ -30,7 +30,9 @@ the measured wall is the model's stretched by the load (``stretch`` = measured /
    one, and the fitted T = A + B N per k (B_1 / B_k = the speed-up).
 
 Printed: the measured points, the terms at 300 x 300 and T(``--students``, k) for each k of ``--workers``: on
-k free cores, on this machine (C = its CPUs), and at the measured load; the workers needed for an hour.
+k free cores, on this machine (C = its CPUs), on this machine stretched as the 300 x 300 point was by the load
+(its measured wall / its model's), and the floor of the programs' CPU alone (N sum p / k); the workers needed for
+an hour.
 
     .venv/bin/python benchmarks/grade_class.py [--students 200] [--workers 1,2,4,8,16] [--measure 4,8,16]
         [--measure-workers 1,2] [--size 40] [--wrong-share 0.25] [--a5soln PATH] [--json OUT.json]
