@@ -16,6 +16,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 from a5mi.platform.errors import UserError
@@ -122,7 +123,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
         t0 = time.monotonic()
         state: dict[str, Any] = {"busy": False, "error": None, "changes": changes, "preview": False, "comparing": False,
                                  "saved_at": jobs.taken_reload_at if reload else None}
-        images: dict[str, bytes | None] = {}
+        images: dict[str, Any] = {}
         try:
             parse = 0.0
             if reload or engine.desc is None:
@@ -139,7 +140,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
             if quick is not None:
                 pv = engine.render(quick, progress=preemptible(hub, jobs), preview=True)
                 shown = {k: v for k, v in frame_state(engine, pv).items() if k not in COMPARED}  # the last stay
-                hub.update({"render": pv.render_png, "values-render": render_values(pv.image)}, **{
+                hub.update({"render": pv.render_png, "values-render": partial(render_values, pv.image)}, **{
                     **state, **shown, "controls": describe_controls(current), "busy": True,
                     "warnings": engine.warnings, "options_ok": True,
                     "version": hub.state().get("version", 0) + 1, "published_at": time.time(),
@@ -149,7 +150,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
             t_full = time.monotonic()
             frame = engine.render(current, progress=preemptible(hub, jobs), compare=False)
             last_full = (current, time.monotonic() - t_full)
-            values = render_values(frame.image)
+            values = partial(render_values, frame.image)  # made when the page asks: not before the image
             if engine.compares:  # the image first; its comparison follows (the page dims the last one meanwhile)
                 shown = {k: v for k, v in frame_state(engine, frame).items() if k not in COMPARED}
                 state["published_at"] = time.time()  # (of the image, also in the comparison's state)
@@ -160,7 +161,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
                 engine.compare(frame, hub.progress)
             images = {"render": frame.render_png, "reference": frame.reference_png, "diff": frame.diff_png,
                       "values-render": values, "values-reference": (
-                          None if frame.reference_levels is None else ref_values.blob(frame.reference_levels))}
+                          None if frame.reference_levels is None else partial(ref_values.blob, frame.reference_levels))}
             state.update(frame_state(engine, frame), warnings=engine.warnings, options_ok=True, comparing=False)
             state["seconds"] = {"parse": parse, **frame.seconds, "total": time.monotonic() - t0}
         except Superseded:  # the newer request is the next job

@@ -76,7 +76,7 @@ class Hub:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._state: dict[str, Any] = {"version": 0, "busy": True, "error": None}
-        self._images: dict[str, bytes] = {}
+        self._images: dict[str, bytes | Callable[[], bytes]] = {}
         self._subs: list[queue.Queue[bytes | None]] = []
         self.closed = False
 
@@ -85,11 +85,21 @@ class Hub:
             return dict(self._state)
 
     def image(self, name: str) -> bytes | None:
+        """The bytes stored as ``name``; one stored as a function (made only when asked for: the pixel values)
+        is called here, on the asking thread, once."""
         with self._lock:
-            return self._images.get(name)
+            data = self._images.get(name)
+        if callable(data):
+            made = data()
+            with self._lock:
+                if self._images.get(name) is data:
+                    self._images[name] = made
+            return made
+        return data
 
-    def update(self, images: dict[str, bytes | None] | None = None, **state: Any) -> None:
-        """Change the state (and images: None removes one) and send the whole state to every subscriber."""
+    def update(self, images: dict[str, bytes | Callable[[], bytes] | None] | None = None, **state: Any) -> None:
+        """Change the state (and images: None removes one; a function is called when the image is first asked
+        for) and send the whole state to every subscriber."""
         with self._lock:
             self._state.update(state)
             for name, data in (images or {}).items():
@@ -254,7 +264,11 @@ def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any
                 else:
                     self._reply(200, data, "image/png")
             elif path.startswith("/api/values/") and path[len("/api/values/"):].removesuffix(".bin") in VALUES:
-                data = hub.image("values-" + path[len("/api/values/"):].removesuffix(".bin"))
+                try:  # made here (Hub.image): the reference's .exr is read on the first request
+                    data = hub.image("values-" + path[len("/api/values/"):].removesuffix(".bin"))
+                except Exception as exc:  # noqa: BLE001 - an unreadable reference: one JSON line, the server goes on
+                    self._json(500, {"error": f"a5mi view: error: {(str(exc).splitlines() or [''])[0]}"})
+                    return
                 if data is None:
                     self._json(404, {"error": "no such image yet"})
                 else:

@@ -221,8 +221,14 @@ def test_values_and_diagnose_routes_need_the_token_and_queue_one_diagnosis(serve
         assert status == 200 and ctype.startswith("text/javascript") and b"function setupLook" in body
         assert get(server, "/api/values/render.bin")[0] == 404  # nothing rendered yet
         assert get(server, "/api/values/diff.bin")[0] == 404
-        hub.update({"values-render": b"\x00\x01"})
+        made: list[int] = []
+        hub.update({"values-render": lambda: made.append(1) or b"\x00\x01"})  # made when first asked for, once
+        assert made == []
         assert get(server, "/api/values/render.bin")[:2] == (200, b"\x00\x01")
+        assert get(server, "/api/values/render.bin")[:2] == (200, b"\x00\x01") and made == [1]
+        hub.update({"values-reference": lambda: 1 / 0})  # an error while making it: one JSON line, 500
+        status, body, _ = get(server, "/api/values/reference.bin")
+        assert status == 500 and json.loads(body)["error"].startswith("a5mi view: error: "), body
         for bad in (b'{"image": "diff"}', b"[1]", b"not json"):
             status, body, _ = get(server, "/api/diagnose", data=bad)
             assert status == 400 and json.loads(body)["error"].startswith("a5mi view: error: "), body
