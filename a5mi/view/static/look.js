@@ -95,8 +95,9 @@ function showValues() {
 }
 
 // ------------------------------------------------------------------ exposure and the A/B flip
-// A canvas over the image shows it when the exposure is not 0 (quantize(c·2^EV)) or, in the render's place, the
-// reference (the flip); at 0 EV the canvas holds the 8-bit levels themselves, the PNG's pixels.
+// A canvas over the image shows it when the exposure is not 0 (quantize(c·2^EV)), when it is an .exr reference, or
+// in the render's place the reference (the flip); at 0 EV the canvas holds the 8-bit levels (the render's: the PNG's
+// pixels; an .exr's: SPEC B.1's quantize(c)).
 function paint(canvas, v) {
   if (!v) return false;
   const m = Math.fround(2 ** look.ev);
@@ -115,7 +116,7 @@ function drawShown() {
   const rc = $("render-canvas"), fc = $("reference-canvas");
   rc.hidden = !((look.ev !== 0 || flip) && paint(rc, flip ? values.reference : values.render));
   rc.dataset.shows = rc.hidden ? "" : flip ? "reference" : "render";
-  fc.hidden = !(look.ev !== 0 && paint(fc, values.reference));
+  fc.hidden = !((look.ev !== 0 || state.reference_float) && paint(fc, values.reference));  // an .exr: its floats
   $("render-title").textContent = flip ? "reference (A/B flip: F)" : "render";
   $("flip").classList.toggle("on", !!flip);
 }
