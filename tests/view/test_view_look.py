@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_view_browser import BROWSER_ARGS, CHROMIUM, start_view, stop_view
+from test_view_browser import CHROMIUM, browser_page, start_view, stop_view
 from view_scenes import a5_png, time_limit, write_scene
 
 pytestmark = pytest.mark.skipif(not os.access(CHROMIUM, os.X_OK),
@@ -65,8 +65,6 @@ def floats(text: str) -> np.ndarray:
 
 
 def test_zoom_values_exposure_flip_mark_and_diagnose(tmp_path: Path) -> None:
-    from playwright.sync_api import sync_playwright
-
     from a5mi.platform.imageio import quantize, read_image, read_uint8
 
     with time_limit(420):
@@ -80,113 +78,102 @@ def test_zoom_values_exposure_flip_mark_and_diagnose(tmp_path: Path) -> None:
         ref_f = read_image(ref)[..., :3]
         ref_b = quantize(ref_f)
         proc, url = start_view(str(scene), *FLAGS, *MISTAKE, "--reference", str(ref), cwd=tmp_path)
-        errors: list[str] = []
-        requests: list[str] = []
         try:
-            with sync_playwright() as p:
-                browser = p.chromium.launch(executable_path=CHROMIUM, args=BROWSER_ARGS)
-                try:
-                    page = browser.new_page(viewport={"width": 1400, "height": 1100})
-                    page.on("pageerror", lambda e: errors.append(str(e)))
-                    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-                    page.on("request", lambda r: requests.append(r.url))
-                    page.goto(url)
-                    page.wait_for_selector("#diff[data-frame='1']", timeout=120_000)
-                    page.wait_for_function("() => values.render && values.reference", timeout=60_000)
+            with browser_page(url, height=1100) as (page, errors, requests):
+                page.wait_for_selector("#diff[data-frame='1']", timeout=120_000)
+                page.wait_for_function("() => values.render && values.reference", timeout=60_000)
 
-                    # at 1x the views show the PNG's pixels; the values under the cursor are the images'
-                    tx, ty, k = geometry(page)
-                    assert (tx, ty, k) == (0, 0, 8)
-                    got = hover(page, "render", (20 + 0.5) * k, (30 + 0.5) * k)
-                    assert (got["x"], got["y"]) == (20, 30)
-                    for x, y in ((20, 30), (5, 3), (40, 44)):
-                        got = hover(page, "reference", (x + 0.5) * k, (y + 0.5) * k)
-                        assert (got["x"], got["y"]) == (x, y)
-                        assert np.array_equal(floats(got["render"][0]), ours_f[y, x].astype(np.float64))
-                        assert np.array_equal(floats(got["render"][1]), ours[y, x])
-                        assert np.array_equal(floats(got["reference"][0]), ref_f[y, x].astype(np.float64))
-                        assert np.array_equal(floats(got["reference"][1]), ref_b[y, x])
-                        assert np.array_equal(floats(got["diff"][0]), ours_f[y, x].astype(np.float64)
-                                              - ref_f[y, x].astype(np.float64))
-                        assert np.array_equal(floats(got["diff"][1]), ours[y, x].astype(int) - ref_b[y, x])
-
-                    # 16x, the three views locked: every screen pixel is its image pixel (nearest neighbour)
-                    page.select_option("#zoom", "16")
-                    tx, ty, k = geometry(page)
-                    assert k == 16 * 8 and tx < 0 and ty < 0  # about the view's centre
-                    screen = shot(page, "render", tmp_path / "z16.png")
-                    want, inner = expected_screen(ours, screen.shape, tx, ty, k)
-                    assert inner.sum() > 0.9 * inner.size and len(np.unique(want[inner], axis=0)) >= 2
-                    assert np.array_equal(screen[inner], want[inner])
-                    screen = shot(page, "reference", tmp_path / "z16r.png")
-                    want, inner = expected_screen(ref_b, screen.shape, tx, ty, k)  # the .exr's SPEC B.1 levels
-                    assert np.array_equal(screen[inner], want[inner])
-                    sx, sy = 200.0, 150.0
-                    got = hover(page, "render", sx, sy)
-                    x, y = int((sx - tx) // k), int((sy - ty) // k)
+                # at 1x the views show the PNG's pixels; the values under the cursor are the images'
+                tx, ty, k = geometry(page)
+                assert (tx, ty, k) == (0, 0, 8)
+                got = hover(page, "render", (20 + 0.5) * k, (30 + 0.5) * k)
+                assert (got["x"], got["y"]) == (20, 30)
+                for x, y in ((20, 30), (5, 3), (40, 44)):
+                    got = hover(page, "reference", (x + 0.5) * k, (y + 0.5) * k)
                     assert (got["x"], got["y"]) == (x, y)
-                    assert np.array_equal(screen_at(page, "render", sx, sy, tmp_path), ours[y, x])
+                    assert np.array_equal(floats(got["render"][0]), ours_f[y, x].astype(np.float64))
                     assert np.array_equal(floats(got["render"][1]), ours[y, x])
+                    assert np.array_equal(floats(got["reference"][0]), ref_f[y, x].astype(np.float64))
+                    assert np.array_equal(floats(got["reference"][1]), ref_b[y, x])
+                    assert np.array_equal(floats(got["diff"][0]), ours_f[y, x].astype(np.float64)
+                                          - ref_f[y, x].astype(np.float64))
+                    assert np.array_equal(floats(got["diff"][1]), ours[y, x].astype(int) - ref_b[y, x])
 
-                    # a drag pans the three views together
-                    box = page.locator("#view-diff").bounding_box()
-                    page.mouse.move(box["x"] + 200, box["y"] + 200)
-                    page.mouse.down()
-                    page.mouse.move(box["x"] + 260, box["y"] + 240, steps=4)
-                    page.mouse.up()
-                    assert geometry(page)[:2] == (tx + 60, ty + 40)
-                    transforms = page.evaluate("""() => ['render', 'reference', 'diff'].map((n) =>
-                        document.querySelector('#view-' + n + ' .stack').style.transform)""")
-                    assert len(set(transforms)) == 1 and "scale(16)" in transforms[0], transforms
-                    assert page.locator("#trace-sum").count() == 0  # a drag is not a click
-                    page.select_option("#zoom", "1")
-                    assert geometry(page) == (0, 0, 8)
+                # 16x, the three views locked: every screen pixel is its image pixel (nearest neighbour)
+                page.select_option("#zoom", "16")
+                tx, ty, k = geometry(page)
+                assert k == 16 * 8 and tx < 0 and ty < 0  # about the view's centre
+                screen = shot(page, "render", tmp_path / "z16.png")
+                want, inner = expected_screen(ours, screen.shape, tx, ty, k)
+                assert inner.sum() > 0.9 * inner.size and len(np.unique(want[inner], axis=0)) >= 2
+                assert np.array_equal(screen[inner], want[inner])
+                screen = shot(page, "reference", tmp_path / "z16r.png")
+                want, inner = expected_screen(ref_b, screen.shape, tx, ty, k)  # the .exr's SPEC B.1 levels
+                assert np.array_equal(screen[inner], want[inner])
+                sx, sy = 200.0, 150.0
+                got = hover(page, "render", sx, sy)
+                x, y = int((sx - tx) // k), int((sy - ty) // k)
+                assert (got["x"], got["y"]) == (x, y)
+                assert np.array_equal(screen_at(page, "render", sx, sy, tmp_path), ours[y, x])
+                assert np.array_equal(floats(got["render"][1]), ours[y, x])
 
-                    # exposure: the .exr reference is shown as quantize(c * 2^EV)
-                    before = shot(page, "reference", tmp_path / "ev0.png")
-                    page.fill("#exposure", "-1")
-                    page.dispatch_event("#exposure", "input")
-                    after = shot(page, "reference", tmp_path / "ev-1.png")
-                    want, inner = expected_screen(quantize(ref_f * np.float32(0.5)), after.shape, 0, 0, 8)
-                    assert np.array_equal(after[inner], want[inner])
-                    assert not np.array_equal(before, after)
-                    page.fill("#exposure", "0")
-                    page.dispatch_event("#exposure", "input")
+                # a drag pans the three views together
+                box = page.locator("#view-diff").bounding_box()
+                page.mouse.move(box["x"] + 200, box["y"] + 200)
+                page.mouse.down()
+                page.mouse.move(box["x"] + 260, box["y"] + 240, steps=4)
+                page.mouse.up()
+                assert geometry(page)[:2] == (tx + 60, ty + 40)
+                transforms = page.evaluate("""() => ['render', 'reference', 'diff'].map((n) =>
+                    document.querySelector('#view-' + n + ' .stack').style.transform)""")
+                assert len(set(transforms)) == 1 and "scale(16)" in transforms[0], transforms
+                assert page.locator("#trace-sum").count() == 0  # a drag is not a click
+                page.select_option("#zoom", "1")
+                assert geometry(page) == (0, 0, 8)
 
-                    # A/B flip: the reference in the render's place, and back
-                    want_ref, inner = expected_screen(ref_b, after.shape, 0, 0, 8)
-                    want_ours, _ = expected_screen(ours, after.shape, 0, 0, 8)
-                    page.click("#flip")
-                    flipped = shot(page, "render", tmp_path / "flip.png")
-                    assert np.array_equal(flipped[inner], want_ref[inner])
-                    assert page.inner_text("#render-title").startswith("reference")
-                    page.click("#flip")
-                    back = shot(page, "render", tmp_path / "back.png")
-                    assert np.array_equal(back[inner], want_ours[inner])
+                # exposure: the .exr reference is shown as quantize(c * 2^EV)
+                before = shot(page, "reference", tmp_path / "ev0.png")
+                page.fill("#exposure", "-1")
+                page.dispatch_event("#exposure", "input")
+                after = shot(page, "reference", tmp_path / "ev-1.png")
+                want, inner = expected_screen(quantize(ref_f * np.float32(0.5)), after.shape, 0, 0, 8)
+                assert np.array_equal(after[inner], want[inner])
+                assert not np.array_equal(before, after)
+                page.fill("#exposure", "0")
+                page.dispatch_event("#exposure", "input")
 
-                    # the clicked pixel's mark changes the screen around the pixel, beyond the pixel itself
-                    x, y = 20, 30
-                    box = page.locator("#view-render").bounding_box()
-                    page.mouse.click(box["x"] + (x + 0.5) * 8, box["y"] + (y + 0.5) * 8)
-                    page.wait_for_selector("#trace-sum", timeout=120_000)
-                    page.mouse.move(box["x"] - 20, box["y"] - 20)  # away: no hover mark
-                    marked = shot(page, "render", tmp_path / "mark.png")
-                    changed = np.any(marked != back, axis=2)
-                    near = np.zeros_like(changed)
-                    near[y * 8 - 24:y * 8 + 32, x * 8 - 24:x * 8 + 32] = True
-                    assert not changed[~near].any()  # the mark only, no other change
-                    near[y * 8:y * 8 + 8, x * 8:x * 8 + 8] = False  # outside the pixel itself
-                    assert changed[near].sum() >= 100, changed[near].sum()
+                # A/B flip: the reference in the render's place, and back
+                want_ref, inner = expected_screen(ref_b, after.shape, 0, 0, 8)
+                want_ours, _ = expected_screen(ours, after.shape, 0, 0, 8)
+                page.click("#flip")
+                flipped = shot(page, "render", tmp_path / "flip.png")
+                assert np.array_equal(flipped[inner], want_ref[inner])
+                assert page.inner_text("#render-title").startswith("reference")
+                page.click("#flip")
+                back = shot(page, "render", tmp_path / "back.png")
+                assert np.array_equal(back[inner], want_ours[inner])
 
-                    # the diagnose panel names the mistake the render was made with
-                    page.select_option("#diagnose-image", "render")
-                    page.click("#diagnose")
-                    page.wait_for_selector("#diagnosis-verdict", timeout=240_000)
-                    assert page.get_attribute("#diagnosis-verdict", "data-verdict") == "diagnosis"
-                    assert page.locator("#diagnosis-causes li").first.get_attribute("data-mistakes") == "no_shadows"
-                    assert "explains" in page.inner_text("#diagnosis") and "where: x" in page.inner_text("#diagnosis")
-                finally:
-                    browser.close()
+                # the clicked pixel's mark changes the screen around the pixel, beyond the pixel itself
+                x, y = 20, 30
+                box = page.locator("#view-render").bounding_box()
+                page.mouse.click(box["x"] + (x + 0.5) * 8, box["y"] + (y + 0.5) * 8)
+                page.wait_for_selector("#trace-sum", timeout=120_000)
+                page.mouse.move(box["x"] - 20, box["y"] - 20)  # away: no hover mark
+                marked = shot(page, "render", tmp_path / "mark.png")
+                changed = np.any(marked != back, axis=2)
+                near = np.zeros_like(changed)
+                near[y * 8 - 24:y * 8 + 32, x * 8 - 24:x * 8 + 32] = True
+                assert not changed[~near].any()  # the mark only, no other change
+                near[y * 8:y * 8 + 8, x * 8:x * 8 + 8] = False  # outside the pixel itself
+                assert changed[near].sum() >= 100, changed[near].sum()
+
+                # the diagnose panel names the mistake the render was made with
+                page.select_option("#diagnose-image", "render")
+                page.click("#diagnose")
+                page.wait_for_selector("#diagnosis-verdict", timeout=240_000)
+                assert page.get_attribute("#diagnosis-verdict", "data-verdict") == "diagnosis"
+                assert page.locator("#diagnosis-causes li").first.get_attribute("data-mistakes") == "no_shadows"
+                assert "explains" in page.inner_text("#diagnosis") and "where: x" in page.inner_text("#diagnosis")
         finally:
             code, err = stop_view(proc)
         assert errors == []
