@@ -69,3 +69,27 @@ def test_the_diagnosis_refuses_what_a5mi_diagnose_refuses() -> None:
             diagnose_frame(engine, image)
     assert spec_flags(dataclasses.replace(opts, jitter=True, filter=True, bounces=2)) == \
         "-size 8 8 -bounces 2 -shadows -jitter -filter"
+
+
+def test_diagnosing_the_reference_names_the_mistake_it_was_made_with(tmp_path: Path, variant) -> None:  # noqa: ANN001
+    """``--reference`` made by ``a5 -mistake no_shadows`` (a student's image), the page's render correct: the panel's
+    diagnosis of the reference names ``no_shadows``; of the render, finds nothing (``match``)."""
+    from view_scenes import a5_png, time_limit, write_scene
+
+    from a5mi.view.build import ViewSession
+    from a5mi.view.engine import ViewEngine
+    from a5mi.view.pixels import diagnose_frame
+
+    with time_limit(300):
+        scene = write_scene(tmp_path / "s.txt")
+        a5_png(scene, tmp_path / "student.png", "-size", "32", "32", "-shadows", "-mistake", "no_shadows")
+        engine = ViewEngine(str(scene), ViewSession(), reference=str(tmp_path / "student.png"))
+        try:
+            engine.render(RenderOptions(width=32, height=32, shadows=True))
+            of_reference = diagnose_frame(engine, "reference")
+            of_render = diagnose_frame(engine, "render")
+        finally:
+            engine.close()
+    assert of_reference["verdict"] == "diagnosis" and list(of_reference["causes"][0]["mistakes"]) == ["no_shadows"]
+    assert of_reference["image"] == "reference" and of_reference["flags"] == "-size 32 32 -bounces 4 -shadows"
+    assert of_render["verdict"] == "match" and of_render["mistakes"] == []
