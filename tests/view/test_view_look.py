@@ -1,6 +1,7 @@
 """The page's tools for looking closely, in a real headless Chromium against the real ``a5mi view`` (docs/VIEW.md
 "Look closely"): at 16x every screen pixel of the three locked views shows the image pixel the zoom maps it to
-(nearest neighbour) and the pixel under the cursor is that one; a drag pans the three together; the values shown
+(nearest neighbour) and the pixel under the cursor is that one; the wheel zooms about the cursor; a drag pans the
+three together; the values shown
 are the images' (the render's floats are ``a5 -output X.exr``'s, its 8-bit levels the PNG's, the ``.exr``
 reference's its floats and their SPEC B.1 levels); exposure redraws the ``.exr`` as ``quantize(c·2^EV)``; the A/B
 flip shows the reference in the render's place and back; the clicked pixel's mark changes the screen around the
@@ -130,6 +131,15 @@ def test_zoom_values_exposure_flip_mark_and_diagnose(tmp_path: Path) -> None:
                 assert page.locator("#trace-sum").count() == 0  # a drag is not a click
                 page.select_option("#zoom", "1")
                 assert geometry(page) == (0, 0, 8)
+                # the wheel zooms in at the cursor: the image pixel under it stays there
+                under = hover(page, "render", 101.0, 203.0)
+                page.mouse.wheel(0, -100)
+                page.wait_for_function("() => document.getElementById('view-render').dataset.zoom === '2'")
+                hover(page, "render", 5.0, 5.0)
+                again = hover(page, "render", 101.0, 203.0)
+                assert (again["x"], again["y"]) == (under["x"], under["y"]) == (101 // 8, 203 // 8)
+                assert geometry(page)[2] == 16
+                page.select_option("#zoom", "1")
 
                 # exposure: the .exr reference is shown as quantize(c * 2^EV)
                 before = shot(page, "reference", tmp_path / "ev0.png")
