@@ -1,11 +1,10 @@
 """The page's tools for looking closely, in a real headless Chromium against the real ``a5mi view`` (docs/VIEW.md
 "Look closely"): at 16x every screen pixel of the three locked views shows the image pixel the zoom maps it to
 (nearest neighbour) and the pixel under the cursor is that one; the wheel zooms about the cursor; a drag pans the
-three together; the values shown
-are the images' (the render's floats are ``a5 -output X.exr``'s, its 8-bit levels the PNG's, the ``.exr``
-reference's its floats and their SPEC B.1 levels); exposure redraws the ``.exr`` as ``quantize(c·2^EV)``; the A/B
-flip shows the reference in the render's place and back; the clicked pixel's mark changes the screen around the
-pixel; the diagnose panel names the mistake a ``-mistake`` render was made with."""
+three together; the values shown are the images' (the render's floats are ``a5 -output X.exr``'s, its 8-bit levels
+the PNG's, the ``.exr`` reference's its floats and their SPEC B.1 levels); exposure redraws the ``.exr`` as
+``quantize(c·2^EV)``; the A/B flip shows the reference in the render's place and back; the clicked pixel's mark
+changes the screen around the pixel; the diagnose panel names the mistake a ``-mistake`` render was made with."""
 
 from __future__ import annotations
 
