@@ -249,5 +249,5 @@ function setupLook() {
     look.tx = d.tx + e.clientX - d.x; look.ty = d.ty + e.clientY - d.y;
     clampPan(); applyView(); drawMarks(null);
   });
-  window.addEventListener("mouseup", () => { if (look.drag && look.drag.moved) look.drag = null; });
+  window.addEventListener("mouseup", () => { look.drag = null; });  // after the view's own (bubbling)
 }
