@@ -2,8 +2,8 @@
 "Look closely"): at 16x every screen pixel of the three locked views shows the image pixel the zoom maps it to
 (nearest neighbour) and the pixel under the cursor is that one; the wheel zooms about the cursor; a drag pans the
 three together; the values shown are the images' (the render's floats are ``a5 -output X.exr``'s, its 8-bit levels
-the PNG's, the ``.exr`` reference's its floats and their SPEC B.1 levels); exposure redraws the ``.exr`` as
-``quantize(c·2^EV)``; the A/B flip shows the reference in the render's place and back; the clicked pixel's mark
+the PNG's, the ``.exr`` reference's its floats and their SPEC B.1 levels); exposure redraws the ``.exr`` and the render
+as ``quantize(c·2^EV)``; the A/B flip shows the reference in the render's place and back; the clicked pixel's mark
 changes the screen around the pixel; the diagnose panel names the mistake a ``-mistake`` render was made with."""
 
 from __future__ import annotations
@@ -148,6 +148,9 @@ def test_zoom_values_exposure_flip_mark_and_diagnose(tmp_path: Path) -> None:
                 want, inner = expected_screen(quantize(ref_f * np.float32(0.5)), after.shape, 0, 0, 8)
                 assert np.array_equal(after[inner], want[inner])
                 assert not np.array_equal(before, after)
+                exposed = shot(page, "render", tmp_path / "ev-1-render.png")  # the render's floats too
+                want, inner = expected_screen(quantize(ours_f * np.float32(0.5)), exposed.shape, 0, 0, 8)
+                assert np.array_equal(exposed[inner], want[inner])
                 page.fill("#exposure", "0")
                 page.dispatch_event("#exposure", "input")
 
