@@ -23,6 +23,11 @@ Times, from just before the write (``t0``):
   its ``load``: server-sent event, fetch, PNG decode). Kernel
   launches compiled (not found in Dr.Jit's cache) are summed over the saves.
 
+After the table, one line per row against ``--target`` (seconds from save to the full image, default 0.5: a one-ray
+preview does not count): met or not, and where the ``final`` median goes: each stage of the full image (the
+watcher's wait, parse, build, trace, compile, execute, filter, png, delivery) as its share of ``final``, largest
+first; what the stages do not cover (the preview shown first, the state's publication) is ``other``.
+
 ``--this-args ARGS``: more ``a5mi view`` arguments for this checkout's server (``--no-preview``).
 ``--baseline A5MI`` runs another ``a5mi`` executable (an older checkout's) on its own copy of the scene at the same
 time, the saves alternating between the two pages (``ABBA``...), so both are measured under the same load (its
@@ -174,6 +179,7 @@ def main() -> None:
     ap.add_argument("--a5", action="store_true", help="also time one a5 process per row")
     ap.add_argument("--shots", type=Path)
     ap.add_argument("--this-args", default="", help="more a5mi view arguments for this code (e.g. --no-preview)")
+    ap.add_argument("--target", type=float, default=0.5, help="seconds from save to the full image (the goal)")
     args = ap.parse_args()
     from playwright.sync_api import sync_playwright
 
@@ -187,6 +193,7 @@ def main() -> None:
             "compiled"] + (["one a5"] if args.a5 else []) + ["load avg"]
     print("| " + " | ".join(head) + " |")
     print("|" + " --- |" * len(head))
+    measured: list[tuple[str, list[str], str, list[dict[str, Any]]]] = []
     with tempfile.TemporaryDirectory() as tmp, sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, args=[
             "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
@@ -220,7 +227,24 @@ def main() -> None:
                 for code in codes:
                     a5 = a5_seconds(codes[code], scenes[code], flags) if args.a5 else None
                     print(row_line(name, flags, code, results[code], statistics.mean(loads[code]), a5), flush=True)
+                    measured.append((name, flags, code, results[code]))
         browser.close()
+    print()
+    for name, flags, code, rows in measured:
+        print(where_it_goes(name, flags, code, rows, args.target))
+
+
+def where_it_goes(name: str, flags: list[str], code: str, rows: list[dict[str, Any]], target: float) -> str:
+    """One line: the ``final`` median against ``target`` and the stages' shares of it, largest first (module
+    docstring)."""
+    final = median(rows, "final") or 0.0
+    parts = {k: median(rows, k) or 0.0 for k in ("watcher", "parse", "build", "trace", "compile", "execute",
+                                                 "filter", "png", "delivery")}
+    parts["other"] = max(0.0, final - sum(parts.values()))
+    ranked = sorted(parts.items(), key=lambda kv: -kv[1])
+    verdict = "met" if final <= target else "NOT met"
+    return (f"{name} {' '.join(flags)} ({code}): save to image {final:.3f} s, target {target:.2f} s {verdict}; "
+            + ", ".join(f"{k} {v:.3f} s ({100 * v / final:.0f}%)" for k, v in ranked if final > 0))
 
 
 def shoot(page: Any, path: Path) -> None:  # a Playwright page

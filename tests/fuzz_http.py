@@ -6,7 +6,8 @@ truncated one, a huge one, control bodies (valid, out of range, wrong types, not
 ``Host`` / ``Origin`` / ``Content-Length`` / ``Transfer-Encoding`` of every kind. :func:`judge` holds the server to
 its promises: an answer (a status line) or a clean close within the time limit, never a 5xx, nothing printed on
 the terminal (no traceback), 403 unless both the token and ``Host``/``Origin`` are right, 202 only for a body
-the controls accept, and after the server stops no thread of it left running.
+the controls accept (on ``/api/diagnose``: only for a body that asks for a diagnosis), and after the server
+stops no thread of it left running.
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ import threading
 import urllib.parse
 
 TOKEN = "fuzz-token-Zq3"
-ROUTES = ("/", "/index.html", "/static/view.js", "/static/view.css", "/static/../server.py", "/static/%2e%2e/x",
+ROUTES = ("/", "/index.html", "/static/view.js", "/static/look.js", "/static/view.css", "/static/../server.py",
+          "/static/%2e%2e/x", "/api/values/render.bin", "/api/values/diff.bin", "/api/values/../x", "/api/diagnose",
           "/api/state", "/api/events", "/api/image/render.png", "/api/image/reference.png", "/api/image/../x",
           "/api/render", "/api/trace", "/api/trace?x=1&y=2", "/api/trace?x=-1&y=1e9", "/api/trace?x=a&y=",
           "/nowhere", "//", "/%00", "/" + "a" * 5000, "/api/state/..;/", "/\u00e9")
@@ -105,6 +107,16 @@ def send(port: int, method: str, target: str, body: bytes, headers: dict[str, st
         sock.close()
 
 
+def _diagnose_request(body: bytes) -> bool:
+    """Whether ``body`` asks ``POST /api/diagnose`` for a diagnosis: empty, or a JSON object whose ``image`` is
+    absent, ``render`` or ``reference``."""
+    try:
+        doc = json.loads(body or b"{}")
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        return False
+    return isinstance(doc, dict) and doc.get("image", "render") in ("render", "reference")
+
+
 def judge(seed: int, timeout: float = 30.0) -> tuple[list[str], str, str]:
     """Run the mutant ``seed`` against a fresh server (no engine: jobs are queued, not rendered); (argv-like
     description, stderr printed, problem or '')."""
@@ -166,7 +178,10 @@ def judge(seed: int, timeout: float = 30.0) -> tuple[list[str], str, str]:
             origin in ("", f"http://127.0.0.1:{server.port}", f"http://localhost:{server.port}"))
     if status == 200 and not good and method in ("GET", "HEAD", "POST"):
         return desc, printed, "answered 200 without the token, Host and Origin"
-    if status == 202 and not accepted:
+    if status == 202 and urllib.parse.urlsplit(target).path == "/api/diagnose":
+        if not _diagnose_request(body):
+            return desc, printed, "202 for a body that asks for no diagnosis"
+    elif status == 202 and not accepted:
         return desc, printed, "202 for a body the controls did not accept"
     for t in threading.enumerate():
         if t.ident not in before and t.is_alive() and t.name.startswith("a5mi-view"):

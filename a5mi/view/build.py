@@ -217,7 +217,10 @@ class ViewSession(RenderSession):
             integrator = scene.integrator()
             self._scene = (scene_key, scene)
         self.reused += len(reused & keys)
-        return scene, template, integrator
+        # the template keeps the scene's part only, as RenderSession.build's: an integrator of other options is
+        # loaded from it plus their own parameters, and one they leave out (an empty -mistake) must not stay
+        own = options.integrator_params()
+        return scene, {k: v for k, v in template.items() if k not in own}, integrator
 
 
 def _pending_keys(value: Any) -> set[Hashable]:

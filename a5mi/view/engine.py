@@ -321,7 +321,7 @@ class ViewEngine:
             progress("compare", 0, 1)
         frame.reference_levels = ref
         if self._ref_png is None or self._ref_png[0] is not ref:  # encoded once per reference image
-            self._ref_png = (ref, png_bytes(ref.astype(np.uint8), self._scratch))
+            self._ref_png = (ref, png_bytes(np.clip(ref, 0, 255).astype(np.uint8), self._scratch))  # .exr: not wrapped
         frame.reference_png = self._ref_png[1]
         if ref.shape != ours.shape:
             frame.reference_error = (f"image sizes differ: the render is {ours.shape[1]}x{ours.shape[0]}, the "

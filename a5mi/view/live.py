@@ -4,7 +4,9 @@
 :class:`~a5mi.platform.interrupts.Interrupted` ends it (it waits for jobs in steps of :data:`WAIT_SECONDS` and calls
 :func:`a5mi.platform.interrupts.check` between them). A render job reloads the scene when a watched file changed
 (:mod:`a5mi.view.watcher`), renders (first the one-ray preview where :func:`wants_preview` says the full image is
-slow), compares and publishes the new state and images. A scene error (the
+slow), compares and publishes the new state and images (the PNGs and the pixel values of
+:mod:`a5mi.view.pixels`). A diagnose job runs :func:`a5mi.view.pixels.diagnose_frame` on the current frame and
+publishes its result as the state's ``diagnosis``. A scene error (the
 positioned one-line ``FILE:LINE:COL: error: ...``) or another user error is published as ``error`` and the last
 good images stay; an unexpected exception is published as an internal error and the loop goes on.
 """
@@ -14,11 +16,13 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 from a5mi.platform.errors import UserError
 from a5mi.view.controls import describe_controls
 from a5mi.view.engine import preview_options
+from a5mi.view.pixels import ReferenceValues, diagnose_frame, is_float_image, render_values
 from a5mi.view.watcher import snapshot
 
 #: Seconds between two checks for a signal while no job waits.
@@ -89,7 +93,9 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
     current = options
     changes = 0
     last_full: tuple[Any, float] | None = None  # (options, seconds) of the last full render
+    ref_values = ReferenceValues(engine.reference)
     hub.update(scene=engine.scene, controls=describe_controls(options), busy=True,
+               reference_float=is_float_image(engine.reference),
                reference=("image" if engine.reference else "binary" if engine.binary else None),
                reference_name=engine.reference or (str(engine.binary.path) if engine.binary else None))
     jobs.render(options, reload=True)
@@ -107,6 +113,9 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
                 except Exception as exc:  # noqa: BLE001 - handed to the request, reported on the page
                     fut.set_exception(exc)
             continue
+        if kind == "diagnose":
+            _diagnose(engine, hub, arg)
+            continue
         reload, wanted = arg
         current = wanted or current
         changes += reload
@@ -114,7 +123,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
         t0 = time.monotonic()
         state: dict[str, Any] = {"busy": False, "error": None, "changes": changes, "preview": False, "comparing": False,
                                  "saved_at": jobs.taken_reload_at if reload else None}
-        images: dict[str, bytes | None] = {}
+        images: dict[str, Any] = {}
         try:
             parse = 0.0
             if reload or engine.desc is None:
@@ -131,7 +140,7 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
             if quick is not None:
                 pv = engine.render(quick, progress=preemptible(hub, jobs), preview=True)
                 shown = {k: v for k, v in frame_state(engine, pv).items() if k not in COMPARED}  # the last stay
-                hub.update({"render": pv.render_png}, **{
+                hub.update({"render": pv.render_png, "values-render": partial(render_values, pv.image)}, **{
                     **state, **shown, "controls": describe_controls(current), "busy": True,
                     "warnings": engine.warnings, "options_ok": True,
                     "version": hub.state().get("version", 0) + 1, "published_at": time.time(),
@@ -141,15 +150,18 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
             t_full = time.monotonic()
             frame = engine.render(current, progress=preemptible(hub, jobs), compare=False)
             last_full = (current, time.monotonic() - t_full)
+            values = partial(render_values, frame.image)  # made when the page asks: not before the image
             if engine.compares:  # the image first; its comparison follows (the page dims the last one meanwhile)
                 shown = {k: v for k, v in frame_state(engine, frame).items() if k not in COMPARED}
                 state["published_at"] = time.time()  # (of the image, also in the comparison's state)
-                hub.update({"render": frame.render_png}, **{
+                hub.update({"render": frame.render_png, "values-render": values}, **{
                     **state, **shown, "busy": True, "comparing": True, "warnings": engine.warnings,
                     "options_ok": True, "version": hub.state().get("version", 0) + 1,
                     "seconds": {"parse": parse, **frame.seconds, "total": time.monotonic() - t0}})
                 engine.compare(frame, hub.progress)
-            images = {"render": frame.render_png, "reference": frame.reference_png, "diff": frame.diff_png}
+            images = {"render": frame.render_png, "reference": frame.reference_png, "diff": frame.diff_png,
+                      "values-render": values, "values-reference": (
+                          None if frame.reference_levels is None else partial(ref_values.blob, frame.reference_levels))}
             state.update(frame_state(engine, frame), warnings=engine.warnings, options_ok=True, comparing=False)
             state["seconds"] = {"parse": parse, **frame.seconds, "total": time.monotonic() - t0}
         except Superseded:  # the newer request is the next job
@@ -170,6 +182,22 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
         state["watching"] = [str(p) for p in watcher.paths]
         state.setdefault("published_at", time.time())
         hub.update(images, **state)
+
+
+def _diagnose(engine: Any, hub: Any, image: str) -> None:
+    """Run the diagnosis of the current frame's ``image`` and publish it as ``diagnosis``: ``status`` ``running``,
+    then ``done`` (the diagnosis, :func:`a5mi.view.pixels.diagnose_frame`, and the ``frame`` it is of) or
+    ``error`` (its one line); each stage of the diagnosis is a ``progress`` event ``diagnose: STAGE``."""
+    hub.update(diagnosis={"status": "running", "image": image})
+    frame = engine.frame.version if engine.frame is not None else None
+    try:
+        doc = diagnose_frame(engine, image, lambda text: hub.progress(f"diagnose: {text}", 0, 1))
+        hub.update(diagnosis={"status": "done", "frame": frame, **doc})
+    except UserError as exc:
+        hub.update(diagnosis={"status": "error", "image": image, "error": error_line(exc)})
+    except Exception as exc:  # noqa: BLE001 - the server goes on; the page shows the one line
+        hub.update(diagnosis={"status": "error", "image": image, "error": f"a5mi view: internal error: "
+                              f"{type(exc).__name__}: {(str(exc).splitlines() or [''])[0]}"})
 
 
 def _trace(engine: Any, x: int, y: int) -> dict[str, Any]:

@@ -17,9 +17,12 @@ Routes (``?token=T`` on each): ``GET /`` the page; ``GET /static/NAME`` its scri
 ``GET /api/state`` the state as JSON; ``GET /api/image/{render,reference,diff}.png`` the current frame's PNG
 bytes; ``POST /api/render`` a JSON object of control values (:mod:`a5mi.view.controls`: 202, or 400 with the
 one-line error); ``GET /api/trace?x=X&y=Y`` the pixel's trace (:meth:`a5mi.view.engine.ViewEngine.trace`; 400
-with the error); ``GET /api/events`` the event stream: ``event: state`` (the whole state, on connect and after
-every change) and ``event: progress`` (``{"stage", "done", "total"}``), each ``data:`` one JSON line, and a
-``: ping`` comment every :data:`PING_SECONDS`.
+with the error); ``GET /api/values/{render,reference}.bin`` the current frame's pixel values
+(:func:`a5mi.view.pixels.values_blob`: float32 linear RGB, then the 8-bit levels); ``POST /api/diagnose`` a JSON
+object ``{"image": "render" | "reference"}``: runs :func:`a5mi.view.pixels.diagnose_frame` on the engine's thread
+(202; the result comes as the state's ``diagnosis``); ``GET /api/events`` the event stream: ``event: state``
+(the whole state, on connect and after every change) and ``event: progress`` (``{"stage", "done", "total"}``),
+each ``data:`` one JSON line, and a ``: ping`` comment every :data:`PING_SECONDS`.
 """
 
 from __future__ import annotations
@@ -49,8 +52,12 @@ IDLE_SECONDS = 20.0
 MAX_BODY = 1 << 16
 #: The page's files (package data ``a5mi/view/static``) and their content types.
 STATIC = {"index.html": "text/html; charset=utf-8", "view.js": "text/javascript; charset=utf-8",
-          "view.css": "text/css; charset=utf-8"}
+          "look.js": "text/javascript; charset=utf-8", "view.css": "text/css; charset=utf-8"}
 IMAGES = ("render", "reference", "diff")
+#: The images whose pixel values the page reads (``/api/values/NAME.bin``, stored as ``values-NAME``).
+VALUES = ("render", "reference")
+#: What ``POST /api/diagnose`` may diagnose.
+DIAGNOSABLE = ("render", "reference")
 
 
 def sse(event: str, data: Any) -> bytes:
@@ -69,7 +76,7 @@ class Hub:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._state: dict[str, Any] = {"version": 0, "busy": True, "error": None}
-        self._images: dict[str, bytes] = {}
+        self._images: dict[str, bytes | Callable[[], bytes]] = {}
         self._subs: list[queue.Queue[bytes | None]] = []
         self.closed = False
 
@@ -78,11 +85,21 @@ class Hub:
             return dict(self._state)
 
     def image(self, name: str) -> bytes | None:
+        """The bytes stored as ``name``; one stored as a function (made only when asked for: the pixel values)
+        is called here, on the asking thread, once."""
         with self._lock:
-            return self._images.get(name)
+            data = self._images.get(name)
+        if callable(data):
+            made = data()
+            with self._lock:
+                if self._images.get(name) is data:
+                    self._images[name] = made
+            return made
+        return data
 
-    def update(self, images: dict[str, bytes | None] | None = None, **state: Any) -> None:
-        """Change the state (and images: None removes one) and send the whole state to every subscriber."""
+    def update(self, images: dict[str, bytes | Callable[[], bytes] | None] | None = None, **state: Any) -> None:
+        """Change the state (and images: None removes one; a function is called when the image is first asked
+        for) and send the whole state to every subscriber."""
         with self._lock:
             self._state.update(state)
             for name, data in (images or {}).items():
@@ -122,14 +139,15 @@ class Hub:
 
 
 class Jobs:
-    """Work for the engine's thread: traces (first come, first served) and one pending render (a reload of the
-    scene files and/or new options; later requests replace earlier ones)."""
+    """Work for the engine's thread: traces (first come, first served), one pending render (a reload of the
+    scene files and/or new options; later requests replace earlier ones) and one pending diagnosis."""
 
     def __init__(self) -> None:
         self._cond = threading.Condition()
         self._traces: deque[tuple[int, int, Future[Any]]] = deque()
         self._reload = False
         self._options: Any = None
+        self._diagnose: str | None = None
         #: wall-clock time (``time.time()``) of the first reload request not yet taken, and of the last taken one
         self.reload_at: float | None = None
         self.taken_reload_at: float | None = None
@@ -141,6 +159,12 @@ class Jobs:
             self._reload = self._reload or reload
             if options is not None:
                 self._options = options
+            self._cond.notify()
+
+    def diagnose(self, image: str) -> None:
+        """Ask for a diagnosis of the current frame's ``image`` (one waits at most; a later request replaces it)."""
+        with self._cond:
+            self._diagnose = image
             self._cond.notify()
 
     def render_pending(self) -> bool:
@@ -156,9 +180,10 @@ class Jobs:
         return fut
 
     def next(self, timeout: float) -> tuple[str, Any] | None:
-        """``("trace", (x, y, future))``, ``("render", (reload, options or None))`` or None after ``timeout``."""
+        """``("trace", (x, y, future))``, ``("render", (reload, options or None))``, ``("diagnose", image)`` or None
+        after ``timeout``. Traces first, then renders (a diagnosis is of the newest frame), then a diagnosis."""
         with self._cond:
-            if not (self._traces or self._reload or self._options is not None):
+            if not (self._traces or self._reload or self._options is not None or self._diagnose):
                 self._cond.wait(timeout)
             if self._traces:
                 return "trace", self._traces.popleft()
@@ -167,6 +192,9 @@ class Jobs:
                 self.taken_reload_at, self.reload_at = self.reload_at, None
                 self._reload, self._options = False, None
                 return "render", job
+            if self._diagnose:
+                image, self._diagnose = self._diagnose, None
+                return "diagnose", image
         return None
 
 
@@ -235,6 +263,16 @@ def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any
                     self._json(404, {"error": "no such image yet"})
                 else:
                     self._reply(200, data, "image/png")
+            elif path.startswith("/api/values/") and path[len("/api/values/"):].removesuffix(".bin") in VALUES:
+                try:  # made here (Hub.image): the reference's .exr is read on the first request
+                    data = hub.image("values-" + path[len("/api/values/"):].removesuffix(".bin"))
+                except Exception as exc:  # noqa: BLE001 - an unreadable reference: one JSON line, the server goes on
+                    self._json(500, {"error": f"a5mi view: error: {(str(exc).splitlines() or [''])[0]}"})
+                    return
+                if data is None:
+                    self._json(404, {"error": "no such image yet"})
+                else:
+                    self._reply(200, data, "application/octet-stream")
             elif path == "/api/trace":
                 self._trace(query)
             elif path == "/api/events":
@@ -261,6 +299,9 @@ def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any
                                           f"than {MAX_BODY}"})
                 return
             body = self.rfile.read(int(declared))
+            if path == "/api/diagnose":
+                self._diagnose(body)
+                return
             if path != "/api/render":
                 self._json(404, {"error": f"no route {path[:80]}"})
                 return
@@ -273,6 +314,20 @@ def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any
                 self._json(400, {"error": f"a5mi view: error: {exc}"})
                 return
             jobs.render(options)
+            self._json(202, {"queued": True})
+
+        def _diagnose(self, body: bytes) -> None:
+            try:
+                doc = json.loads(body or b"{}")
+            except json.JSONDecodeError:
+                doc = None
+            image = doc.get("image", "render") if isinstance(doc, dict) else None
+            if image not in DIAGNOSABLE:
+                self._json(400, {"error": "a5mi view: error: give {\"image\": \"render\"} or {\"image\": "
+                                          "\"reference\"}"})
+                return
+            hub.update(diagnosis={"status": "queued", "image": image})
+            jobs.diagnose(image)
             self._json(202, {"queued": True})
 
         def _trace(self, query: dict[str, list[str]]) -> None:
@@ -368,4 +423,5 @@ class Server:
         self.httpd.server_close()
 
 
-__all__ = ["IMAGES", "PING_SECONDS", "STATIC", "Hub", "Jobs", "Server", "finite", "make_handler", "sse", "static_file"]
+__all__ = ["DIAGNOSABLE", "IMAGES", "PING_SECONDS", "STATIC", "VALUES", "Hub", "Jobs", "Server", "finite",
+           "make_handler", "sse", "static_file"]

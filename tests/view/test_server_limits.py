@@ -103,3 +103,17 @@ def test_host_and_origin_must_be_this_server(served, headers: str, status: int) 
         code, _ = _exchange(served, f"GET /api/state?token={TOKEN} HTTP/1.1\r\n"
                                     + headers.format(port=served.port) + "\r\nConnection: close")
     assert code == status
+
+
+@pytest.mark.parametrize("headers, status", [
+    ("Host: 127.0.0.1:{port}", 202),
+    ("Host: evil.example:{port}", 403),
+    ("Host: 127.0.0.1:{port}\r\nOrigin: http://evil.example", 403),
+    ("X-No-Host: 1", 403),
+])
+def test_the_diagnose_route_checks_host_and_origin(served, headers: str, status: int) -> None:  # noqa: ANN001
+    body = b'{"image": "render"}'
+    with time_limit(60):
+        code, _ = _exchange(served, f"POST /api/diagnose?token={TOKEN} HTTP/1.1\r\n" + headers.format(port=served.port)
+                            + f"\r\nContent-Length: {len(body)}\r\nConnection: close", body)
+    assert code == status

@@ -17,7 +17,10 @@ import subprocess
 import sys
 import urllib.error
 import urllib.request
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -77,6 +80,27 @@ def test_requests_without_the_token_or_with_a_wrong_one_get_403(tmp_path: Path) 
         assert code == 130 and err.rstrip().endswith("a5mi view: error: interrupted (SIGINT)"), err
 
 
+@contextmanager
+def browser_page(url: str, height: int = 1000) -> Iterator[tuple[Any, list[str], list[str]]]:
+    """A tab of headless Chromium on ``url`` (1400 x ``height``), with the page's errors (uncaught and console) and
+    every URL it requested, filled in as it runs."""
+    from playwright.sync_api import sync_playwright
+
+    errors: list[str] = []
+    requests: list[str] = []
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=BROWSER_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1400, "height": height})
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+            page.on("request", lambda r: requests.append(r.url))
+            page.goto(url)
+            yield page, errors, requests
+        finally:
+            browser.close()
+
+
 def page_pixels(page, selector: str) -> np.ndarray:  # noqa: ANN001 - a Playwright page
     """The decoded pixels of the page's image ``selector`` (drawn on a canvas), (H, W, 3) uint8."""
     data = page.evaluate("""(sel) => { const img = document.querySelector(sel);
@@ -100,89 +124,76 @@ def check_image(page, tmp_path: Path, scene: Path, frame: int, *flags: str) -> N
 
 
 def test_the_page_in_headless_chromium(tmp_path: Path) -> None:
-    from playwright.sync_api import sync_playwright
-
     shots = os.environ.get("A5MI_VIEW_SCREENSHOTS")
     with time_limit(420):
         scene = write_scene(tmp_path / "s.txt")
         ref = tmp_path / "ref.png"
         a5_png(write_scene(tmp_path / "r.txt", "1 0.5 0.1"), ref, *FLAGS)
         proc, url = start_view(str(scene), *FLAGS, "--reference", str(ref), cwd=tmp_path)
-        errors: list[str] = []
-        requests: list[str] = []
         try:
-            with sync_playwright() as p:
-                browser = p.chromium.launch(executable_path=CHROMIUM, args=BROWSER_ARGS)
-                try:
-                    page = browser.new_page(viewport={"width": 1400, "height": 1000})
-                    page.on("pageerror", lambda e: errors.append(str(e)))
-                    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-                    page.on("request", lambda r: requests.append(r.url))
-                    page.goto(url)
-                    check_image(page, tmp_path, scene, 1, *FLAGS)
-                    page.wait_for_selector("#diff[data-frame='1']", timeout=60_000)
-                    assert page.inner_text("#verdict") == "wrong"
-                    assert "PSNR" in page.inner_text("#metrics")
+            with browser_page(url) as (page, errors, requests):
+                check_image(page, tmp_path, scene, 1, *FLAGS)
+                page.wait_for_selector("#diff[data-frame='1']", timeout=60_000)
+                assert page.inner_text("#verdict") == "wrong"
+                assert "PSNR" in page.inner_text("#metrics")
 
-                    # a saved edit re-renders without a reload
-                    write_scene(scene, "0.1 0.9 0.9")
-                    check_image(page, tmp_path, scene, 2, *FLAGS)
-                    # a scene error: its positioned line; the last good image stays
-                    scene.write_text(scene.read_text().replace("radius 0.4", "radius oops"))
-                    page.wait_for_selector("#error:not([hidden])", timeout=60_000)
-                    line = page.inner_text("#error")
-                    assert line.startswith(f"{scene}:") and ": error: " in line and "\n" not in line.strip(), line
-                    assert page.get_attribute("#render", "data-frame") == "2"
-                    if shots:
-                        page.screenshot(path=str(Path(shots) / "view-error.png"))
-                    write_scene(scene, "0.1 0.9 0.9")
-                    page.wait_for_selector("#error", state="hidden", timeout=60_000)
-                    check_image(page, tmp_path, scene, 3, *FLAGS)
+                # a saved edit re-renders without a reload
+                write_scene(scene, "0.1 0.9 0.9")
+                check_image(page, tmp_path, scene, 2, *FLAGS)
+                # a scene error: its positioned line; the last good image stays
+                scene.write_text(scene.read_text().replace("radius 0.4", "radius oops"))
+                page.wait_for_selector("#error:not([hidden])", timeout=60_000)
+                line = page.inner_text("#error")
+                assert line.startswith(f"{scene}:") and ": error: " in line and "\n" not in line.strip(), line
+                assert page.get_attribute("#render", "data-frame") == "2"
+                if shots:
+                    page.screenshot(path=str(Path(shots) / "view-error.png"))
+                write_scene(scene, "0.1 0.9 0.9")
+                page.wait_for_selector("#error", state="hidden", timeout=60_000)
+                check_image(page, tmp_path, scene, 3, *FLAGS)
 
-                    # a control re-renders with that flag
-                    page.locator("#controls input[name=bounces]").fill("1")
-                    page.locator("#controls input[name=bounces]").dispatch_event("change")
-                    check_image(page, tmp_path, scene, 4, *FLAGS, "-bounces", "1")
+                # a control re-renders with that flag
+                page.locator("#controls input[name=bounces]").fill("1")
+                page.locator("#controls input[name=bounces]").dispatch_event("change")
+                check_image(page, tmp_path, scene, 4, *FLAGS, "-bounces", "1")
 
-                    # click a pixel: the tree's sum is the pixel; hovering a node marks its hit point
-                    pixels = page_pixels(page, "#render")
-                    box = page.locator("#render").bounding_box()
-                    x, y = 20, 30  # on the glass sphere
-                    scale = box["width"] / 48
-                    page.mouse.click(box["x"] + (x + 0.5) * scale, box["y"] + (y + 0.5) * scale)
-                    page.wait_for_selector("#trace-sum", timeout=120_000)
-                    want = ",".join(str(int(v)) for v in pixels[y, x])
-                    assert page.get_attribute("#trace-sum", "data-byte") == want
-                    assert page.get_attribute("#trace-sum", "data-pixel") == want
-                    assert page.get_attribute("#trace-check", "class") == "ok"
-                    assert page.locator(".node").count() >= 2
-                    page.locator(".node").first.hover()
-                    marked = page.evaluate("""() => { const c = document.getElementById('overlay');
-                        const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
-                        let n = 0; for (let i = 3; i < d.length; i += 4) n += d[i] > 0; return n; }""")
-                    assert marked > 20
-                    assert "trace --diff" in page.inner_text("#trace")
-                    if shots:
-                        page.screenshot(path=str(Path(shots) / "view.png"))
+                # click a pixel: the tree's sum is the pixel; hovering a node marks its hit point
+                pixels = page_pixels(page, "#render")
+                box = page.locator("#render").bounding_box()
+                x, y = 20, 30  # on the glass sphere
+                scale = box["width"] / 48
+                page.mouse.click(box["x"] + (x + 0.5) * scale, box["y"] + (y + 0.5) * scale)
+                page.wait_for_selector("#trace-sum", timeout=120_000)
+                want = ",".join(str(int(v)) for v in pixels[y, x])
+                assert page.get_attribute("#trace-sum", "data-byte") == want
+                assert page.get_attribute("#trace-sum", "data-pixel") == want
+                assert page.get_attribute("#trace-check", "class") == "ok"
+                assert page.locator(".node").count() >= 2
+                page.locator(".node").first.hover()
+                marked = page.evaluate("""() => { const c = document.getElementById('overlay');
+                    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+                    let n = 0; for (let i = 3; i < d.length; i += 4) n += d[i] > 0; return n; }""")
+                assert marked > 20
+                assert "trace --diff" in page.inner_text("#trace")
+                if shots:
+                    page.screenshot(path=str(Path(shots) / "view.png"))
 
-                    # -jitter -filter: a preview labelled as one, then a5's full image, the label gone
-                    page.evaluate("""() => { window.shown = []; const img = document.getElementById('render');
-                        img.addEventListener('load', () => window.shown.push([img.dataset.kind,
-                            !document.getElementById('preview-badge').hidden])); }""")
-                    page.locator("#controls input[name=jitter]").check()
-                    page.locator("#controls input[name=filter]").check()
-                    page.wait_for_function("() => window.shown.length && window.shown.at(-1)[0] === 'final'"
-                                           " && document.getElementById('status').textContent.startsWith('rendered')"
-                                           " && !document.getElementById('status').textContent.endsWith('...')",
-                                           timeout=120_000)
-                    shown = page.evaluate("window.shown")
-                    assert ["preview", True] in shown and shown[-1] == ["final", False], shown
-                    frame = int(page.get_attribute("#render", "data-frame"))
-                    check_image(page, tmp_path, scene, frame, *FLAGS, "-bounces", "1", "-jitter", "-filter")
-                    page.close()  # a closed tab: the server goes on
-                    assert status_of(url) == 200
-                finally:
-                    browser.close()
+                # -jitter -filter: a preview labelled as one, then a5's full image, the label gone
+                page.evaluate("""() => { window.shown = []; const img = document.getElementById('render');
+                    img.addEventListener('load', () => window.shown.push([img.dataset.kind,
+                        !document.getElementById('preview-badge').hidden])); }""")
+                page.locator("#controls input[name=jitter]").check()
+                page.locator("#controls input[name=filter]").check()
+                page.wait_for_function("() => window.shown.length && window.shown.at(-1)[0] === 'final'"
+                                       " && document.getElementById('status').textContent.startsWith('rendered')"
+                                       " && !document.getElementById('status').textContent.endsWith('...')",
+                                       timeout=120_000)
+                shown = page.evaluate("window.shown")
+                assert ["preview", True] in shown and shown[-1] == ["final", False], shown
+                frame = int(page.get_attribute("#render", "data-frame"))
+                check_image(page, tmp_path, scene, frame, *FLAGS, "-bounces", "1", "-jitter", "-filter")
+                page.close()  # a closed tab: the server goes on
+                assert status_of(url) == 200
         finally:
             code, err = stop_view(proc)
         assert errors == []

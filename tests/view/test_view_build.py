@@ -205,3 +205,22 @@ def test_a_fast_full_image_or_no_preview_skips_the_preview(tmp_path: Path, sessi
             assert final["png"] == a5_png(scene, tmp_path / "jf.png", *FLAGS, "-jitter", "-filter")
 
         run_loop(ViewEngine(str(scene), session), jf, drive, **loop)
+
+
+def test_a_mistake_leaves_no_trace_in_the_next_options_integrator(tmp_path: Path, session) -> None:  # noqa: ANN001
+    """A render with ``-mistake no_shadows`` and then one without, in the same session (the page's diagnosis renders
+    the correct image after a ``-mistake`` frame): each is ``a5``'s image for its own flags (a template that kept
+    the first options' ``mistakes`` parameter made the second render without shadows too)."""
+    from a5mi.view.engine import ViewEngine
+
+    with time_limit(240):
+        scene = tmp_path / "s.txt"
+        scene.write_text(scene_text())
+        engine = ViewEngine(str(scene), session)
+        try:
+            wrong = engine.render(dataclasses.replace(OPTS, mistakes=("no_shadows",)))
+            right = engine.render(OPTS)
+        finally:
+            engine.close()
+        assert wrong.render_png == a5_png(scene, tmp_path / "m.png", *FLAGS, "-mistake", "no_shadows")
+        assert right.render_png == a5_png(scene, tmp_path / "a5.png", *FLAGS) != wrong.render_png

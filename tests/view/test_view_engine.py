@@ -321,3 +321,22 @@ def test_an_integrator_without_a_ray_tree_says_so(tmp_path: Path, session) -> No
         assert frame.size == (12, 12)
         with pytest.raises(TraceError, match="-integrator path records no ray tree"):
             engine.trace(5, 5)
+
+
+def test_an_exr_reference_beyond_one_shows_clamped_not_wrapped(tmp_path: Path, session) -> None:  # noqa: ANN001
+    """An ``.exr`` reference's values beyond 1 (levels beyond 255) show as 255 on the page, below 0 as 0 (a cast to
+    uint8 alone wraps 300 to 44)."""
+    from a5mi.platform.imageio import read_uint8, write_image
+    from a5mi.view.engine import ViewEngine
+
+    with time_limit(120):
+        scene = write_scene(tmp_path / "s.txt")
+        ref = np.zeros((40, 40, 3), np.float32)
+        ref[:, :20] = (2.0, 1.5, -0.5)
+        ref[:, 20:] = (0.25, 0.5, 0.75)
+        write_image(tmp_path / "ref.exr", ref)
+        engine = ViewEngine(str(scene), session, reference=str(tmp_path / "ref.exr"))
+        frame = engine.render(OPTS)
+        (tmp_path / "shown.png").write_bytes(frame.reference_png)
+        shown = read_uint8(tmp_path / "shown.png")[..., :3]
+        assert (shown[:, :20] == (255, 255, 0)).all() and (shown[:, 20:] == (63, 127, 191)).all()

@@ -207,3 +207,34 @@ def test_preview_rule_and_no_preview_flag(tmp_path: Path, monkeypatch, capsys) -
             assert cli.run_a5mi(["view", str(scene), "-jitter", *argv]) == 0
     assert [kw["preview"] for kw in seen] == [True, False]
     assert capsys.readouterr().out.count("a5mi view: http://127.0.0.1:") == 2
+
+
+def test_values_and_diagnose_routes_need_the_token_and_queue_one_diagnosis(served) -> None:  # noqa: ANN001
+    server, hub, jobs = served
+    with time_limit(60):
+        for path in ("/api/values/render.bin", "/static/look.js"):
+            assert get(server, path, token=None)[0] == 403 and get(server, path, token="wrong")[0] == 403
+        assert get(server, "/api/diagnose", token="wrong", data=b'{"image": "render"}')[0] == 403
+        assert get(server, "/api/diagnose", token=None, data=b'{"image": "render"}')[0] == 403
+        assert jobs.next(0.01) is None  # nothing was queued by a refused request
+        status, body, ctype = get(server, "/static/look.js")
+        assert status == 200 and ctype.startswith("text/javascript") and b"function setupLook" in body
+        assert get(server, "/api/values/render.bin")[0] == 404  # nothing rendered yet
+        assert get(server, "/api/values/diff.bin")[0] == 404
+        made: list[int] = []
+        hub.update({"values-render": lambda: made.append(1) or b"\x00\x01"})  # made when first asked for, once
+        assert made == []
+        assert get(server, "/api/values/render.bin")[:2] == (200, b"\x00\x01")
+        assert get(server, "/api/values/render.bin")[:2] == (200, b"\x00\x01") and made == [1]
+        hub.update({"values-reference": lambda: 1 / 0})  # an error while making it: one JSON line, 500
+        status, body, _ = get(server, "/api/values/reference.bin")
+        assert status == 500 and json.loads(body)["error"].startswith("a5mi view: error: "), body
+        for bad in (b'{"image": "diff"}', b"[1]", b"not json"):
+            status, body, _ = get(server, "/api/diagnose", data=bad)
+            assert status == 400 and json.loads(body)["error"].startswith("a5mi view: error: "), body
+        assert get(server, "/api/diagnose", data=b'{"image": "render"}')[0] == 202
+        assert get(server, "/api/diagnose", data=b'{"image": "reference"}')[0] == 202  # replaces the first
+        assert hub.state()["diagnosis"] == {"status": "queued", "image": "reference"}
+        assert jobs.next(0.1) == ("diagnose", "reference")
+        assert jobs.next(0.01) is None
+

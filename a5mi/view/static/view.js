@@ -7,6 +7,7 @@ let state = {};
 let shownFrame = 0;
 let shownCompared = null;
 let lastTrace = null;
+const values = { render: null, reference: null };  // pixel values (look.js)
 
 function el(tag, attrs, ...kids) {
   const e = document.createElement(tag);
@@ -69,29 +70,33 @@ function show(s) {
   if (s.frame && s.frame !== shownFrame) {  // a new image: a preview, or the full render (compared or not yet)
     shownFrame = s.frame;
     const img = $("render");
-    img.style.width = s.size[0] * scale + "px";
+    sizeView("render", s.size, scale);
     img.dataset.pending = s.frame;
     img.dataset.pendingKind = s.preview ? "preview" : "final";
     img.dataset.pendingChanges = s.changes || 0;
     img.src = api("/api/image/render.png", "&v=" + s.frame);
+    loadValues("render", s.frame, s.size);
     $("render-info").textContent = s.size[0] + "x" + s.size[1];
   }
   if ((s.compared ?? null) !== shownCompared) {  // a new comparison: the frame it belongs to
     shownCompared = s.compared ?? null;
     for (const name of ["reference", "diff"]) {
       const img = $(name);
-      img.style.width = s.size[0] * scale + "px";
+      sizeView(name, s.size, scale);
       if ((name === "reference" && s.has_reference) || (name === "diff" && s.has_diff)) {
         img.dataset.pending = s.compared;
         img.src = api("/api/image/" + name + ".png", "&v=" + s.compared);
       }
     }
+    if (s.has_reference) loadValues("reference", s.compared, null); else values.reference = null;
     $("reference-panel").hidden = !s.has_reference;
     $("diff-panel").hidden = !s.has_diff;
     showMetrics(s);
   }
   // the comparison shown is the last full render's while a preview, or a render not compared yet, is shown
   for (const id of ["diff-panel", "compare"]) $(id).classList.toggle("stale", !!(s.preview || s.comparing));
+  $("exposure-note").textContent = s.reference_float ? "(the reference is an .exr: linear floats)" : "";
+  showDiagnosis(s.diagnosis, s.frame);
 }
 function showMetrics(s) {
   const m = s.metrics;
@@ -128,12 +133,13 @@ for (const name of ["render", "reference", "diff"]) {
       // a preview is labelled as one while it is the image shown; the compare panels are the last full render's
       const preview = img.dataset.kind === "preview";
       $("preview-badge").hidden = !preview;
-      sizeOverlay(); drawMarks(null);
     }
+    applyView(); drawShown(); drawMarks(null);
   });
 }
 
 // ---------------------------------------------------------------- events
+setupLook();
 const events = new EventSource(api("/api/events"));
 events.addEventListener("state", (e) => show(JSON.parse(e.data)));
 events.addEventListener("progress", (e) => {
@@ -151,30 +157,7 @@ events.addEventListener("progress", (e) => {
 events.addEventListener("error", () => { if (events.readyState !== EventSource.OPEN) $("status").textContent = "reconnecting"; });
 
 // ---------------------------------------------------------------- trace
-function sizeOverlay() {
-  const img = $("render"), c = $("overlay");
-  c.width = img.clientWidth; c.height = img.clientHeight;
-}
-function drawMarks(hot) {
-  const img = $("render"), c = $("overlay"), g = c.getContext("2d");
-  g.clearRect(0, 0, c.width, c.height);
-  if (!lastTrace || !img.naturalWidth) return;
-  const s = c.width / img.naturalWidth;
-  const [cx, cy] = lastTrace.clicked;
-  g.strokeStyle = "#fff"; g.lineWidth = 1;
-  g.strokeRect(cx * s, cy * s, Math.max(s, 1), Math.max(s, 1));
-  if (hot === null) return;
-  const m = lastTrace.marks[hot];
-  if (!m) return;
-  g.strokeStyle = "#fd6"; g.lineWidth = 2;
-  g.beginPath(); g.arc((m[0] + 0.5) * s, (m[1] + 0.5) * s, 7, 0, 2 * Math.PI); g.stroke();
-  g.beginPath(); g.moveTo((m[0] + 0.5) * s - 11, (m[1] + 0.5) * s); g.lineTo((m[0] + 0.5) * s + 11, (m[1] + 0.5) * s);
-  g.moveTo((m[0] + 0.5) * s, (m[1] + 0.5) * s - 11); g.lineTo((m[0] + 0.5) * s, (m[1] + 0.5) * s + 11); g.stroke();
-}
-$("render").addEventListener("click", async (e) => {
-  const img = e.currentTarget;
-  const x = Math.floor((e.offsetX * img.naturalWidth) / img.clientWidth);
-  const y = Math.floor((e.offsetY * img.naturalHeight) / img.clientHeight);
+async function tracePixel(x, y) {
   $("trace").replaceChildren(el("p", { text: "tracing pixel (" + x + ", " + y + ")..." }));
   const r = await fetch(api("/api/trace", "&x=" + x + "&y=" + y));
   const doc = await r.json();
@@ -182,7 +165,7 @@ $("render").addEventListener("click", async (e) => {
   lastTrace = doc;
   showTrace(doc);
   drawMarks(null);
-});
+}
 function nodeView(n, i) {
   const head = "#" + n.index + " " + n.kind + " ray, weight " + v3(n.weight, 4);
   const lines = [];
@@ -235,4 +218,3 @@ function showTrace(doc) {
   out.push(el("details", {}, el("summary", { text: "a5mi trace text" }), el("pre", { text: doc.text })));
   $("trace").replaceChildren(...out);
 }
-window.addEventListener("resize", () => { sizeOverlay(); drawMarks(null); });
