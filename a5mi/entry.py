@@ -132,6 +132,8 @@ def _fast_exit(status: int) -> None:
 def _served() -> int | None:
     """The exit status of this ``a5`` command run by a warm ``a5mi serve`` (:mod:`a5mi.serve.client`; standard
     library only, so a served command never loads the command layer or Mitsuba here), or None to run it here."""
+    if os.environ.get("A5MI_NO_SERVE"):
+        return None
     try:
         from a5mi.serve import client
 

@@ -1,12 +1,11 @@
 """The socket of ``a5mi serve`` and its messages (docs/SERVE.md "Protocol and security").
 
-**Where**: ``$A5MI_SERVE_SOCKET`` when set; else ``DIR/a5mi/serve-TAG.sock`` with ``DIR`` =
-``$XDG_RUNTIME_DIR`` when it is a folder owned by this user and closed to others, else :func:`a5mi.cache_dir`;
-``TAG`` = the first 12 hex digits of the SHA-256 of this
-installation's package folder and interpreter, so two checkouts (two virtual environments) never share one
-server. The folder is created ``0700``, the socket ``0600``; a client uses a socket only when it is a socket
-owned by its own uid with no group or other permission bits, and then checks the server's uid with
-``SO_PEERCRED``; the server refuses any peer whose uid differs from its own.
+**Where**: ``$A5MI_SERVE_SOCKET`` when set; else ``$XDG_RUNTIME_DIR/a5mi/serve-TAG.sock`` when that folder
+is owned by this user and closed to others, else ``serve-TAG.sock`` in :func:`a5mi.cache_dir`; ``TAG`` = the CRC-32 (8 hex digits) of this installation's package folder and interpreter, so two checkouts
+(two virtual environments) never share one server. The folder is created ``0700``, the socket ``0600``; a
+client uses a socket only when it is a socket owned by its own uid with no group or other permission bits,
+and then checks the server's uid with ``SO_PEERCRED``; the server refuses any peer whose uid differs from
+its own.
 
 **Messages** on the stream: a frame is one tag byte, a 4-byte big-endian length and that many bytes of UTF-8
 JSON. The client sends ``REQUEST`` (its argv, working folder, environment, umask and the descriptors 0, 1 and
@@ -19,13 +18,13 @@ Standard library only (the client's import must stay cheap).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import socket
 import stat
 import struct
 import sys
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -44,9 +43,11 @@ class ProtocolError(OSError):
 
 
 def installation_tag() -> str:
-    """12 hex digits naming this installation: its package folder and interpreter (module docstring)."""
+    """8 hex digits naming this installation: its package folder and interpreter (module docstring; CRC-32, not a
+    digest: it tells installations apart, it guards nothing, and ``hashlib`` would load OpenSSL in every ``a5``)."""
     here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    return hashlib.sha256(f"{here}\0{sys.executable}".encode()).hexdigest()[:12]
+    crc = zlib.crc32(b"\0".join((os.fsencode(here), os.fsencode(sys.executable))))
+    return f"{crc:08x}"
 
 
 def _private_dir(path: str) -> bool:

@@ -96,6 +96,19 @@ def test_served_images_are_byte_identical_to_in_process_ones(server: Server, sce
     assert (scene / "served2.png").read_bytes() == image
 
 
+def test_a_served_a5_loads_neither_mitsuba_nor_the_command_layer(server: Server, scene: Path) -> None:
+    """The client is an interpreter and the standard library: ``-X importtime`` of a served ``a5 -h`` (its
+    lines go to the client's own stderr) names no Mitsuba, Dr.Jit, numpy or command-layer module."""
+    run = subprocess.run([sys.executable, "-X", "importtime", "-m", "a5mi", "-h"], cwd=scene, env=_env(server.sock),
+                         capture_output=True, timeout=600)
+    assert run.returncode == 0 and b"usage: a5" in run.stdout
+    lines = run.stderr.decode().splitlines()
+    imported = {ln.rsplit("|", 1)[1].strip() for ln in lines if ln.startswith("import time:")}
+    assert "a5mi.serve.client" in imported
+    assert not {m for m in imported if m.split(".")[0] in ("mitsuba", "drjit", "numpy", "OpenImageIO")}
+    assert not {m for m in imported if m.startswith(("a5mi.cli", "a5mi.commands", "a5mi.render"))}
+
+
 def test_the_socket_is_this_users_and_closed_to_others(server: Server) -> None:
     st = os.lstat(server.sock)
     assert stat.S_ISSOCK(st.st_mode) and st.st_uid == os.getuid()
