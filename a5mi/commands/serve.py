@@ -48,7 +48,6 @@ def handle(request: dict[str, Any]) -> int:
     """Run one client's ``a5`` command on descriptors 0, 1, 2 (already the client's) as an ``a5`` process
     would (module docstring); returns its exit status."""
     from a5mi.cli.app import execute, flush_standard_streams, standard_streams
-    from a5mi.commands.render import A5
     from a5mi.platform import interrupts
 
     saved_streams = sys.stdin, sys.stdout, sys.stderr
@@ -66,7 +65,7 @@ def handle(request: dict[str, Any]) -> int:
         except OSError as exc:
             Console("a5").error(f"cannot enter the working folder '{request['cwd']}': {exc.strerror or exc}")
             return ExitStatus.USAGE
-        return execute(A5, [str(a) for a in request["argv"]], Console("a5"))
+        return execute(_COMMAND[0], [str(a) for a in request["argv"]], Console("a5"))
     finally:
         flush_standard_streams()
         for stream in streams:
@@ -81,13 +80,23 @@ def handle(request: dict[str, Any]) -> int:
         os.umask(saved_umask)
 
 
+#: The ``a5`` command the server runs: :data:`a5mi.commands.render.A5` with the server's
+#: :class:`a5mi.converters.files.KeptFiles` (set by :func:`_warm`).
+_COMMAND: list[Command] = []
+
+
 def _warm(console: Console) -> str:
     """Load what every render needs before the first request: the variant and the a5mi plugins, the render
-    path's modules. Returns the variant's name."""
-    from a5mi.cli.app import activate_variant
-    from a5mi.commands import render  # noqa: F401 - the command's modules, imported once here
-    from a5mi.render import session  # noqa: F401
+    path's modules; make :data:`_COMMAND`. Returns the variant's name."""
+    import dataclasses
+    import functools
 
+    from a5mi.cli.app import activate_variant
+    from a5mi.commands import render
+    from a5mi.converters.files import KeptFiles
+    from a5mi.render import session  # noqa: F401 - imported once here
+
+    _COMMAND[:] = [dataclasses.replace(render.A5, run=functools.partial(render.run_render, kept=KeptFiles()))]
     return activate_variant(None)
 
 

@@ -1,11 +1,11 @@
 """The socket of ``a5mi serve`` and its messages (docs/SERVE.md "Protocol and security").
 
 **Where**: ``$A5MI_SERVE_SOCKET`` when set; else ``$XDG_RUNTIME_DIR/a5mi/serve-TAG.sock`` when that folder
-is owned by this user and closed to others, else ``serve-TAG.sock`` in :func:`a5mi.cache_dir`; ``TAG`` = the CRC-32 (8 hex digits) of this installation's package folder and interpreter, so two checkouts
-(two virtual environments) never share one server. The folder is created ``0700``, the socket ``0600``; a
-client uses a socket only when it is a socket owned by its own uid with no group or other permission bits,
-and then checks the server's uid with ``SO_PEERCRED``; the server refuses any peer whose uid differs from
-its own.
+is owned by this user and closed to others, else ``serve-TAG.sock`` in :func:`a5mi.cache_dir`; ``TAG`` = the
+CRC-32 (8 hex digits) of this installation's package folder and interpreter, so two checkouts (two virtual
+environments) never share one server. The folder is created ``0700``, the socket ``0600``; a client uses a
+socket only when it is a socket owned by its own uid with no group or other permission bits, and then checks
+the server's uid with ``SO_PEERCRED``; the server refuses any peer whose uid differs from its own.
 
 **Messages** on the stream: a frame is one tag byte, a 4-byte big-endian length and that many bytes of UTF-8
 JSON. The client sends ``REQUEST`` (its argv, working folder, environment, umask and the descriptors 0, 1 and

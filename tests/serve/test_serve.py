@@ -109,6 +109,36 @@ def test_a_served_a5_loads_neither_mitsuba_nor_the_command_layer(server: Server,
     assert not {m for m in imported if m.startswith(("a5mi.cli", "a5mi.commands", "a5mi.render"))}
 
 
+MESH_SCENE = """PerspectiveCamera { center 0 1 6 direction 0 -0.15 -1 up 0 1 0 angle 30 }
+Lights { numLights 1 PointLight { position 2 4 4 color 1 1 1 } }
+Background { color 0.2 0.2 0.3 ambientLight 0.2 0.2 0.2 }
+Materials { numMaterials 2
+ Material { diffuseColor 1 1 1 texture t.bmp }
+ Material { diffuseColor 0.7 0.6 0.2 specularColor 0.3 0.3 0.3 } }
+Group { numObjects 2 MaterialIndex 0 Plane { normal 0 1 0 offset -1 }
+ MaterialIndex 1 TriangleMesh { obj_file m.obj } }
+"""
+
+
+def test_edited_meshes_and_textures_are_read_again(server: Server, tmp_path: Path) -> None:
+    """The server keeps decoded images and meshes while their files stay the same (KeptFiles): after the mesh
+    and the texture are replaced, the served image is still the in-process one, and it changed."""
+    root = Path(__file__).resolve().parents[2] / "scenes"
+    (tmp_path / "s.txt").write_text(MESH_SCENE)
+    argv = ["-input", "s.txt", "-size", "40", "40", "-shadows", "-bounces", "2"]
+    images = []
+    for mesh, texture in (("box", "checker"), ("box", "checker"), ("icosphere", "ripples")):
+        shutil.copy(root / "meshes" / f"{mesh}.obj", tmp_path / "m.obj")
+        shutil.copy(root / "tex" / f"{texture}.bmp", tmp_path / "t.bmp")
+        served = _a5(tmp_path, _env(server.sock), *argv, "-output", "served.png")
+        local = _a5(tmp_path, {**os.environ, "A5MI_NO_SERVE": "1"}, *argv, "-output", "local.png")
+        assert served.returncode == local.returncode == 0, (served.stderr, local.stderr)
+        assert (served.stdout, served.stderr) == (local.stdout, local.stderr)
+        images.append((tmp_path / "served.png").read_bytes())
+        assert images[-1] == (tmp_path / "local.png").read_bytes()
+    assert images[0] == images[1] != images[2]
+
+
 def test_the_socket_is_this_users_and_closed_to_others(server: Server) -> None:
     st = os.lstat(server.sock)
     assert stat.S_ISSOCK(st.st_mode) and st.st_uid == os.getuid()
