@@ -37,7 +37,7 @@ def _request(prog: str, argv: Sequence[str], closed: Sequence[int]) -> dict[str,
     umask = os.umask(0o022)
     os.umask(umask)
     return {"prog": prog, "argv": list(argv), "cwd": os.getcwd(), "env": dict(os.environ), "umask": umask,
-            "closed": list(closed), "uid": os.getuid()}
+            "closed": list(closed)}
 
 
 class _Reader:
