@@ -25,6 +25,7 @@ import stat
 import struct
 import sys
 import zlib
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -50,12 +51,14 @@ def installation_tag() -> str:
     return f"{crc:08x}"
 
 
-def _private_dir(path: str) -> bool:
+def _owned_private(path: str | Path, is_kind: Callable[[int], bool], stat_of: Callable[..., os.stat_result]) -> bool:
+    """True when ``path`` (``stat_of``: ``os.stat`` or ``os.lstat``) is of the kind ``is_kind``, owned by this
+    user, with no group or other permission bits."""
     try:
-        st = os.stat(path)
+        st = stat_of(path)
     except OSError:
         return False
-    return stat.S_ISDIR(st.st_mode) and st.st_uid == os.getuid() and not st.st_mode & 0o077
+    return is_kind(st.st_mode) and st.st_uid == os.getuid() and not st.st_mode & 0o077
 
 
 def socket_path() -> Path:
@@ -64,7 +67,7 @@ def socket_path() -> Path:
     if env:
         return Path(env)
     runtime = os.environ.get("XDG_RUNTIME_DIR")
-    if runtime and _private_dir(runtime):
+    if runtime and _owned_private(runtime, stat.S_ISDIR, os.stat):
         base = Path(runtime) / "a5mi"
     else:
         from a5mi import cache_dir
@@ -75,11 +78,7 @@ def socket_path() -> Path:
 
 def usable_socket(path: Path) -> bool:
     """True when ``path`` is a socket owned by this user with mode ``0600`` or stricter (module docstring)."""
-    try:
-        st = os.lstat(path)
-    except OSError:
-        return False
-    return stat.S_ISSOCK(st.st_mode) and st.st_uid == os.getuid() and not st.st_mode & 0o077
+    return _owned_private(path, stat.S_ISSOCK, os.lstat)
 
 
 def peer_uid(sock: socket.socket) -> int:
