@@ -10,7 +10,8 @@ to exit; CPU = the child's user + sys (``os.wait4``), plus, for a served run, th
 (``/proc/PID/stat``): the work done for it wherever it ran. One single-threaded busy loop runs beside the whole
 benchmark unless ``--no-loop``. The 1-minute load average is read before each run. Medians per scene; the
 ratio is a5soln's median over a5's. Every image is checked byte-identical between the served and the
-in-process run of each pair. Prints a Markdown table and one line per run.
+in-process run of each pair, and every served run checked served (the server's log). Prints a Markdown table
+and one line per run. Edit no a5mi module while it runs: the server stops on a changed code tree (docs/SERVE.md).
 """
 
 from __future__ import annotations
@@ -54,6 +55,10 @@ def _run(cmd: list[str], cwd: Path, env: dict[str, str], server: int | None) -> 
     return wall, cpu, load
 
 
+def _served(work: Path) -> int:
+    return sum(1 for ln in (work / "server.log").read_text().splitlines() if " served a5 " in ln)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("a5soln")
@@ -94,7 +99,10 @@ def main() -> int:
                 for tag, cmd, env, pid in (("a5soln", [opts.a5soln, *out("soln")], base, None),
                                            ("a5", [*a5, *out("local")], local_env, None),
                                            ("a5 served", [*a5, *out("served")], served_env, server.pid)):
+                    before = _served(work)
                     runs[tag].append(_run(cmd, scenes_dir, env, pid))
+                    if pid is not None and _served(work) != before + 1:
+                        raise SystemExit(f"{name}: the served run was not served: {(work / 'server.log').read_text()}")
                     w, c, ld = runs[tag][-1]
                     print(f"{name} pair {i + 1} {tag}: wall {w:.3f} s, CPU {c:.3f} s, load {ld:.2f}", flush=True)
                 if (work / f"{name}.served.png").read_bytes() != (work / f"{name}.local.png").read_bytes():
@@ -107,8 +115,7 @@ def main() -> int:
         server.send_signal(signal.SIGTERM)
         server.wait()
         log.close()
-    served = sum(1 for ln in (work / "server.log").read_text().splitlines() if " served a5 " in ln)
-    print(f"\nserver: {served} requests served; busy loop beside: {'no' if opts.no_loop else 'one'}\n")
+    print(f"\nserver: {_served(work)} requests served; busy loop beside: {'no' if opts.no_loop else 'one'}\n")
     print("| scene | pairs | load (1 min) | a5soln wall s | a5soln CPU s | a5 wall s | a5 CPU s | served wall s "
           "| served CPU s | a5soln / a5, wall | a5soln / served, wall | a5soln / served, CPU |")
     print("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
