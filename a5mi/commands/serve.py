@@ -132,4 +132,4 @@ def run_serve(args: Args, console: Console) -> int:
 SERVE = Command("serve", "Keep a warm a5mi process that renders this user's a5 commands (docs/SERVE.md); a5 "
                 "falls back to rendering in-process when none runs", FLAGS, run_serve,
                 epilog="Stop it with Ctrl-C or SIGTERM (the render in progress ends first); the socket is "
-                "removed at exit.", exit_ok="stopped by --idle-timeout or a stale code tree")
+                "removed at exit.", exit_ok="it stopped after --idle-timeout, or because its code changed on disk")
