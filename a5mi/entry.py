@@ -86,6 +86,20 @@ if _EARLY:
     interrupts.hold(_EARLY[0])  # raised by the first interrupts.check()
 
 
+def _interrupted(prog: str, exc: interrupts.Interrupted) -> int:
+    """The one line of a signal that came before the command layer's guard; returns ``128 + N``."""
+    line = f"{prog}: error: interrupted ({exc.name})\n".encode()
+
+    def emit() -> None:
+        try:
+            os.write(2, line)
+        except OSError:
+            pass
+
+    interrupts.report_once(emit)
+    return exc.status
+
+
 def _run(prog: str) -> int:
     _PROG["name"] = prog
     try:
@@ -103,16 +117,7 @@ def _run(prog: str) -> int:
             cli.Console(prog).error(str(exc))
             status = ExitStatus.USAGE
     except interrupts.Interrupted as exc:  # before the guard runs
-        line = f"{prog}: error: interrupted ({exc.name})\n".encode()
-
-        def emit() -> None:
-            try:
-                os.write(2, line)
-            except OSError:
-                pass
-
-        interrupts.report_once(emit)
-        status = exc.status
+        status = _interrupted(prog, exc)
     interrupts.ignore()  # the outcome is decided: shutdown is not interrupted
     from a5mi.cli.app import flush_standard_streams  # loaded already unless a signal came first
 
@@ -134,9 +139,23 @@ def _fast_exit(status: int) -> None:
     os._exit(status)
 
 
+def _served() -> int | None:
+    """The exit status of this ``a5`` command run by a warm ``a5mi serve`` (:mod:`a5mi.serve.client`; standard
+    library only, so a served command never loads the command layer or Mitsuba here), or None to run it here."""
+    if os.environ.get("A5MI_NO_SERVE"):
+        return None
+    try:
+        from a5mi.serve import client
+
+        return client.run("a5", sys.argv[1:], _CLOSED)
+    except interrupts.Interrupted as exc:
+        return _interrupted("a5", exc)
+
+
 def a5() -> None:
-    """Console script ``a5`` (SPEC B.1)."""
-    _fast_exit(_run("a5"))
+    """Console script ``a5`` (SPEC B.1): handed to ``a5mi serve`` when one runs (docs/SERVE.md), else run here."""
+    status = _served()
+    _fast_exit(_run("a5") if status is None else status)
 
 
 def a5mi() -> None:

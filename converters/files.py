@@ -125,6 +125,45 @@ class KeptMesh:
 Meshes = dict[Path, KeptMesh]
 
 
+class KeptFiles:
+    """The decoded images (:data:`Decoded`) and OBJ meshes (:data:`Meshes`) a caller that describes scene after
+    scene (``a5mi view`` on each save, ``a5mi serve`` on each request) keeps between descriptions: pass
+    :attr:`decoded` and :attr:`meshes` to :func:`.describe.describe` between :meth:`begin` and :meth:`end`. An
+    image is kept while its file's :func:`file_identity` is the one it had just after it was decoded, and only
+    when it was not modified after the description started (it may have been decoded half-written); a mesh by
+    :func:`load_mesh`'s rule, and only while the last description names it."""
+
+    def __init__(self) -> None:
+        self.decoded: Decoded = {}
+        self.meshes: Meshes = {}
+        self._identities: dict[Path, Identity | None] = {}
+
+    def begin(self) -> int:
+        """Drop the images whose file changed (or vanished) since they were decoded; returns the start time
+        (ns) for :meth:`end`."""
+        for path, was in list(self._identities.items()):
+            if file_identity(path) != was:
+                self.decoded.pop(path, None)
+                del self._identities[path]
+        return time.time_ns()
+
+    def end(self, started: int) -> None:
+        """After a description begun at ``started`` (:meth:`begin`; also after a failed one): remember the
+        identity of each newly decoded image, dropping one modified since ``started``."""
+        for path in list(self.decoded):
+            if path not in self._identities:
+                now = file_identity(path)
+                if now is None or now[0] >= started:
+                    self.decoded.pop(path)
+                else:
+                    self._identities[path] = now
+
+    def keep_meshes(self, used: set[Any]) -> None:
+        """Let go of the meshes a description no longer names (``used``: its shapes' ``obj_file`` paths)."""
+        for path in [p for p in self.meshes if p not in used]:
+            del self.meshes[path]
+
+
 def file_identity(path: Path) -> Identity | None:
     """:data:`Identity` of ``path``, None when it cannot be stat'ed."""
     try:

@@ -240,8 +240,10 @@ _SESSION_CACHE: str | None = None
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """Keep the glibc rand() prefix cache (a5mi.render.glibc_rand) of this test session out of the user's home."""
+    """Keep the glibc rand() prefix cache (a5mi.render.glibc_rand) of this test session out of the user's home, and
+    a running ``a5mi serve`` out of the suite's ``a5`` processes (their CPU and memory bounds are their own)."""
     global _SESSION_CACHE
+    os.environ.setdefault("A5MI_NO_SERVE", "1")  # the suite's a5 processes run in-process (docs/SERVE.md)
     if "A5MI_CACHE_DIR" not in os.environ:
         _SESSION_CACHE = tempfile.mkdtemp(prefix="a5mi-test-cache-")
         os.environ["A5MI_CACHE_DIR"] = _SESSION_CACHE

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 #: Commands whose real runs take minutes (every reference, the benchmarks, a class): flag checks only.
-PARSE_ONLY = ("bench", "fidelity", "grade")
+PARSE_ONLY = ("bench", "fidelity", "grade", "serve")  # long or endless: their flag checks only
 JUNK_VALUES = ("-1", "0", "nan", "1e39", "x", "", "１", "3:1", "/dev/zero", "/nonexistent/x.png", "a" * 300)
 
 

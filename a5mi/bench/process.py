@@ -60,7 +60,9 @@ def run_process(
 ) -> ProcessRun:
     """Run ``cmd``: wall time from spawn to reaping, peak memory = that child's own ``ru_maxrss`` (KiB on
     Linux) from ``os.wait4``, both taken by a small launcher interpreter (see :data:`_LAUNCHER`). The child is
-    killed after ``timeout`` seconds (returncode then negative); its stderr is returned."""
+    killed after ``timeout`` seconds (returncode then negative); its stderr is returned. ``A5MI_NO_SERVE`` is
+    set: a whole process is measured, never one handed to ``a5mi serve`` (docs/SERVE.md)."""
+    env = {**(os.environ if env is None else env), "A5MI_NO_SERVE": "1"}
     with tempfile.TemporaryFile() as err:
         proc = subprocess.run([sys.executable, "-c", _LAUNCHER, json.dumps(list(cmd)), str(timeout)], cwd=cwd,
                               env=env, stdout=subprocess.PIPE, stderr=err, check=False)

@@ -34,6 +34,7 @@ SUBCOMMANDS: dict[str, str] = {
     "photons": "photon maps drawn over the image, counts per surface; --ppm: progressive passes on Dask",
     "view": "live page on 127.0.0.1: render, reference, heatmap, controls, reload on save, ray tree of a pixel",
     "simulate": "simulate rising smoke (stable fluids) into .vol grid frames",
+    "serve": "a warm process that renders this user's a5 commands (a5 falls back to in-process without it)",
     "diagnose": "name the mistake (docs/MISTAKES.md) that explains how an image differs from the reference",
 }
 

@@ -347,13 +347,14 @@ def exception_summary(exc: BaseException) -> str:
 
 # ------------------------------------------------------------------------------------------ the scene prologue
 def load_scene(path: str, console: Console, *, stock: bool = False, inputs: list[Any] | None = None,
-               bump: bool = False) -> Any:
+               bump: bool = False, kept: Any = None) -> Any:
     """Parse ``path`` (SPEC A), print the parser's warnings, build the scene description once (every mesh,
     texture and cube-map face read and checked) and print its warnings; raises positioned scene errors.
     Mitsuba is not imported. Returns the description that the renderers and writers take. ``inputs``, when
     given, receives every file the scene reads or names (:func:`a5mi.platform.clobber.input_files`, plus textures
     the renderer does not look up), for the output checks. ``bump`` (``-bump``): also read the bump and
-    normal maps (docs/EXTENSIONS.md E.7)."""
+    normal maps (docs/EXTENSIONS.md E.7). ``kept``: a :class:`a5mi.converters.files.KeptFiles` whose images and
+    meshes are reused while their files stay the same (``a5mi serve``)."""
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
 
@@ -364,7 +365,15 @@ def load_scene(path: str, console: Console, *, stock: bool = False, inputs: list
     except OSError as exc:
         raise UserError(f"cannot read '{path}': {exc.strerror or exc}") from None
     console.warnings(model.warnings)
-    desc = describe(model, stock=stock, bump=bump)
+    if kept is None:
+        desc = describe(model, stock=stock, bump=bump)
+    else:
+        started = kept.begin()
+        try:
+            desc = describe(model, stock=stock, bump=bump, decoded=kept.decoded, meshes=kept.meshes)
+        finally:
+            kept.end(started)
+        kept.keep_meshes({getattr(s, "obj_file", None) for s in desc.shapes})
     console.warnings(desc.warnings)
     if inputs is not None:
         from a5mi.platform.clobber import input_files

@@ -254,9 +254,10 @@ def _split(args: Args) -> Any:
     return render
 
 
-def run_render(args: Args, console: Console) -> int:
+def run_render(args: Args, console: Console, kept: Any = None) -> int:
     """One scene (``a5``, ``a5mi render -input -output``), or the jobs of ``a5mi render`` with several scenes or
-    ``--jobs`` (:mod:`a5mi.cli.batch`: one process, one :class:`a5mi.render.session.RenderSession`)."""
+    ``--jobs`` (:mod:`a5mi.cli.batch`: one process, one :class:`a5mi.render.session.RenderSession`). ``kept``: the
+    images and meshes ``a5mi serve`` keeps from one command to the next (:class:`a5mi.converters.files.KeptFiles`)."""
     from a5mi.cli import batch
 
     if batch.is_batch(args):
@@ -267,7 +268,7 @@ def run_render(args: Args, console: Console) -> int:
     from a5mi.render import session
 
     return _render_and_write(args, console, lambda: activate_variant(args.variant), _split(args) or session.render,
-                             lambda: _load(args.input, console, bool(args.get("bump"))))
+                             lambda: _load(args.input, console, bool(args.get("bump")), kept))
 
 
 def render_job(args: Args, console: Console, session: Any, scenes: dict[Any, Any]) -> int:
@@ -296,9 +297,9 @@ PROGRESS_TILES = 16
 SCENES_KEPT = 4
 
 
-def _load(path: str, console: Console, bump: bool) -> tuple[Any, list[Any]]:
+def _load(path: str, console: Console, bump: bool, kept: Any = None) -> tuple[Any, list[Any]]:
     inputs: list[Any] = []
-    return load_scene(path, console, inputs=inputs, bump=bump), inputs
+    return load_scene(path, console, inputs=inputs, bump=bump, kept=kept), inputs
 
 
 def _render_and_write(args: Args, console: Console, activate: Any, render: Any, load: Any) -> int:

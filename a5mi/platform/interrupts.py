@@ -15,6 +15,8 @@ handler writes the signal number at once; Dr.Jit releases the GIL while kernels 
 finished :data:`GRACE` seconds after a signal, the watchdog reports it (the ``report`` callback of
 :func:`install`, once) and ends the process with ``os._exit(128 + signum)``. It never does so inside a
 :func:`protected` block (an atomic write or rename: the clean-up must run); it waits for the block to end.
+A process that runs one command after another (``a5mi serve``) calls :func:`reset` when a command has ended:
+the watchdog then lets the process live on.
 A temporary that a hard exit leaves (a cache file being written in another thread) has this process's pid in
 its name and is removed by the next run (:func:`a5mi.platform.paths.remove_stale`).
 
@@ -37,7 +39,10 @@ SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM, signal.SIG
 #: Seconds after a signal before the watchdog ends a process that has not stopped by itself.
 GRACE = 1.0
 
-_state: dict[str, int] = {"depth": 0, "pending": 0, "installed": False, "protect": 0, "reported": 0, "arrived": 0}
+_state: dict[str, int] = {"depth": 0, "pending": 0, "installed": False, "protect": 0, "reported": 0, "arrived": 0,
+                          "epoch": 0}
+#: The watchdog's report of a hard exit (:func:`install`, :func:`set_reporter`).
+_reporter: list[Callable[[int], None]] = [lambda signum: None]
 _report_lock = threading.Lock()
 
 
@@ -74,7 +79,7 @@ def _handler(signum: int, frame: FrameType | None) -> None:
     raise Interrupted(signum)
 
 
-def _watchdog(fd: int, report: Callable[[int], None]) -> None:
+def _watchdog(fd: int) -> None:
     while True:
         try:
             data = os.read(fd, 64)
@@ -85,13 +90,16 @@ def _watchdog(fd: int, report: Callable[[int], None]) -> None:
         signums = [b for b in data if b in {int(s) for s in SIGNALS}]
         if not signums:
             continue
+        epoch = _state["epoch"]
         deadline = time.monotonic() + GRACE
-        while time.monotonic() < deadline or _state["protect"] > 0:
+        while (time.monotonic() < deadline or _state["protect"] > 0) and _state["epoch"] == epoch:
             if _state["protect"] > 0:
                 deadline = time.monotonic() + GRACE
             time.sleep(0.02)
+        if _state["epoch"] != epoch:
+            continue  # the command the signal stopped has ended and the process lives on (:func:`reset`)
         first = signums[0]
-        report_once(lambda s=first: report(s))
+        report_once(lambda s=first: _reporter[0](s))
         os._exit(128 + first)
 
 
@@ -101,10 +109,11 @@ def install(report: Callable[[int], None] | None = None) -> None:
     if _state["installed"] or threading.current_thread() is not threading.main_thread():
         return
     if report is not None:
+        _reporter[0] = report
         r, w = os.pipe()
         os.set_blocking(w, False)
         signal.set_wakeup_fd(w, warn_on_full_buffer=False)
-        threading.Thread(target=_watchdog, args=(r, report), name="a5mi-signal-watchdog", daemon=True).start()
+        threading.Thread(target=_watchdog, args=(r,), name="a5mi-signal-watchdog", daemon=True).start()
     for sig in SIGNALS:
         try:
             if sig != signal.SIGINT and signal.getsignal(sig) == signal.SIG_IGN:
@@ -175,6 +184,18 @@ def signal_behind(exc: BaseException) -> int:
     return arrived()
 
 
+def reset() -> None:
+    """Forget the signals of a finished command (arrived, deferred, reported), and tell the watchdog that the
+    command a signal stopped has ended (no hard exit follows it): a process that runs one command after another
+    (``a5mi serve``, docs/SERVE.md) starts each with a clean slate. Main thread, between commands."""
+    _state.update(pending=0, arrived=0, reported=0, epoch=_state["epoch"] + 1)
+
+
+def set_reporter(report: Callable[[int], None]) -> None:
+    """Replace the watchdog's report of a hard exit (:func:`install`'s ``report``)."""
+    _reporter[0] = report
+
+
 def pending() -> int:
     """The deferred signal number, 0 when none."""
     return int(_state["pending"])
@@ -214,5 +235,5 @@ def protected() -> Iterator[None]:
         _state["protect"] -= 1
 
 
-__all__ = ["GRACE", "SIGNALS", "Interrupted", "arrived", "check", "deferred", "hold", "ignore", "install", "pending",
-           "protected", "report_once", "signal_behind"]
+__all__ = ["GRACE", "SIGNALS", "Interrupted", "arrived", "check", "deferred", "hold", "ignore",
+           "install", "pending", "protected", "report_once", "reset", "set_reporter", "signal_behind"]

@@ -132,11 +132,11 @@ class ViewEngine:
         self._versions = 0
         self._ref_image: np.ndarray | None = None
         self._ref_png: tuple[np.ndarray, bytes] | None = None
-        #: images decoded by earlier loads (resolved path -> converters.files.Image) and their files' stamps
-        self._decoded: dict[Path, Any] = {}
-        self._image_stamps: dict[Path, Any] = {}
-        #: OBJ meshes read by earlier loads (converters.files.Meshes: kept while the file's identity stays)
-        self._meshes: dict[Path, Any] = {}
+        #: images and OBJ meshes read by earlier loads, kept while their files stay (converters.files.KeptFiles)
+        from a5mi.converters.files import KeptFiles
+
+        self._kept = KeptFiles()
+        self._meshes = self._kept.meshes
         self._binary_cache: dict[tuple[int, tuple[str, ...]], np.ndarray] = {}
         self._scratch = tempfile.mkdtemp(prefix="a5mi-view-")
 
@@ -155,48 +155,23 @@ class ViewEngine:
         from a5mi.converters.a5_parser import parse_file
         from a5mi.converters.describe import describe
 
-        started = time.time_ns()
-        self._keep_unchanged_images()
+        started = self._kept.begin()
         try:
             model = parse_file(self.scene)
         except OSError as exc:
             raise UserError(f"cannot read '{self.scene}': {exc.strerror or exc}") from None
         bump = self.bump if bump is None else bump
         try:
-            desc = describe(model, bump=bump, decoded=self._decoded, meshes=self._meshes)
+            desc = describe(model, bump=bump, decoded=self._kept.decoded, meshes=self._kept.meshes)
         finally:
-            self._stamp_images(started)
-        used = {getattr(s, "obj_file", None) for s in desc.shapes}
-        for path in [p for p in self._meshes if p not in used]:  # a mesh the scene no longer names is let go
-            del self._meshes[path]
+            self._kept.end(started)
+        self._kept.keep_meshes({getattr(s, "obj_file", None) for s in desc.shapes})
         self.inputs = list(dict.fromkeys([*self.inputs, *scene_inputs(desc, model)]))
         if self.desc is not None:
             self.session.forget(self.desc)
         self.desc, self.bump = desc, bump
         self.warnings = [f"{loc}: warning: {msg}" for loc, msg in [*model.warnings, *desc.warnings]]
         self.loaded_at += 1
-
-    def _keep_unchanged_images(self) -> None:
-        """Drop the decoded images whose file changed (or vanished) since it was decoded."""
-        from a5mi.view.watcher import stamp
-
-        for path, was in list(self._image_stamps.items()):
-            if stamp(path) != was:
-                self._decoded.pop(path, None)
-                del self._image_stamps[path]
-
-    def _stamp_images(self, started: int) -> None:
-        """Remember the state of each newly decoded image file; one modified since the load ``started`` (ns) is
-        not kept: it may have been decoded half-written."""
-        from a5mi.view.watcher import stamp
-
-        for path in list(self._decoded):
-            if path not in self._image_stamps:
-                now = stamp(path)
-                if now is None or now[0] >= started:
-                    self._decoded.pop(path)
-                else:
-                    self._image_stamps[path] = now
 
     def watch_on_error(self) -> list[Path]:
         """What to watch after a failed load: the files read so far, and the scene's folder and the working

@@ -126,6 +126,7 @@ def _internal_cases(tmp: Path, scene: str) -> dict[str, tuple[list[str], str]]:
         "animate": ([scene, "-o", str(tmp / "frames")], "a5mi.cli.app.load_scene"),
         "photons": ([scene, "-o", str(tmp / "m.png")], "a5mi.commands.photons.load_scene"),
         "view": ([scene, "-size", "4", "4"], "a5mi.commands.view.activate_variant"),
+        "serve": (["--socket", str(tmp / "s.sock")], "a5mi.commands.serve._warm"),
         "simulate": (["smoke", "-o", str(tmp / "grids"), "--frames", "1"], "a5mi.simulate.smoke.write_frames"),
         "diagnose": ([str(tmp / "a.png"), "-input", scene, "-size", "4", "4"], "a5mi.platform.imageio.read_uint8"),
     }
