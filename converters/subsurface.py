@@ -7,8 +7,8 @@
 Any order, each keyword at most once; either ``preset`` or both ``sigma_a`` and ``sigma_s`` (a preset's values
 may be overridden one by one). ``sigma_a``, ``sigma_s`` >= 0 are the absorption and scattering coefficients
 per millimetre; ``scale`` (> 0, default 1) is the millimetres per scene unit, so the coefficients the renderer
-uses are ``σ · scale`` per scene unit. ``eta`` (> 0, default 1.3) the relative index of refraction of the
-boundary, ``g`` in (−1, 1) (default 0) the Henyey-Greenstein asymmetry inside, ``samples`` (1..256, default 8)
+uses are ``σ · scale`` per scene unit. ``eta`` (in :data:`ETA_RANGE`, default 1.3) the relative index of refraction
+of the boundary, ``g`` in (−1, 1) (default 0) the Henyey-Greenstein asymmetry inside, ``samples`` (1..256, default 8)
 the probe points (dipole) or walks (random walk) per hit and pass.
 
 Presets (:func:`presets`, read from :data:`PRESETS_FILE` on first use): Jensen, Marschner, Levoy, Hanrahan 2001,
@@ -34,6 +34,9 @@ Vec3 = tuple[float, float, float]
 PRESETS_FILE: Final = "subsurface_presets.toml"
 #: Jensen et al. 2001's index of refraction of every preset.
 PRESET_ETA: Final = 1.3
+#: The relative indices ``eta`` may take: the boundary's Fresnel terms square it (and its inverse) in float32, so
+#: a value like 1e-30 or 1e30 makes ``0 · inf`` = NaN at normal incidence; real boundaries lie in about 1-3.
+ETA_RANGE: Final = (0.01, 100.0)
 MAX_SAMPLES: Final = 256
 
 
@@ -97,7 +100,8 @@ def parse_subsurface(ts: TokenStream, start: Token) -> Subsurface:
     for key in ("sigma_a", "sigma_s"):
         if key not in vecs:
             raise ts.semantic_error(f"subsurface needs a preset or '{key}'", start.loc)
-    checks = (("eta", lambda v: v > 0.0, "must be positive"), ("g", lambda v: -1.0 < v < 1.0,
+    checks = (("eta", lambda v: ETA_RANGE[0] <= v <= ETA_RANGE[1],
+               f"must be between {ETA_RANGE[0]:g} and {ETA_RANGE[1]:g}"), ("g", lambda v: -1.0 < v < 1.0,
               "must be between -1 and 1 (exclusive)"), ("scale", lambda v: v > 0.0, "must be positive"))
     for key, ok, msg in checks:
         if key in nums and not ok(nums[key]):

@@ -167,6 +167,19 @@ def render_whitted(
     return render_scene(mi_scene, camera, ro, integrator=integ).image
 
 
+def sample_statistics(total: npt.NDArray[np.float64], total_sq: npt.NDArray[np.float64],
+                      spp: int) -> tuple[npt.NDArray[np.float64], float]:
+    """The per-pixel mean ``Σ L / spp`` and the mean standard error ``mean(sqrt(Var(L)/spp))`` in 8-bit levels
+    (``Var`` unbiased, ``spp/(spp − 1)``) of sums ``total`` = Σ L and ``total_sq`` = Σ L². A pixel whose
+    samples are not finite (inf radiance: a scene scaled by 1e30) has no standard error and is left out of the
+    mean one (0 when no pixel has one); its mean is compared as saved (clamped)."""
+    mean = total / spp
+    with np.errstate(invalid="ignore", over="ignore"):  # inf − inf
+        var = np.maximum(total_sq / spp - mean * mean, 0.0) * (spp / max(spp - 1, 1))
+    finite = np.isfinite(var)
+    return mean, float(np.mean(np.sqrt(var[finite] / spp)) * 255.0) if finite.any() else 0.0
+
+
 def render_path(
     mi_scene: Any, camera: Any, width: int, height: int, spp: int, max_depth: int, *, seed: int = 0,
     lanes: int = PATH_LANES,
@@ -177,7 +190,7 @@ def render_path(
     Parameter ``spp``: samples per pixel, all through the pixel centre (no antialiasing, as the a5
     renders). ``lanes``: samples per kernel launch (rounded to whole images). Output: the mean image
     ``L̄ = (1/spp) Σ L_k`` (float32 HxWx3, row 0 = top) and its mean standard error
-    ``mean(sqrt(Var(L)/spp))`` in 8-bit levels.
+    ``mean(sqrt(Var(L)/spp))`` in 8-bit levels, over the pixels whose variance is finite (0 when none is).
     """
     import drjit as dr
     import mitsuba as mi
@@ -205,9 +218,7 @@ def render_path(
         total_sq += (c * c).sum(axis=1)
         done += k
         launch += 1
-    mean = total / spp
-    var = np.maximum(total_sq / spp - mean * mean, 0.0) * (spp / max(spp - 1, 1))
-    stderr = float(np.mean(np.sqrt(var / spp)) * 255.0)
+    mean, stderr = sample_statistics(total, total_sq, spp)
     img = mean.T.reshape(height, width, 3).astype(np.float32)
     return np.ascontiguousarray(img[::-1]), stderr
 

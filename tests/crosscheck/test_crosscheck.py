@@ -375,3 +375,20 @@ def test_montage_error_scale_follows_what_the_row_shows() -> None:
     assert xc.error_scale(errs) == 64.0  # p99 = 40 -> 64
     assert xc.error_scale([np.full(100, 0.0)]) == 4.0 and xc.error_scale([np.full(100, 900.0)]) == 256.0
     assert xc.error_scale([np.r_[np.zeros(990), np.full(10, 200.0)]]) == 4.0  # 1% outliers do not set it
+
+
+def test_sample_statistics_with_inf_samples_warn_nothing() -> None:
+    """Two pixels of 4 samples: (1, 3, 1, 3) has mean 2 and unbiased variance 4/3, so a standard error of
+    sqrt(4/3 / 4) = 0.577 (147.2 levels); a pixel of inf samples (a scene scaled by 1e30) keeps its inf mean and
+    is left out of the standard error, with no RuntimeWarning (inf − inf)."""
+    import warnings
+
+    from a5mi.crosscheck.core import sample_statistics
+
+    samples = np.array([[1.0, 3.0, 1.0, 3.0], [np.inf] * 4])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mean, stderr = sample_statistics(samples.sum(axis=1), (samples * samples).sum(axis=1), 4)
+    assert mean[0] == 2.0 and mean[1] == np.inf
+    assert stderr == pytest.approx(math.sqrt(4.0 / 3.0 / 4.0) * 255.0)
+    assert sample_statistics(np.array([np.inf]), np.array([np.inf]), 4)[1] == 0.0

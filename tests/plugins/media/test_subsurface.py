@@ -58,7 +58,9 @@ test_subsurface_errors_are_positioned = positioned_error_test(
     lambda block: HALF_SPACE.format(sss=block), [
         ("subsurface { preset ^jelly }", "unknown subsurface preset 'jelly'"),
         ("subsurface { ^sigma_a -1 0 0 sigma_s 1 1 1 }", "sigma_a must not be negative"),
-        ("subsurface { preset marble ^eta 0 }", "eta must be positive"),
+        ("subsurface { preset marble ^eta 0 }", "eta must be between 0.01 and 100"),
+        ("subsurface { preset marble ^eta 1e-30 }", "eta must be between 0.01 and 100"),
+        ("subsurface { preset marble ^eta 1e30 }", "eta must be between 0.01 and 100"),
         ("subsurface { preset marble ^g 1 }", "g must be between -1 and 1"),
         ("^subsurface { sigma_a 1 1 1 }", "needs a preset or 'sigma_s'"),
         ("subsurface { preset marble ^preset skin1 }", "gives 'preset' twice"),
@@ -198,3 +200,21 @@ def test_walk_matches_volpath(mi: Any) -> None:
 def test_walk_matches_volpath_slow(mi: Any) -> None:
     """As :func:`test_walk_matches_volpath` with 4096 samples per ray (standard error about 0.001)."""
     _walk_vs_volpath(mi, 4096)
+
+
+#: A sphere seen head-on through one pixel: the camera ray meets it at exactly normal incidence (cos = 1), where
+#: Mitsuba's Fresnel term computes ``(1 − cos²) · η⁻²`` = ``0 · inf`` = NaN for η = 1e-30 (what made eta's range).
+HEAD_ON = """PerspectiveCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 angle 30 }
+Lights { numLights 1 PointLight { position 1 2 3 color 0.6 0.6 0.6 } }
+Background { color 0.2 0.3 0.4 ambientLight 0.1 0.1 0.1 }
+Materials { numMaterials 1 Material { diffuseColor 0.5 0.5 0.5 subsurface { preset marble eta %s } } }
+Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }
+"""
+
+
+@pytest.mark.parametrize("method", ["dipole", "walk"])
+@pytest.mark.parametrize("eta", ["0.01", "100"])
+def test_eta_at_its_bounds_renders_finite_at_normal_incidence(render_text: Any, method: str, eta: str) -> None:
+    """The ends of eta's range, on the one pixel that sees the sphere head-on: a finite, lit colour."""
+    img = render_text(HEAD_ON % eta, width=1, height=1, subsurface=method)
+    assert np.isfinite(img).all() and img.max() > 0.0
