@@ -82,6 +82,8 @@ FINALISTS = 5
 ALL_FULL = 2 * SMALL
 #: Pairs are formed from this many best singles.
 PAIR_FROM = 3
+#: Full-size renders kept for the saved-image and filter mistakes made from them.
+KEPT = 8
 #: A named cause explains at least this share of the difference.
 NAMED_SHARE = 0.6
 #: Causes listed (best first) in the result, each after the first explaining at least LISTED_SHARE.
@@ -169,29 +171,32 @@ class _Renderer:
     def __init__(self, session: RenderSession, desc: SceneDescription, options: RenderOptions) -> None:
         self.session, self.desc, self.options = session, desc, options
         self.counts = {"small": 0, "full": 0}
-        self.buffer: np.ndarray | None = None   # the reference's render buffer (row 0 = top) with -jitter -filter
+        #: (render mistakes, seed) -> the render buffer (row 0 = top) with -jitter -filter, else the image
+        self.kept: dict[tuple[tuple[str, ...], int], np.ndarray] = {}
 
     def full(self, mistakes: tuple[str, ...] = (), seed: int | None = None) -> Image:
-        """The image at full size with ``mistakes``; the filter and saved-image mistakes from the buffer."""
+        """The image at full size with ``mistakes``; the filter and saved-image mistakes from the render they
+        modify (the last :data:`KEPT` renders are kept: a pair with a saved-image or filter mistake costs no
+        render once its other mistake has been rendered)."""
         opts = self.options
-        other_seed = seed is not None
         seed = seed if seed is not None else opts.seed
-        sampling = opts.jitter and opts.filter
         post = tuple(m for m in mistakes if m in FILTER_MISTAKES)
         saved = tuple(m for m in mistakes if m in IMAGE_MISTAKES)
-        render = tuple(m for m in mistakes if m not in post and m not in saved)
-        if sampling and "no_supersampling" not in render:
-            if render or other_seed or self.buffer is None:
-                buf = self._render(dataclasses.replace(opts, filter=False, seed=seed, mistakes=render), "full")
-                if not render and not other_seed:
-                    self.buffer = buf
-            else:
-                buf = self.buffer
-            flipped = buf[::-1]
+        render = tuple(sorted(m for m in mistakes if m not in post and m not in saved))
+        sampling = opts.jitter and opts.filter and "no_supersampling" not in render
+        key = (render, seed)
+        raw = self.kept.pop(key, None)
+        if raw is None:   # the render buffer with -jitter -filter, else the image as rendered
+            raw = self._render(dataclasses.replace(opts, filter=opts.filter and not sampling, seed=seed,
+                                                   mistakes=render), "full")
+        self.kept[key] = raw
+        while len(self.kept) > KEPT:
+            self.kept.pop(next(iter(self.kept)))
+        img = raw
+        if sampling:
+            flipped = raw[::-1]
             img = (mistaken_postprocess(flipped, post, opts.kernel) if post
                    else postprocess(flipped, filter=True, kernel=opts.kernel))[::-1]
-        else:
-            img = self._render(dataclasses.replace(opts, seed=seed, mistakes=render), "full")
         if saved:
             img = image_mistakes(img, saved)
         return as_levels(img)
@@ -313,8 +318,16 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     for key in finals:
         score_full(key)
     singles = sorted((c for c in scores.values() if c.explained is not None), key=lambda c: -(c.explained or 0.0))
-    best_single = singles[0].explained if singles else 0.0
-    if best_single is not None and best_single < 0.98:
+    floor_at = {"pixels": 2.0 * noise, "blocks": 2.0 * noise_blocks}
+
+    def excess(key: tuple[str, ...], scale: str) -> float:
+        """What the mutant ``key`` leaves of the difference beyond the seed noise (mse at ``scale`` - 2σ²)."""
+        view = blocks if scale == "blocks" else (lambda a: a)
+        return mse(view(img), view(images[key])) - floor_at[scale]
+
+    # pairs when no single explains nearly all, or when the best leaves more than the seed noise of two images
+    if singles and ((singles[0].explained or 0.0) < 0.98
+                    or mse(img, images[singles[0].mistakes]) > MATCH_NOISE * noise + MATCH_MSE):
         # no pairs with a mistake free of jitter noise: beside any mutant it removes the noise, which an image made
         # with other jitter offsets rewards by itself (named alone by the match step's deterministic test)
         tops = [c.mistakes[0] for c in singles[:PAIR_FROM]
@@ -325,6 +338,8 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
                 if not more and n not in predicted:
                     predicted[n] = resample(m - ref, *positions)
         for a in tops:
+            # every saved-image and filter partner: made from a's kept render, exact at full size, no render
+            pairs.update(tuple(sorted((a, b), key=names.index)) for b in cheap if b != a and combinable(a, b))
             undone = observed
             if a in REVERSIBLE and rendered:   # a saved-image mistake is undone, not subtracted
                 undone = resample(REVERSIBLE[a](img), *positions) - base
@@ -340,8 +355,8 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
                 if (a,) in images and (b,) in images:
                     return -float(np.sum((img - images[(a,)] - images[(b,)] + ref) ** 2))
                 return -math.inf
-            partners = sorted((b for b in names if b != a and combinable(a, b) and b not in DETERMINISTIC_MISTAKES),
-                              key=additive, reverse=True)
+            partners = sorted((b for b in names if b != a and b not in cheap and combinable(a, b)
+                               and b not in DETERMINISTIC_MISTAKES), key=additive, reverse=True)
             pairs.update(tuple(sorted((a, b), key=names.index)) for b in partners[:2] if additive(b) > -math.inf)
         for key in sorted(pairs, key=lambda k: (names.index(k[0]), names.index(k[1]))):
             score_full(key)
@@ -353,9 +368,16 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     shown: list[Cause] = []
     for c in ranked:
         if len(c.mistakes) == 2:
-            parts = [scores[(m,)].explained or 0.0 for m in c.mistakes if (m,) in scores]
-            better = max(parts, default=0.0)
-            if (c.explained or 0.0) < better + min(0.1, (1.0 - better) / 2.0):
+            parts = [scores[(m,)] for m in c.mistakes if (m,) in scores and scores[(m,)].explained is not None]
+            if not parts:
+                continue
+            part = max(parts, key=lambda p: p.explained or 0.0)
+            better = part.explained or 0.0
+            # clearly more: by 0.1 or half of what the better single leaves; or, where that single leaves more than
+            # the seed noise again beyond it, half of that excess removed (a second mistake smaller than the noise)
+            left = excess(part.mistakes, c.scale)
+            if ((c.explained or 0.0) < better + min(0.1, (1.0 - better) / 2.0)
+                    and not (left > floor_at[c.scale] + MATCH_MSE and excess(c.mistakes, c.scale) <= 0.5 * left)):
                 continue
         shown.append(c)
     shown = [c for k, c in enumerate(shown) if k == 0 or (c.explained or 0.0) >= LISTED_SHARE]
