@@ -103,6 +103,14 @@ SPECKLED: tuple[str, ...] = ("shadow_acne", "secondary_acne")
 #: named (a correct image made with other jitter offsets is never reproduced that closely).
 DETERMINISTIC_MISTAKES: tuple[str, ...] = ("no_jitter", "no_supersampling")
 DETERMINISTIC = 0.1
+#: Mistakes that shift every level a little (a bias below the squared error's noise): looked for in a seemingly
+#: matching image's mean difference ``mean(I - R)``, named when that is beyond BIAS_SE standard errors of a mean of
+#: the seed noise (from the 4x4-block noise σ_b², ``sqrt(2 σ_b² / blocks)``) and at least BIAS_LEVELS levels, and
+#: the mutant leaves at most BIAS_LEFT of it.
+BIASED: tuple[str, ...] = ("rounding",)
+BIAS_SE = 6.0
+BIAS_LEVELS = 0.25
+BIAS_LEFT = 0.25
 
 class DiagnoseError(UserError):
     """The image cannot be compared with the scene's render (a size that the flags do not give)."""
@@ -254,6 +262,7 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     result = Diagnosis("match", psnr_of(err0), err0, noise, considered=names)
     if err0 <= max(MATCH_NOISE * noise, MATCH_MSE):
         # within the jitter noise: only a mistake without jitter noise can reproduce the image more closely
+        result.remaining = err0
         for n in (n for n in DETERMINISTIC_MISTAKES if n in names and noise > 0.0):
             m = r.full((n,))
             left = mse(img, m)
@@ -262,7 +271,16 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
                 result.verdict, result.causes, result.remaining = "diagnosis", [cause], left
                 break
         else:
-            result.remaining = err0
+            # a bias of a fraction of a level (rounding) hides under the squared error's noise, not in the mean:
+            # named when the image's mean difference is beyond the noise of a mean and the mutant removes it
+            shift = float(np.mean(img - ref))
+            spread = BIAS_SE * math.sqrt(2.0 * noise_blocks / blocks(ref).size)
+            for n in (n for n in BIASED if n in names and abs(shift) > max(spread, BIAS_LEVELS / 255.0)):
+                m = r.full((n,))
+                if abs(float(np.mean(img - m))) <= BIAS_LEFT * abs(shift):
+                    cause = Cause((n,), explained(img, ref, m), evidence=evidence(img, ref, m, noise))
+                    result.verdict, result.causes, result.remaining = "diagnosis", [cause], mse(img, m)
+                    break
         result.renders, result.seconds = dict(r.counts), seconds
         seconds["total"] = time.perf_counter() - t0
         return result
