@@ -22,7 +22,8 @@ Stages (small renders first, full size only for the finalists):
    mean squared difference two jitter seeds make, halved) comes from a second full render with another seed.
 2. ``match`` when ``mse(I, R) <= max(MATCH_NOISE · σ², MATCH_MSE)``: within the seed noise, or above
    :data:`MATCH_PSNR` dB (SPEC C: a faithful implementation lands above 50 dB, anything under is a semantic
-   difference).
+   difference); unless a mistake without jitter noise reproduces it (:data:`DETERMINISTIC_MISTAKES`) or the mean
+   difference shows a :data:`BIASED` mistake's bias.
 3. Kernel, marble and camera mutants at a small size (the longer side ``SMALL``, one ray per pixel; an image of at
    most ``ALL_FULL`` pixels a side skips this stage and renders them all at full size): the predicted
    difference ``M_s - R_s`` against the observed one, ``I`` interpolated at the small render's sample positions
@@ -32,7 +33,9 @@ Stages (small renders first, full size only for the finalists):
    pairs (two mistakes at once): for each of the best :data:`PAIR_FROM` singles, the partners whose differences,
    added to its own, best predict the observed difference (at the scale both were rendered at), rendered together
    at full size; a pair is kept when it explains clearly more than either alone (by 0.1, or by half of what the
-   better one leaves unexplained).
+   better one leaves unexplained, or by half of what it leaves beyond the noise floor ``2σ²`` where that is more
+   than the floor again). Pairs are searched when no single explains 0.98 or the best leaves more than
+   ``MATCH_NOISE · σ²``; every saved-image and filter partner of a finalist is scored (free from its kept render).
 5. ``diagnosis`` when the best cause explains at least :data:`NAMED_SHARE` and leaves less than a quarter of the
    error it started from beyond the noise floor; otherwise ``unexplained`` with the remaining error. Never a
    forced guess.
