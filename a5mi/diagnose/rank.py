@@ -340,11 +340,27 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
         score_full(key)
     singles = sorted((c for c in scores.values() if c.explained is not None), key=lambda c: -(c.explained or 0.0))
     floor_at = {"pixels": 2.0 * noise, "blocks": 2.0 * noise_blocks}
+    floors: dict[tuple[tuple[str, ...], str], float] = {}
 
-    def excess(key: tuple[str, ...], scale: str) -> float:
-        """What the mutant ``key`` leaves of the difference beyond the seed noise (mse at ``scale`` - 2σ²)."""
-        view = blocks if scale == "blocks" else (lambda a: a)
-        return mse(view(img), view(images[key])) - floor_at[scale]
+    def view(a: Image, scale: str) -> Image:
+        return blocks(a) if scale == "blocks" else a
+
+    def floor_of(key: tuple[str, ...], scale: str) -> float:
+        """2σ² at ``scale``, σ² the larger of the reference's seed noise and the mutant's own (its render with
+        the noise seed: a mutant that brightens or sharpens has more jitter noise than the reference)."""
+        if not options.jitter:
+            return 0.0
+        if (key, scale) not in floors:
+            own = mse(view(images[key], scale), view(r.full(key, seed=NOISE_SEED), scale)) / 2.0
+            floors[key, scale] = 2.0 * max(own, floor_at[scale] / 2.0)
+        return floors[key, scale]
+
+    def halved(single: tuple[str, ...], pair: tuple[str, ...], scale: str) -> bool:
+        """Whether ``pair`` removes half of what ``single`` leaves beyond its seed noise 2σ² (at ``scale``), where
+        that is more than the noise again."""
+        floor = floor_of(single, scale)
+        left = mse(view(img, scale), view(images[single], scale)) - floor
+        return left > floor + MATCH_MSE and mse(view(img, scale), view(images[pair], scale)) - floor <= 0.5 * left
 
     # pairs when no single explains nearly all, or when the best leaves more than the seed noise of two images
     if singles and ((singles[0].explained or 0.0) < 0.98
@@ -394,11 +410,10 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
                 continue
             part = max(parts, key=lambda p: p.explained or 0.0)
             better = part.explained or 0.0
-            # clearly more: by 0.1 or half of what the better single leaves; or, where that single leaves more than
-            # the seed noise again beyond it, half of that excess removed (a second mistake smaller than the noise)
-            left = excess(part.mistakes, c.scale)
-            if ((c.explained or 0.0) < better + min(0.1, (1.0 - better) / 2.0)
-                    and not (left > floor_at[c.scale] + MATCH_MSE and excess(c.mistakes, c.scale) <= 0.5 * left)):
+            # clearly more: by 0.1; or, where the better single leaves more than its seed noise again beyond it,
+            # half of that excess removed (without jitter: half of what it leaves; with it, the noise left aside)
+            if (c.explained or 0.0) < better + 0.1 and not any(halved(part.mistakes, c.mistakes, scale)
+                                                               for scale in ("pixels", "blocks")):
                 continue
         shown.append(c)
     shown = [c for k, c in enumerate(shown) if k == 0 or (c.explained or 0.0) >= LISTED_SHARE]
