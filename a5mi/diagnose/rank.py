@@ -33,9 +33,10 @@ Stages (small renders first, full size only for the finalists):
    pairs (two mistakes at once): for each of the best :data:`PAIR_FROM` singles, the partners whose differences,
    added to its own, best predict the observed difference (at the scale both were rendered at), rendered together
    at full size; a pair is kept when it explains clearly more than either alone (by 0.1, or by half of what the
-   better one leaves unexplained, or by half of what it leaves beyond the noise floor ``2σ²`` where that is more
-   than the floor again). Pairs are searched when no single explains 0.98 or the best leaves more than
-   ``MATCH_NOISE · σ²``; every saved-image and filter partner of a finalist is scored (free from its kept render).
+   better one leaves beyond its own noise floor ``2σ²_M`` where that is more than the floor again: ``σ²_M`` the
+   larger of σ² and the mutant's own seed noise, its render with the noise seed). Pairs are searched when no
+   single explains 0.98 or the best leaves more than ``MATCH_NOISE · σ²``; every saved-image and filter partner
+   of a finalist is scored (free from its kept render).
 5. ``diagnosis`` when the best cause explains at least :data:`NAMED_SHARE` and leaves less than a quarter of the
    error it started from beyond the noise floor; otherwise ``unexplained`` with the remaining error. Never a
    forced guess.
