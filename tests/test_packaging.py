@@ -36,3 +36,4 @@ def test_the_wheel_builds_without_deprecation_warnings(tmp_path: Path) -> None:
     assert sources <= set(names), f"missing from the wheel: {sorted(sources - set(names))}"  # every package listed
     assert any(n.endswith("licenses/LICENSE") for n in names)
     assert "a5mi/converters/subsurface_presets.toml" in names  # package data read at run time
+    assert "a5mi/diagnose/mistakes.tsv" in names   # docs/MISTAKES.md's catalogue, package data

@@ -22,7 +22,8 @@ Stages (small renders first, full size only for the finalists):
    mean squared difference two jitter seeds make, halved) comes from a second full render with another seed.
 2. ``match`` when ``mse(I, R) <= max(MATCH_NOISE · σ², MATCH_MSE)``: within the seed noise, or above
    :data:`MATCH_PSNR` dB (SPEC C: a faithful implementation lands above 50 dB, anything under is a semantic
-   difference).
+   difference); unless a mistake without jitter noise reproduces it (:data:`DETERMINISTIC_MISTAKES`) or the mean
+   difference shows a :data:`BIASED` mistake's bias.
 3. Kernel, marble and camera mutants at a small size (the longer side ``SMALL``, one ray per pixel; an image of at
    most ``ALL_FULL`` pixels a side skips this stage and renders them all at full size): the predicted
    difference ``M_s - R_s`` against the observed one, ``I`` interpolated at the small render's sample positions
@@ -32,7 +33,10 @@ Stages (small renders first, full size only for the finalists):
    pairs (two mistakes at once): for each of the best :data:`PAIR_FROM` singles, the partners whose differences,
    added to its own, best predict the observed difference (at the scale both were rendered at), rendered together
    at full size; a pair is kept when it explains clearly more than either alone (by 0.1, or by half of what the
-   better one leaves unexplained).
+   better one leaves beyond its own noise floor ``2σ²_M`` where that is more than the floor again: ``σ²_M`` the
+   larger of σ² and the mutant's own seed noise, its render with the noise seed). Pairs are searched when no
+   single explains 0.98 or the best leaves more than ``MATCH_NOISE · σ²``; every saved-image and filter partner
+   of a finalist is scored (free from its kept render).
 5. ``diagnosis`` when the best cause explains at least :data:`NAMED_SHARE` and leaves less than a quarter of the
    error it started from beyond the noise floor; otherwise ``unexplained`` with the remaining error. Never a
    forced guess.
@@ -82,6 +86,8 @@ FINALISTS = 5
 ALL_FULL = 2 * SMALL
 #: Pairs are formed from this many best singles.
 PAIR_FROM = 3
+#: Full-size renders kept for the saved-image and filter mistakes made from them.
+KEPT = 8
 #: A named cause explains at least this share of the difference.
 NAMED_SHARE = 0.6
 #: Causes listed (best first) in the result, each after the first explaining at least LISTED_SHARE.
@@ -101,6 +107,14 @@ SPECKLED: tuple[str, ...] = ("shadow_acne", "secondary_acne")
 #: named (a correct image made with other jitter offsets is never reproduced that closely).
 DETERMINISTIC_MISTAKES: tuple[str, ...] = ("no_jitter", "no_supersampling")
 DETERMINISTIC = 0.1
+#: Mistakes that shift every level a little (a bias below the squared error's noise): looked for in a seemingly
+#: matching image's mean difference ``mean(I - R)``, named when that is beyond BIAS_SE standard errors of a mean of
+#: the seed noise (from the 4x4-block noise σ_b², ``sqrt(2 σ_b² / blocks)``) and at least BIAS_LEVELS levels, and
+#: the mutant leaves at most BIAS_LEFT of it.
+BIASED: tuple[str, ...] = ("rounding",)
+BIAS_SE = 6.0
+BIAS_LEVELS = 0.25
+BIAS_LEFT = 0.25
 
 class DiagnoseError(UserError):
     """The image cannot be compared with the scene's render (a size that the flags do not give)."""
@@ -169,29 +183,32 @@ class _Renderer:
     def __init__(self, session: RenderSession, desc: SceneDescription, options: RenderOptions) -> None:
         self.session, self.desc, self.options = session, desc, options
         self.counts = {"small": 0, "full": 0}
-        self.buffer: np.ndarray | None = None   # the reference's render buffer (row 0 = top) with -jitter -filter
+        #: (render mistakes, seed) -> the render buffer (row 0 = top) with -jitter -filter, else the image
+        self.kept: dict[tuple[tuple[str, ...], int], np.ndarray] = {}
 
     def full(self, mistakes: tuple[str, ...] = (), seed: int | None = None) -> Image:
-        """The image at full size with ``mistakes``; the filter and saved-image mistakes from the buffer."""
+        """The image at full size with ``mistakes``; the filter and saved-image mistakes from the render they
+        modify (the last :data:`KEPT` renders are kept: a pair with a saved-image or filter mistake costs no
+        render once its other mistake has been rendered)."""
         opts = self.options
-        other_seed = seed is not None
         seed = seed if seed is not None else opts.seed
-        sampling = opts.jitter and opts.filter
         post = tuple(m for m in mistakes if m in FILTER_MISTAKES)
         saved = tuple(m for m in mistakes if m in IMAGE_MISTAKES)
-        render = tuple(m for m in mistakes if m not in post and m not in saved)
-        if sampling and "no_supersampling" not in render:
-            if render or other_seed or self.buffer is None:
-                buf = self._render(dataclasses.replace(opts, filter=False, seed=seed, mistakes=render), "full")
-                if not render and not other_seed:
-                    self.buffer = buf
-            else:
-                buf = self.buffer
-            flipped = buf[::-1]
+        render = tuple(sorted(m for m in mistakes if m not in post and m not in saved))
+        sampling = opts.jitter and opts.filter and "no_supersampling" not in render
+        key = (render, seed)
+        raw = self.kept.pop(key, None)
+        if raw is None:   # the render buffer with -jitter -filter, else the image as rendered
+            raw = self._render(dataclasses.replace(opts, filter=opts.filter and not sampling, seed=seed,
+                                                   mistakes=render), "full")
+        self.kept[key] = raw
+        while len(self.kept) > KEPT:
+            self.kept.pop(next(iter(self.kept)))
+        img = raw
+        if sampling:
+            flipped = raw[::-1]
             img = (mistaken_postprocess(flipped, post, opts.kernel) if post
                    else postprocess(flipped, filter=True, kernel=opts.kernel))[::-1]
-        else:
-            img = self._render(dataclasses.replace(opts, seed=seed, mistakes=render), "full")
         if saved:
             img = image_mistakes(img, saved)
         return as_levels(img)
@@ -249,6 +266,7 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     result = Diagnosis("match", psnr_of(err0), err0, noise, considered=names)
     if err0 <= max(MATCH_NOISE * noise, MATCH_MSE):
         # within the jitter noise: only a mistake without jitter noise can reproduce the image more closely
+        result.remaining = err0
         for n in (n for n in DETERMINISTIC_MISTAKES if n in names and noise > 0.0):
             m = r.full((n,))
             left = mse(img, m)
@@ -257,7 +275,16 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
                 result.verdict, result.causes, result.remaining = "diagnosis", [cause], left
                 break
         else:
-            result.remaining = err0
+            # a bias of a fraction of a level (rounding) hides under the squared error's noise, not in the mean:
+            # named when the image's mean difference is beyond the noise of a mean and the mutant removes it
+            shift = float(np.mean(img - ref))
+            spread = BIAS_SE * math.sqrt(2.0 * noise_blocks / blocks(ref).size)
+            for n in (n for n in BIASED if n in names and abs(shift) > max(spread, BIAS_LEVELS / 255.0)):
+                m = r.full((n,))
+                if abs(float(np.mean(img - m))) <= BIAS_LEFT * abs(shift):
+                    cause = Cause((n,), explained(img, ref, m), evidence=evidence(img, ref, m, noise))
+                    result.verdict, result.causes, result.remaining = "diagnosis", [cause], mse(img, m)
+                    break
         result.renders, result.seconds = dict(r.counts), seconds
         seconds["total"] = time.perf_counter() - t0
         return result
@@ -313,8 +340,32 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     for key in finals:
         score_full(key)
     singles = sorted((c for c in scores.values() if c.explained is not None), key=lambda c: -(c.explained or 0.0))
-    best_single = singles[0].explained if singles else 0.0
-    if best_single is not None and best_single < 0.98:
+    floor_at = {"pixels": 2.0 * noise, "blocks": 2.0 * noise_blocks}
+    floors: dict[tuple[tuple[str, ...], str], float] = {}
+
+    def view(a: Image, scale: str) -> Image:
+        return blocks(a) if scale == "blocks" else a
+
+    def floor_of(key: tuple[str, ...], scale: str) -> float:
+        """2σ² at ``scale``, σ² the larger of the reference's seed noise and the mutant's own (its render with
+        the noise seed: a mutant that brightens or sharpens has more jitter noise than the reference)."""
+        if not options.jitter:
+            return 0.0
+        if (key, scale) not in floors:
+            own = mse(view(images[key], scale), view(r.full(key, seed=NOISE_SEED), scale)) / 2.0
+            floors[key, scale] = 2.0 * max(own, floor_at[scale] / 2.0)
+        return floors[key, scale]
+
+    def halved(single: tuple[str, ...], pair: tuple[str, ...], scale: str) -> bool:
+        """Whether ``pair`` removes half of what ``single`` leaves beyond its seed noise 2σ² (at ``scale``), where
+        that is more than the noise again."""
+        floor = floor_of(single, scale)
+        left = mse(view(img, scale), view(images[single], scale)) - floor
+        return left > floor + MATCH_MSE and mse(view(img, scale), view(images[pair], scale)) - floor <= 0.5 * left
+
+    # pairs when no single explains nearly all, or when the best leaves more than the seed noise of two images
+    if singles and ((singles[0].explained or 0.0) < 0.98
+                    or mse(img, images[singles[0].mistakes]) > MATCH_NOISE * noise + MATCH_MSE):
         # no pairs with a mistake free of jitter noise: beside any mutant it removes the noise, which an image made
         # with other jitter offsets rewards by itself (named alone by the match step's deterministic test)
         tops = [c.mistakes[0] for c in singles[:PAIR_FROM]
@@ -325,6 +376,8 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
                 if not more and n not in predicted:
                     predicted[n] = resample(m - ref, *positions)
         for a in tops:
+            # every saved-image and filter partner: made from a's kept render, exact at full size, no render
+            pairs.update(tuple(sorted((a, b), key=names.index)) for b in cheap if b != a and combinable(a, b))
             undone = observed
             if a in REVERSIBLE and rendered:   # a saved-image mistake is undone, not subtracted
                 undone = resample(REVERSIBLE[a](img), *positions) - base
@@ -340,8 +393,8 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
                 if (a,) in images and (b,) in images:
                     return -float(np.sum((img - images[(a,)] - images[(b,)] + ref) ** 2))
                 return -math.inf
-            partners = sorted((b for b in names if b != a and combinable(a, b) and b not in DETERMINISTIC_MISTAKES),
-                              key=additive, reverse=True)
+            partners = sorted((b for b in names if b != a and b not in cheap and combinable(a, b)
+                               and b not in DETERMINISTIC_MISTAKES), key=additive, reverse=True)
             pairs.update(tuple(sorted((a, b), key=names.index)) for b in partners[:2] if additive(b) > -math.inf)
         for key in sorted(pairs, key=lambda k: (names.index(k[0]), names.index(k[1]))):
             score_full(key)
@@ -353,9 +406,15 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     shown: list[Cause] = []
     for c in ranked:
         if len(c.mistakes) == 2:
-            parts = [scores[(m,)].explained or 0.0 for m in c.mistakes if (m,) in scores]
-            better = max(parts, default=0.0)
-            if (c.explained or 0.0) < better + min(0.1, (1.0 - better) / 2.0):
+            parts = [scores[(m,)] for m in c.mistakes if (m,) in scores and scores[(m,)].explained is not None]
+            if not parts:
+                continue
+            part = max(parts, key=lambda p: p.explained or 0.0)
+            better = part.explained or 0.0
+            # clearly more: by 0.1; or, where the better single leaves more than its seed noise again beyond it,
+            # half of that excess removed (without jitter: half of what it leaves; with it, the noise left aside)
+            if (c.explained or 0.0) < better + 0.1 and not any(halved(part.mistakes, c.mistakes, scale)
+                                                               for scale in ("pixels", "blocks")):
                 continue
         shown.append(c)
     shown = [c for k, c in enumerate(shown) if k == 0 or (c.explained or 0.0) >= LISTED_SHARE]

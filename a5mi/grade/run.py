@@ -10,9 +10,9 @@
    at its CPU-time bound or the wall-clock backstop (the record's ``ended_by`` says which), ``over memory``
    on a memory failure, ``crash`` on a signal or a non-zero exit (with stderr's tail);
 2. otherwise the image the case names must be in the submission folder (a student who rendered at home);
-3. every record gets a one-line ``cause`` (:func:`a5mi.grade.cause.cause_of`: for a wrong image, the ray-tree
-   term that explains its worst pixels); ``no output`` without the image; ``unreadable`` if it is not a
-   regular file the program wrote
+3. every record gets a one-line ``cause`` (:func:`a5mi.grade.cause.cause_of`: for a wrong image, the docs/MISTAKES.md
+   mistake ``a5mi diagnose`` finds, else the ray-tree term that explains its worst pixels); ``no output`` without
+   the image; ``unreadable`` if it is not a regular file the program wrote
    (:func:`a5mi.sandbox.outputs.open_output`: a symbolic link anywhere on its path, a hard link, a FIFO, another
    owner, too many bytes; no byte of such a file is read) or cannot be decoded (decoded without privileges,
    :func:`a5mi.sandbox.outputs.decode_levels`); ``wrong size`` if its size is not the reference's (an image of more

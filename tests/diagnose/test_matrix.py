@@ -37,9 +37,6 @@ def test_confusion_matrix(matrix: Figures) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="pairs: both in the top 3 in 63 % (19 of 30, BENCHMARKS.md 'Diagnosis'), "
-                   "the issue asks 80 %: most misses pair a mistake with one under the jitter noise (blur in one "
-                   "direction, no blur, one-sample downsample, zero border)")
 def test_confusion_matrix_pairs(matrix: Figures) -> None:
     assert sum(p[2] for p in matrix.pairs) >= 0.8 * len(matrix.pairs), matrix.summary()
 
