@@ -270,7 +270,7 @@ def test_frames_on_two_dask_workers_match_one_process_even_with_a_worker_killed(
     batch.render_animation(scene, local, opts, range(10))
     out = tmp_path / "dask"
     cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=None, silence_logs=50)
+                           dashboard_address="127.0.0.1:0", silence_logs=50)  # never 8787: a second suite may hold it
     try:
         with Client(cluster) as client:
             pids = list(client.run(os.getpid).values())

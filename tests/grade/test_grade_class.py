@@ -299,7 +299,8 @@ def _tls_cluster(sec, n_workers: int = 1):  # noqa: ANN001, ANN202 - a distribut
     from distributed import LocalCluster
 
     return LocalCluster(n_workers=n_workers, threads_per_worker=1, host="127.0.0.1", protocol="tls://",
-                        security=sec, dashboard_address=None, silence_logs=50)
+                        security=sec, dashboard_address="127.0.0.1:0",  # never 8787: a second suite may hold it
+                        silence_logs=50)
 
 
 def test_joins_an_existing_cluster_and_reads_given_references(tmp_path, scenes_dir, capsys, monkeypatch) -> None:

@@ -70,7 +70,7 @@ def test_split_render_on_two_workers_is_bit_identical_even_with_a_worker_killed(
     options = RenderOptions(width=32, height=20, shadows=True, spp=4, seed=7, **extra)
     reference = _one_process(name, options)
     cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=None, silence_logs=50)
+                           dashboard_address="127.0.0.1:0", silence_logs=50)  # never 8787: a second suite may hold it
     first = threading.Event()
     killed: list[int] = []
     try:

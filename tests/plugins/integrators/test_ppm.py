@@ -73,7 +73,7 @@ def test_passes_on_two_dask_workers_sum_to_the_one_process_image(mi) -> None:
                          bounces=6, seed=5)
     here, info_here = render_ppm(SCENE, opts, 4)
     cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=None, silence_logs=50)
+                           dashboard_address="127.0.0.1:0", silence_logs=50)  # never 8787: a second suite may hold it
     try:
         there, info = render_ppm(SCENE, opts, 4, scheduler=cluster.scheduler_address)
     finally:
