@@ -178,8 +178,13 @@ def test_the_page_in_headless_chromium(tmp_path: Path) -> None:
                 if shots:
                     page.screenshot(path=str(Path(shots) / "view.png"))
 
-                # -jitter -filter: a preview labelled as one, then a5's full image, the label gone
-                page.evaluate("""() => { window.shown = []; const img = document.getElementById('render');
+                # -jitter -filter: a preview announced to the page and labelled while it is the image shown, then
+                # a5's full image, the label gone. (A full image that arrives before the preview's PNG has loaded
+                # replaces it unseen: then no load event of the preview, but its announcement.)
+                page.evaluate("""() => { window.shown = []; window.announced = [];
+                    const img = document.getElementById('render');
+                    new MutationObserver(() => window.announced.push(img.dataset.pendingKind))
+                        .observe(img, {attributes: true, attributeFilter: ['data-pending-kind']});
                     img.addEventListener('load', () => window.shown.push([img.dataset.kind,
                         !document.getElementById('preview-badge').hidden])); }""")
                 page.locator("#controls input[name=jitter]").check()
@@ -188,8 +193,10 @@ def test_the_page_in_headless_chromium(tmp_path: Path) -> None:
                                        " && document.getElementById('status').textContent.startsWith('rendered')"
                                        " && !document.getElementById('status').textContent.endsWith('...')",
                                        timeout=120_000)
-                shown = page.evaluate("window.shown")
-                assert ["preview", True] in shown and shown[-1] == ["final", False], shown
+                shown, announced = page.evaluate("[window.shown, window.announced]")
+                assert "preview" in announced and announced[-1] == "final", announced
+                assert all(badge == (kind == "preview") for kind, badge in shown), shown
+                assert shown[-1] == ["final", False], shown
                 frame = int(page.get_attribute("#render", "data-frame"))
                 check_image(page, tmp_path, scene, frame, *FLAGS, "-bounces", "1", "-jitter", "-filter")
                 page.close()  # a closed tab: the server goes on
