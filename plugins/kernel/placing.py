@@ -1,4 +1,4 @@
-"""docs/MISTAKES.md's normal-transform mistakes (``normal_by_m``, ``normal_not_normalised``) in the ``a5_whitted`` kernel.
+"""docs/MISTAKES.md's normal-transform mistakes, ``normal_by_m`` and ``normal_not_normalised``, in ``a5_whitted``.
 
 SPEC B.3 notes: a ``Transform`` (SPEC A.6, its accumulated placing matrix ``M``, upper 3x3) maps an object's unit
 normal ``n_o`` by ``(M⁻¹)ᵀ`` and normalises it: ``n_w = normalize(M⁻ᵀ n_o)``. The two mistakes change that step:

@@ -136,6 +136,33 @@ def test_normal_mistakes_together_match_oracle(session, tmp_path: Path) -> None:
         assert _agree(mutant, Oracle(scene, 1, True, (one,)).image(SIZE)) <= 0.9
 
 
+UNIFORM_SPHERE = """PerspectiveCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 angle 30 }
+Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 0.8 0.8 0.8 } }
+Background { color 0 0 0 ambientLight 0 0 0 }
+Materials { numMaterials 1 Material { diffuseColor 1 1 1 } }
+Group { numObjects 1 MaterialIndex 0 Transform { ZRotate 25 UniformScale 2 Sphere { center 0 0 0 radius 0.5 } } }
+"""
+
+
+def test_normal_mistakes_under_a_similarity(session, tmp_path: Path) -> None:
+    """M = 2 R (a similarity): ``normal_by_m`` changes nothing (normalize(M Mᵀ n_w) = n_w; up to float32 rounding);
+    ``normal_not_normalised`` halves N (|Mᵀ n_w| = 2): the Lambert colour clamp(L·N) and the ``-normals`` image
+    |N| (SPEC B.6: the hit record's normal, the one the student's Transform wrote) are half the correct ones."""
+    desc = _desc(UNIFORM_SPHERE, tmp_path)
+
+    def both(mistakes: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+        r = session.render(desc, RenderOptions(width=SIZE, height=SIZE, normals=True, mistakes=mistakes))
+        return r.image, r.normals
+
+    image, normals = both(())
+    np.testing.assert_allclose(np.stack(both(("normal_by_m",))), np.stack((image, normals)), atol=1e-5)
+    half_image, half_normals = both(("normal_not_normalised",))
+    on = image.max(axis=-1) > 0.05                     # the sphere's lit pixels (the rest is black)
+    assert on.mean() > 0.2
+    np.testing.assert_allclose(half_image[on], image[on] / 2, atol=1e-5)
+    np.testing.assert_allclose(half_normals, normals / 2, atol=1e-5)
+
+
 def test_oracle_cases_cover_the_kernel(tmp_path: Path) -> None:
     """Every kernel / marble mistake is checked somewhere in this file (oracle, equality or acne test)."""
     from a5mi.render.options import KERNEL_MISTAKES, MARBLE_MISTAKES
