@@ -14,6 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from a5mi.render.options import (
     CAMERA_MISTAKES,
     FILTER_MISTAKES,
@@ -30,10 +32,10 @@ if TYPE_CHECKING:
 #: What a render must have for a mistake to show: flags (``shadows``, ``bounces``, ``supersampling`` = -jitter
 #: -filter) and scene content (``mirror``: a material with |specularColor| > 0.001, ``glass``: refractionIndex > 0,
 #: ``marble``, ``texture``, ``pattern``: marble or texture, ``cubemap``, ``lights2``: two lights or more,
-#: ``ambient``: a non-zero ambient light, ``narrow``: a field of view under 90 degrees).
+#: ``ambient``: a non-zero ambient light, ``narrow``: a field of view under 90 degrees, ``scaled``: some object's
+#: placing matrix M is not orthonormal, ``nonuniform``: some object's M Mᵀ is not a multiple of I).
 NEEDS: tuple[str, ...] = ("shadows", "bounces", "supersampling", "mirror", "glass", "marble", "texture", "pattern",
-                          "cubemap",
-                          "lights2", "ambient", "narrow")
+                          "cubemap", "lights2", "ambient", "narrow", "scaled", "nonuniform")
 
 
 @dataclass(frozen=True)
@@ -93,7 +95,7 @@ BY_NAME: dict[str, Mistake] = {m.name: m for m in CATALOGUE}
 
 def scene_traits(desc: SceneDescription) -> set[str]:
     """The scene-content :data:`NEEDS` that ``desc`` has (``mirror``, ``glass``, ``marble``, ``texture``,
-    ``cubemap``, ``lights2``, ``ambient``, ``narrow``)."""
+    ``cubemap``, ``lights2``, ``ambient``, ``narrow``, and by :func:`placing_traits` ``scaled``, ``nonuniform``)."""
     from a5mi.converters.describe import CubeMapBackground
     from a5mi.converters.files import Image
     from a5mi.converters.model import Noise
@@ -116,6 +118,36 @@ def scene_traits(desc: SceneDescription) -> set[str]:
         traits.add("ambient")
     if 0.0 < float(desc.camera.angle) < 90.0:
         traits.add("narrow")
+    return traits | placing_traits(desc)
+
+
+#: Relative tolerance of :func:`placing_traits` (the matrices are float32: a rotation's Gram matrix is I to ~1e-7).
+PLACING_RTOL = 1e-5
+
+
+def placing_traits(desc: SceneDescription) -> set[str]:
+    """``scaled`` when some primitive's placing matrix ``M`` (SPEC A.6 Transform, upper 3x3) is not orthonormal,
+    ``nonuniform`` when some ``M Mᵀ`` is not a multiple of I (docs/MISTAKES.md ``normal_not_normalised`` and
+    ``normal_by_m`` change nothing otherwise). ``M`` as the a5 render holds it: a sphere's or plane's ``binary``
+    matrix (inside a ``Transform``), a mesh's world-to-object ``A = M⁻¹`` (its octree rows; ``A Aᵀ = s⁻² I`` exactly
+    when ``Mᵀ M = s² I``); a primitive without one is unplaced (``M = I``)."""
+    from a5mi.converters.describe import MeshShape
+
+    traits: set[str] = set()
+    for shape in desc.shapes:
+        if isinstance(shape, MeshShape):
+            rows = shape.mesh.octree
+            a = None if rows is None else np.asarray(rows[0, :9], dtype=np.float64).reshape(3, 3)
+        else:
+            a = None if shape.binary is None else np.asarray(shape.binary[0], dtype=np.float64)[:3, :3]
+        if a is None:
+            continue
+        gram = a @ a.T
+        s2 = float(np.trace(gram)) / 3.0
+        if not np.allclose(gram, s2 * np.eye(3), rtol=0.0, atol=PLACING_RTOL * s2):
+            traits.update(("scaled", "nonuniform"))
+        elif abs(s2 - 1.0) > PLACING_RTOL:
+            traits.add("scaled")
     return traits
 
 

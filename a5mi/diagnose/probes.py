@@ -1,14 +1,16 @@
 """Probe scenes for ``a5mi diagnose --binary``: another a5 program rendered on scenes that show every catalogued
 mistake and tell any two apart (docs/MISTAKES.md "Probes").
 
-Four small scenes, each with its a5 flags (:data:`PROBES`): ``lit`` (a marble plane, a triangle that shadows it,
+Five small scenes, each with its a5 flags (:data:`PROBES`): ``lit`` (a marble plane, a triangle that shadows it,
 three lights of which one point light lies under the triangle and one lights from below: the light loop, shadows,
 marble, the saved image), ``corridor`` (two facing mirror planes: the reflection and the bounce budget), ``glass``
-(a glass slab with a tilted lower face over marble floors: Snell, Fresnel, total internal reflection) and ``spheres``
+(a glass slab with a tilted lower face over marble floors: Snell, Fresnel, total internal reflection), ``spheres``
 (a mirror sphere, a glass sphere and a cube map of six gradient faces, narrow field of view: background direction,
-camera). :func:`signatures` renders a5mi's own mutants on them (the test that every mistake shows and every pair
-differs); :func:`diagnose_binary` runs a program on each in the sandbox (:func:`a5mi.difftest.runner.run_binary`)
-and diagnoses each image against a5mi's reference (:func:`a5mi.diagnose.rank.diagnose`).
+camera) and ``placed`` (a stretched sphere, a mirror triangle and a wall under non-uniform ``Transform`` s, a
+uniformly scaled sphere: the normal transform, SPEC B.3 notes). :func:`signatures` renders a5mi's own mutants on
+them (the test that every mistake shows and every pair differs); :func:`diagnose_binary` runs a program on each in
+the sandbox (:func:`a5mi.difftest.runner.run_binary`) and diagnoses each image against a5mi's reference
+(:func:`a5mi.diagnose.rank.diagnose`).
 """
 
 from __future__ import annotations
@@ -86,6 +88,25 @@ Group { numObjects 4
   MaterialIndex 0 Sphere { center 0.2 1.6 -1.5 radius 0.5 } }
 """
 
+PLACED = """PerspectiveCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 angle 50 }
+Lights { numLights 2
+  DirectionalLight { direction -0.3 -0.4 -1 color 0.7 0.7 0.7 }
+  PointLight { position 1.5 1.5 3 color 0.4 0.4 0.4 } }
+Background { color 0.2 0.1 0.1 ambientLight 0.1 0.1 0.1 }
+Materials { numMaterials 3
+  Material { diffuseColor 0.8 0.5 0.3 }
+  Material { diffuseColor 0.3 0.6 0.8 specularColor 0.5 0.5 0.5 }
+  Material { diffuseColor 0.6 0.6 0.6 } }
+Group { numObjects 5
+  MaterialIndex 2 Plane { normal 0 1 0 offset -1.5 }
+  MaterialIndex 0 Transform { Translate -0.8 0.3 0.5 ZRotate 30 Scale 1.8 0.7 0.9
+    Sphere { center 0 0 0 radius 0.6 } }
+  MaterialIndex 1 Transform { Translate 0.9 -0.2 1 UniformScale 1.3 Scale 1 2.5 1 YRotate 35
+    Triangle { vertex0 -0.5 -0.4 0.2 vertex1 0.5 -0.3 -0.2 vertex2 0 0.5 0.1 } }
+  MaterialIndex 0 Transform { Translate 0.2 -1 0.8 UniformScale 0.5 Sphere { center 0 0 0 radius 0.6 } }
+  MaterialIndex 2 Transform { Scale 2 1 1 YRotate 30 Plane { normal 0 0 1 offset -3 } } }
+"""
+
 #: The six cube-map faces of ``spheres``: a colour per face, shaded along the face's u (SPEC A.4), so that the
 #: direction a ray looks along is visible in the colour.
 FACES: dict[str, tuple[float, float, float]] = {
@@ -119,6 +140,7 @@ PROBES: tuple[Probe, ...] = (
     Probe("corridor", CORRIDOR, shadows=False, bounces=3),
     Probe("glass", GLASS, shadows=False, bounces=4),
     Probe("spheres", SPHERES, bounces=3),
+    Probe("placed", PLACED, bounces=2),
 )
 
 

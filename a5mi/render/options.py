@@ -45,6 +45,7 @@ KERNEL_MISTAKES: tuple[str, ...] = (
     "phong_highlight", "mirror_sign", "reflection_unweighted", "refraction_unweighted", "refl_refr_added",
     "bounces_plus_one", "bounces_minus_one", "no_recursion", "eta_inverted", "eta_inside_inverted",
     "normal_not_flipped_inside", "tir_ignored", "schlick_wrong_c", "background_wrong_direction", "secondary_acne",
+    "normal_by_m", "normal_not_normalised",
 )
 #: ``a5_marble``'s ``mistake`` parameter (plugins/textures/marble.py, SPEC B.4).
 MARBLE_MISTAKES: tuple[str, ...] = ("marble_no_octaves", "marble_sine_unmapped", "marble_freq_amp_swapped")

@@ -29,6 +29,8 @@ The modules, each usable alone:
                     depth-first ray tree
 ``record``          :class:`TreeRecorder`: record mode, every node and term of a ray tree (``a5mi trace``)
 ``raylog``          :class:`RayLog`: every ray cast, for the benchmark's floor
+``placing``         :func:`mistaken_normal`: docs/MISTAKES.md's normal-transform mistakes (N from the hit's
+                    placing matrix)
 =================== ====================================================================================
 
 and, beside this package, the pieces they build on: ``plugins/optics.py`` (mirror, Snell, the Fresnel modes),

@@ -77,11 +77,15 @@ VARIANTS: tuple[Probe, ...] = (
           shadows=False, bounces=4),
     Probe("corridor_up", PROBES[1].text.replace("direction 0.2 0.1 -1", "direction -0.1 0.3 -1"), shadows=False,
           bounces=3),
+    Probe("placed_left", PROBES[4].text.replace("center 0 0 5 direction 0 0 -1",
+                                                "center -2 1 4.5 direction 0.35 -0.2 -1"), bounces=2),
+    Probe("placed_low", PROBES[4].text.replace("center 0 0 5 direction 0 0 -1",
+                                               "center 1 -0.8 5 direction -0.2 0.1 -1"), bounces=2),
 )
 
 
 def scenes(tmp: Path, size: int = 30, course: Path | None = None) -> dict[str, tuple[object, RenderOptions]]:
-    """The matrix's scenes: the four probes (a5mi/diagnose/probes.py) and :data:`VARIANTS`, each at ``size``, and with
+    """The matrix's scenes: the five probes (a5mi/diagnose/probes.py) and :data:`VARIANTS`, each at ``size``, and with
     ``course`` (the course's ``scenes/`` folder) scene10_sphere."""
     out = {}
     if course is not None:

@@ -1,4 +1,6 @@
-"""A float64 numpy ray tracer for scenes of planes and triangles: SPEC B.2 camera rays, SPEC B.3 ``traceRay`` with
+"""A float64 numpy ray tracer for scenes of planes and triangles, and spheres, planes and triangles inside a
+``Transform`` (SPEC A.6: the ray mapped by M⁻¹, the normal by (M⁻¹)ᵀ and normalised): SPEC B.2 camera rays, SPEC
+B.3 ``traceRay`` with
 directional and point lights, a constant background, marble with ``octaves 0`` (SPEC B.4: ``N = 0``, so the colour
 is ``t c1 + (1 - t) c2`` with ``t = (sin(frequency p.x) + 1)/2``), and each docs/MISTAKES.md kernel and marble
 mistake as the change the catalogue defines. The per-mistake tests compare a5mi's ``-mistake`` renders with it:
@@ -46,6 +48,10 @@ class Scene:
     point: list[tuple[tuple[float, float, float], tuple[float, float, float]]] = field(default_factory=list)
     ambient: tuple[float, float, float] = (0.0, 0.0, 0.0)
     background: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    #: objects inside a ``Transform``: kind (``sphere``: (centre, radius), ``plane``: (normal, offset),
+    #: ``triangle``: three vertices), its values, the transforms as written (``("Scale", (2, 1, 1))``,
+    #: ``("ZRotate", 30)``, ...), material
+    placed: list[tuple[str, tuple, list[tuple[str, object]], int]] = field(default_factory=list)
 
     def text(self) -> str:
         c, d, u, a = self.camera
@@ -65,8 +71,62 @@ class Scene:
         for vs, m in self.triangles:
             objs.append(f"MaterialIndex {m} Triangle {{ vertex0 {' '.join(map(str, vs[0]))} "
                         f"vertex1 {' '.join(map(str, vs[1]))} vertex2 {' '.join(map(str, vs[2]))} }}")
-        out.append(f"Group {{ numObjects {len(self.planes) + len(self.triangles)} {' '.join(objs)} }}")
+        for kind, values, transforms, m in self.placed:
+            steps = " ".join(f"{name} {_words(arg)}" for name, arg in transforms)
+            if kind == "sphere":
+                obj = f"Sphere {{ center {_words(values[0])} radius {values[1]} }}"
+            elif kind == "plane":
+                obj = f"Plane {{ normal {_words(values[0])} offset {values[1]} }}"
+            else:
+                obj = "Triangle { " + " ".join(f"vertex{k} {_words(v)}" for k, v in enumerate(values)) + " }"
+            objs.append(f"MaterialIndex {m} Transform {{ {steps} {obj} }}")
+        out.append(f"Group {{ numObjects {len(self.planes) + len(self.triangles) + len(self.placed)} "
+                   f"{' '.join(objs)} }}")
         return "\n".join(out) + "\n"
+
+
+def _words(v: object) -> str:
+    return " ".join(map(str, v)) if isinstance(v, tuple) else str(v)
+
+
+def placing(transforms: list[tuple[str, object]]) -> V:
+    """SPEC A.6's M (4x4) of a ``Transform``'s steps: M = I, then ``M = M T`` for each step in order (degrees)."""
+    m = np.eye(4)
+    for name, arg in transforms:
+        t = np.eye(4)
+        if name == "Translate":
+            t[:3, 3] = arg
+        elif name == "Scale":
+            t[:3, :3] = np.diag(arg)
+        elif name == "UniformScale":
+            t[:3, :3] *= arg
+        else:   # XRotate, YRotate, ZRotate: right-handed, about that axis
+            a = math.radians(float(arg))
+            i, j = {"XRotate": (1, 2), "YRotate": (2, 0), "ZRotate": (0, 1)}[name]
+            t[i, i], t[i, j], t[j, i], t[j, j] = math.cos(a), -math.sin(a), math.sin(a), math.cos(a)
+        m = m @ t
+    return m
+
+
+def _object_hit(kind: str, values: tuple, o: V, d: V) -> list[tuple[float, V]]:
+    """Every ``(t, unit object-space normal)`` where the object-space ray ``o + t d`` (d not unit) meets it."""
+    if kind == "sphere":
+        q = o - np.array(values[0], float)
+        a, b, c = d @ d, 2 * (d @ q), q @ q - values[1] ** 2
+        disc = b * b - 4 * a * c
+        if disc < 0:
+            return []
+        return [(t, unit(q + t * d)) for t in ((-b - math.sqrt(disc)) / (2 * a), (-b + math.sqrt(disc)) / (2 * a))]
+    if kind == "plane":
+        n = np.array(values[0], float)
+        return [] if n @ d == 0 else [((values[1] - n @ o) / (n @ d), unit(n))]
+    v0, v1, v2 = (np.array(v, float) for v in values)
+    e1, e2 = v1 - v0, v2 - v0
+    mat = np.column_stack([e1, e2, -d])
+    if abs(np.linalg.det(mat)) < 1e-12:
+        return []
+    b, g, t = np.linalg.solve(mat, o - v0)
+    return [(t, unit(np.cross(e1, e2)))] if b >= 0 and g >= 0 and b + g <= 1 else []
 
 
 def schlick(c: float, r0: float) -> float:
@@ -110,7 +170,19 @@ class Oracle:
                 continue
             if tmin < t < (tmax if best is None else best[0]):
                 best = (t, unit(np.cross(e1, e2)), mat)
+        for kind, values, transforms, mat in self.s.placed:
+            m = placing(transforms)
+            inv = np.linalg.inv(m)
+            for t, n_o in _object_hit(kind, values, inv[:3, :3] @ o + inv[:3, 3], inv[:3, :3] @ d):
+                if tmin < t < (tmax if best is None else best[0]):
+                    best = (t, self.placed_normal(m[:3, :3], n_o), mat)
         return best
+
+    def placed_normal(self, m: V, n_o: V) -> V:
+        """SPEC B.3 notes: ``normalize((M⁻¹)ᵀ n_o)``; docs/MISTAKES.md ``normal_by_m``: ``M`` in place of
+        ``(M⁻¹)ᵀ``, ``normal_not_normalised``: not normalised."""
+        n = m @ n_o if "normal_by_m" in self.m else np.linalg.inv(m).T @ n_o
+        return n if "normal_not_normalised" in self.m else unit(n)
 
     def kd(self, mat: Mat, p: V) -> V:
         if mat.marble is None:

@@ -59,6 +59,23 @@ def _scene_glass() -> Scene:
         ambient=(0.2, 0.2, 0.2), background=(0.05, 0.05, 0.05))
 
 
+def _scene_placed() -> Scene:
+    """A sphere stretched along a tilted axis, a mirror triangle and a wall, each under a non-uniform
+    ``Transform``, a world floor: docs/MISTAKES.md's normal-transform mistakes on every primitive kind."""
+    return Scene(
+        camera=((0, 0, 5), (0, 0, -1), (0, 1, 0), 55),
+        materials=[Mat((0.8, 0.5, 0.3)), Mat((0.3, 0.6, 0.8), (0.5, 0.5, 0.5)), Mat((0.6, 0.6, 0.6))],
+        planes=[((0, 1, 0), -1.5, 2)],
+        placed=[("sphere", ((0, 0, 0), 0.6), [("Translate", (-0.8, 0.3, 0.5)), ("ZRotate", 30),
+                                               ("Scale", (1.8, 0.7, 0.9))], 0),
+                ("triangle", ((-0.5, -0.4, 0.2), (0.5, -0.3, -0.2), (0.0, 0.5, 0.1)),
+                 [("Translate", (0.9, -0.2, 1.0)), ("UniformScale", 1.3), ("Scale", (1, 2.5, 1)), ("YRotate", 35)], 1),
+                ("plane", ((0, 0, 1), -3.0), [("Scale", (2, 1, 1)), ("YRotate", 30)], 2)],
+        directional=[((-0.3, -0.4, -1), (0.7, 0.7, 0.7))],
+        point=[((1.5, 1.5, 3.0), (0.4, 0.4, 0.4))],
+        ambient=(0.1, 0.1, 0.1), background=(0.2, 0.1, 0.1))
+
+
 #: scene, flags (bounces, shadows), the mistakes checked on it against the oracle
 ORACLE_CASES: dict[str, tuple[Scene, int, bool, tuple[str, ...]]] = {
     "lit": (_scene_lit(), 0, True, (
@@ -70,6 +87,7 @@ ORACLE_CASES: dict[str, tuple[Scene, int, bool, tuple[str, ...]]] = {
     "glass": (_scene_glass(), 4, False, (
         "refraction_unweighted", "refl_refr_added", "eta_inverted", "eta_inside_inverted",
         "normal_not_flipped_inside", "tir_ignored", "schlick_wrong_c")),
+    "placed": (_scene_placed(), 1, True, ("normal_by_m", "normal_not_normalised")),
 }
 
 
@@ -107,6 +125,42 @@ def test_kernel_mistake_matches_oracle(session, tmp_path: Path, case: str, mista
     expected = Oracle(scene, bounces, shadows, (mistake,)).image(SIZE)
     assert _agree(mutant, expected) >= 0.97, mistake
     assert _agree(mutant, correct, 1e-3) <= 0.95, f"{mistake} does not show on scene {case}"
+
+
+def test_normal_mistakes_together_match_oracle(session, tmp_path: Path) -> None:
+    """Both normal-transform mistakes at once: N = M n_o, not normalised (docs/MISTAKES.md)."""
+    scene, both = _scene_placed(), ("normal_by_m", "normal_not_normalised")
+    mutant = _render(session, _desc(scene.text(), tmp_path), bounces=1, shadows=True, mistakes=both)
+    assert _agree(mutant, Oracle(scene, 1, True, both).image(SIZE)) >= 0.97
+    for one in both:
+        assert _agree(mutant, Oracle(scene, 1, True, (one,)).image(SIZE)) <= 0.9
+
+
+UNIFORM_SPHERE = """PerspectiveCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 angle 30 }
+Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 0.8 0.8 0.8 } }
+Background { color 0 0 0 ambientLight 0 0 0 }
+Materials { numMaterials 1 Material { diffuseColor 1 1 1 } }
+Group { numObjects 1 MaterialIndex 0 Transform { ZRotate 25 UniformScale 2 Sphere { center 0 0 0 radius 0.5 } } }
+"""
+
+
+def test_normal_mistakes_under_a_similarity(session, tmp_path: Path) -> None:
+    """M = 2 R (a similarity): ``normal_by_m`` changes nothing (normalize(M Mᵀ n_w) = n_w; up to float32 rounding);
+    ``normal_not_normalised`` halves N (|Mᵀ n_w| = 2): the Lambert colour clamp(L·N) and the ``-normals`` image
+    |N| (SPEC B.6: the hit record's normal, the one the student's Transform wrote) are half the correct ones."""
+    desc = _desc(UNIFORM_SPHERE, tmp_path)
+
+    def both(mistakes: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+        r = session.render(desc, RenderOptions(width=SIZE, height=SIZE, normals=True, mistakes=mistakes))
+        return r.image, r.normals
+
+    image, normals = both(())
+    np.testing.assert_allclose(np.stack(both(("normal_by_m",))), np.stack((image, normals)), atol=1e-5)
+    half_image, half_normals = both(("normal_not_normalised",))
+    on = image.max(axis=-1) > 0.05                     # the sphere's lit pixels (the rest is black)
+    assert on.mean() > 0.2
+    np.testing.assert_allclose(half_image[on], image[on] / 2, atol=1e-5)
+    np.testing.assert_allclose(half_normals, normals / 2, atol=1e-5)
 
 
 def test_oracle_cases_cover_the_kernel(tmp_path: Path) -> None:

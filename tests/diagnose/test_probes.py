@@ -49,7 +49,7 @@ def test_probes_show_every_mistake_and_tell_every_pair_apart(variant: str) -> No
 def test_probes_tell_a_subset_apart(variant: str) -> None:
     _check_distinguishes(["no_shadows", "shadow_first_light_only", "no_recursion", "bounces_minus_one",
                           "marble_no_octaves", "background_wrong_direction", "no_jitter", "blur_one_direction",
-                          "rounding", "mirrored"])
+                          "rounding", "mirrored", "normal_by_m", "normal_not_normalised"])
 
 
 def _spheres(tmp_path: Path):  # noqa: ANN202 - (description, options)
@@ -102,6 +102,19 @@ def test_a5soln_images_diagnosed(session, tmp_path: Path, name: str, edit: str |
             [(c.mistakes, c.explained) for c in d.causes]
 
 
+def test_a5soln_placed_probe_matches(session, tmp_path: Path) -> None:
+    """a5soln's own image of the ``placed`` probe (non-uniform Transforms of a sphere, a triangle and a plane)
+    matches a5mi's reference: the normal-transform mistakes are not named on a correct image."""
+    from a5mi.diagnose.probes import PROBES, describe_probe
+    from a5mi.diagnose.rank import diagnose
+    from a5mi.platform.imageio import read_uint8
+
+    probe = PROBES[4]
+    img = read_uint8(DATA / "a5soln_placed_correct.png")[..., :3]
+    d = diagnose(np.ascontiguousarray(img), describe_probe(probe, tmp_path), probe.options(), session=session)
+    assert probe.name == "placed" and d.verdict == "match" and d.causes == [], (d.verdict, d.psnr)
+
+
 @pytest.mark.slow
 def test_binary_with_a_mistake_is_found(tmp_path: Path, variant: str) -> None:
     """A wrapper script that runs this checkout's ``a5`` with ``-mistake eta_inverted``, run as ``--binary`` (in
@@ -125,9 +138,10 @@ def test_binary_with_a_mistake_is_found(tmp_path: Path, variant: str) -> None:
 def test_binary_that_writes_nothing_is_a_difference(tmp_path: Path, capsys) -> None:
     """``--binary`` with a program that writes no image: each probe says so, exit 1; a missing program: exit 2."""
     from a5mi.cli import run_a5mi
+    from a5mi.diagnose.probes import PROBES
 
     assert run_a5mi(["diagnose", "--binary", "/bin/false"]) == 1
     out = capsys.readouterr().out
-    assert out.count("binary failed") == 4 and "no mistake found" not in out
+    assert out.count("binary failed") == len(PROBES) == 5 and "no mistake found" not in out
     assert run_a5mi(["diagnose", "--binary", str(tmp_path / "nope")]) == 2
     assert "is not a file" in capsys.readouterr().err

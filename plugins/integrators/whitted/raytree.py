@@ -18,7 +18,7 @@ import drjit as dr
 import mitsuba as mi
 
 from a5mi.plugins.integrators.whitted import medium_segment, subsurface
-from a5mi.plugins.kernel import gloss, lights, pbr_gather
+from a5mi.plugins.kernel import gloss, lights, pbr_gather, placing
 from a5mi.plugins.kernel import stack as ray_stack
 from a5mi.plugins.kernel.features import Features, SceneData
 from a5mi.plugins.kernel.intersect import intersect, mirror_normal
@@ -101,6 +101,8 @@ def trace_tree(scene: mi.Scene, ray_o: mi.Point3f, ray_d: mi.Vector3f, active: m
         # ---- nearest hit (meshes by the binary's rules, spheres, exact planes); background on a miss
         si, t_hit, p, n, hit, on_plane, plane_idx, row, bsdf = intersect(scene, data.planes, data.rules, o, d,
                                                                          t_min, origin, f.stale_uv)
+        if dr.hint(placing.makes(f.mistakes), mode="scalar"):   # MISTAKES.md: N by M, or not normalised
+            n = placing.mistaken_normal(f.mistakes, data.planes, data.rules, on_plane, plane_idx, row, n, hit)
         bg = dr.zeros(mi.Color3f, width)
         if dr.hint(f.environment, mode="scalar"):
             if dr.hint("background_wrong_direction" in f.mistakes, mode="scalar"):   # MISTAKES.md: bg(-d)
