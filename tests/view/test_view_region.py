@@ -8,14 +8,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import threading
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 from test_view_server import TOKEN, get
-from view_scenes import a5_png, beside_loop, scene_text, time_limit
+from view_scenes import a5_png, scene_text, time_limit, view_loop, wait_for
 
 from a5mi.render.options import RenderOptions
 from a5mi.view import controls
@@ -105,39 +103,6 @@ def session(variant):  # noqa: ANN001, ANN201 - fixtures
     return ViewSession()
 
 
-def loop(engine, options: RenderOptions, drive, **kw) -> None:  # noqa: ANN001, ANN003
-    """``run_engine`` on this thread as ``a5mi view`` runs it, ``drive(jobs, states)`` beside it; each state
-    recorded with the render's PNG and value blob."""
-    from a5mi.view.live import run_engine
-    from a5mi.view.watcher import Watcher
-
-    states: list[dict] = []
-
-    class Recorder(Hub):
-        def update(self, images=None, **state) -> None:  # noqa: ANN001
-            super().update(images, **state)
-            states.append({**self.state(), "png": self.image("render"), "values": self.image("values-render")})
-
-    hub, jobs, stop = Recorder(), Jobs(), threading.Event()
-    watcher = Watcher(lambda: jobs.render(reload=True))
-    watcher.start()
-    try:
-        beside_loop(lambda: drive(jobs, states), stop,
-                    lambda: run_engine(engine, hub, jobs, watcher, options, stop=stop, **kw))
-    finally:
-        watcher.stop()
-
-
-def until(states: list[dict], pred, what: str) -> dict:  # noqa: ANN001
-    t0 = time.monotonic()
-    while True:
-        found = [s for s in states if pred(s)]
-        if found:
-            return found[-1]
-        assert time.monotonic() - t0 < 120, (what, states[-1] if states else None)
-        time.sleep(0.02)
-
-
 def pixels(state: dict, tmp: Path) -> tuple[np.ndarray, np.ndarray]:
     """The floats and the 8-bit levels of a state's render (its value blob) and, checked equal to the levels, its
     PNG's decoded pixels."""
@@ -161,9 +126,9 @@ def test_a_save_publishes_the_region_first_bit_identical_to_the_full_image(tmp_p
         scene.write_text(scene_text())
 
         def drive(jobs, states) -> None:  # noqa: ANN001
-            first = until(states, lambda s: s.get("frame") and not s["busy"], "first frame")
+            first = wait_for(states, lambda s: s.get("frame") and not s["busy"], "first frame")
             jobs.mark(REGION)  # once right after marking: the region, then the unchanged whole image again
-            marked = until(states, lambda s: (s.get("frame") or 0) > first["frame"] and not s["busy"], "marked")
+            marked = wait_for(states, lambda s: (s.get("frame") or 0) > first["frame"] and not s["busy"], "marked")
             new = [s for s in states if (s.get("frame") or 0) > first["frame"]]
             assert [s["composite"] is not None for s in new] == [True, False], new
             assert new[0]["composite"]["region"] == list(REGION) and new[0]["composite"]["base"] == "previous"
@@ -172,7 +137,7 @@ def test_a_save_publishes_the_region_first_bit_identical_to_the_full_image(tmp_p
             assert np.array_equal(pixels(new[0], tmp_path)[0], pixels(first, tmp_path)[0])  # the region's pixels
             # were already these
             scene.write_text(scene_text().replace("ambientLight 0.2 0.2 0.2", "ambientLight 0.4 0.2 0.2"))  # a save
-            final = until(states, lambda s: (s.get("frame") or 0) > marked["frame"] and not s["busy"], "saved")
+            final = wait_for(states, lambda s: (s.get("frame") or 0) > marked["frame"] and not s["busy"], "saved")
             new = [s for s in states if (s.get("frame") or 0) > marked["frame"]]
             kinds = [("composite" if s["composite"] and not s["preview"] else "preview" if s["preview"] else
                       "final") for s in new]
@@ -193,7 +158,7 @@ def test_a_save_publishes_the_region_first_bit_identical_to_the_full_image(tmp_p
             before = pixels(marked, tmp_path)[1][y0:y1, x0:x1]
             assert (before != lev[y0:y1, x0:x1]).any(axis=2).all()  # the save changed every pixel of the region
 
-        loop(ViewEngine(str(scene), session), OPTS, drive, preview_after=0.0)
+        view_loop(ViewEngine(str(scene), session), OPTS, drive, preview_after=0.0)
 
 
 def test_a_region_the_crop_render_refuses_is_one_line_and_the_image_renders_as_before(
@@ -205,12 +170,12 @@ def test_a_region_the_crop_render_refuses_is_one_line_and_the_image_renders_as_b
         scene.write_text(scene_text())
 
         def drive(jobs, states) -> None:  # noqa: ANN001
-            first = until(states, lambda s: s.get("frame") and not s["busy"], "first frame")
+            first = wait_for(states, lambda s: s.get("frame") and not s["busy"], "first frame")
             jobs.mark(REGION)
-            final = until(states, lambda s: (s.get("frame") or 0) > first["frame"] and not s["busy"], "marked")
+            final = wait_for(states, lambda s: (s.get("frame") or 0) > first["frame"] and not s["busy"], "marked")
             assert all(s.get("composite") is None for s in states)
             assert "cannot make the mistake upside_down" in final["region_note"] and final["error"] is None
             assert final["png"] == a5_png(scene, tmp_path / "a5.png", *FLAGS, "-mistake", "upside_down")
 
-        loop(ViewEngine(str(scene), session), dataclasses.replace(OPTS, mistakes=("upside_down",)), drive,
+        view_loop(ViewEngine(str(scene), session), dataclasses.replace(OPTS, mistakes=("upside_down",)), drive,
              preview=False)
