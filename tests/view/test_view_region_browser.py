@@ -1,7 +1,8 @@
 """The marked region in a real headless Chromium against the real ``a5mi view`` (docs/VIEW.md "Full quality
 first"): at 2x zoom and panned, a shift+drag marks the image pixels under its two ends and every pixel between
 (not a pan, not a traced click), drawn on the view; a save then announces the region's composite, labelled, before
-the whole image, which is ``a5``'s; the clear button removes the region."""
+the whole image, which is ``a5``'s; a region the render cannot put first is one line on the page; the clear
+button removes the region."""
 
 from __future__ import annotations
 
@@ -97,6 +98,16 @@ def test_shift_drag_marks_a_region_whose_composite_comes_before_the_whole_image(
                                                         "quality, pasted on the previous image"), text
                 frame = int(page.get_attribute("#render", "data-frame"))
                 check_image(page, tmp_path, scene, frame, *FLAGS)
+
+                # a -size that leaves the region outside the image: one line says so, the image renders as before
+                page.locator("#controls input[name=width]").fill("8")
+                page.locator("#controls input[name=width]").dispatch_event("change")
+                page.wait_for_selector("#region-note:not([hidden])", timeout=120_000)
+                note = page.inner_text("#region-note")
+                assert note == "the marked region lies outside the 8x48 image: the whole image renders alone", note
+                page.wait_for_function(f"() => document.getElementById('render').dataset.frame > {frame}"
+                                       f" && ({IDLE})()", timeout=120_000)
+                assert page.get_attribute("#render", "data-kind") == "final" and page.is_hidden("#region-badge")
 
                 # cleared: no region in the state, none drawn, the button hidden
                 page.locator("#region-clear").click()
