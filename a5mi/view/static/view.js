@@ -102,8 +102,8 @@ function show(s) {
     $("diff-panel").hidden = !s.has_diff;
     showMetrics(s);
   }
-  // the comparison shown is the last full render's while a preview, or a render not compared yet, is shown
-  for (const id of ["diff-panel", "compare"]) $(id).classList.toggle("stale", !!(s.preview || s.comparing));
+  // the comparison shown is the last full render's while a preview, a composite or a render not compared yet is shown
+  for (const id of ["diff-panel", "compare"]) $(id).classList.toggle("stale", !!(s.preview || s.comparing || s.composite));
   $("exposure-note").textContent = s.reference_float ? "(the reference is an .exr: linear floats)" : "";
   showDiagnosis(s.diagnosis, s.frame);
 }
