@@ -71,20 +71,18 @@ def test_shift_drag_marks_a_region_whose_composite_comes_before_the_whole_image(
                 page.mouse.up()
                 page.keyboard.up("Shift")
                 region = [b[0], a[0] + 1, b[1], a[1] + 1]  # X0 X1 Y0 Y1, X1 and Y1 exclusive
-                page.wait_for_function("(r) => state.region && state.region.join() === r.join()", arg=region,
-                                       timeout=60_000)
+                page.wait_for_selector("#region-clear", state="visible", timeout=60_000)  # the server's state has it
                 assert page.evaluate(STATE)["region"] == region
                 assert geometry(page) == (tx, ty, k)  # a shift+drag does not pan
                 assert page.locator("#trace-sum").count() == 0  # nor trace
                 assert marked_screen_pixels(page) > 300  # the dashed outline around 16 x 16 pixels at 16 px each
-                assert page.locator("#region-clear").is_visible()
                 assert page.locator("#view-render").bounding_box() == box  # the page did not move under the cursor
                 assert page.inner_text("#region-info") == f"x {b[0]}..{a[0]}, y {b[1]}..{a[1]}"
 
                 # marking renders the region once; then a save: the region's composite before the whole image
                 page.wait_for_function(f"() => window.announced.some(([k, f]) => k === 'final' && f > {last})"
                                        f" && ({IDLE})()", timeout=120_000)
-                marked = int(page.get_attribute("#render", "data-frame"))
+                marked = page.evaluate("window.announced.filter(([k]) => k === 'final').at(-1)[1]")
                 scene.write_text(scene_text().replace("ambientLight 0.2 0.2 0.2", "ambientLight 0.4 0.2 0.2"))
                 page.wait_for_function(f"() => window.announced.some(([k, f]) => k === 'final' && f > {marked})"
                                        f" && ({IDLE})()", timeout=120_000)
@@ -96,7 +94,7 @@ def test_shift_drag_marks_a_region_whose_composite_comes_before_the_whole_image(
                     assert shown == (kind == "region"), badges
                     assert not shown or text.startswith(f"REGION x {b[0]}..{a[0]}, y {b[1]}..{a[1]} at full "
                                                         "quality, pasted on the previous image"), text
-                frame = int(page.get_attribute("#render", "data-frame"))
+                frame = announced[-1][1]  # the whole image's (announced, maybe not loaded yet)
                 check_image(page, tmp_path, scene, frame, *FLAGS)
 
                 # a -size that leaves the region outside the image: one line says so, the image renders as before
