@@ -88,6 +88,8 @@ def render_region(engine: Any, options: RenderOptions, region: Region) -> tuple[
     ``options`` by the engine's warm session as ``a5 ... -crop X0 X1 Y0 Y1`` renders them (row 0 the top), and
     the seconds it took."""
     t0 = time.perf_counter()
+    if engine.desc is None or options.bump != engine.bump:  # as ViewEngine.render: described with the bump maps
+        engine.load(options.bump)
     region = clamp(region, saved_size(options)) or region
     result = engine.session.render(engine.desc, dataclasses.replace(options, crop=region))
     return result.image, time.perf_counter() - t0

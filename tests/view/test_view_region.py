@@ -179,3 +179,30 @@ def test_a_region_the_crop_render_refuses_is_one_line_and_the_image_renders_as_b
 
         view_loop(ViewEngine(str(scene), session), dataclasses.replace(OPTS, mistakes=("upside_down",)), drive,
              preview=False)
+
+
+def test_the_region_render_reuses_the_warm_scene(tmp_path: Path, session) -> None:  # noqa: ANN001
+    """The crop render goes through the page's warm session (no Mitsuba object made again); its pixels are the
+    full frame's, clamped to the image; a ``-bump`` change describes the scene again first, as the full render
+    does."""
+    from a5mi.view.engine import ViewEngine
+    from a5mi.view.region import render_region
+
+    x0, x1, y0, y1 = REGION
+    with time_limit(240):
+        scene = tmp_path / "s.txt"
+        scene.write_text(scene_text())
+        engine = ViewEngine(str(scene), session)
+        try:
+            full = engine.render(OPTS)
+            made = session.made
+            part, seconds = render_region(engine, OPTS, REGION)
+            assert session.made == made and seconds > 0
+            assert np.array_equal(part, full.image[y0:y1, x0:x1])
+            part, _ = render_region(engine, OPTS, (x0, 99, y0, 99))  # clamped to the 32 x 32 image
+            assert np.array_equal(part, full.image[y0:, x0:])
+            bumped = dataclasses.replace(OPTS, bump=True)
+            part, _ = render_region(engine, bumped, REGION)
+            assert engine.bump and np.array_equal(part, engine.render(bumped).image[y0:y1, x0:x1])
+        finally:
+            engine.close()
