@@ -5,8 +5,9 @@ A region is ``(X0, X1, Y0, Y1)``: the saved image's pixels ``X0 <= x < X1``, ``Y
 (``{"region": null}`` clears it; :func:`parse_region`). On every render the engine
 (:func:`a5mi.view.live.run_engine`) first renders the region alone with the page's flags through the crop render
 (:mod:`a5mi.render.crop`: bit for bit the same pixels of the whole image, ``-jitter -filter`` included) and
-publishes a composite: the image shown before (the previous image or, once it is shown, the preview) with the
-region's pixels pasted at ``[Y0:Y1, X0:X1]`` (:func:`paste`); then the whole image as before. Where the crop render
+publishes a composite: the image shown before with the region's pixels pasted at ``[Y0:Y1, X0:X1]``
+(:func:`paste`); then the preview, where the page shows one, with the region pasted on it too, and the whole image
+as before. Where the crop render
 refuses the flags (:func:`a5mi.render.crop.refusal`: ``-integrator photon``, ``ppm``, ``irradiancecache``, a
 mistake that reads the whole image) :func:`why_not` says so in one line and the whole image renders alone.
 """
