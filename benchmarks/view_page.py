@@ -2,7 +2,8 @@
 per stage, and the README's screenshot.
 
     .venv/bin/python benchmarks/view_page.py [--saves N] [--baseline A5MI] [--rounds R] [--a5] [--shots DIR]
-                                             [--modes plain,jitter-filter] [--this-args ARGS] [SCENE ...]
+                                             [--modes plain,jitter-filter] [--this-args ARGS]
+                                             [--region X0 X1 Y0 Y1] [SCENE ...]
 
 For each scene (default: the handout's four test scenes) a copy of the scene file is served (the meshes and the
 cube map linked from the course folder) by the real ``a5mi view`` command at 300 x 300, once with
@@ -15,6 +16,9 @@ Times, from just before the write (``t0``):
 * ``final``: to the ``load`` event of the save's full image on the page (the image ``a5`` writes for the flags);
 * ``preview``: to the ``load`` event of its preview, where the page shows one (``-jitter``/``-filter``: one ray
   per pixel, labelled PREVIEW on the page, replaced by the full image);
+* ``region``: with ``--region X0 X1 Y0 Y1`` (this checkout's server only: the region is marked on its page before
+  the saves, docs/VIEW.md "Full quality first"), to the ``load`` event of the first image of the save that shows
+  the region's full-quality pixels (its composite, else the preview with the region, else the full image);
 * the stages of the full image, medians: ``watcher`` (``t0`` to the watcher's reload request), the engine's
   ``parse`` (parse + describe), ``build`` (Mitsuba objects), ``trace`` (the Python trace of the integrator and the
   rest of the tile loop), ``compile`` (Dr.Jit codegen + LLVM), ``execute`` (kernels), ``filter``, ``png``,
@@ -59,7 +63,7 @@ STAGES = ("parse", "build", "trace", "compile", "execute", "filter", "png", "com
 #: dataset first).
 RECORD_LOADS = """() => { window.__loads = []; const img = document.getElementById('render');
   img.addEventListener('load', () => window.__loads.push({frame: Number(img.dataset.frame),
-    kind: img.dataset.kind || 'final', t: Number(img.dataset.loadedAt)})); }"""
+    kind: img.dataset.kind || 'final', region: !!img.dataset.composite, t: Number(img.dataset.loadedAt)})); }"""
 
 
 def start(a5mi: Path, scene: Path, flags: list[str], reference: Path | None,
@@ -95,7 +99,7 @@ def bump_ambient(scene: Path, k: int) -> None:
 
 def wait_load(page: Any, after: int, kind: str) -> dict[str, Any]:  # a Playwright page
     """The first recorded load of a frame after ``after`` of ``kind`` (``final`` also matches an old page's)."""
-    want = "l.kind !== 'preview'" if kind == "final" else "l.kind === 'preview'"
+    want = "l.kind !== 'preview' && l.kind !== 'region'" if kind == "final" else "l.kind === 'preview'"
     handle = page.wait_for_function(f"(n) => window.__loads.find(l => l.frame > n && {want})", arg=after,
                                     timeout=180_000)
     return handle.json_value()
@@ -114,8 +118,20 @@ def warm(page: Any) -> None:
     wait_idle(page)
 
 
-def one_save(page: Any, scene: Path, k: int) -> dict[str, Any]:
-    """Save ``scene`` (its ambient term changed) and time the page's update (module docstring)."""
+def mark(page: Any, region: list[int]) -> None:
+    """Mark ``region`` on the page (``POST /api/region``, as a shift+drag does) and wait for its first render."""
+    last = int(page.get_attribute("#render", "data-frame"))
+    ok = page.evaluate("""(r) => fetch('/api/region' + location.search, {method: 'POST', body: JSON.stringify(
+        {region: r}), headers: {'Content-Type': 'application/json'}}).then(x => x.ok)""", region)
+    if not ok:
+        raise SystemExit(f"a5mi view refused the region {region}")
+    wait_load(page, last, "final")
+    wait_idle(page)
+
+
+def one_save(page: Any, scene: Path, k: int, marked: bool = False) -> dict[str, Any]:
+    """Save ``scene`` (its ambient term changed) and time the page's update (module docstring); ``marked``: a
+    region is marked (the ``region`` time)."""
     last = int(page.get_attribute("#render", "data-frame"))
     time.sleep(0.6)  # idle: the watcher's baseline is the last save
     t0 = time.time()
@@ -123,10 +139,12 @@ def one_save(page: Any, scene: Path, k: int) -> dict[str, Any]:
     final = wait_load(page, last, "final")
     loads = page.evaluate("window.__loads")
     preview = next((x for x in loads if x["frame"] > last and x["kind"] == "preview"), None)
+    region = next((x for x in loads if x["frame"] > last and (x["region"] or x["kind"] == "final")), None)
     wait_idle(page)  # the comparison, which follows the image, is done: its stage is in the state
     state = page.evaluate("fetch('/api/state' + location.search).then(r => r.json())")
     sec = state.get("seconds") or {}
     row = {"final": final["t"] / 1000.0 - t0, "preview": preview["t"] / 1000.0 - t0 if preview else None,
+           "region": region["t"] / 1000.0 - t0 if region and marked else None,
            "engine": sec.get("total"), "compiled": (state.get("kernels") or {}).get("compiled")}
     row.update({key: sec.get(key) for key in STAGES})
     if state.get("saved_at"):
@@ -160,7 +178,7 @@ def row_line(name: str, flags: list[str], code: str, rows: list[dict[str, Any]],
              a5: float | None) -> str:
     finals = [r["final"] for r in rows]
     compiled = [r["compiled"] for r in rows if r.get("compiled") is not None]
-    cells = [name, " ".join(flags), code, fmt(median(rows, "preview")),
+    cells = [name, " ".join(flags), code, fmt(median(rows, "region")), fmt(median(rows, "preview")),
              f"{fmt(median(rows, 'final'))} ({fmt(min(finals))}-{fmt(max(finals))})",
              *(fmt(median(rows, k)) for k in ("watcher", *STAGES, "engine", "delivery")),
              str(sum(compiled)) if compiled else "-"]
@@ -180,6 +198,8 @@ def main() -> None:
     ap.add_argument("--shots", type=Path)
     ap.add_argument("--this-args", default="", help="more a5mi view arguments for this code (e.g. --no-preview)")
     ap.add_argument("--target", type=float, default=0.5, help="seconds from save to the full image (the goal)")
+    ap.add_argument("--region", type=int, nargs=4, metavar=("X0", "X1", "Y0", "Y1"),
+                    help="mark this region on this checkout's page: rendered first at full quality on each save")
     args = ap.parse_args()
     from playwright.sync_api import sync_playwright
 
@@ -189,7 +209,7 @@ def main() -> None:
     codes = {"this": Path(sys.executable).with_name("a5mi")}
     if args.baseline:
         codes["baseline"] = args.baseline
-    head = ["scene", "flags", "code", "preview", "final (min-max)", "watcher", *STAGES, "engine", "delivery",
+    head = ["scene", "flags", "code", "region", "preview", "final (min-max)", "watcher", *STAGES, "engine", "delivery",
             "compiled"] + (["one a5"] if args.a5 else []) + ["load avg"]
     print("| " + " | ".join(head) + " |")
     print("|" + " --- |" * len(head))
@@ -213,10 +233,13 @@ def main() -> None:
                         pages[code].goto(servers[code][1])
                     for code in codes:
                         warm(pages[code])
+                    if args.region:
+                        mark(pages["this"], args.region)
                     for k in range(args.saves * args.rounds):
                         for code in (list(codes) if k % 2 == 0 else list(reversed(codes))):
                             loads[code].append(os.getloadavg()[0])
-                            results[code].append(one_save(pages[code], scenes[code], k))
+                            results[code].append(one_save(pages[code], scenes[code], k,
+                                                          bool(args.region) and code == "this"))
                     if args.shots and name == "scene10_sphere" and mode == "jitter-filter":
                         shoot(pages["this"], args.shots / "view.png")
                 finally:

@@ -6,7 +6,8 @@ truncated one, a huge one, control bodies (valid, out of range, wrong types, not
 ``Host`` / ``Origin`` / ``Content-Length`` / ``Transfer-Encoding`` of every kind. :func:`judge` holds the server to
 its promises: an answer (a status line) or a clean close within the time limit, never a 5xx, nothing printed on
 the terminal (no traceback), 403 unless both the token and ``Host``/``Origin`` are right, 202 only for a body
-the controls accept (on ``/api/diagnose``: only for a body that asks for a diagnosis), and after the server
+the controls accept (on ``/api/diagnose``: only for a body that asks for a diagnosis; on ``/api/region``: only for
+a region :func:`a5mi.view.region.parse_region` takes), and after the server
 stops no thread of it left running.
 """
 
@@ -23,13 +24,14 @@ ROUTES = ("/", "/index.html", "/static/view.js", "/static/look.js", "/static/vie
           "/static/%2e%2e/x", "/api/values/render.bin", "/api/values/diff.bin", "/api/values/../x", "/api/diagnose",
           "/api/state", "/api/events", "/api/image/render.png", "/api/image/reference.png", "/api/image/../x",
           "/api/render", "/api/trace", "/api/trace?x=1&y=2", "/api/trace?x=-1&y=1e9", "/api/trace?x=a&y=",
-          "/nowhere", "//", "/%00", "/" + "a" * 5000, "/api/state/..;/", "/\u00e9")
+          "/nowhere", "//", "/%00", "/" + "a" * 5000, "/api/state/..;/", "/\u00e9", "/api/region")
 METHODS = ("GET", "POST", "HEAD", "PUT", "DELETE", "OPTIONS", "PATCH", "TRACE", "CONNECT", "G\x00T", "get", "")
 CONTROLS = ({}, {"width": 8, "height": 8}, {"bounces": 2, "shadows": True}, {"indirect": 200, "bounces": 2},
             {"indirect": 4096, "bounces": 64}, {"integrator": "path", "indirect": 3}, {"spp": 0},
             {"width": 2, "filter": True}, {"width": 100000, "height": 100000}, {"width": 1.5}, {"shadows": "yes"},
             {"integrator": "bogus"}, {"fresnel": None}, {"nope": 1}, {"width": True}, {"rr_depth": -1},
-            {"width": 10**30}, {"spp": 65536, "jitter": True})
+            {"width": 10**30}, {"spp": 65536, "jitter": True}, {"region": [1, 5, 2, 6]}, {"region": None},
+            {"region": [5, 1, 2, 6]}, {"region": [0, 10**30, 0, 1]}, {"region": [1.5, 2, 3, 4]}, {"region": "1 2 3 4"})
 
 
 def _body(rng: random.Random) -> bytes:
@@ -117,6 +119,17 @@ def _diagnose_request(body: bytes) -> bool:
     return isinstance(doc, dict) and doc.get("image", "render") in ("render", "reference")
 
 
+def _region_request(body: bytes) -> bool:
+    """Whether ``body`` is a region ``POST /api/region`` takes (:func:`a5mi.view.region.parse_region`)."""
+    from a5mi.view.region import RegionError, parse_region
+
+    try:
+        parse_region(json.loads(body or b"{}"))
+    except (json.JSONDecodeError, UnicodeDecodeError, RegionError):
+        return False
+    return True
+
+
 def judge(seed: int, timeout: float = 30.0) -> tuple[list[str], str, str]:
     """Run the mutant ``seed`` against a fresh server (no engine: jobs are queued, not rendered); (argv-like
     description, stderr printed, problem or '')."""
@@ -181,6 +194,9 @@ def judge(seed: int, timeout: float = 30.0) -> tuple[list[str], str, str]:
     if status == 202 and urllib.parse.urlsplit(target).path == "/api/diagnose":
         if not _diagnose_request(body):
             return desc, printed, "202 for a body that asks for no diagnosis"
+    elif status == 202 and urllib.parse.urlsplit(target).path == "/api/region":
+        if not _region_request(body):
+            return desc, printed, "202 for a body that is no region"
     elif status == 202 and not accepted:
         return desc, printed, "202 for a body the controls did not accept"
     for t in threading.enumerate():

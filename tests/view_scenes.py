@@ -6,9 +6,11 @@ from __future__ import annotations
 import faulthandler
 import signal
 import threading
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 SCENE = """PerspectiveCamera {
     center 0 1.5 5
@@ -129,3 +131,39 @@ def beside_loop(check: Callable[[], None], stop: threading.Event, loop: Callable
     checker.join(timeout=10)
     if errors:
         raise errors[0]
+
+
+def view_loop(engine: Any, options: Any, drive: Callable[[Any, list[dict]], None], **loop: Any) -> None:
+    """``run_engine`` on this thread, as ``a5mi view`` runs it (``loop``: its keyword arguments), ``drive(jobs,
+    states)`` beside it (:func:`beside_loop`); each state the loop publishes is recorded with the render's PNG
+    (``png``) and value blob (``values``); re-raises the drive's failure."""
+    from a5mi.view.live import run_engine
+    from a5mi.view.server import Hub, Jobs
+    from a5mi.view.watcher import Watcher
+
+    states: list[dict] = []
+
+    class Recorder(Hub):
+        def update(self, images: Any = None, **state: Any) -> None:
+            super().update(images, **state)
+            states.append({**self.state(), "png": self.image("render"), "values": self.image("values-render")})
+
+    hub, jobs, stop = Recorder(), Jobs(), threading.Event()
+    watcher = Watcher(lambda: jobs.render(reload=True))
+    watcher.start()
+    try:
+        beside_loop(lambda: drive(jobs, states), stop,
+                    lambda: run_engine(engine, hub, jobs, watcher, options, stop=stop, **loop))
+    finally:
+        watcher.stop()
+
+
+def wait_for(states: list[dict], pred: Callable[[dict], Any], what: str) -> dict:
+    """The last recorded state for which ``pred`` holds, waiting for one (at most 120 s)."""
+    t0 = time.monotonic()
+    while True:
+        found = [s for s in states if pred(s)]
+        if found:
+            return found[-1]
+        assert time.monotonic() - t0 < 120, (what, states[-1] if states else None)
+        time.sleep(0.02)

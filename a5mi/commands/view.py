@@ -4,8 +4,9 @@ live page.
 Starts a local web server on 127.0.0.1 (a free port unless ``--port``) whose URL, with a one-time token, is
 printed on stdout; the page (:mod:`a5mi.view`, docs/VIEW.md) shows the render, the reference, the heatmap and
 ``compare``'s verdict, re-renders when a control changes or a file the scene read is saved, traces a clicked
-pixel, zooms the three images together, shows the values under the cursor, and diagnoses the render or the
-reference (docs/MISTAKES.md). One warm :class:`a5mi.render.session.RenderSession` renders everything on this (the
+pixel, zooms the three images together, shows the values under the cursor, renders a region marked with
+shift+drag first at full quality on each save (the crop render), and diagnoses the render or the reference
+(docs/MISTAKES.md). One warm :class:`a5mi.render.session.RenderSession` renders everything on this (the
 main) thread; the server and the file watcher run on their own threads. A closed tab does not stop it; Ctrl-C does
 (exit 130).
 """
@@ -107,7 +108,7 @@ def _serve(args: Args, console: Console, options: object, binary: object) -> int
 
 VIEW = Command("view", "Serve a live page on 127.0.0.1: the render, the reference and their heatmap and verdict, "
                "flag controls, re-render on save, the ray tree of a clicked pixel, zoom, the values under the cursor, "
-               "exposure, an A/B flip and a diagnose panel.",
+               "exposure, an A/B flip, a marked region rendered first at full quality and a diagnose panel.",
                FLAGS, run_view, (Positional("scene", "SCENE.txt", "the scene to show"),), check=check_view_args,
                epilog="The URL printed carries a one-time token; every request without it is refused (403). "
                "docs/VIEW.md.", exit_ok="never: the server runs until it is stopped (Ctrl-C: 130)")

@@ -72,6 +72,9 @@ class Frame:
     preview: bool = False
     #: the render's kernel launches by where the kernel came from (:attr:`a5mi.render.driver.RenderResult.kernels`)
     kernels: dict[str, int] = field(default_factory=dict)
+    #: a composite (:mod:`a5mi.view.region`): ``{"region": [X0, X1, Y0, Y1], "base": ...}``, the marked region at
+    #: full quality pasted on another image, never compared; None: the image is one render's
+    composite: dict[str, Any] | None = None
 
 
 def preview_options(options: RenderOptions) -> RenderOptions | None:
@@ -223,18 +226,25 @@ class ViewEngine:
         result = self.session.render(self.desc, run, progress=tiles)
         seconds["render"] = time.perf_counter() - t0
         seconds.update(render_stages(result.timings))
-        image = result.image
-        h, w = image.shape[:2]
         t0 = time.perf_counter()
-        self._versions += 1
-        frame = Frame(self._versions, opts, image, png_bytes(image, self._scratch), (w, h), preview=preview,
-                      kernels=dict(result.kernels))
+        frame = self.frame_of(opts, result.image, preview=preview, kernels=dict(result.kernels))
         seconds["png"] = time.perf_counter() - t0
         frame.seconds = seconds
         if compare and not preview:
             self.compare(frame, progress)
         self.frame = frame
         return frame
+
+    def frame_of(self, options: RenderOptions, image: np.ndarray, **extra: Any) -> Frame:
+        """A new :class:`Frame` (the next version) of the saved ``image`` with its PNG bytes; ``extra``: its other
+        fields."""
+        h, w = image.shape[:2]
+        return Frame(self.new_version(), options, image, png_bytes(image, self._scratch), (w, h), **extra)
+
+    def new_version(self) -> int:
+        """The next frame number (each image the page is sent has its own)."""
+        self._versions += 1
+        return self._versions
 
     def compare(self, frame: Frame, progress: Callable[[str, int, int], None] | None = None) -> None:
         """Fill ``frame``'s reference, heatmap and metrics (or ``reference_error``) when there is a reference."""

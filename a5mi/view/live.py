@@ -3,8 +3,9 @@
 :func:`run_engine` runs on the thread that owns Mitsuba until ``stop`` is set or a signal's
 :class:`~a5mi.platform.interrupts.Interrupted` ends it (it waits for jobs in steps of :data:`WAIT_SECONDS` and calls
 :func:`a5mi.platform.interrupts.check` between them). A render job reloads the scene when a watched file changed
-(:mod:`a5mi.view.watcher`), renders (first the one-ray preview where :func:`wants_preview` says the full image is
-slow), compares and publishes the new state and images (the PNGs and the pixel values of
+(:mod:`a5mi.view.watcher`), renders (first the marked region at full quality, published pasted on the image
+shown before, :mod:`a5mi.view.region`; then the one-ray preview where :func:`wants_preview` says the full image is
+slow, the region pasted on it too), compares and publishes the new state and images (the PNGs and the pixel values of
 :mod:`a5mi.view.pixels`). A diagnose job runs :func:`a5mi.view.pixels.diagnose_frame` on the current frame and
 publishes its result as the state's ``diagnosis``. A scene error (the
 positioned one-line ``FILE:LINE:COL: error: ...``) or another user error is published as ``error`` and the last
@@ -13,6 +14,7 @@ good images stay; an unexpected exception is published as an internal error and 
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 from collections.abc import Callable
@@ -23,6 +25,7 @@ from a5mi.platform.errors import UserError
 from a5mi.view.controls import describe_controls
 from a5mi.view.engine import preview_options
 from a5mi.view.pixels import ReferenceValues, diagnose_frame, is_float_image, render_values
+from a5mi.view.region import paste, render_region, saved_size, why_not
 from a5mi.view.watcher import snapshot
 
 #: Seconds between two checks for a signal while no job waits.
@@ -66,7 +69,7 @@ def frame_state(engine: Any, frame: Any) -> dict[str, Any]:
     from a5mi.trace.core import pixel_grid
 
     compared = frame.metrics is not None or frame.reference_error is not None
-    return {"frame": frame.version, "preview": frame.preview, "kernels": frame.kernels,
+    return {"frame": frame.version, "preview": frame.preview, "composite": frame.composite, "kernels": frame.kernels,
             "compared": frame.version if compared else None,
             "size": list(frame.size), "grid": list(pixel_grid(frame.options)),
             "render_size": list(frame.options.render_size), "metrics": frame.metrics,
@@ -93,6 +96,8 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
     current = options
     changes = 0
     last_full: tuple[Any, float] | None = None  # (options, seconds) of the last full render
+    full_key: tuple[Any, ...] | None = None  # (loaded_at, options, version) of the last full frame
+    shown: list[Any] = [None]  # the float image published last: a composite's base
     ref_values = ReferenceValues(engine.reference)
     hub.update(scene=engine.scene, controls=describe_controls(options), busy=True,
                reference_float=is_float_image(engine.reference),
@@ -136,29 +141,35 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
                     watcher.watch(engine.watch_on_error(), before)
                     raise
                 parse = time.monotonic() - t0
-            quick = preview_options(current) if preview and wants_preview(last_full, current, preview_after) else None
-            if quick is not None:
-                pv = engine.render(quick, progress=preemptible(hub, jobs), preview=True)
-                shown = {k: v for k, v in frame_state(engine, pv).items() if k not in COMPARED}  # the last stay
-                hub.update({"render": pv.render_png, "values-render": partial(render_values, pv.image)}, **{
-                    **state, **shown, "controls": describe_controls(current), "busy": True,
-                    "warnings": engine.warnings, "options_ok": True,
+            region, part = jobs.region, None
+            state["region_note"] = None if region is None else why_not(current, region)
+            if region is not None and state["region_note"] is None:  # the marked region first, at full quality
+                hub.progress("region", 0, 1)
+                part, spent = render_region(engine, current, region)
+                image, base = paste(shown[0], part, region, saved_size(current))
+                comp = engine.frame_of(current, image, composite={
+                    "region": list(region), "base": "previous" if base == "base" else "blank", "seconds": spent})
+                shown[0] = comp.image
+                hub.update({"render": comp.render_png, "values-render": partial(render_values, comp.image)}, **{
+                    **state, **{k: v for k, v in frame_state(engine, comp).items() if k not in COMPARED},
+                    "busy": True, "warnings": engine.warnings, "options_ok": True,
                     "version": hub.state().get("version", 0) + 1, "published_at": time.time(),
-                    "seconds": {"parse": parse, **pv.seconds, "total": time.monotonic() - t0}})
-                if jobs.render_pending():  # a newer save or control: its render replaces this one's full image
+                    "seconds": {"parse": parse, "region": spent, "total": time.monotonic() - t0}})
+                if jobs.render_pending():
                     continue
-            t_full = time.monotonic()
-            frame = engine.render(current, progress=preemptible(hub, jobs), compare=False)
-            last_full = (current, time.monotonic() - t_full)
-            values = partial(render_values, frame.image)  # made when the page asks: not before the image
-            if engine.compares:  # the image first; its comparison follows (the page dims the last one meanwhile)
-                shown = {k: v for k, v in frame_state(engine, frame).items() if k not in COMPARED}
-                state["published_at"] = time.time()  # (of the image, also in the comparison's state)
-                hub.update({"render": frame.render_png, "values-render": values}, **{
-                    **state, **shown, "busy": True, "comparing": True, "warnings": engine.warnings,
-                    "options_ok": True, "version": hub.state().get("version", 0) + 1,
-                    "seconds": {"parse": parse, **frame.seconds, "total": time.monotonic() - t0}})
-                engine.compare(frame, hub.progress)
+            if (part is not None and not reload and wanted is None and engine.frame is not None
+                    and full_key == (engine.loaded_at, current, engine.frame.version)):
+                frame = dataclasses.replace(engine.frame, version=engine.new_version())  # marked alone: the
+                engine.frame = frame  # whole image is the last one's, unchanged
+            else:
+                frame, spent = _render_full(engine, hub, jobs, current, state, (parse, t0), (part, region, shown),
+                                            preview and wants_preview(last_full, current, preview_after))
+                if frame is None:  # a newer save or control: its render replaces this one's full image
+                    continue
+                last_full = (current, spent)
+                shown[0] = frame.image
+            full_key = (engine.loaded_at, current, frame.version)
+            values = partial(render_values, frame.image)
             images = {"render": frame.render_png, "reference": frame.reference_png, "diff": frame.diff_png,
                       "values-render": values, "values-reference": (
                           None if frame.reference_levels is None else partial(ref_values.blob, frame.reference_levels))}
@@ -182,6 +193,45 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
         state["watching"] = [str(p) for p in watcher.paths]
         state.setdefault("published_at", time.time())
         hub.update(images, **state)
+
+
+def _render_full(engine: Any, hub: Any, jobs: Any, current: Any, state: dict[str, Any], times: tuple[float, float],
+                 marked: tuple[Any, Any, list[Any]], quick_first: bool) -> tuple[Any, float]:
+    """``(frame, seconds)``: the whole image of a render job (:func:`run_engine`; ``times``: its parse seconds and
+    start) and the full render's seconds. The preview first when ``quick_first`` (``marked``: the region's
+    full-quality pixels pasted on it where the sizes agree, and the image shown, set to it), then the full frame,
+    published before its comparison when there is a reference, then compared; ``(None, 0)`` when a newer request
+    waits after the preview."""
+    parse, t0 = times
+    part, region, shown_image = marked
+    quick = preview_options(current) if quick_first else None
+    if quick is not None:
+        pv = engine.render(quick, progress=preemptible(hub, jobs), preview=True)
+        image, base = (None, "blank") if part is None else paste(pv.image, part, region, saved_size(current))
+        if base == "base":
+            pv = engine.frame_of(quick, image, preview=True, kernels=pv.kernels, seconds=pv.seconds,
+                                 composite={"region": list(region), "base": "preview"})
+        shown = {k: v for k, v in frame_state(engine, pv).items() if k not in COMPARED}  # the last stay
+        shown_image[0] = pv.image
+        hub.update({"render": pv.render_png, "values-render": partial(render_values, pv.image)}, **{
+            **state, **shown, "controls": describe_controls(current), "busy": True,
+            "warnings": engine.warnings, "options_ok": True,
+            "version": hub.state().get("version", 0) + 1, "published_at": time.time(),
+            "seconds": {"parse": parse, **pv.seconds, "total": time.monotonic() - t0}})
+        if jobs.render_pending():
+            return None, 0.0
+    t_full = time.monotonic()
+    frame = engine.render(current, progress=preemptible(hub, jobs), compare=False)
+    spent = time.monotonic() - t_full
+    if engine.compares:  # the image first; its comparison follows (the page dims the last one meanwhile)
+        shown = {k: v for k, v in frame_state(engine, frame).items() if k not in COMPARED}
+        state["published_at"] = time.time()  # (of the image, also in the comparison's state)
+        hub.update({"render": frame.render_png, "values-render": partial(render_values, frame.image)}, **{
+            **state, **shown, "busy": True, "comparing": True, "warnings": engine.warnings,
+            "options_ok": True, "version": hub.state().get("version", 0) + 1,
+            "seconds": {"parse": parse, **frame.seconds, "total": time.monotonic() - t0}})
+        engine.compare(frame, hub.progress)
+    return frame, spent
 
 
 def _diagnose(engine: Any, hub: Any, image: str) -> None:

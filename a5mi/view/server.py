@@ -20,7 +20,9 @@ one-line error); ``GET /api/trace?x=X&y=Y`` the pixel's trace (:meth:`a5mi.view.
 with the error); ``GET /api/values/{render,reference}.bin`` the current frame's pixel values
 (:func:`a5mi.view.pixels.values_blob`: float32 linear RGB, then the 8-bit levels); ``POST /api/diagnose`` a JSON
 object ``{"image": "render" | "reference"}``: runs :func:`a5mi.view.pixels.diagnose_frame` on the engine's thread
-(202; the result comes as the state's ``diagnosis``); ``GET /api/events`` the event stream: ``event: state``
+(202; the result comes as the state's ``diagnosis``); ``POST /api/region`` ``{"region": [X0, X1, Y0, Y1]}`` or
+``{"region": null}``: marks (clears) the region rendered first (:mod:`a5mi.view.region`: 202, or 400 with the
+one-line error; the state's ``region``); ``GET /api/events`` the event stream: ``event: state``
 (the whole state, on connect and after every change) and ``event: progress`` (``{"stage", "done", "total"}``),
 each ``data:`` one JSON line, and a ``: ping`` comment every :data:`PING_SECONDS`.
 """
@@ -31,16 +33,15 @@ import hmac
 import json
 import queue
 import threading
-import time
-from collections import deque
 from collections.abc import Callable
-from concurrent.futures import Future
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources as package_data
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
 from a5mi.platform.errors import UserError
+from a5mi.view.jobs import Jobs
+from a5mi.view.region import RegionError, parse_region
 
 #: Seconds between two keep-alive comments of the event stream.
 PING_SECONDS = 15.0
@@ -136,66 +137,6 @@ class Hub:
         """End every event stream (the server is stopping)."""
         self.closed = True
         self._send(None)
-
-
-class Jobs:
-    """Work for the engine's thread: traces (first come, first served), one pending render (a reload of the
-    scene files and/or new options; later requests replace earlier ones) and one pending diagnosis."""
-
-    def __init__(self) -> None:
-        self._cond = threading.Condition()
-        self._traces: deque[tuple[int, int, Future[Any]]] = deque()
-        self._reload = False
-        self._options: Any = None
-        self._diagnose: str | None = None
-        #: wall-clock time (``time.time()``) of the first reload request not yet taken, and of the last taken one
-        self.reload_at: float | None = None
-        self.taken_reload_at: float | None = None
-
-    def render(self, options: Any = None, *, reload: bool = False) -> None:
-        with self._cond:
-            if reload and not self._reload:
-                self.reload_at = time.time()
-            self._reload = self._reload or reload
-            if options is not None:
-                self._options = options
-            self._cond.notify()
-
-    def diagnose(self, image: str) -> None:
-        """Ask for a diagnosis of the current frame's ``image`` (one waits at most; a later request replaces it)."""
-        with self._cond:
-            self._diagnose = image
-            self._cond.notify()
-
-    def render_pending(self) -> bool:
-        """Whether a render request waits (a newer save or control change than the render under way)."""
-        with self._cond:
-            return self._reload or self._options is not None
-
-    def trace(self, x: int, y: int) -> Future[Any]:
-        fut: Future[Any] = Future()
-        with self._cond:
-            self._traces.append((x, y, fut))
-            self._cond.notify()
-        return fut
-
-    def next(self, timeout: float) -> tuple[str, Any] | None:
-        """``("trace", (x, y, future))``, ``("render", (reload, options or None))``, ``("diagnose", image)`` or None
-        after ``timeout``. Traces first, then renders (a diagnosis is of the newest frame), then a diagnosis."""
-        with self._cond:
-            if not (self._traces or self._reload or self._options is not None or self._diagnose):
-                self._cond.wait(timeout)
-            if self._traces:
-                return "trace", self._traces.popleft()
-            if self._reload or self._options is not None:
-                job = (self._reload, self._options)
-                self.taken_reload_at, self.reload_at = self.reload_at, None
-                self._reload, self._options = False, None
-                return "render", job
-            if self._diagnose:
-                image, self._diagnose = self._diagnose, None
-                return "diagnose", image
-        return None
 
 
 def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any], Any]) -> type:
@@ -302,6 +243,9 @@ def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any
             if path == "/api/diagnose":
                 self._diagnose(body)
                 return
+            if path == "/api/region":
+                self._region(body)
+                return
             if path != "/api/render":
                 self._json(404, {"error": f"no route {path[:80]}"})
                 return
@@ -329,6 +273,19 @@ def make_handler(token: str, hub: Hub, jobs: Jobs, apply_controls: Callable[[Any
             hub.update(diagnosis={"status": "queued", "image": image})
             jobs.diagnose(image)
             self._json(202, {"queued": True})
+
+        def _region(self, body: bytes) -> None:
+            try:
+                region = parse_region(json.loads(body or b"{}"), hub.state().get("size"))
+            except json.JSONDecodeError:
+                self._json(400, {"error": "a5mi view: error: the request is not JSON"})
+                return
+            except RegionError as exc:
+                self._json(400, {"error": f"a5mi view: error: {exc}"})
+                return
+            hub.update(region=None if region is None else list(region))
+            jobs.mark(region)
+            self._json(202, {"region": region})
 
         def _trace(self, query: dict[str, list[str]]) -> None:
             try:

@@ -111,9 +111,11 @@ def test_host_and_origin_must_be_this_server(served, headers: str, status: int) 
     ("Host: 127.0.0.1:{port}\r\nOrigin: http://evil.example", 403),
     ("X-No-Host: 1", 403),
 ])
-def test_the_diagnose_route_checks_host_and_origin(served, headers: str, status: int) -> None:  # noqa: ANN001
-    body = b'{"image": "render"}'
+@pytest.mark.parametrize("route, body", [("/api/diagnose", b'{"image": "render"}'),
+                                         ("/api/region", b'{"region": [1, 5, 2, 6]}')])
+def test_the_diagnose_and_region_routes_check_host_and_origin(served, headers: str, status: int, route: str,  # noqa: ANN001
+                                                              body: bytes) -> None:
     with time_limit(60):
-        code, _ = _exchange(served, f"POST /api/diagnose?token={TOKEN} HTTP/1.1\r\n" + headers.format(port=served.port)
+        code, _ = _exchange(served, f"POST {route}?token={TOKEN} HTTP/1.1\r\n" + headers.format(port=served.port)
                             + f"\r\nContent-Length: {len(body)}\r\nConnection: close", body)
     assert code == status

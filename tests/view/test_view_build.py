@@ -6,13 +6,11 @@ reused and no render kernel is compiled again; an edited mesh file reloads throu
 from __future__ import annotations
 
 import dataclasses
-import threading
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-from view_scenes import a5_png, beside_loop, scene_text, time_limit
+from view_scenes import a5_png, scene_text, time_limit, view_loop, wait_for
 
 from a5mi.render.options import RenderOptions
 
@@ -104,54 +102,20 @@ def test_every_edit_renders_as_a5_reusing_what_did_not_change(tmp_path: Path, se
             assert frame.render_png == a5_png(scene, tmp_path / f"a5-{k}.png", *FLAGS), what
 
 
-def run_loop(engine, options: RenderOptions, drive, **loop) -> None:  # noqa: ANN001, ANN003
-    """``run_engine`` on this thread, as ``a5mi view`` runs it (``loop``: its keyword arguments), ``drive(hub)``
-    beside it; re-raises its failure."""
-    from a5mi.view.live import run_engine
-    from a5mi.view.server import Hub, Jobs
-    from a5mi.view.watcher import Watcher
-
-    states: list[dict] = []
-
-    class Recorder(Hub):
-        def update(self, images=None, **state) -> None:  # noqa: ANN001
-            super().update(images, **state)
-            states.append({**self.state(), "png": self.image("render")})
-
-    hub, jobs, stop = Recorder(), Jobs(), threading.Event()
-    watcher = Watcher(lambda: jobs.render(reload=True))
-    watcher.start()
-    try:
-        beside_loop(lambda: drive(hub, states), stop,
-                    lambda: run_engine(engine, hub, jobs, watcher, options, stop=stop, **loop))
-    finally:
-        watcher.stop()
-
-
-def wait_for(states: list[dict], pred, what: str) -> dict:  # noqa: ANN001
-    t0 = time.monotonic()
-    while True:
-        found = [s for s in states if pred(s)]
-        if found:
-            return found[-1]
-        assert time.monotonic() - t0 < 90, (what, states[-1] if states else None)
-        time.sleep(0.02)
-
-
 def test_an_edited_mesh_file_reloads_and_the_page_shows_a5s_image(tmp_path: Path, session) -> None:  # noqa: ANN001
     from a5mi.view.engine import ViewEngine
 
     with time_limit(300):
         scene = mesh_scene(tmp_path)
 
-        def drive(hub, states) -> None:  # noqa: ANN001
+        def drive(jobs, states) -> None:  # noqa: ANN001
             first = wait_for(states, lambda s: s.get("frame") and not s["busy"], "first frame")
             edit(tmp_path / "m.obj", "v -0.8 0.6 -2.2", "v -0.8 0.9 -2.2")
             after = wait_for(states, lambda s: (s.get("frame") or 0) > first["frame"] and not s["busy"], "reload")
             assert after["error"] is None and after["changes"] == first["changes"] + 1
             assert after["png"] == a5_png(scene, tmp_path / "a5.png", *FLAGS) != first["png"]
 
-        run_loop(ViewEngine(str(scene), session), OPTS, drive)
+        view_loop(ViewEngine(str(scene), session), OPTS, drive)
 
 
 def test_jitter_filter_shows_a_labelled_preview_then_a5s_full_image_then_its_comparison(
@@ -166,7 +130,7 @@ def test_jitter_filter_shows_a_labelled_preview_then_a5s_full_image_then_its_com
     with time_limit(300):
         scene = mesh_scene(tmp_path)
 
-        def drive(hub, states) -> None:  # noqa: ANN001
+        def drive(jobs, states) -> None:  # noqa: ANN001
             first = wait_for(states, lambda s: s.get("frame") and not s["busy"], "first frame")
             edit(scene, "ambientLight 0.2 0.2 0.2", "ambientLight 0.3 0.2 0.2")
             final = wait_for(states, lambda s: (s.get("frame") or 0) > first["frame"] and not s["busy"], "final")
@@ -182,7 +146,7 @@ def test_jitter_filter_shows_a_labelled_preview_then_a5s_full_image_then_its_com
 
         ref = tmp_path / "ref.png"
         a5_png(scene, ref, *FLAGS)  # without -jitter -filter: not the same image
-        run_loop(ViewEngine(str(scene), session, reference=str(ref)), jf, drive, preview_after=0.0)
+        view_loop(ViewEngine(str(scene), session, reference=str(ref)), jf, drive, preview_after=0.0)
 
 
 @pytest.mark.parametrize("loop", [{"preview_after": float("inf")}, {"preview": False}])
@@ -195,7 +159,7 @@ def test_a_fast_full_image_or_no_preview_skips_the_preview(tmp_path: Path, sessi
     with time_limit(300):
         scene = mesh_scene(tmp_path)
 
-        def drive(hub, states) -> None:  # noqa: ANN001
+        def drive(jobs, states) -> None:  # noqa: ANN001
             first = wait_for(states, lambda s: s.get("frame") and not s["busy"], "first frame")
             assert any(s.get("preview") for s in states) == loop.get("preview", True)
             edit(scene, "ambientLight 0.2 0.2 0.2", "ambientLight 0.3 0.2 0.2")
@@ -204,7 +168,7 @@ def test_a_fast_full_image_or_no_preview_skips_the_preview(tmp_path: Path, sessi
             assert not final["preview"] and final["error"] is None and final["frame"] == first["frame"] + 1
             assert final["png"] == a5_png(scene, tmp_path / "jf.png", *FLAGS, "-jitter", "-filter")
 
-        run_loop(ViewEngine(str(scene), session), jf, drive, **loop)
+        view_loop(ViewEngine(str(scene), session), jf, drive, **loop)
 
 
 def test_a_mistake_leaves_no_trace_in_the_next_options_integrator(tmp_path: Path, session) -> None:  # noqa: ANN001

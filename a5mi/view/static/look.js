@@ -1,9 +1,10 @@
 // a5mi view: looking closely (docs/VIEW.md "Look closely"): zoom and pan of the three images locked together,
-// the values under the cursor, exposure, the A/B flip, the clicked pixel's mark, and the diagnose panel.
+// the values under the cursor, exposure, the A/B flip, the clicked pixel's mark, the marked region (shift+drag:
+// rendered first at full quality on each save, docs/VIEW.md "Full quality first") and the diagnose panel.
 // Loaded before view.js, whose globals ($, api, state, values, lastTrace, tracePixel, el) it uses at call time.
 "use strict";
 const ZOOMS = [1, 2, 4, 8, 16];
-const look = { z: 1, tx: 0, ty: 0, base: 1, hover: null, flip: false, ev: 0, drag: null };
+const look = { z: 1, tx: 0, ty: 0, base: 1, hover: null, flip: false, ev: 0, drag: null, sel: null };
 
 // ------------------------------------------------------------------ geometry
 // Screen (CSS px inside a view) = (tx, ty) + z * base * image pixel: base is the page's fit scale (image px to CSS
@@ -48,6 +49,35 @@ function imagePixel(vx, vy) {  // the image pixel under the view point, or null 
   const k = look.z * look.base * (img.naturalWidth / (state.size ? state.size[0] : img.naturalWidth));
   const x = Math.floor((vx - look.tx) / k), y = Math.floor((vy - look.ty) / k);
   return x >= 0 && y >= 0 && x < img.naturalWidth && y < img.naturalHeight ? [x, y] : null;
+}
+function clampedPixel(vx, vy) {  // the image pixel under the view point, clamped to the image
+  const img = $("render"), w = img.naturalWidth, h = img.naturalHeight;
+  const k = look.z * look.base * (w / (state.size ? state.size[0] : w));
+  return [Math.min(w - 1, Math.max(0, Math.floor((vx - look.tx) / k))),
+          Math.min(h - 1, Math.max(0, Math.floor((vy - look.ty) / k)))];
+}
+
+// ------------------------------------------------------------------ the marked region
+// [X0, X1, Y0, Y1]: image pixels X0 <= x < X1, Y0 <= y < Y1, row 0 the top (a5 -crop's order): the two pixels under
+// the ends of a shift+drag and every pixel between them.
+function selRegion(s) {
+  return [Math.min(s.a[0], s.b[0]), Math.max(s.a[0], s.b[0]) + 1, Math.min(s.a[1], s.b[1]), Math.max(s.a[1], s.b[1]) + 1];
+}
+async function postRegion(region) {
+  const r = await fetch(api("/api/region"), { method: "POST", headers: { "Content-Type": "application/json" },
+                                              body: JSON.stringify({ region: region }) });
+  const doc = await r.json();
+  $("region-error").hidden = r.ok;
+  $("region-error").textContent = r.ok ? "" : doc.error;
+}
+function drawRegion(g, k) {  // the marked region (or the one being dragged): dashed yellow over black
+  const r = look.sel && look.sel.moved ? selRegion(look.sel) : state.region;
+  if (!r) return;
+  const x = look.tx + r[0] * k, y = look.ty + r[2] * k, w = (r[1] - r[0]) * k, h = (r[3] - r[2]) * k;
+  g.save();
+  g.strokeStyle = "#000"; g.lineWidth = 3; g.strokeRect(x - 0.5, y - 0.5, w + 1, h + 1);
+  g.strokeStyle = "#fd6"; g.lineWidth = 1; g.setLineDash([4, 3]); g.strokeRect(x - 0.5, y - 0.5, w + 1, h + 1);
+  g.restore();
 }
 
 // ------------------------------------------------------------------ values
@@ -129,8 +159,10 @@ function drawMarks(hot) {
     const c = $("view-" + name).querySelector("canvas.mark"), g = c.getContext("2d");
     g.clearRect(0, 0, c.width, c.height);
     const img = $("render");
-    if (!lastTrace || !img.naturalWidth) continue;
+    if (!img.naturalWidth) continue;
     const k = look.z * look.base * (img.naturalWidth / state.size[0]);
+    drawRegion(g, k);
+    if (!lastTrace) continue;
     const [px, py] = lastTrace.clicked;
     const cx = look.tx + (px + 0.5) * k, cy = look.ty + (py + 0.5) * k, r = Math.max(k / 2 + 1.5, 3.5);
     for (const [colour, width] of [["#000", 3], ["#fff", 1]]) {
@@ -208,10 +240,11 @@ function setupLook() {
   $("exposure").addEventListener("input", () => { look.ev = Number($("exposure").value) || 0; drawShown(); });
   $("flip").addEventListener("click", () => { look.flip = !look.flip; drawShown(); });
   document.addEventListener("keydown", (e) => {
-    if ((e.key === "f" || e.key === "F") && !["INPUT", "SELECT"].includes(document.activeElement.tagName)) {
-      look.flip = !look.flip; drawShown();
-    }
+    if (["INPUT", "SELECT"].includes(document.activeElement.tagName)) return;
+    if (e.key === "f" || e.key === "F") { look.flip = !look.flip; drawShown(); }
+    if (e.key === "Escape" && state.region) postRegion(null);
   });
+  $("region-clear").addEventListener("click", () => postRegion(null));
   $("diagnose").addEventListener("click", requestDiagnosis);
   for (const name of ["render", "reference", "diff"]) {
     const v = $("view-" + name);
@@ -225,6 +258,11 @@ function setupLook() {
     v.addEventListener("mousedown", (e) => {
       if (e.button !== 0) return;
       e.preventDefault();
+      if (e.shiftKey && $("render").naturalWidth) {  // shift+drag: mark a region (not a pan, not a click)
+        const p = clampedPixel(...at(e));
+        look.sel = { view: v, x: e.clientX, y: e.clientY, a: p, b: p, moved: false };
+        return;
+      }
       look.drag = { x: e.clientX, y: e.clientY, tx: look.tx, ty: look.ty, moved: false };
     });
     v.addEventListener("mousemove", (e) => {
@@ -242,6 +280,14 @@ function setupLook() {
     });
   }
   window.addEventListener("mousemove", (e) => {
+    const s = look.sel;
+    if (s) {
+      if (Math.abs(e.clientX - s.x) + Math.abs(e.clientY - s.y) > 3) s.moved = true;
+      const b = s.view.getBoundingClientRect();
+      s.b = clampedPixel(e.clientX - b.left, e.clientY - b.top);
+      drawMarks(null);
+      return;
+    }
     const d = look.drag;
     if (!d) return;
     if (Math.abs(e.clientX - d.x) + Math.abs(e.clientY - d.y) > 3) d.moved = true;
@@ -249,5 +295,15 @@ function setupLook() {
     look.tx = d.tx + e.clientX - d.x; look.ty = d.ty + e.clientY - d.y;
     clampPan(); applyView(); drawMarks(null);
   });
-  window.addEventListener("mouseup", () => { look.drag = null; });  // after the view's own (bubbling)
+  window.addEventListener("mouseup", (e) => {  // after the view's own (bubbling)
+    look.drag = null;
+    const s = look.sel;
+    look.sel = null;
+    if (!s || !s.moved) return;
+    const b = s.view.getBoundingClientRect();
+    s.b = clampedPixel(e.clientX - b.left, e.clientY - b.top);
+    state.region = selRegion(s);  // shown at once; the server's state confirms it
+    drawMarks(null);
+    postRegion(state.region);
+  });
 }

@@ -7,6 +7,7 @@ let state = {};
 let shownFrame = 0;
 let shownCompared = null;
 let lastTrace = null;
+let shownRegion = null;
 const values = { render: null, reference: null };  // pixel values (look.js)
 
 function el(tag, attrs, ...kids) {
@@ -59,12 +60,19 @@ function show(s) {
   state = s;
   $("scene").textContent = s.scene || "";
   $("status").textContent = s.preview ? "preview in " + s.seconds.total.toFixed(3) + " s; rendering the full image..."
+    : s.composite ? "the region at full quality in " + s.seconds.total.toFixed(3) + " s; rendering the whole image..."
     : s.comparing ? "rendered in " + s.seconds.total.toFixed(3) + " s; comparing..."
     : s.busy ? "rendering..." : (s.seconds ? "rendered in " + s.seconds.total.toFixed(3) + " s" : "");
   if (!s.busy) $("progress").value = 1;
   $("error").hidden = !s.error;
   $("error").textContent = s.error || "";
   if (s.controls) { buildControls(s.controls); setControls(s.controls); }
+  $("region-note").hidden = !s.region_note;
+  $("region-note").textContent = s.region_note || "";
+  $("region-clear").style.visibility = s.region ? "visible" : "hidden";  // its room stays: the images do not move
+  $("region-info").textContent = s.region ? "x " + s.region[0] + ".." + (s.region[1] - 1) + ", y " + s.region[2] + ".."
+    + (s.region[3] - 1) : "";
+  if (JSON.stringify(s.region || null) !== JSON.stringify(shownRegion)) { shownRegion = s.region || null; drawMarks(null); }
   $("warnings").textContent = (s.warnings || []).join("\n");
   const scale = s.size ? Math.max(1, Math.floor(384 / Math.max(s.size[0], s.size[1]))) : 1;
   if (s.frame && s.frame !== shownFrame) {  // a new image: a preview, or the full render (compared or not yet)
@@ -72,7 +80,8 @@ function show(s) {
     const img = $("render");
     sizeView("render", s.size, scale);
     img.dataset.pending = s.frame;
-    img.dataset.pendingKind = s.preview ? "preview" : "final";
+    img.dataset.pendingKind = s.preview ? "preview" : s.composite ? "region" : "final";
+    img.dataset.pendingComposite = s.composite ? JSON.stringify(s.composite) : "";
     img.dataset.pendingChanges = s.changes || 0;
     img.src = api("/api/image/render.png", "&v=" + s.frame);
     loadValues("render", s.frame, s.size);
@@ -93,8 +102,8 @@ function show(s) {
     $("diff-panel").hidden = !s.has_diff;
     showMetrics(s);
   }
-  // the comparison shown is the last full render's while a preview, or a render not compared yet, is shown
-  for (const id of ["diff-panel", "compare"]) $(id).classList.toggle("stale", !!(s.preview || s.comparing));
+  // the comparison shown is the last full render's while a preview, a composite or a render not compared yet is shown
+  for (const id of ["diff-panel", "compare"]) $(id).classList.toggle("stale", !!(s.preview || s.comparing || s.composite));
   $("exposure-note").textContent = s.reference_float ? "(the reference is an .exr: linear floats)" : "";
   showDiagnosis(s.diagnosis, s.frame);
 }
@@ -128,11 +137,19 @@ for (const name of ["render", "reference", "diff"]) {
     img.dataset.frame = img.dataset.pending;
     img.dataset.kind = img.dataset.pendingKind;
     img.dataset.changes = img.dataset.pendingChanges;
+    img.dataset.composite = img.dataset.pendingComposite || "";
     img.dataset.loadedAt = Date.now();
     if (name === "render") {
       // a preview is labelled as one while it is the image shown; the compare panels are the last full render's
       const preview = img.dataset.kind === "preview";
       $("preview-badge").hidden = !preview;
+      // a composite: the marked region at full quality pasted on the image shown before (or on the preview)
+      const c = img.dataset.composite ? JSON.parse(img.dataset.composite) : null;
+      $("region-badge").hidden = !c;
+      if (c) $("region-badge").textContent = "REGION x " + c.region[0] + ".." + (c.region[1] - 1) + ", y " + c.region[2]
+        + ".." + (c.region[3] - 1) + " at full quality, pasted on " + ({ previous: "the previous image",
+          preview: "the preview", blank: "a blank image (the size changed)" })[c.base]
+        + (c.base === "preview" ? "" : ": the whole render follows");
     }
     applyView(); drawShown(); drawMarks(null);
   });
