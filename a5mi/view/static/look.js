@@ -115,7 +115,7 @@ function showValues() {
   const d = r && f ? { lin: r.lin.map((c, i) => c - f.lin[i]), byte: r.byte.map((c, i) => c - f.byte[i]) } : null;
   for (const [id, v] of [["render", r], ["reference", f], ["diff", d]]) {
     const row = $("values-" + id);
-    row.hidden = !v;
+    row.style.visibility = v ? "visible" : "hidden";  // hidden, not removed: the table keeps its height
     if (!v) continue;
     row.dataset.linear = v.lin.join(","); row.dataset.byte = v.byte.join(",");
     row.cells[1].textContent = "(" + v.lin.map((c) => c.toFixed(5)).join(", ") + ")";
