@@ -23,9 +23,10 @@ the render kernel is an opaque JIT value (camera basis, lights, marble, plane se
 the second render of a scene, and the first render of another scene of the same kind (same shapes, plugins
 and flags, other positions and colours), launch the cached kernel without compiling
 (:attr:`a5mi.render.driver.RenderResult.kernels` counts the launches by source). What a repeated render still pays
-is the Python trace of the integrator (it builds the kernel's IR before the hash is known), the jitter draw,
-the camera rays and the buffer copies: ``a5mi bench`` measures the cost per extra render against its
-kernel + filter + write time.
+is the Python trace of the integrator (it builds the kernel's IR before the hash is known; docs/SPEED.md says
+why Dr.Jit's frozen functions do not replace it here), the camera rays and the buffer copies (the ``-jitter``
+positions and the texture atlases are kept: :mod:`a5mi.render.tiles`, ``plugins/textures/imagedata.py``):
+``a5mi bench`` measures the cost per extra render against its kernel + filter + write time.
 
 At most ``max_scenes`` built scenes are kept (least recently used dropped first, and freed *before* the next
 one is built), so a long job list has bounded memory. The default is one: while a scene is alive, the next
