@@ -73,10 +73,12 @@ def load_rgb8(path: str | Path) -> np.ndarray:
 
 def bitmap_rgb8(bitmap: Any, what: str = "bitmap") -> np.ndarray:
     """An 8-bit ``mi.Bitmap`` (the converter's decoded pixels) as (H, W, 3) ``uint8`` (:func:`rgb8`); raises
-    ``ValueError`` for anything else (another object, float pixels)."""
+    ``ValueError`` for anything else (another object, float pixels). An RGB bitmap's pixels are not copied: the
+    array is a view of the bitmap's memory (and keeps the bitmap alive), which :class:`ImageAtlas` reads and
+    copies into its own buffer."""
     if not isinstance(bitmap, mi.Bitmap):
         raise ValueError(f"{what}: expected an mi.Bitmap, got {type(bitmap).__name__}")
-    pixels = np.array(bitmap, copy=True)
+    pixels = np.asarray(bitmap)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
     return rgb8(pixels, what)

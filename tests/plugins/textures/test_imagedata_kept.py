@@ -65,3 +65,18 @@ def test_the_kept_atlases_are_bounded(variant: str, monkeypatch) -> None:
     monkeypatch.setattr(imagedata, "KEEP_TEXELS", 100)   # under one atlas's 320 texels: only the newest stays
     imagedata.ImageAtlas(_images(9))
     assert len(imagedata._KEPT) == 1
+
+
+def test_an_rgb_bitmap_is_read_in_place(variant: str) -> None:
+    """``bitmap_rgb8`` of an RGB ``mi.Bitmap`` is a view of its pixels (no copy per build); a grey one is
+    widened to three channels."""
+    import mitsuba as mi
+
+    from a5mi.plugins.textures.imagedata import bitmap_rgb8
+
+    img = _images(2)[0]
+    bm = mi.Bitmap(img)
+    got = bitmap_rgb8(bm)
+    assert np.shares_memory(got, np.asarray(bm)) and np.array_equal(got, img)
+    grey = bitmap_rgb8(mi.Bitmap(img[:, :, :1].copy()))
+    assert grey.shape == img.shape and np.array_equal(grey[:, :, 2], img[:, :, 0])
