@@ -19,6 +19,7 @@ takes them without reading the file again.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -183,6 +184,7 @@ class _Packed(NamedTuple):
 #: uploading it again (0.1-0.3 s for the six 1024 x 1024 faces of a cube map). At most :data:`KEEP_ATLASES`
 #: atlases and :data:`KEEP_TEXELS` texels are kept (7 bytes each: the pixels compared, the packed words).
 _KEPT: list[_Packed] = []
+_KEPT_LOCK = threading.Lock()
 KEEP_ATLASES = 8
 KEEP_TEXELS = 1 << 24
 
@@ -190,10 +192,11 @@ KEEP_TEXELS = 1 << 24
 def _packed(images: Sequence[np.ndarray]) -> _Packed:
     """The packed atlas of ``images`` ((H, W, 3) uint8 each): a kept one made from the same bytes, else a new one
     (kept, the oldest dropped past the limits)."""
-    for k, kept in enumerate(_KEPT):
-        if kept.holds(images):
-            _KEPT.insert(0, _KEPT.pop(k))
-            return kept
+    with _KEPT_LOCK:   # scenes may be built in several threads (a Dask worker's tasks)
+        for k, kept in enumerate(_KEPT):
+            if kept.holds(images):
+                _KEPT.insert(0, _KEPT.pop(k))
+                return kept
     sizes = tuple((img.shape[1], img.shape[0]) for img in images)
     counts = [w * h for w, h in sizes]
     offsets = [sum(counts[:k]) for k in range(len(counts))]
@@ -211,7 +214,8 @@ def _packed(images: Sequence[np.ndarray]) -> _Packed:
     out = _Packed(str(mi.variant()), sizes, rgb, data, mi.UInt32(offsets), mi.Int32([w for w, _ in sizes]),
                   mi.Int32([h for _, h in sizes]))
     dr.make_opaque(out.data, out.offsets, out.widths, out.heights)
-    _KEPT.insert(0, out)
-    while len(_KEPT) > KEEP_ATLASES or (len(_KEPT) > 1 and sum(len(p.rgb) for p in _KEPT) > KEEP_TEXELS):
-        _KEPT.pop()
+    with _KEPT_LOCK:
+        _KEPT.insert(0, out)
+        while len(_KEPT) > KEEP_ATLASES or (len(_KEPT) > 1 and sum(len(p.rgb) for p in _KEPT) > KEEP_TEXELS):
+            _KEPT.pop()
     return out
