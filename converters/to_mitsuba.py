@@ -49,6 +49,7 @@ Camera, integrator, lights and background:
 from __future__ import annotations
 
 import math
+import weakref
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import Any
@@ -303,10 +304,19 @@ def make_mesh(name: str, data: MeshData, bsdf: Any = None) -> Any:
 
 
 def bitmap(image: Image) -> Any:
-    """An ``mi.Bitmap`` holding the decoded pixels of ``image`` (a copy: Mitsuba wants a writable array)."""
+    """An ``mi.Bitmap`` holding the decoded pixels of ``image`` (a copy: Mitsuba wants a writable array), made
+    once per image and variant while the image lives: a decoded image kept from one build to the next (``a5mi
+    serve``'s :class:`~a5mi.converters.files.KeptFiles`) is not copied again; the plugins only read bitmaps."""
     import mitsuba as mi
 
-    return mi.Bitmap(np.array(image.pixels, dtype=np.uint8, order="C", copy=True))
+    made = _BITMAPS.get(image)
+    if made is None or made[0] != mi.variant():
+        made = _BITMAPS[image] = (mi.variant(), mi.Bitmap(np.array(image.pixels, dtype=np.uint8, order="C", copy=True)))
+    return made[1]
+
+
+#: :func:`bitmap`'s ``(variant, mi.Bitmap)`` of each decoded image still alive
+_BITMAPS: weakref.WeakKeyDictionary[Image, tuple[str, Any]] = weakref.WeakKeyDictionary()
 
 
 def cubemap_faces(bg: CubeMapBackground, make: Callable[[Image], Any] = bitmap) -> dict[str, Any]:

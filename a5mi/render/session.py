@@ -23,9 +23,10 @@ the render kernel is an opaque JIT value (camera basis, lights, marble, plane se
 the second render of a scene, and the first render of another scene of the same kind (same shapes, plugins
 and flags, other positions and colours), launch the cached kernel without compiling
 (:attr:`a5mi.render.driver.RenderResult.kernels` counts the launches by source). What a repeated render still pays
-is the Python trace of the integrator (it builds the kernel's IR before the hash is known), the jitter draw,
-the camera rays and the buffer copies: ``a5mi bench`` measures the cost per extra render against its
-kernel + filter + write time.
+is the Python trace of the integrator (it builds the kernel's IR before the hash is known; docs/SPEED.md says
+why Dr.Jit's frozen functions do not replace it here), the camera rays and the buffer copies (the ``-jitter``
+positions and the texture atlases are kept: :mod:`a5mi.render.tiles`, ``plugins/textures/imagedata.py``):
+``a5mi bench`` measures the cost per extra render against its kernel + filter + write time.
 
 At most ``max_scenes`` built scenes are kept (least recently used dropped first, and freed *before* the next
 one is built), so a long job list has bounded memory. The default is one: while a scene is alive, the next
@@ -40,6 +41,7 @@ from __future__ import annotations
 
 import gc
 import time
+import weakref
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -132,8 +134,7 @@ class RenderSession:
             return entry, 0.0
         t0 = time.perf_counter()
         if len(self._built) >= self.max_scenes:  # free first: the new scene's plugins then reuse the registry IDs
-            self._built.popitem(last=False)
-            gc.collect()
+            _free(self._built.popitem(last=False)[1])
         scene, template, integ = self.build(desc, options)
         entry = _Built(desc, scene, template, {_integrator_key(options): integ})
         self.scenes_built += 1
@@ -178,6 +179,25 @@ class RenderSession:
         """Drop the built scene of ``desc`` (its kernels stay in Dr.Jit's cache)."""
         for key in [k for k in self._built if k[0] == id(desc)]:
             del self._built[key]
+
+
+def _free(entry: _Built) -> None:
+    """Drop ``entry``'s scene (module docstring: freed before the next build). Reference counting frees it when
+    nothing else holds it; a full ``gc.collect()`` (0.04-0.06 s in a warm process) runs only when one of its
+    Python plugins (the integrators, emitters, materials: weakly referenced here) outlives the drop, e.g. held
+    by a reference cycle. The scene holds its integrator, so a dead integrator means a freed scene."""
+    probes = []
+    for obj in (entry.scene.integrator(), *entry.integrators.values(), *entry.scene.emitters(),
+                *(shape.bsdf() for shape in entry.scene.shapes())):
+        try:
+            probes.append(weakref.ref(obj))
+        except TypeError:   # a C++ plugin: not weakly referenceable
+            pass
+    obj = None
+    entry.integrators.clear()
+    del entry
+    if not probes or any(probe() is not None for probe in probes):
+        gc.collect()
 
 
 def describe_file(path: str, *, bump: bool = False) -> tuple[SceneDescription, list[SceneWarning]]:

@@ -165,13 +165,38 @@ def main_tiles(rw: int, rows: list[tuple[int, int]], seed: int | None, jitter: b
                timings: dict[str, float], mistakes: tuple[str, ...] = ()) -> Iterator[Tile]:
     """The main image's tiles: sample ``(i, j)`` at ``(i + jx, j + jy)`` with ``-jitter``, else at ``(i, j)``.
     docs/MISTAKES.md ``mistakes``: ``no_jitter`` (offsets 0 on the 3W x 3H grid), ``jitter_0_1`` (offsets
-    ``jx + 0.5`` in [0, 1) instead of [-0.5, 0.5))."""
+    ``jx + 0.5`` in [0, 1) instead of [-0.5, 0.5)).
+
+    The jittered tiles of a render of at most :data:`KEEP_SAMPLES` samples are kept for the next render with the
+    same width, rows, seed and mistakes (a warm session's next save or request): the offsets are a function of
+    those alone (glibc's seed-1 stream, or PCG64 with the seed), so the kept coordinates are the ones a new draw
+    gives, bit for bit, and are read-only."""
     if not jitter or "no_jitter" in mistakes:
         for j0, j1 in rows:
             yield Tile(j0, j1, *pixel_coords(rw, j0, j1, None))
         return
+    key = (rw, tuple(rows), seed, "jitter_0_1" in mistakes)
+    kept = _KEPT_TILES.get(key)
+    if kept is not None:
+        yield from kept
+        return
+    made = []
     for j0, j1, offsets in jittered_rows(rw, rows, seed, timings):
-        yield Tile(j0, j1, *pixel_coords(rw, j0, j1, mistaken_offsets(offsets, mistakes)))
+        tile = Tile(j0, j1, *pixel_coords(rw, j0, j1, mistaken_offsets(offsets, mistakes)))
+        made.append(tile)
+        yield tile
+    if rw * sum(j1 - j0 for j0, j1 in rows) <= KEEP_SAMPLES:   # every tile made: keep them
+        for tile in made:
+            tile.x_pix.flags.writeable = tile.y_pix.flags.writeable = False
+        _KEPT_TILES.clear()
+        _KEPT_TILES[key] = made
+
+
+#: The last jittered tile sequence of :func:`main_tiles`, by ``(width, rows, seed, jitter_0_1)`` (one entry), and
+#: the largest render it keeps, in samples (8 bytes each: 32 MiB; the 3W x 3H buffer of -size 300 300 -jitter is
+#: 810,000 samples).
+_KEPT_TILES: dict[tuple[object, ...], list[Tile]] = {}
+KEEP_SAMPLES = 1 << 22
 
 
 def mistaken_offsets(offsets: Offsets, mistakes: tuple[str, ...]) -> Offsets:

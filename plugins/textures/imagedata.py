@@ -19,9 +19,10 @@ takes them without reading the file again.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import drjit as dr
 import mitsuba as mi
@@ -73,10 +74,12 @@ def load_rgb8(path: str | Path) -> np.ndarray:
 
 def bitmap_rgb8(bitmap: Any, what: str = "bitmap") -> np.ndarray:
     """An 8-bit ``mi.Bitmap`` (the converter's decoded pixels) as (H, W, 3) ``uint8`` (:func:`rgb8`); raises
-    ``ValueError`` for anything else (another object, float pixels)."""
+    ``ValueError`` for anything else (another object, float pixels). An RGB bitmap's pixels are not copied: the
+    array is a view of the bitmap's memory (and keeps the bitmap alive), which :class:`ImageAtlas` reads and
+    copies into its own buffer."""
     if not isinstance(bitmap, mi.Bitmap):
         raise ValueError(f"{what}: expected an mi.Bitmap, got {type(bitmap).__name__}")
-    pixels = np.array(bitmap, copy=True)
+    pixels = np.asarray(bitmap)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
     return rgb8(pixels, what)
@@ -90,37 +93,25 @@ class ImageAtlas:
     Each pixel is one ``UInt32`` ``R + 256 G + 65536 B`` (its bytes R, G, B, 0: a copy of the file's bytes,
     4 bytes per pixel instead of 12 for float RGB, and one gather per texel); the lookup unpacks the bytes
     to floats 0..255, exactly the values the bytes hold. Offsets, widths and heights are opaque arrays, so
-    the compiled lookup is the same for every texture and every scene.
+    the compiled lookup is the same for every texture and every scene. An atlas of the same bytes as one made
+    before shares its device arrays (:data:`_KEPT`).
     """
 
     def __init__(self, images: Sequence[np.ndarray]) -> None:
         if not images:
             raise ValueError("ImageAtlas needs at least one image")
-        offsets, widths, heights, arrays = [], [], [], []
-        offset = 0
-        for img in images:
-            img = np.asarray(img)
+        arrays = [np.asarray(img) for img in images]
+        for img in arrays:
             if img.ndim != 3 or img.shape[2] != 3 or img.shape[0] < 1 or img.shape[1] < 1:
                 raise ValueError(f"expected an (H, W, 3) image, got shape {img.shape}")
-            h, w = img.shape[:2]
-            offsets.append(offset)
-            widths.append(w)
-            heights.append(h)
-            arrays.append(img)
-            offset += w * h
-        self.sizes: list[tuple[int, int]] = list(zip(widths, heights, strict=True))
-        # Bytes R, G, B, 0 per pixel in a 64-byte-aligned buffer: Dr.Jit maps numpy memory without a copy
-        # and the pointer's alignment is part of the kernel's hash (a5mi/render/driver.py, aligned_float32).
-        raw = np.zeros(4 * offset + 64, dtype=np.uint8)
-        start0 = (-raw.ctypes.data) % 64
-        packed = raw[start0 : start0 + 4 * offset].reshape(offset, 4)
-        for start, img in zip(offsets, arrays, strict=True):
-            packed[start : start + img.shape[0] * img.shape[1], :3] = img.reshape(-1, 3)
-        words = packed.view("<u4").reshape(-1)
-        self.data = mi.UInt32(words if words.dtype == np.uint32 else words.astype(np.uint32))  # R + 256 G + 65536 B
-        self.offsets = mi.UInt32(offsets)  # first pixel of each image
-        self.widths = mi.Int32(widths)
-        self.heights = mi.Int32(heights)
+        self.sizes: list[tuple[int, int]] = [(img.shape[1], img.shape[0]) for img in arrays]
+        packed = _packed(arrays)
+        # fresh array objects on the shared variables: an assignment to one atlas's array (a parameter update)
+        # replaces that object's variable only, and Dr.Jit copies a shared variable before any scatter into it
+        self.data = mi.UInt32(packed.data)  # R + 256 G + 65536 B
+        self.offsets = mi.UInt32(packed.offsets)  # first pixel of each image
+        self.widths = mi.Int32(packed.widths)
+        self.heights = mi.Int32(packed.heights)
         dr.make_opaque(self.data, self.offsets, self.widths, self.heights)
 
     def sample(self, u: mi.Float, v: mi.Float, image: mi.UInt32 | int = 0, active: mi.Bool | bool = True) -> mi.Color3f:
@@ -161,3 +152,70 @@ class ImageAtlas:
             return mi.Color3f(mi.Float(p & 0xFF), mi.Float((p >> 8) & 0xFF), mi.Float(p >> 16))
 
         return (px(x0, y0), px(x1, y0), px(x0, y1), px(x1, y1)), a, b, w, h
+
+
+class _Packed(NamedTuple):
+    """The device arrays of an :class:`ImageAtlas` and the pixels they were made from (``rgb``: every image's
+    ``(W·H, 3)`` bytes, one after the other; pixel ``k`` of the atlas = ``rgb[k]``)."""
+
+    variant: str                         # the Mitsuba variant of the device arrays
+    sizes: tuple[tuple[int, int], ...]   # (W, H) of each image
+    rgb: np.ndarray                      # (pixels, 3) uint8, contiguous
+    data: mi.UInt32
+    offsets: mi.UInt32
+    widths: mi.Int32
+    heights: mi.Int32
+
+    def holds(self, images: Sequence[np.ndarray]) -> bool:
+        """Whether the atlas was made from exactly these images (sizes, then every byte) in the active variant."""
+        if self.variant != mi.variant() or self.sizes != tuple((img.shape[1], img.shape[0]) for img in images):
+            return False
+        start = 0
+        for img in images:
+            n = img.shape[0] * img.shape[1]
+            if not np.array_equal(self.rgb[start:start + n], img.reshape(-1, 3)):
+                return False
+            start += n
+        return True
+
+
+#: The atlases made last, most recent first: a scene built again (``a5mi view``'s saves, ``a5mi serve``'s
+#: requests) finds the cube map or texture it uploaded before, compared byte for byte, instead of packing and
+#: uploading it again (0.1-0.3 s for the six 1024 x 1024 faces of a cube map). At most :data:`KEEP_ATLASES`
+#: atlases and :data:`KEEP_TEXELS` texels are kept (7 bytes each: the pixels compared, the packed words).
+_KEPT: list[_Packed] = []
+_KEPT_LOCK = threading.Lock()
+KEEP_ATLASES = 8
+KEEP_TEXELS = 1 << 24
+
+
+def _packed(images: Sequence[np.ndarray]) -> _Packed:
+    """The packed atlas of ``images`` ((H, W, 3) uint8 each): a kept one made from the same bytes, else a new one
+    (kept, the oldest dropped past the limits)."""
+    with _KEPT_LOCK:   # scenes may be built in several threads (a Dask worker's tasks)
+        for k, kept in enumerate(_KEPT):
+            if kept.holds(images):
+                _KEPT.insert(0, _KEPT.pop(k))
+                return kept
+    sizes = tuple((img.shape[1], img.shape[0]) for img in images)
+    counts = [w * h for w, h in sizes]
+    offsets = [sum(counts[:k]) for k in range(len(counts))]
+    total = sum(counts)
+    # Bytes R, G, B, 0 per pixel in a 64-byte-aligned buffer: Dr.Jit maps numpy memory without a copy
+    # and the pointer's alignment is part of the kernel's hash (a5mi/render/driver.py, aligned_float32).
+    raw = np.zeros(4 * total + 64, dtype=np.uint8)
+    start0 = (-raw.ctypes.data) % 64
+    host = raw[start0 : start0 + 4 * total].reshape(total, 4)
+    for start, img in zip(offsets, images, strict=True):
+        host[start : start + img.shape[0] * img.shape[1], :3] = img.reshape(-1, 3)
+    words = host.view("<u4").reshape(-1)
+    rgb = np.concatenate([img.reshape(-1, 3) for img in images])
+    data = mi.UInt32(words if words.dtype == np.uint32 else words.astype(np.uint32))
+    out = _Packed(str(mi.variant()), sizes, rgb, data, mi.UInt32(offsets), mi.Int32([w for w, _ in sizes]),
+                  mi.Int32([h for _, h in sizes]))
+    dr.make_opaque(out.data, out.offsets, out.widths, out.heights)
+    with _KEPT_LOCK:
+        _KEPT.insert(0, out)
+        while len(_KEPT) > KEEP_ATLASES or (len(_KEPT) > 1 and sum(len(p.rgb) for p in _KEPT) > KEEP_TEXELS):
+            _KEPT.pop()
+    return out

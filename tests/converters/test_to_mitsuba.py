@@ -539,3 +539,27 @@ def test_a6_horizon_row_matches_the_reference_image(variant: str, a5_data: Path,
     below = np.abs(ref[top].astype(int) - bg8[top]).max(axis=1)[plane_first]
     assert np.mean(above <= 1) > 0.97
     assert np.mean(below > 2) > 0.5
+
+
+def test_a_kept_decoded_image_is_one_bitmap(variant: str) -> None:
+    """``bitmap`` of the same decoded image (a served request's kept image) returns the Bitmap made before; an
+    equal image decoded again is its own; the pixels are the image's."""
+    import gc
+    import weakref
+
+    import mitsuba as mi
+
+    from a5mi.converters import to_mitsuba
+
+    px = np.arange(4 * 5 * 3, dtype=np.uint8).reshape(4, 5, 3)
+    px.flags.writeable = False                       # as decoded images are
+    img = Image(Path("/x/a.bmp"), px)
+    first = to_mitsuba.bitmap(img)
+    assert to_mitsuba.bitmap(img) is first and isinstance(first, mi.Bitmap)
+    other = Image(Path("/x/a.bmp"), px.copy())
+    assert to_mitsuba.bitmap(other) is not first
+    np.testing.assert_array_equal(np.asarray(first), px)
+    alive = weakref.ref(img)
+    del img, first
+    gc.collect()
+    assert alive() is None and other in to_mitsuba._BITMAPS   # the cache does not keep an image alive
