@@ -71,6 +71,17 @@ def binary_sees(si: mi.SurfaceInteraction3f, d: mi.Vector3f, active: mi.Bool) ->
     return ~unseen
 
 
+@syntax
+def _unseen(si: mi.SurfaceInteraction3f, d: mi.Vector3f, zero: mi.Bool) -> mi.Bool:
+    """``zero & ~binary_sees(si, d, zero)`` under a per-lane ``if`` on ``zero`` (directions with a zero
+    component): the face attributes' calls, which run masked even for a packet with no such lane, are skipped
+    by one without."""
+    out = dr.zeros(mi.Bool, dr.width(d))
+    if zero:
+        out = zero & ~binary_sees(si, d, zero)
+    return out
+
+
 def _rejected(table: triangle_rule.RuleTable | None, si: mi.SurfaceInteraction3f, o: mi.Point3f,
               d: mi.Vector3f, offset: mi.Float, t_min: mi.Float,
               active: mi.Bool) -> tuple[mi.Bool, mi.UInt32, mi.Float, mi.Vector3f]:
@@ -87,7 +98,7 @@ def _rejected(table: triangle_rule.RuleTable | None, si: mi.SurfaceInteraction3f
         hit_b, t_b, n_b = triangle_rule.evaluate_rows(table, row, o, d, t_min, row > 0)
         out = dr.select(row > 0, ~hit_b, out)
     zero = valid & has_zero(d)
-    out |= zero & ~binary_sees(si, d, zero)
+    out |= _unseen(si, d, zero)
     return out, row, t_b, n_b
 
 
