@@ -182,7 +182,10 @@ def plane_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool, o: mi.Point3f, d
     if ps.entries is not None:
         n = dr.zeros(mi.Vector3f, dr.width(d))
         for k, e in enumerate(ps.entries):
-            n = dr.select(idx == k, _normal(e, e.kind, o, d, t), n)
+            n_k = _normal(e, e.kind, o, d, t)
+            if e.world is not None:
+                n_k = dr.select(e.world, _normal(e, WORLD_SPHERE, o, d, t), n_k)
+            n = dr.select(idx == k, n_k, n)
         return n
     e = gathered(ps, idx, active)
     n = _normal(e, PLANE, o, d, t)

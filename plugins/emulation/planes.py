@@ -69,6 +69,9 @@ class Entry(NamedTuple):
     radius: mi.Float | None = None
     inv3: tuple[mi.Float, ...] = ()
     order: mi.UInt32 | None = None
+    #: An unrolled sphere (kind :data:`SPHERE`): whether its matrix is the identity (its normal is not mapped), a
+    #: kernel input, so that a keyframed sphere passing through the identity keeps its kernel
+    world: mi.Bool | None = None
 
 
 #: Entries of a set tested unrolled (:attr:`PlaneSet.entries`), at most: each adds its test to the kernel once
@@ -316,7 +319,8 @@ def plane_set(planes: list[Plane]) -> PlaneSet:
 
 def _entry(ps: PlaneSet, k: int) -> Entry:
     """Entry ``k`` of the device arrays of ``ps`` as kernel scalars: one-element opaque copies (a literal would
-    be baked into the kernel, which then could not serve another scene of the same kinds)."""
+    be baked into the kernel, which then could not serve another scene of the same kinds); both sphere kinds
+    are :data:`SPHERE`, told apart by :attr:`Entry.world`."""
     def one(arrays: tuple[Any, ...]) -> tuple[Any, ...]:
         out = tuple(type(x)([x[k]]) for x in arrays)
         dr.make_opaque(*out)
@@ -326,8 +330,12 @@ def _entry(ps: PlaneSet, k: int) -> Entry:
     order = None if ps.order is None else one((ps.order,))[0]
     if ps.spheres == 0:
         return Entry(PLANE, n, offset, inv_len, order=order)
-    return Entry(int(ps.kind[k]), n, offset, inv_len, one(ps.a), one(ps.tr), one(ps.centre), one((ps.radius,))[0],
-                 one(ps.inv3), order)
+    kind = int(ps.kind[k])
+    world = None if kind not in (SPHERE, WORLD_SPHERE) else mi.Bool([kind == WORLD_SPHERE])
+    if world is not None:
+        dr.make_opaque(world)
+    return Entry(SPHERE if world is not None else kind, n, offset, inv_len, one(ps.a), one(ps.tr), one(ps.centre),
+                 one((ps.radius,))[0], one(ps.inv3), order, world)
 
 
 def replace_planes(integrator: Any, moved: dict[str, Any]) -> None:

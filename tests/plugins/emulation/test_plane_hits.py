@@ -10,7 +10,6 @@ with the sample solution's stale texture coordinates too (``-quirks binary``: th
 from __future__ import annotations
 
 import numpy as np
-
 from helpers import SCENES
 
 KINDS = """PerspectiveCamera { center 0 1.5 8 direction 0 -0.2 -1 up 0 1 0 angle 40 }
@@ -50,8 +49,12 @@ def test_the_set_of_every_kind_is_unrolled_in_scene_order(variant: str) -> None:
 
     scene = build_scene(describe(parse_text(KINDS, str(SCENES / "x.txt"))), RenderOptions(**OPTIONS))
     entries = scene.integrator()._planes.entries
-    assert [e.kind for e in entries] == [WORLD_SPHERE, PLANE, PLACED_PLANE, WORLD_SPHERE, SPHERE, SPHERE]
-    values = [v for e in entries for v in (*e.n, e.offset, *e.a, *e.centre)]
+    assert [e.kind for e in entries] == [SPHERE, PLANE, PLACED_PLANE, SPHERE, SPHERE, SPHERE]
+    assert [None if e.world is None else bool(e.world[0]) for e in entries] == [True, None, None, True, False, False]
+    assert scene.integrator()._planes.kind.numpy().tolist() == [WORLD_SPHERE, PLANE, PLACED_PLANE, WORLD_SPHERE,
+                                                                 SPHERE, SPHERE]
+    worlds = [e.world for e in entries if e.world is not None]
+    values = [v for e in entries for v in (*e.n, e.offset, *e.a, *e.centre)] + worlds
     assert all(v.state == dr.VarState.Evaluated and dr.width(v) == 1 for v in values)  # kernel inputs, not literals
 
 
