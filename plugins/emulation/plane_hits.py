@@ -33,8 +33,9 @@ def gathered(ps: PlaneSet, k: mi.UInt32, m: mi.Bool) -> Entry:
     order = None if ps.order is None else dr.gather(mi.UInt32, ps.order, k, m)
     if ps.spheres == 0:
         return Entry(PLANE, n, g((ps.offset,))[0], g((ps.inv_len,))[0], order=order)
-    return Entry(dr.gather(mi.UInt32, ps.kind, k, m), n, g((ps.offset,))[0], g((ps.inv_len,))[0], g(ps.a),
-                 g(ps.tr), g(ps.centre), g((ps.radius,))[0], g(ps.inv3), order)
+    e = ps.objects
+    return Entry(dr.gather(mi.UInt32, e.kind, k, m), n, g((ps.offset,))[0], g((ps.inv_len,))[0], g(e.a), g(e.tr),
+                 g(e.centre), g((e.radius,))[0], g(e.inv3), order)
 
 
 def _dot(ax: mi.Float, ay: mi.Float, az: mi.Float, v: mi.Vector3f) -> mi.Float:
@@ -203,7 +204,7 @@ def plane_mirror_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool,
     m = mi.Vector3f(dr.gather(mi.Float, ps.mx, idx, active), dr.gather(mi.Float, ps.my, idx, active),
                     dr.gather(mi.Float, ps.mz, idx, active))
     if ps.spheres > 0 and n is not None:
-        m = dr.select(dr.gather(mi.UInt32, ps.kind, idx, active) != PLANE, n, m)
+        m = dr.select(dr.gather(mi.UInt32, ps.objects.kind, idx, active) != PLANE, n, m)
     return m
 
 

@@ -82,9 +82,8 @@ UNROLL = 8
 @dataclass
 class PlaneSet:
     """The planes of an ``a5_whitted`` integrator as device arrays (length ``max(count, 1)``); with
-    ``spheres`` > 0 also the non-similarity spheres' arrays (module docstring; a sphere's plane normal is 0,
-    so the plane test never hits it): ``kind`` (1: a sphere), ``a`` (the 9 entries of ``A`` row by row),
-    ``tr`` (``T``), ``centre``, ``radius``."""
+    ``spheres`` > 0 also the arrays of the spheres and of the planes inside a ``Transform`` (module docstring; a
+    sphere's plane normal is 0, so the plane test never hits it), :attr:`objects`."""
 
     nx: mi.Float
     ny: mi.Float
@@ -98,12 +97,9 @@ class PlaneSet:
     count: mi.UInt32
     size: int
     spheres: int = 0
-    kind: mi.UInt32 | None = None
-    a: tuple[mi.Float, ...] = ()
-    tr: tuple[mi.Float, ...] = ()
-    centre: tuple[mi.Float, ...] = ()
-    radius: mi.Float | None = None
-    inv3: tuple[mi.Float, ...] = ()
+    #: With spheres or planes inside a ``Transform``: every entry's arrays as one :class:`Entry` (``kind`` per
+    #: entry; the plane fields are the arrays above)
+    objects: Entry | None = None
     #: ``plane_<id>_bsdf_uv`` (the sample solution's stale texture coordinates, docs/FIDELITY.md): per entry its
     #: scene position (``order``, the id's number), whether it has a textured BSDF and that BSDF (else its own);
     #: None when no entry has one
@@ -304,9 +300,9 @@ def plane_set(planes: list[Plane]) -> PlaneSet:
         kind = mi.UInt32(kinds)
         dr.make_opaque(kind, *sphere_arrays)
         out.spheres = sum(k != PLANE for k in kinds)
-        out.kind, out.a, out.tr = kind, tuple(sphere_arrays[:9]), tuple(sphere_arrays[9:12])
-        out.centre, out.radius = tuple(sphere_arrays[12:15]), sphere_arrays[15]
-        out.inv3 = tuple(sphere_arrays[16:])
+        out.objects = Entry(kind, (out.nx, out.ny, out.nz), out.offset, out.inv_len, tuple(sphere_arrays[:9]),
+                            tuple(sphere_arrays[9:12]), tuple(sphere_arrays[12:15]), sphere_arrays[15],
+                            tuple(sphere_arrays[16:]))
     if any(p.bsdf_uv is not None for p in planes):
         out.order = mi.UInt32([_order(p.pid)[1] if _order(p.pid)[0] == 0 else 0xFFFFFFFF for p in planes])
         out.textured = mi.Bool([p.bsdf_uv is not None for p in planes])
@@ -330,12 +326,13 @@ def _entry(ps: PlaneSet, k: int) -> Entry:
     order = None if ps.order is None else one((ps.order,))[0]
     if ps.spheres == 0:
         return Entry(PLANE, n, offset, inv_len, order=order)
-    kind = int(ps.kind[k])
+    e = ps.objects
+    kind = int(e.kind[k])
     world = None if kind not in (SPHERE, WORLD_SPHERE) else mi.Bool([kind == WORLD_SPHERE])
     if world is not None:
         dr.make_opaque(world)
-    return Entry(SPHERE if world is not None else kind, n, offset, inv_len, one(ps.a), one(ps.tr), one(ps.centre),
-                 one((ps.radius,))[0], one(ps.inv3), order, world)
+    return Entry(SPHERE if world is not None else kind, n, offset, inv_len, one(e.a), one(e.tr), one(e.centre),
+                 one((e.radius,))[0], one(e.inv3), order, world)
 
 
 def replace_planes(integrator: Any, moved: dict[str, Any]) -> None:

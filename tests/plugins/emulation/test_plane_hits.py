@@ -51,7 +51,7 @@ def test_the_set_of_every_kind_is_unrolled_in_scene_order(variant: str) -> None:
     entries = scene.integrator()._planes.entries
     assert [e.kind for e in entries] == [SPHERE, PLANE, PLACED_PLANE, SPHERE, SPHERE, SPHERE]
     assert [None if e.world is None else bool(e.world[0]) for e in entries] == [True, None, None, True, False, False]
-    assert scene.integrator()._planes.kind.numpy().tolist() == [WORLD_SPHERE, PLANE, PLACED_PLANE, WORLD_SPHERE,
+    assert scene.integrator()._planes.objects.kind.numpy().tolist() == [WORLD_SPHERE, PLANE, PLACED_PLANE, WORLD_SPHERE,
                                                                  SPHERE, SPHERE]
     worlds = [e.world for e in entries if e.world is not None]
     values = [v for e in entries for v in (*e.n, e.offset, *e.a, *e.centre)] + worlds
