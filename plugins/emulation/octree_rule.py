@@ -71,6 +71,17 @@ def binary_sees(si: mi.SurfaceInteraction3f, d: mi.Vector3f, active: mi.Bool) ->
     return ~unseen
 
 
+@syntax
+def _unseen(si: mi.SurfaceInteraction3f, d: mi.Vector3f, zero: mi.Bool) -> mi.Bool:
+    """``zero & ~binary_sees(si, d, zero)`` under a per-lane ``if`` on ``zero`` (directions with a zero
+    component): the face attributes' calls, which run masked even for a packet with no such lane, are skipped
+    by one without."""
+    out = dr.zeros(mi.Bool, dr.width(d))
+    if zero:
+        out = zero & ~binary_sees(si, d, zero)
+    return out
+
+
 def _rejected(table: triangle_rule.RuleTable | None, si: mi.SurfaceInteraction3f, o: mi.Point3f,
               d: mi.Vector3f, offset: mi.Float, t_min: mi.Float,
               active: mi.Bool) -> tuple[mi.Bool, mi.UInt32, mi.Float, mi.Vector3f]:
@@ -84,10 +95,10 @@ def _rejected(table: triangle_rule.RuleTable | None, si: mi.SurfaceInteraction3f
     out = valid & (offset < t_min) & (si.t + offset <= t_min)
     if table is not None:
         row = triangle_rule.row_of(table, si, valid)
-        hit_b, t_b, n_b = triangle_rule.evaluate(table, row, o, d, t_min, row > 0)
+        hit_b, t_b, n_b = triangle_rule.evaluate_rows(table, row, o, d, t_min, row > 0)
         out = dr.select(row > 0, ~hit_b, out)
     zero = valid & has_zero(d)
-    out |= zero & ~binary_sees(si, d, zero)
+    out |= _unseen(si, d, zero)
     return out, row, t_b, n_b
 
 
@@ -114,7 +125,7 @@ def intersect(scene: mi.Scene, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, a
     if dr.hint(table is None, mode="scalar"):           # no rule mesh in the scene
         offset = mi.Float(t_min)
     elif dr.hint(origin is not None, mode="scalar"):
-        rehit, _, _ = triangle_rule.evaluate(table, origin, o, d, t_min, mi.Bool(active) & (origin > 0))
+        rehit, _, _ = triangle_rule.evaluate_rows(table, origin, o, d, t_min, active)
         offset = dr.select(rehit, offset, t_min)
     si = scene.ray_intersect(mi.Ray3f(o + offset * d, d), active)
     skip, row, t_b, n_b = _rejected(table, si, o, d, offset, t_min, active)

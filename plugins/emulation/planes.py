@@ -16,8 +16,10 @@ ray is ``d - 2 (d·m) m`` with ``m`` = ``plane_<id>_mirror_normal``, and the ref
 Transform, because the binary mirrors and refracts with it (measured against a5soln: a mirror
 ``normal 0 2 0`` plane, 33.8 dB with the unit normal, a glass one 31.0 dB; both identical with n as
 written), so the mirror ray is not a unit vector after such a plane; the binary's Transform normalises the
-normals it maps, so transformed planes get ``n_w/|n_w|``. Plane data lives in device arrays gathered by
-index with an opaque count, so scenes with any number of planes share one compiled kernel.
+normals it maps, so transformed planes get ``n_w/|n_w|``. Plane data lives in device arrays (gathered by
+index with an opaque count) and, for a set of at most :data:`UNROLL` entries, in per-entry kernel scalars
+(:attr:`PlaneSet.entries`): plugins/emulation/plane_hits.py tests such a set unrolled, entry by entry, with
+each entry's own kind's code, and a larger one in a loop that serves any number of entries.
 
 **Spheres under a non-similarity transform** travel the same way (an exact analytic primitive of the same
 index space, so that plane/sphere ties keep the scene order): ``plane_<id>_center`` point, ``plane_<id>_radius``
@@ -48,17 +50,40 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from a5mi.plugins.syntax import syntax
-
 _KEY = re.compile(r"^plane_(.+?)_(normal|offset|bsdf_uv|bsdf|mirror_normal|center|radius|to_world)$")
+
+
+class Entry(NamedTuple):
+    """One entry of the set as the tests read it: ``kind`` (a Python int when unrolled, else per lane), the
+    plane's ``n`` and ``offset`` and ``inv_len`` (``1/|n|``), and for the other kinds ``a`` (``A``, 9 floats
+    row by row), ``tr`` (``T``), ``centre``, ``radius``, ``inv3`` (the normal map, 9 floats); ``order`` (scene
+    position) only in a set with :attr:`~.planes.PlaneSet.order`."""
+
+    kind: int | mi.UInt32
+    n: tuple[mi.Float, mi.Float, mi.Float]
+    offset: mi.Float
+    inv_len: mi.Float
+    a: tuple[mi.Float, ...] = ()
+    tr: tuple[mi.Float, ...] = ()
+    centre: tuple[mi.Float, ...] = ()
+    radius: mi.Float | None = None
+    inv3: tuple[mi.Float, ...] = ()
+    order: mi.UInt32 | None = None
+    #: An unrolled sphere (kind :data:`SPHERE`): whether its matrix is the identity (its normal is not mapped), a
+    #: kernel input, so that a keyframed sphere passing through the identity keeps its kernel
+    world: mi.Bool | None = None
+
+
+#: Entries of a set tested unrolled (:attr:`PlaneSet.entries`), at most: each adds its test to the kernel once
+#: for the camera and mirror rays and once per light for the shadow rays; a larger set is walked in a loop.
+UNROLL = 8
 
 
 @dataclass
 class PlaneSet:
     """The planes of an ``a5_whitted`` integrator as device arrays (length ``max(count, 1)``); with
-    ``spheres`` > 0 also the non-similarity spheres' arrays (module docstring; a sphere's plane normal is 0,
-    so the plane test never hits it): ``kind`` (1: a sphere), ``a`` (the 9 entries of ``A`` row by row),
-    ``tr`` (``T``), ``centre``, ``radius``."""
+    ``spheres`` > 0 also the arrays of the spheres and of the planes inside a ``Transform`` (module docstring; a
+    sphere's plane normal is 0, so the plane test never hits it), :attr:`objects`."""
 
     nx: mi.Float
     ny: mi.Float
@@ -72,18 +97,18 @@ class PlaneSet:
     count: mi.UInt32
     size: int
     spheres: int = 0
-    kind: mi.UInt32 | None = None
-    a: tuple[mi.Float, ...] = ()
-    tr: tuple[mi.Float, ...] = ()
-    centre: tuple[mi.Float, ...] = ()
-    radius: mi.Float | None = None
-    inv3: tuple[mi.Float, ...] = ()
+    #: With spheres or planes inside a ``Transform``: every entry's arrays as one :class:`Entry` (``kind`` per
+    #: entry; the plane fields are the arrays above)
+    objects: Entry | None = None
     #: ``plane_<id>_bsdf_uv`` (the sample solution's stale texture coordinates, docs/FIDELITY.md): per entry its
     #: scene position (``order``, the id's number), whether it has a textured BSDF and that BSDF (else its own);
     #: None when no entry has one
     order: mi.UInt32 | None = None
     textured: mi.Bool | None = None
     bsdf_uv: mi.BSDFPtr | None = None
+    #: A set of at most :data:`UNROLL` entries: each entry's kind and numbers as kernel scalars (opaque
+    #: one-element arrays), in scene order; None for a larger set
+    entries: tuple[Entry, ...] | None = None
 
 
 def _vec3(value: Any, key: str) -> tuple[float, float, float]:
@@ -249,7 +274,7 @@ def plane_set(planes: list[Plane]) -> PlaneSet:
     """Device arrays of ``planes`` (as from :func:`planes_from_props`); a dummy entry when there are none."""
     if not planes:
         z = mi.Float([0.0])
-        return PlaneSet(z, z, z, z, z, z, z, z, dr.zeros(mi.BSDFPtr, 1), dr.opaque(mi.UInt32, 0), 0)
+        return PlaneSet(z, z, z, z, z, z, z, z, dr.zeros(mi.BSDFPtr, 1), dr.opaque(mi.UInt32, 0), 0, entries=())
     cols = list(zip(*[p[1] for p in planes], strict=True))
     inv = [0.0 if p.sphere is not None else 1.0 / math.sqrt(sum(c * c for c in p[1])) for p in planes]
     ptrs = mi.BSDFPtr([p[3] for p in planes])
@@ -275,143 +300,39 @@ def plane_set(planes: list[Plane]) -> PlaneSet:
         kind = mi.UInt32(kinds)
         dr.make_opaque(kind, *sphere_arrays)
         out.spheres = sum(k != PLANE for k in kinds)
-        out.kind, out.a, out.tr = kind, tuple(sphere_arrays[:9]), tuple(sphere_arrays[9:12])
-        out.centre, out.radius = tuple(sphere_arrays[12:15]), sphere_arrays[15]
-        out.inv3 = tuple(sphere_arrays[16:])
+        out.objects = Entry(kind, (out.nx, out.ny, out.nz), out.offset, out.inv_len, tuple(sphere_arrays[:9]),
+                            tuple(sphere_arrays[9:12]), tuple(sphere_arrays[12:15]), sphere_arrays[15],
+                            tuple(sphere_arrays[16:]))
     if any(p.bsdf_uv is not None for p in planes):
         out.order = mi.UInt32([_order(p.pid)[1] if _order(p.pid)[0] == 0 else 0xFFFFFFFF for p in planes])
         out.textured = mi.Bool([p.bsdf_uv is not None for p in planes])
         out.bsdf_uv = mi.BSDFPtr([p.bsdf if p.bsdf_uv is None else p.bsdf_uv for p in planes])
         dr.make_opaque(out.order, out.textured, out.bsdf_uv)
+    if len(planes) <= UNROLL:
+        out.entries = tuple(_entry(out, k) for k in range(len(planes)))
     return out
 
 
-def _dot(ax: mi.Float, ay: mi.Float, az: mi.Float, v: mi.Vector3f) -> mi.Float:
-    """vecmath's ``Vector3f::dot`` order: ``(a_x v_x + a_y v_y) + a_z v_z``."""
-    return (ax * v.x + ay * v.y) + az * v.z
+def _entry(ps: PlaneSet, k: int) -> Entry:
+    """Entry ``k`` of the device arrays of ``ps`` as kernel scalars: one-element opaque copies (a literal would
+    be baked into the kernel, which then could not serve another scene of the same kinds); both sphere kinds
+    are :data:`SPHERE`, told apart by :attr:`Entry.world`."""
+    def one(arrays: tuple[Any, ...]) -> tuple[Any, ...]:
+        out = tuple(type(x)([x[k]]) for x in arrays)
+        dr.make_opaque(*out)
+        return out
 
-
-def _sphere_space(ps: PlaneSet, k: mi.UInt32, o: mi.Point3f, d: mi.Vector3f,
-                  m: mi.Bool) -> tuple[list[mi.Float], mi.Vector3f, mi.Vector3f]:
-    """``(A, o', d')`` of sphere entry ``k``: ``A`` as 9 floats, the ray in object space (module docstring)."""
-    a = [dr.gather(mi.Float, ps.a[j], k, m) for j in range(9)]
-    tr = [dr.gather(mi.Float, ps.tr[j], k, m) for j in range(3)]
-    o_obj = mi.Vector3f(*[_dot(a[3 * i], a[3 * i + 1], a[3 * i + 2], mi.Vector3f(o)) + tr[i] for i in range(3)])
-    d_obj = mi.Vector3f(*[_dot(a[3 * i], a[3 * i + 1], a[3 * i + 2], d) for i in range(3)])
-    return a, o_obj, d_obj
-
-
-def half_quotient(x: mi.Float, a: mi.Float) -> mi.Float:
-    """The binary's ``(float)((double)x / (2.0 (double)a))`` in float32 arithmetic, bit for bit: ``x / (a + a)``
-    (``a + a`` is exact, and a quotient of two floats rounded to double and then to float is the correctly
-    rounded float quotient, since 53 >= 2·24 + 2: double rounding is innocuous for division); where ``a + a``
-    overflows, ``(x / 2) / a`` (``x / 2`` exact, or the quotient underflows to the same signed 0)."""
-    two_a = a + a
-    finite = dr.isfinite(two_a) | dr.isnan(a)
-    return dr.select(finite, x, x * 0.5) / dr.select(finite, two_a, a)
-
-
-def _sphere_t(ps: PlaneSet, k: mi.UInt32, o_obj: mi.Vector3f, d_obj: mi.Vector3f, t_min: mi.Float,
-              m: mi.Bool) -> tuple[mi.Bool, mi.Float]:
-    """``(hit, t)`` of ``Sphere::intersect`` on sphere entry ``k`` for the object-space ray ``(o', d')``
-    (module docstring), before the ``t < t_current`` test."""
-    c = mi.Vector3f(*[dr.gather(mi.Float, ps.centre[j], k, m) for j in range(3)])
-    r = dr.gather(mi.Float, ps.radius, k, m)
-    q = o_obj - c
-    a2 = _dot(d_obj.x, d_obj.y, d_obj.z, d_obj)
-    b = _dot(d_obj.x, d_obj.y, d_obj.z, q)
-    b = b + b
-    cc = _dot(q.x, q.y, q.z, q) - r * r
-    disc = b * b - (4.0 * a2) * cc
-    root = dr.sqrt(dr.maximum(disc, 0.0))
-    t_far = half_quotient(root - b, a2)
-    t_near = half_quotient(-b - root, a2)
-    t = dr.select(t_min < t_near, t_near, 10000.0)
-    t = dr.select(t_far > t_min, dr.select(t_near >= t_min, t, t_far), t)
-    hit = m & (disc >= 0.0) & ~((t_min > t_far) & (t_min > t_near))     # NaN: a miss, as in the binary
-    return hit, t
-
-
-@syntax
-def intersect_planes(ps: PlaneSet, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float, t_max: mi.Float,
-                     active: mi.Bool, before: mi.UInt32 | None = None) -> tuple[mi.Bool, mi.Float, mi.UInt32]:
-    """Nearest plane (or non-similarity sphere) hit with ``t_min < t < t_max`` (SPEC A.6; spheres by the
-    binary's rule, module docstring): ``(hit, t, plane index)``; ``t = t_max`` and index 0 where nothing is
-    hit. Entries are tested in scene order with ``t < best``: of two coincident ones the first wins.
-    ``before`` (a set with :attr:`PlaneSet.order`): only entries at scene positions ``< before``."""
-    k = dr.zeros(mi.UInt32, dr.width(d))
-    best = mi.Float(t_max)
-    idx = dr.zeros(mi.UInt32, dr.width(d))
-    found = dr.full(mi.Bool, False, dr.width(d))
-    while active & (k < ps.count):
-        nx = dr.gather(mi.Float, ps.nx, k)
-        ny = dr.gather(mi.Float, ps.ny, k)
-        nz = dr.gather(mi.Float, ps.nz, k)
-        off = dr.gather(mi.Float, ps.offset, k)
-        o_k, d_k = mi.Vector3f(o), mi.Vector3f(d)
-        if dr.hint(ps.spheres > 0, mode="scalar"):
-            kind = dr.gather(mi.UInt32, ps.kind, k)
-            _, o_obj, d_obj = _sphere_space(ps, k, o, d, active & (kind != PLANE))
-            o_k, d_k = dr.select(kind != PLANE, o_obj, o_k), dr.select(kind != PLANE, d_obj, d_k)
-        denom = _dot(nx, ny, nz, d_k)
-        t = (off - _dot(nx, ny, nz, o_k)) / denom
-        ok = (denom != 0.0) & (t > t_min) & (t < best)
-        if dr.hint(ps.spheres > 0, mode="scalar"):
-            is_sphere = (kind == SPHERE) | (kind == WORLD_SPHERE)
-            s_hit, s_t = _sphere_t(ps, k, o_k, d_k, t_min, active & is_sphere)
-            t = dr.select(is_sphere, s_t, t)
-            ok = dr.select(is_sphere, s_hit & (s_t < best), ok)
-        if dr.hint(before is not None, mode="scalar"):
-            ok &= dr.gather(mi.UInt32, ps.order, k) < before
-        best = dr.select(ok, t, best)
-        idx = dr.select(ok, k, idx)
-        found |= ok
-        k += 1
-    return found, best, idx
-
-
-def _normalize(v: mi.Vector3f) -> mi.Vector3f:
-    length = dr.sqrt(_dot(v.x, v.y, v.z, v))
-    return mi.Vector3f(v.x / length, v.y / length, v.z / length)
-
-
-def plane_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool, o: mi.Point3f | None = None,
-                 d: mi.Vector3f | None = None, t: mi.Float | None = None) -> mi.Vector3f:
-    """The shading normal ``n/|n|`` of plane ``idx`` (never flipped toward the viewer); for a sphere entry
-    (the scene has some: ``o``, ``d``, ``t`` of the hit needed) ``normalize(Aᵀ normalize(o' + t d' − c))``."""
-    inv = dr.gather(mi.Float, ps.inv_len, idx, active)
-    n = mi.Vector3f(dr.gather(mi.Float, ps.nx, idx, active) * inv,
-                    dr.gather(mi.Float, ps.ny, idx, active) * inv,
-                    dr.gather(mi.Float, ps.nz, idx, active) * inv)
-    if ps.spheres > 0 and o is not None and d is not None and t is not None:
-        kind = dr.gather(mi.UInt32, ps.kind, idx, active)
-        m = mi.Bool(active) & (kind != PLANE)
-        _, o_obj, d_obj = _sphere_space(ps, idx, o, d, m)
-        c = mi.Vector3f(*[dr.gather(mi.Float, ps.centre[j], idx, m) for j in range(3)])
-        n_raw = mi.Vector3f(dr.gather(mi.Float, ps.nx, idx, m), dr.gather(mi.Float, ps.ny, idx, m),
-                            dr.gather(mi.Float, ps.nz, idx, m))
-        n_obj = dr.select(kind == PLACED_PLANE, n_raw, _normalize((o_obj + d_obj * t) - c))
-        b = [dr.gather(mi.Float, ps.inv3[j], idx, m) for j in range(9)]   # the Transform's normal map
-        n_world = _normalize(mi.Vector3f(*[(b[i] * n_obj.x + b[3 + i] * n_obj.y) + b[6 + i] * n_obj.z
-                                           for i in range(3)]))
-        n = dr.select(m, dr.select(kind == WORLD_SPHERE, n_obj, n_world), n)
-    return n
-
-
-def plane_mirror_normal(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool,
-                        n: mi.Vector3f | None = None) -> mi.Vector3f:
-    """The normal plane ``idx`` mirrors rays about (``plane_<id>_mirror_normal``, module docstring); a sphere
-    entry mirrors about its shading normal ``n``."""
-    m = mi.Vector3f(dr.gather(mi.Float, ps.mx, idx, active), dr.gather(mi.Float, ps.my, idx, active),
-                    dr.gather(mi.Float, ps.mz, idx, active))
-    if ps.spheres > 0 and n is not None:
-        m = dr.select(dr.gather(mi.UInt32, ps.kind, idx, active) != PLANE, n, m)
-    return m
-
-
-def plane_bsdf(ps: PlaneSet, idx: mi.UInt32, active: mi.Bool) -> mi.BSDFPtr:
-    """The BSDF of plane ``idx`` (null where ``active`` is false)."""
-    return dr.gather(mi.BSDFPtr, ps.bsdf, idx, active)
+    n, (offset, inv_len) = one((ps.nx, ps.ny, ps.nz)), one((ps.offset, ps.inv_len))
+    order = None if ps.order is None else one((ps.order,))[0]
+    if ps.spheres == 0:
+        return Entry(PLANE, n, offset, inv_len, order=order)
+    e = ps.objects
+    kind = int(e.kind[k])
+    world = None if kind not in (SPHERE, WORLD_SPHERE) else mi.Bool([kind == WORLD_SPHERE])
+    if world is not None:
+        dr.make_opaque(world)
+    return Entry(SPHERE if world is not None else kind, n, offset, inv_len, one(e.a), one(e.tr), one(e.centre),
+                 one((e.radius,))[0], one(e.inv3), order, world)
 
 
 def replace_planes(integrator: Any, moved: dict[str, Any]) -> None:

@@ -44,6 +44,7 @@ import numpy as np
 from a5mi.platform.arrays import aligned_float32
 from a5mi.plugins.emulation import octree_leaves
 from a5mi.plugins.optics import dot32 as dot
+from a5mi.plugins.syntax import syntax
 
 #: The face attribute that marks a mesh carrying the data above.
 MARKER = "face_a5_v0"
@@ -203,22 +204,27 @@ def coincident_faces(meshes: list[mi.Mesh]) -> np.ndarray | None:
     return out if found else None
 
 
+@syntax
 def coincident(table: RuleTable, row: mi.UInt32, t: mi.Float, n: mi.Vector3f, o: mi.Point3f, d: mi.Vector3f,
                t_min: mi.Float, active: mi.Bool) -> tuple[mi.UInt32, mi.Float, mi.Vector3f, mi.Bool]:
     """The binary's Group order among coincident faces (SPEC A.6: objects are tested in scene order and a
     triangle replaces the hit when ``t <= t_current``): each partner of the hit face ``row`` is evaluated by
     :func:`evaluate`; it takes the hit when its ``t`` is smaller, or equal and its mesh comes later (rows are
-    in scene order). Returns ``(row, t, N, moved)``, ``moved`` where a partner took the hit."""
+    in scene order). Returns ``(row, t, N, moved)``, ``moved`` where a partner took the hit. A face's partners
+    are listed first (its first 0 ends them), so the loop runs only while some lane has one more: a packet
+    whose faces have none evaluates nothing."""
     moved = dr.zeros(mi.Bool, dr.width(t))
     live = mi.Bool(active) & (row > 0)
     first = (dr.maximum(row, 1) - 1) * PARTNERS
-    for k in range(PARTNERS):
-        other = dr.gather(mi.UInt32, table.partners, first + k, live)
-        ok = live & (other > 0)
-        hit, t_o, n_o = evaluate(table, other, o, d, t_min, ok)
-        wins = ok & hit & ((t_o < t) | ((t_o == t) & (other > row)))
+    k = dr.zeros(mi.UInt32, dr.width(t))
+    other = dr.gather(mi.UInt32, table.partners, first, live)
+    while live & (other > 0):
+        hit, t_o, n_o = evaluate(table, other, o, d, t_min, live)
+        wins = hit & ((t_o < t) | ((t_o == t) & (other > row)))
         row, t, n = dr.select(wins, other, row), dr.select(wins, t_o, t), dr.select(wins, n_o, n)
         moved |= wins
+        k += 1
+        other = dr.gather(mi.UInt32, table.partners, first + k, live & (k < PARTNERS))
     return row, t, n, moved
 
 
@@ -296,3 +302,18 @@ def evaluate(table: RuleTable, row: mi.UInt32, o: mi.Point3f, d: mi.Vector3f, t_
                                     (a0.y * n.x + a1.y * n.y) + a2.y * n.z,
                                     (a0.z * n.x + a1.z * n.y) + a2.z * n.z))
     return hit, t, dr.select(transformed, n_world, n)
+
+
+@syntax
+def evaluate_rows(table: RuleTable, row: mi.UInt32, o: mi.Point3f, d: mi.Vector3f, t_min: mi.Float,
+                  active: mi.Bool) -> tuple[mi.Bool, mi.Float, mi.Vector3f]:
+    """:func:`evaluate` under a per-lane ``if`` on the lanes of ``active`` with ``row > 0``: a packet without
+    such a lane (camera rays, rays leaving a plane or a sphere, hits off rule meshes) skips the test. The
+    other lanes read ``(False, 0, 0)``, which no caller uses (every result is selected by ``row > 0``)."""
+    hit = dr.zeros(mi.Bool, dr.width(row))
+    t = dr.zeros(mi.Float, dr.width(row))
+    n = dr.zeros(mi.Vector3f, dr.width(row))
+    if active & (row > 0):
+        hit, t, n = evaluate(table, row, o, d, t_min, active)
+    return hit, t, n
+

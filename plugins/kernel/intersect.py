@@ -20,7 +20,8 @@ import drjit as dr
 import mitsuba as mi
 
 from a5mi.plugins.emulation import octree_rule
-from a5mi.plugins.emulation.planes import PlaneSet, intersect_planes, plane_bsdf, plane_mirror_normal, plane_normal
+from a5mi.plugins.emulation.plane_hits import intersect_planes, plane_bsdf, plane_mirror_normal, plane_normal
+from a5mi.plugins.emulation.planes import PlaneSet
 from a5mi.plugins.emulation.triangle_rule import NO_PLACE, RuleTable
 from a5mi.plugins.syntax import syntax
 

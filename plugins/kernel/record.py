@@ -24,7 +24,8 @@ import drjit as dr
 import mitsuba as mi
 
 from a5mi.plugins.emulation import octree_rule
-from a5mi.plugins.emulation.planes import PlaneSet, intersect_planes
+from a5mi.plugins.emulation.plane_hits import intersect_planes
+from a5mi.plugins.emulation.planes import PlaneSet
 
 #: Per-node fields and their widths, in buffer order.
 NODE_FIELDS: tuple[tuple[str, int], ...] = (

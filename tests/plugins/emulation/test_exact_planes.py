@@ -121,7 +121,7 @@ def test_sphere_quotient_is_the_binarys_double_division_bit_for_bit(mi) -> None:
     own double arithmetic for every class of input (random bit patterns: subnormals, infinities, NaN)."""
     import drjit as dr
 
-    from a5mi.plugins.emulation.planes import half_quotient
+    from a5mi.plugins.emulation.plane_hits import half_quotient
 
     rng = np.random.default_rng(7)
     n = 400_000
