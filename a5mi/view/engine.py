@@ -27,8 +27,10 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import shutil
 import tempfile
 import time
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -142,12 +144,13 @@ class ViewEngine:
         self._meshes = self._kept.meshes
         self._binary_cache: dict[tuple[int, tuple[str, ...]], np.ndarray] = {}
         self._scratch = tempfile.mkdtemp(prefix="a5mi-view-")
+        # removed by close(), else when the engine is collected or the interpreter exits (an engine a caller
+        # forgot to close left its folder in /tmp)
+        self._remove_scratch = weakref.finalize(self, shutil.rmtree, self._scratch, ignore_errors=True)
 
     def close(self) -> None:
         """Remove the scratch folder of the PNG encodings."""
-        import shutil
-
-        shutil.rmtree(self._scratch, ignore_errors=True)
+        self._remove_scratch()
 
     # ------------------------------------------------------------------------------------------ the scene
     def load(self, bump: bool | None = None) -> None:

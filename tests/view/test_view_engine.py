@@ -340,3 +340,26 @@ def test_an_exr_reference_beyond_one_shows_clamped_not_wrapped(tmp_path: Path, s
         (tmp_path / "shown.png").write_bytes(frame.reference_png)
         shown = read_uint8(tmp_path / "shown.png")[..., :3]
         assert (shown[:, :20] == (255, 255, 0)).all() and (shown[:, 20:] == (63, 127, 191)).all()
+
+
+def test_the_scratch_folder_goes_with_close_or_with_the_engine(tmp_path: Path) -> None:
+    """The PNG encodings' scratch folder is removed by ``close()``, and also when an engine nobody closed is
+    collected (tests and embedding callers dropped engines and left ``/tmp/a5mi-view-*`` folders behind)."""
+    import gc
+    import os
+    from types import SimpleNamespace
+
+    from a5mi.view.engine import ViewEngine
+
+    scene = str(write_scene(tmp_path / "s.txt"))
+    closed = ViewEngine(scene, session=SimpleNamespace(forget=lambda desc: None))
+    assert os.path.isdir(closed._scratch)
+    closed.close()
+    assert not os.path.exists(closed._scratch)
+    closed.close()  # a second close is harmless
+    dropped = ViewEngine(scene, session=SimpleNamespace(forget=lambda desc: None))
+    folder = dropped._scratch
+    assert os.path.isdir(folder)
+    del dropped
+    gc.collect()
+    assert not os.path.exists(folder)
