@@ -1,7 +1,7 @@
 """Every speed figure of BENCHMARKS.md's "speed where people wait" round, measured in one run, side by side with
-the sample solution (BENCHMARKS.md "Run L").
+the sample solution (BENCHMARKS.md "Run M").
 
-    .venv/bin/python benchmarks/speed_round.py A5SOLN [--out benchmarks/run-l.md] [--quick]
+    .venv/bin/python benchmarks/speed_round.py A5SOLN [--out benchmarks/run-m.md] [--quick]
 
 The steps run one after the other, each a child process of the existing benchmark scripts, so that every figure
 comes from the same machine state in one sitting; the 1-minute load average and the wall of each step are written
@@ -79,7 +79,7 @@ def _header() -> list[str]:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("a5soln")
-    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "run-l.md")
+    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "run-m.md")
     ap.add_argument("--quick", action="store_true")
     a = ap.parse_args()
     if not os.access(a.a5soln, os.X_OK):
