@@ -50,11 +50,12 @@ def _inverse_rows(planes: PlaneSet, rules: RuleTable | None, on_plane: mi.Bool, 
             k = at + 3 * ROW_ATTRIBUTES.index(f"face_a5_inv{i}")
             got = mi.Vector3f(*[dr.gather(mi.Float, rules.rows, k + c, m) for c in range(3)])
             rows[i] = dr.select(m, got, rows[i])
-    if planes.spheres > 0:              # a sphere or a placed plane of the plane set: its Transform's A
+    objects = planes.objects
+    if planes.spheres > 0 and objects is not None:  # a sphere or a placed plane of the set: its Transform's A
         m = hit & on_plane
-        m &= dr.gather(mi.UInt32, planes.kind, plane, m) != PLANE
+        m &= dr.gather(mi.UInt32, objects.kind, plane, m) != PLANE
         for i in range(3):
-            got = mi.Vector3f(*[dr.gather(mi.Float, planes.inv3[3 * i + c], plane, m) for c in range(3)])
+            got = mi.Vector3f(*[dr.gather(mi.Float, objects.inv3[3 * i + c], plane, m) for c in range(3)])
             rows[i] = dr.select(m, got, rows[i])
     return rows
 

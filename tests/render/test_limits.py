@@ -69,7 +69,7 @@ def test_irradiance_records_and_ppm_statistics_grow_with_the_samples() -> None:
 def test_the_photon_estimate_covers_a_measured_render(tmp_path: Path, depth: int) -> None:
     """A bright case for the maps (a closed box of albedo 0.9): the child's peak resident memory stays under
     :func:`a5mi.render.limits.memory_need` of its options. With ``-photon_depth 10`` every photon bounces until
-    the cut, the case the per-hit figure was measured on, and the estimate is within 2.5x; with Russian roulette
+    the cut, the case the per-hit figure was measured on, and the estimate is within 3x; with Russian roulette
     alone (0) the estimate assumes a lossless scene (51 hits), so here (10 hits on average) it is only a bound."""
     (tmp_path / "box.txt").write_text(BOX)
     n = 400_000
@@ -87,9 +87,11 @@ def test_the_photon_estimate_covers_a_measured_render(tmp_path: Path, depth: int
                                             photon_depth=depth))
     assert peak <= need, (peak, need)
     if depth:
-        # and not a wild overestimate where the model is exact: the same command's own peak spreads from 0.79 GB
-        # (alone) to 1.54 GB (inside a loaded suite), and the model covers the highest, so 2.5x the lowest
-        assert need <= 2.5 * peak, (peak, need)
+        # and not a wild overestimate where the model is exact: the same command's own peak spreads from 0.70 GB
+        # (alone: 0.70-0.84 GB in six runs on 7 Dec 2026; 0.79 GB was the lowest seen before, and 2.5x of it
+        # failed at 0.70 and 0.72) to 1.54 GB (inside a loaded suite); the model (1.81 GB) covers the highest, so
+        # it is 2.2-2.6x the lowest by construction: 3x of any single peak
+        assert need <= 3 * peak, (peak, need)
 
 
 def test_the_page_and_the_command_line_refuse_the_same_combinations() -> None:
