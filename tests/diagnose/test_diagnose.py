@@ -140,6 +140,7 @@ def test_noise_mistake_is_the_closest_cause_and_nothing_else_is_named(session, t
     closest cause, and nothing else is named (docs/MISTAKES.md "Closest causes: the likelihood with the noise")."""
     from matrix import VARIANTS
 
+    from a5mi.commands.diagnose import format_diagnosis
     from a5mi.diagnose.probes import describe_probe
     from a5mi.diagnose.rank import diagnose
     from a5mi.platform.imageio import quantize
@@ -155,6 +156,9 @@ def test_noise_mistake_is_the_closest_cause_and_nothing_else_is_named(session, t
     assert d.verdict == "unexplained" and d.causes[0].mistakes == ("downsample_one_sample",), d.causes
     lam = [c.likelihood for c in d.causes]
     assert None not in lam and lam[0] > 0 and lam == sorted(lam, reverse=True), lam
+    text = format_diagnosis(d, "img.png", "glass_left.txt")
+    assert "verdict: unexplained" in text and "closest: downsample_one_sample (explains " in text, text
+    assert f"likelihood ratio {lam[0]:+.3f} nats per value" in text, text
 
 
 def test_no_second_mistake_fitted_to_the_noise(session, tmp_path: Path) -> None:
