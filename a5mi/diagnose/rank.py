@@ -400,17 +400,22 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     shown = [c for k, c in enumerate(shown) if k == 0 or (c.explained or 0.0) >= LISTED_SHARE]
     best = shown[0] if shown else None
     remaining = mse(img, images[best.mistakes]) if best is not None else err0
-    named = False
-    if best is not None and (best.explained or 0.0) >= NAMED_SHARE:
-        view = blocks if best.scale == "blocks" else (lambda a: a)
-        floor = 2.0 * (noise_blocks if best.scale == "blocks" else noise)
-        before, after = mse(view(img), view(ref)), mse(view(img), view(images[best.mistakes]))
-        named = after - floor <= 0.25 * (before - floor) + MATCH_MSE
-        if named and best.scale == "blocks" and options.jitter:
-            # block means average each hypothesis' noise differently (one sample instead of nine: nine times the
-            # block noise): a name earned there must also make the pixels more probable than the reference does
-            best.likelihood = ratio(best.mistakes)
-            named = best.likelihood > 0.0
+    def earned(key: tuple[str, ...], scale: str) -> bool:
+        """Whether ``key`` explains :data:`NAMED_SHARE` at ``scale`` and leaves beyond the noise floor under a
+        quarter of what the image started with there."""
+        v = blocks if scale == "blocks" else (lambda a: a)
+        floor = 2.0 * (noise_blocks if scale == "blocks" else noise)
+        before, after = mse(v(img), v(ref)), mse(v(img), v(images[key]))
+        share = explained(v(img), v(ref), v(images[key]))
+        return share >= NAMED_SHARE and after - floor <= 0.25 * (before - floor) + MATCH_MSE
+
+    named = best is not None and earned(best.mistakes, best.scale)
+    if named and best is not None and best.scale == "blocks" and options.jitter and not earned(best.mistakes,
+                                                                                               "pixels"):
+        # block means average each hypothesis' noise differently (one sample instead of nine: nine times the
+        # block noise): a name earned by them alone must also make the pixels more probable than the reference
+        best.likelihood = ratio(best.mistakes)
+        named = best.likelihood > 0.0
     if not named and options.jitter:
         shown = closest(considered, ref, images, ratio, SHOWN, LISTED_SHARE)
     for c in shown[:SHOWN]:
