@@ -31,7 +31,7 @@ class Cause:
     #: :func:`a5mi.diagnose.measure.explained_at`)
     scale: str = "pixels"
     #: ``Λ``, the log-likelihood ratio against the reference with the jitter noise counted (nats per value;
-    #: :func:`closest`), set for the causes of an image no cause explains and for a name earned by block means
+    #: :func:`closest`), set for the causes of an image no cause explains and for a name block means alone earn
     likelihood: float | None = None
 
     @property

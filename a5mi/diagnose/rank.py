@@ -39,14 +39,14 @@ Stages (small renders first, full size only for the finalists):
    leaves more than ``MATCH_NOISE · σ²``; every saved-image and filter partner of a finalist is scored (free from
    its kept render).
 5. ``diagnosis`` when the best cause explains at least :data:`NAMED_SHARE` and leaves less than a quarter of the
-   error it started from beyond the noise floor, and, where that share was earned by the 4x4 block means, the
-   image is more probable under the cause than under the reference at full resolution (``Λ > 0``, below);
+   error it started from beyond the noise floor, and, where the 4x4 block means alone earn it (the pixels would
+   not), the image is more probable under the cause than under the reference at full resolution (``Λ > 0``, below);
    otherwise ``unexplained`` with the remaining error and the closest causes (below). Never a forced guess.
 
 Closest causes (docs/MISTAKES.md "Closest causes: the likelihood with the noise"): ``E`` charges a mutant its own
 jitter noise (under its hypothesis ``||I - M||²`` is twice that noise, not 0), so a mistake that changes the noise
 more than the mean (one sample instead of nine, no blur) explains nothing by ``E`` even on an image of exactly its
-kind. Without a named cause the scored causes are ranked instead by the log-likelihood ratio
+kind. Without a named cause the closest causes are also judged by the log-likelihood ratio
 ``Λ(M) = ℓ(I | M) - ℓ(I | R)`` per value, ``ℓ(I | M) = mean(-(I - M)² / (2 s²) - ln(2π s²) / 2)`` with
 ``s² = 2 v_M + q``: ``v_M`` the mutant's per-pixel seed variance ``(M - M₂)² / 2`` (``M₂`` its render with the
 noise seed) averaged over 3x3 pixels, ``q`` the variance of two 8-bit quantisations
