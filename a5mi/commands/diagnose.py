@@ -63,10 +63,13 @@ def format_diagnosis(d: Any, image: str, scene: str) -> str:
         lines.append("verdict: match (within the noise; no mistake found)")
         return "\n".join(lines)
     if d.verdict == "unexplained":
-        best = d.causes[0] if d.causes else None
         lines.append(f"verdict: unexplained: no catalogued mistake explains the difference; remaining error PSNR "
-                     f"{_db(d.psnr)} dB" + (f" (closest: {', '.join(best.mistakes)}, explains "
-                                            f"{_pct(best.explained)})" if best is not None else ""))
+                     f"{_db(d.psnr)} dB")
+        if d.causes:   # ranked by the likelihood with each mistake's jitter noise (docs/MISTAKES.md "Closest causes")
+            lines.append("closest: " + "; ".join(
+                f"{' + '.join(c.mistakes)} (explains {_pct(c.explained)}"
+                + (f", likelihood ratio {c.likelihood:+.3f} nats per value" if c.likelihood is not None else "")
+                + ")" for c in d.causes))
         return "\n".join(lines)
     lines.append("verdict: diagnosis")
     for k, c in enumerate(d.causes, 1):

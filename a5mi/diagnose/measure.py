@@ -3,7 +3,8 @@
 :func:`explained` is ``E(M) = 1 - ||I - M||² / ||I - R||²`` over the 8-bit images, :func:`explained_at` the larger
 of it over pixels and over 4x4-pixel block means; :func:`sample_positions` and :func:`resample` put the image at a
 small render's sample positions (SPEC B.2, B.5); :func:`evidence` says where a cause acts; :data:`REVERSIBLE`
-undoes saved-image mistakes. numpy only.
+undoes saved-image mistakes; :func:`log_likelihood` is the image's likelihood under a mutant with the mutant's
+jitter noise counted (docs/MISTAKES.md "Closest causes: the likelihood with the noise"). numpy only.
 """
 
 from __future__ import annotations
@@ -89,6 +90,35 @@ def explained_at(image: Image, reference: Image, mutant: Image) -> tuple[float, 
     fine = explained(image, reference, mutant)
     coarse = explained(blocks(image), blocks(reference), blocks(mutant))
     return (fine, "pixels") if fine >= coarse else (coarse, "blocks")
+
+
+#: Side of the neighbourhood over which the per-pixel seed variance is averaged (pixels).
+NEIGHBOURHOOD = 3
+#: Variance of the difference of two images quantised by truncation to 8 bits (two uniform errors of one level):
+#: ``2 · 1/12`` levels², in [0, 1] units.
+QUANTISATION_VARIANCE = 2.0 / 12.0 / 255.0 ** 2
+
+
+def box_mean(a: Image, k: int = NEIGHBOURHOOD) -> Image:
+    """``a`` (H x W x C) averaged over the ``k x k`` pixels around each pixel (edges repeated)."""
+    r = k // 2
+    p = np.pad(a, ((r, r), (r, r), (0, 0)), mode="edge")
+    h, w = a.shape[:2]
+    return sum(p[i:i + h, j:j + w] for i in range(k) for j in range(k)) / float(k * k)
+
+
+def log_likelihood(image: Image, mutant: Image, second: Image) -> float:
+    """The mean log-likelihood per value of ``image`` under the hypothesis that it was rendered like ``mutant``
+    with other jitter offsets (docs/MISTAKES.md "Closest causes"): ``second`` is the mutant with another seed.
+
+    Each value is Gaussian about the mutant's, ``I - M ~ N(0, s²)`` with ``s² = 2 v + q``: ``v`` the mutant's seed
+    variance at that pixel, ``(M - M₂)² / 2`` averaged over the :data:`NEIGHBOURHOOD` x :data:`NEIGHBOURHOOD` pixels
+    around it (jitter noise sits on edges: one variance for the whole image would not do), doubled because the
+    image and the mutant carry independent noise, ``q`` :data:`QUANTISATION_VARIANCE`. Result:
+    ``mean(-(I - M)² / (2 s²) - ln(2π s²) / 2)``; a mutant free of jitter noise has ``s² = q``."""
+    v = box_mean((mutant - second) ** 2 / 2.0)
+    s2 = 2.0 * v + QUANTISATION_VARIANCE
+    return float(np.mean(-((image - mutant) ** 2) / (2.0 * s2) - 0.5 * np.log(2.0 * math.pi * s2)))
 
 
 def sample_positions(n_small: int, n_full: int, supersampled: bool) -> npt.NDArray[np.float64]:

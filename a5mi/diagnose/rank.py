@@ -32,14 +32,28 @@ Stages (small renders first, full size only for the finalists):
 4. The best :data:`FINALISTS` of stage 3 and the jitter mutants rendered at full size and scored by ``E``; then
    pairs (two mistakes at once): for each of the best :data:`PAIR_FROM` singles, the partners whose differences,
    added to its own, best predict the observed difference (at the scale both were rendered at), rendered together
-   at full size; a pair is kept when it explains clearly more than either alone (by 0.1, or by half of what the
-   better one leaves beyond its own noise floor ``2σ²_M`` where that is more than the floor again: ``σ²_M`` the
-   larger of σ² and the mutant's own seed noise, its render with the noise seed). Pairs are searched when no
-   single explains 0.98 or the best leaves more than ``MATCH_NOISE · σ²``; every saved-image and filter partner
-   of a finalist is scored (free from its kept render).
+   at full size; a pair is kept when it explains clearly more than either alone, and only where the better one
+   leaves more than its own noise floor ``2σ²_M`` again beyond it (within that a second mistake only fits another
+   seed's noise): by 0.1 of ``E``, or by removing half of that excess; ``σ²_M`` the larger of σ² and the mutant's
+   own seed noise, its render with the noise seed. Pairs are searched when no single explains 0.98 or the best
+   leaves more than ``MATCH_NOISE · σ²``; every saved-image and filter partner of a finalist is scored (free from
+   its kept render).
 5. ``diagnosis`` when the best cause explains at least :data:`NAMED_SHARE` and leaves less than a quarter of the
-   error it started from beyond the noise floor; otherwise ``unexplained`` with the remaining error. Never a
-   forced guess.
+   error it started from beyond the noise floor, and, where the 4x4 block means alone earn it (the pixels would
+   not), the image is more probable under the cause than under the reference at full resolution (``Λ > 0``, below);
+   otherwise ``unexplained`` with the remaining error and the closest causes (below). Never a forced guess.
+
+Closest causes (docs/MISTAKES.md "Closest causes: the likelihood with the noise"): ``E`` charges a mutant its own
+jitter noise (under its hypothesis ``||I - M||²`` is twice that noise, not 0), so a mistake that changes the noise
+more than the mean (one sample instead of nine, no blur) explains nothing by ``E`` even on an image of exactly its
+kind. Without a named cause the closest causes are also judged by the log-likelihood ratio
+``Λ(M) = ℓ(I | M) - ℓ(I | R)`` per value, ``ℓ(I | M) = mean(-(I - M)² / (2 s²) - ln(2π s²) / 2)`` with
+``s² = 2 v_M + q``: ``v_M`` the mutant's per-pixel seed variance ``(M - M₂)² / 2`` (``M₂`` its render with the
+noise seed) averaged over 3x3 pixels, ``q`` the variance of two 8-bit quantisations
+(:func:`a5mi.diagnose.measure.log_likelihood`): the causes explaining :data:`LISTED_SHARE` by ``E``, then those
+with ``Λ > 0`` (the image more probable under the mistake than under the correct renderer), :data:`SHOWN` at most,
+in the order of ``Λ`` (:func:`a5mi.diagnose.causes.closest`). One more render per cause, only for images without a
+named cause.
 """
 
 from __future__ import annotations
@@ -48,22 +62,22 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
-from a5mi.diagnose.catalogue import BY_NAME, Mistake, applicable, option_traits, scene_traits
+from a5mi.diagnose.catalogue import Mistake, applicable, option_traits, scene_traits
+from a5mi.diagnose.causes import Cause, Diagnosis, closest, combinable
 from a5mi.diagnose.measure import (
     REVERSIBLE,
-    Evidence,
     Image,
     as_levels,
     blocks,
     evidence,
     explained,
     explained_at,
+    log_likelihood,
     mse,
     psnr_of,
     resample,
@@ -118,63 +132,6 @@ BIAS_LEFT = 0.25
 
 class DiagnoseError(UserError):
     """The image cannot be compared with the scene's render (a size that the flags do not give)."""
-
-
-@dataclass
-class Cause:
-    """One mutant: its mistakes (one or two names), the explained share at full size (``explained``, None when
-    it was only ranked small), the small-render share (``small``), the :class:`Evidence`."""
-
-    mistakes: tuple[str, ...]
-    explained: float | None
-    small: float | None = None
-    evidence: Evidence | None = None
-    #: where ``explained`` was measured: ``pixels`` or ``blocks`` (4x4 means, :func:`explained_at`)
-    scale: str = "pixels"
-
-    @property
-    def catalogue(self) -> list[Mistake]:
-        return [BY_NAME[m] for m in self.mistakes]
-
-
-@dataclass
-class Diagnosis:
-    """What :func:`diagnose` found: ``verdict`` (``match``, ``diagnosis`` or ``unexplained``), ``psnr`` and ``mse``
-    of the image against the reference, ``noise`` (σ², the seed noise; 0 without ``-jitter``), ``causes`` (best
-    first, at most :data:`SHOWN`), ``remaining`` (mse left by the best cause, or by the reference when none),
-    ``considered`` (mistakes rendered), ``renders`` (small, full) and ``seconds`` by stage."""
-
-    verdict: str
-    psnr: float
-    mse: float
-    noise: float
-    causes: list[Cause] = field(default_factory=list)
-    remaining: float = 0.0
-    considered: list[str] = field(default_factory=list)
-    renders: dict[str, int] = field(default_factory=dict)
-    seconds: dict[str, float] = field(default_factory=dict)
-
-    @property
-    def best(self) -> Cause | None:
-        return self.causes[0] if self.verdict == "diagnosis" and self.causes else None
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready data (``a5mi diagnose --json``, the grade report, the view page)."""
-        out = dataclasses.asdict(self)
-        for c, cause in zip(out["causes"], self.causes, strict=True):
-            c["catalogue"] = [{"name": m.name, "section": m.section, "change": m.change, "symptom": m.symptom}
-                              for m in cause.catalogue]
-        return out
-
-
-def combinable(a: str, b: str) -> bool:
-    """Whether two mistakes can be made together (the marble texture takes one mistake; two jitter mistakes or
-    ``no_supersampling`` with a sampling mistake leave one of them without effect)."""
-    layer = {n: m.layer for n, m in BY_NAME.items()}
-    if layer[a] == layer[b] == "marble":
-        return False
-    sampling = set(JITTER_MISTAKES) | set(FILTER_MISTAKES) | {"no_supersampling"}
-    return not ({a, b} <= sampling and "no_supersampling" in (a, b))
 
 
 class _Renderer:
@@ -259,6 +216,7 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     ref = r.full()
     err0 = mse(img, ref)
     noise = noise_blocks = 0.0
+    other = ref
     if options.jitter:
         other = r.full(seed=NOISE_SEED)
         noise, noise_blocks = mse(ref, other) / 2.0, mse(blocks(ref), blocks(other)) / 2.0
@@ -342,6 +300,13 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     singles = sorted((c for c in scores.values() if c.explained is not None), key=lambda c: -(c.explained or 0.0))
     floor_at = {"pixels": 2.0 * noise, "blocks": 2.0 * noise_blocks}
     floors: dict[tuple[tuple[str, ...], str], float] = {}
+    seconds_seed: dict[tuple[str, ...], Image] = {(): other}
+
+    def second(key: tuple[str, ...]) -> Image:
+        """The mutant ``key`` rendered with the noise seed (its own jitter noise), once."""
+        if key not in seconds_seed:
+            seconds_seed[key] = r.full(key, seed=NOISE_SEED)
+        return seconds_seed[key]
 
     def view(a: Image, scale: str) -> Image:
         return blocks(a) if scale == "blocks" else a
@@ -352,15 +317,27 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
         if not options.jitter:
             return 0.0
         if (key, scale) not in floors:
-            own = mse(view(images[key], scale), view(r.full(key, seed=NOISE_SEED), scale)) / 2.0
+            own = mse(view(images[key], scale), view(second(key), scale)) / 2.0
             floors[key, scale] = 2.0 * max(own, floor_at[scale] / 2.0)
         return floors[key, scale]
+
+    base_ll: list[float] = []
+
+    def ratio(key: tuple[str, ...]) -> float:
+        """``Λ = ℓ(I | M) - ℓ(I | R)``, each with its own seed noise (:func:`log_likelihood`)."""
+        if not base_ll:
+            base_ll.append(log_likelihood(img, ref, other))
+        return log_likelihood(img, images[key], second(key)) - base_ll[0]
+
+    def excess(single: tuple[str, ...], scale: str) -> tuple[float, float]:
+        """What ``single`` leaves beyond its seed noise, and that noise: ``(mse(I, M) - 2σ²_M, 2σ²_M)``."""
+        floor = floor_of(single, scale)
+        return mse(view(img, scale), view(images[single], scale)) - floor, floor
 
     def halved(single: tuple[str, ...], pair: tuple[str, ...], scale: str) -> bool:
         """Whether ``pair`` removes half of what ``single`` leaves beyond its seed noise 2σ² (at ``scale``), where
         that is more than the noise again."""
-        floor = floor_of(single, scale)
-        left = mse(view(img, scale), view(images[single], scale)) - floor
+        left, floor = excess(single, scale)
         return left > floor + MATCH_MSE and mse(view(img, scale), view(images[pair], scale)) - floor <= 0.5 * left
 
     # pairs when no single explains nearly all, or when the best leaves more than the seed noise of two images
@@ -411,24 +388,39 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
                 continue
             part = max(parts, key=lambda p: p.explained or 0.0)
             better = part.explained or 0.0
-            # clearly more: by 0.1; or, where the better single leaves more than its seed noise again beyond it,
-            # half of that excess removed (without jitter: half of what it leaves; with it, the noise left aside)
-            if (c.explained or 0.0) < better + 0.1 and not any(halved(part.mistakes, c.mistakes, scale)
-                                                               for scale in ("pixels", "blocks")):
+            # clearly more: by 0.1 where the single leaves more than its seed noise again beyond it (within that, a
+            # second mistake only fits the noise of another seed); or half of that excess removed (without jitter:
+            # half of what it leaves; with it, the noise left aside)
+            left, floor = excess(part.mistakes, c.scale)
+            by_share = (c.explained or 0.0) >= better + 0.1 and left > floor + MATCH_MSE
+            if not by_share and not any(halved(part.mistakes, c.mistakes, scale) for scale in ("pixels", "blocks")):
                 continue
         shown.append(c)
+    considered = shown
     shown = [c for k, c in enumerate(shown) if k == 0 or (c.explained or 0.0) >= LISTED_SHARE]
+    best = shown[0] if shown else None
+    remaining = mse(img, images[best.mistakes]) if best is not None else err0
+    def earned(key: tuple[str, ...], scale: str) -> bool:
+        """Whether ``key`` explains :data:`NAMED_SHARE` at ``scale`` and leaves beyond the noise floor under a
+        quarter of what the image started with there."""
+        v = blocks if scale == "blocks" else (lambda a: a)
+        floor = 2.0 * (noise_blocks if scale == "blocks" else noise)
+        before, after = mse(v(img), v(ref)), mse(v(img), v(images[key]))
+        share = explained(v(img), v(ref), v(images[key]))
+        return share >= NAMED_SHARE and after - floor <= 0.25 * (before - floor) + MATCH_MSE
+
+    named = best is not None and earned(best.mistakes, best.scale)
+    if named and best is not None and best.scale == "blocks" and options.jitter and not earned(best.mistakes,
+                                                                                               "pixels"):
+        # block means average each hypothesis' noise differently (one sample instead of nine: nine times the
+        # block noise): a name earned by them alone must also make the pixels more probable than the reference
+        best.likelihood = ratio(best.mistakes)
+        named = best.likelihood > 0.0
+    if not named and options.jitter:
+        shown = closest(considered, ref, images, ratio, SHOWN, LISTED_SHARE)
     for c in shown[:SHOWN]:
         c.evidence = evidence(img, ref, images[c.mistakes], noise)
     result.causes = shown[:SHOWN]
-    best = result.causes[0] if result.causes else None
-    remaining = mse(img, images[best.mistakes]) if best is not None else err0
-    named = False
-    if best is not None and (best.explained or 0.0) >= NAMED_SHARE:
-        view = blocks if best.scale == "blocks" else (lambda a: a)
-        floor = 2.0 * (noise_blocks if best.scale == "blocks" else noise)
-        before, after = mse(view(img), view(ref)), mse(view(img), view(images[best.mistakes]))
-        named = after - floor <= 0.25 * (before - floor) + MATCH_MSE
     result.verdict = "diagnosis" if named else "unexplained"
     result.remaining = remaining if named else err0
     result.renders, result.seconds = dict(r.counts), seconds
