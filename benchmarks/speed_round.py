@@ -1,7 +1,7 @@
 """Every speed figure of BENCHMARKS.md's "speed where people wait" round, measured in one run, side by side with
 the sample solution (BENCHMARKS.md "Run M").
 
-    .venv/bin/python benchmarks/speed_round.py A5SOLN [--out benchmarks/run-m.md] [--quick]
+    .venv/bin/python benchmarks/speed_round.py A5SOLN [--out benchmarks/run-m.md] [--base DIR] [--quick]
 
 The steps run one after the other, each a child process of the existing benchmark scripts, so that every figure
 comes from the same machine state in one sitting; the 1-minute load average and the wall of each step are written
@@ -10,7 +10,8 @@ before and after it, with the commit and the CPU model at the top:
 1. ``a5mi bench scene10 scene11 scene06 scene12``: warm processes, the in-process stages, the kernel against the
    traversal of its own rays (the ray-log floor), stock Mitsuba;
 2. ``benchmarks/kernel_profile.py scene10_sphere scene11_cube``: where the kernel's time goes (perf) and its IR
-   operations per loop iteration;
+   operations per loop iteration; then ``benchmarks/kernel_floor_cpu.py``: the kernel against its floor in CPU
+   seconds (the figure a busy machine moves least), alternated with the a5mi packages of ``--base DIR`` if given;
 3. ``benchmarks/serve_pairs.py A5SOLN``: whole processes, a5soln / ``a5`` in-process / ``a5`` served, paired,
    with one single-thread busy loop beside them (the issue's machine);
 4. ``benchmarks/view_page.py --modes jitter-filter scene10_sphere scene12_vase``: save to image on the page in
@@ -39,9 +40,10 @@ PY = str(Path(sys.executable))
 A5MI = str(Path(sys.executable).with_name("a5mi"))
 
 
-def steps(a5soln: str, quick: bool) -> list[tuple[str, list[str], tuple[int, ...]]]:
+def steps(a5soln: str, quick: bool, base: str | None = None) -> list[tuple[str, list[str], tuple[int, ...]]]:
     """(title, command, accepted exit statuses) of each step, in the order they run."""
     b = ROOT / "benchmarks"
+    paired = ["--base", base] if base else []
     return [
         ("a5mi bench: warm processes, stages, the kernel against its traversal floor",
          [A5MI, "bench", "scene10", "scene11", "scene06", "scene12", "--warm-runs", "1" if quick else "3",
@@ -49,6 +51,9 @@ def steps(a5soln: str, quick: bool) -> list[tuple[str, list[str], tuple[int, ...
         ("kernel_profile: perf split and IR operations",
          [PY, str(b / "kernel_profile.py"), "scene10_sphere.txt", "scene11_cube.txt",
           "--renders", "2" if quick else "6"], (0,)),
+        ("kernel_floor_cpu: the kernel against its floor in CPU seconds" + (f", alternated with {base}" if base else ""),
+         [PY, str(b / "kernel_floor_cpu.py"), "--rounds", "1" if quick else "3", "--repeat", "2" if quick else "5",
+          *paired], (0,)),
         ("serve_pairs: whole processes against a5soln, one busy loop beside",
          [PY, str(b / "serve_pairs.py"), a5soln, "--pairs",
           "scene10_sphere=1,scene12_vase=1" if quick else "scene10_sphere=5,scene12_vase=3"], (0,)),
@@ -80,6 +85,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("a5soln")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "run-m.md")
+    ap.add_argument("--base", help="a5mi packages of another checkout for kernel_floor_cpu.py's pairs")
     ap.add_argument("--quick", action="store_true")
     a = ap.parse_args()
     if not os.access(a.a5soln, os.X_OK):
@@ -90,7 +96,7 @@ def main() -> int:
     tmp = a.out.with_name(a.out.name + ".part")
     with tmp.open("w") as out:
         out.write("\n".join(lines) + "\n")
-        for title, cmd, accepted in steps(a.a5soln, a.quick):
+        for title, cmd, accepted in steps(a.a5soln, a.quick, a.base):
             t0 = time.monotonic()
             out.write(f"\n## {title}\n\n`{shlex.join(cmd)}`\n\nload before: {_load()}\n\n```\n")
             out.flush()
