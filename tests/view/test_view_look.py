@@ -186,6 +186,15 @@ def test_zoom_values_exposure_flip_mark_and_diagnose(tmp_path: Path) -> None:
                 assert page.get_attribute("#diagnosis-verdict", "data-verdict") == "diagnosis"
                 assert page.locator("#diagnosis-causes li").first.get_attribute("data-mistakes") == "no_shadows"
                 assert "explains" in page.inner_text("#diagnosis") and "where: x" in page.inner_text("#diagnosis")
+                # an unexplained image lists its closest causes as the command prints them, each with its
+                # likelihood ratio where it has one (the first may explain a negative share: a noise mistake)
+                page.evaluate("""() => showDiagnosis({status: 'done', image: 'render', frame: -1, flags: '-size 8 8',
+                    mistakes: [], psnr: 30, verdict: 'unexplained', remaining: 0.001,
+                    causes: [{mistakes: ['no_blur'], explained: -0.013, likelihood: 2.7314},
+                             {mistakes: ['downsample_one_sample'], explained: 0.02, likelihood: null}]}, -1)""")
+                assert page.inner_text("#diagnosis-verdict").endswith(
+                    "(closest: no_blur (explains -1.3%, likelihood ratio +2.731 nats per value); "
+                    "downsample_one_sample (explains 2.0%))"), page.inner_text("#diagnosis-verdict")
         finally:
             code, err = stop_view(proc)
         assert errors == []

@@ -187,6 +187,14 @@ function drawMarks(hot) {
 // ------------------------------------------------------------------ diagnose
 const pct = (x) => (x === null || x === undefined ? "-" : (100 * x).toFixed(1) + "%");
 const db = (x) => (x === null || x === undefined ? "inf" : x.toFixed(1));
+// a closest cause of an unexplained image, as `a5mi diagnose` prints it: ranked by the likelihood with each
+// mistake's own jitter noise (docs/MISTAKES.md "Closest causes"), whose explained share may be negative
+function closestText(c) {
+  return c.mistakes.join(" + ") + " (explains " + pct(c.explained)
+    + (c.likelihood === null || c.likelihood === undefined ? ""
+      : ", likelihood ratio " + (c.likelihood >= 0 ? "+" : "") + c.likelihood.toFixed(3) + " nats per value") + ")";
+}
+
 function showDiagnosis(d, frame) {
   const out = $("diagnosis");
   out.dataset.status = d ? d.status : "";
@@ -202,7 +210,7 @@ function showDiagnosis(d, frame) {
   const verdict = d.verdict === "match" ? "match: within the noise, no mistake found"
     : d.verdict === "unexplained" ? "unexplained: no catalogued mistake explains the difference; remaining error PSNR "
       + db(d.remaining > 0 ? -10 * Math.log10(d.remaining) : null) + " dB"
-      + (best ? " (closest: " + best.mistakes.join(" + ") + ", explains " + pct(best.explained) + ")" : "")
+      + (best ? " (closest: " + d.causes.map(closestText).join("; ") + ")" : "")
     : "diagnosis: " + best.mistakes.join(" + ");
   kids.push(el("p", { id: "diagnosis-verdict", class: d.verdict, "data-verdict": d.verdict, text: verdict }));
   if (d.verdict === "diagnosis") {
