@@ -18,7 +18,9 @@ before and after it, with the commit and the CPU model at the top:
    headless Chromium with the handout's flags;
 5. ``benchmarks/crop.py``: a region against the whole image;
 6. ``benchmarks/diagnose.py``: one 300 x 300 image diagnosed;
-7. ``benchmarks/gpu_check.py``: the CUDA variant against LLVM (says so and measures nothing without a device).
+7. ``benchmarks/grade_class.py``: a class of 200 on the handout's four cases, the model's terms at 300 x 300 and
+   classes of 4 and 8 at 40 x 40 on 1 and 2 Dask workers (its longest step: a5soln's vase twice);
+8. ``benchmarks/gpu_check.py``: the CUDA variant against LLVM (says so and measures nothing without a device).
 
 ``--quick`` shrinks every step (1 pair, 2 saves, 1 repeat) to check the driver itself. The output file holds every
 step's whole output; nothing is summarised by hand. Exit status 0 when every step exited as expected (gpu_check's 2,
@@ -63,6 +65,8 @@ def steps(a5soln: str, quick: bool, base: str | None = None) -> list[tuple[str, 
           "scene10_sphere", "scene12_vase"], (0,)),
         ("crop: a region against the whole image", [PY, str(b / "crop.py"), "--repeat", "1" if quick else "3"], (0,)),
         ("diagnose: one 300 x 300 image", [PY, str(b / "diagnose.py"), "--repeat", "1" if quick else "2"], (0,)),
+        ("grade_class: a class of 200 x 4 cases, the model and measured points",
+         [PY, str(b / "grade_class.py"), "--a5soln", a5soln, "--measure", "4" if quick else "4,8"], (0,)),
         ("gpu_check: CUDA against LLVM", [PY, str(b / "gpu_check.py")], (0, 2)),
     ]
 
