@@ -33,10 +33,17 @@ Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }
 """
 
 
+def _hangup_default() -> None:
+    """In the child before exec: SIGHUP back to its default. Under ``nohup make test`` the children inherit an
+    ignored SIGHUP, which a5mi rightly keeps ignoring (a5mi/platform/interrupts.py), so the hang-up cases would
+    test nohup instead of the hang-up."""
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+
+
 def _start(tmp_path: Path, text: str, *flags: str) -> subprocess.Popen[bytes]:
     (tmp_path / "s.txt").write_text(text)
     return subprocess.Popen([*A5, "-input", "s.txt", "-output", "o.png", *flags], cwd=tmp_path,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, preexec_fn=_hangup_default)
 
 
 def _leftovers(tmp_path: Path) -> list[str]:
@@ -185,7 +192,7 @@ def test_signal_during_the_atomic_write_leaves_no_temporary(tmp_path: Path, name
     temporaries are removed, and the program sees the signal after it."""
     out = [str(tmp_path / "a.exr"), str(tmp_path / "b.png")]
     p = subprocess.run([sys.executable, "-c", WRITER.replace("{name}", name), *out], capture_output=True,
-                       text=True, timeout=120)
+                       text=True, timeout=120, preexec_fn=_hangup_default)
     assert p.stdout.strip() == str(128 + getattr(signal, f"SIG{name}")), p.stderr
     names = sorted(os.listdir(tmp_path))
     assert all(not n.startswith(".") for n in names), names
@@ -291,3 +298,14 @@ def test_sigint_during_the_first_imports_is_130(tmp_path: Path, start: str) -> N
                        timeout=120)
     assert p.returncode == 130 and p.stderr.splitlines() == ["a5: error: interrupted (SIGINT)"], p.stderr
     assert _leftovers(tmp_path) == []
+
+
+def test_a_hangup_ignored_by_nohup_stays_ignored() -> None:
+    """``nohup a5 ...``: a hang-up the user asked to ignore is not turned into an interruption (SIGINT and SIGTERM
+    are still handled)."""
+    code = ("import os, signal, time; from a5mi.platform import interrupts; interrupts.install(lambda s: None); "
+            "os.kill(os.getpid(), signal.SIGHUP); time.sleep(0.2); "
+            "print('alive', signal.getsignal(signal.SIGHUP) == signal.SIG_IGN)")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                       preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    assert p.returncode == 0 and p.stdout.strip() == "alive True", (p.returncode, p.stdout, p.stderr)
