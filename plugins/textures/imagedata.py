@@ -155,12 +155,12 @@ class ImageAtlas:
 
 
 class _Packed(NamedTuple):
-    """The device arrays of an :class:`ImageAtlas` and the pixels they were made from (``rgb``: every image's
-    ``(W·H, 3)`` bytes, one after the other; pixel ``k`` of the atlas = ``rgb[k]``)."""
+    """The device arrays of an :class:`ImageAtlas` and the host words they were made from (``host``: every image's
+    pixels as bytes R, G, B, 0, one image after the other; pixel ``k`` of the atlas = ``host[k, :3]``)."""
 
     variant: str                         # the Mitsuba variant of the device arrays
     sizes: tuple[tuple[int, int], ...]   # (W, H) of each image
-    rgb: np.ndarray                      # (pixels, 3) uint8, contiguous
+    host: np.ndarray                     # (pixels, 4) uint8
     data: mi.UInt32
     offsets: mi.UInt32
     widths: mi.Int32
@@ -173,7 +173,7 @@ class _Packed(NamedTuple):
         start = 0
         for img in images:
             n = img.shape[0] * img.shape[1]
-            if not np.array_equal(self.rgb[start:start + n], img.reshape(-1, 3)):
+            if not np.array_equal(self.host[start:start + n, :3], img.reshape(-1, 3)):
                 return False
             start += n
         return True
@@ -182,7 +182,7 @@ class _Packed(NamedTuple):
 #: The atlases made last, most recent first: a scene built again (``a5mi view``'s saves, ``a5mi serve``'s
 #: requests) finds the cube map or texture it uploaded before, compared byte for byte, instead of packing and
 #: uploading it again (0.1-0.3 s for the six 1024 x 1024 faces of a cube map). At most :data:`KEEP_ATLASES`
-#: atlases and :data:`KEEP_TEXELS` texels are kept (7 bytes each: the pixels compared, the packed words).
+#: atlases and :data:`KEEP_TEXELS` texels are kept (4 bytes each on the host, the words compared, and the device's).
 _KEPT: list[_Packed] = []
 _KEPT_LOCK = threading.Lock()
 KEEP_ATLASES = 8
@@ -209,13 +209,12 @@ def _packed(images: Sequence[np.ndarray]) -> _Packed:
     for start, img in zip(offsets, images, strict=True):
         host[start : start + img.shape[0] * img.shape[1], :3] = img.reshape(-1, 3)
     words = host.view("<u4").reshape(-1)
-    rgb = np.concatenate([img.reshape(-1, 3) for img in images])
     data = mi.UInt32(words if words.dtype == np.uint32 else words.astype(np.uint32))
-    out = _Packed(str(mi.variant()), sizes, rgb, data, mi.UInt32(offsets), mi.Int32([w for w, _ in sizes]),
+    out = _Packed(str(mi.variant()), sizes, host, data, mi.UInt32(offsets), mi.Int32([w for w, _ in sizes]),
                   mi.Int32([h for _, h in sizes]))
     dr.make_opaque(out.data, out.offsets, out.widths, out.heights)
     with _KEPT_LOCK:
         _KEPT.insert(0, out)
-        while len(_KEPT) > KEEP_ATLASES or (len(_KEPT) > 1 and sum(len(p.rgb) for p in _KEPT) > KEEP_TEXELS):
+        while len(_KEPT) > KEEP_ATLASES or (len(_KEPT) > 1 and sum(len(p.host) for p in _KEPT) > KEEP_TEXELS):
             _KEPT.pop()
     return out
