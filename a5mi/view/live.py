@@ -150,11 +150,8 @@ def run_engine(engine: Any, hub: Any, jobs: Any, watcher: Any, options: Any, *,
                 comp = engine.frame_of(current, image, composite={
                     "region": list(region), "base": "previous" if base == "base" else "blank", "seconds": spent})
                 shown[0] = comp.image
-                hub.update({"render": comp.render_png, "values-render": partial(render_values, comp.image)}, **{
-                    **state, **{k: v for k, v in frame_state(engine, comp).items() if k not in COMPARED},
-                    "busy": True, "warnings": engine.warnings, "options_ok": True,
-                    "version": hub.state().get("version", 0) + 1, "published_at": time.time(),
-                    "seconds": {"parse": parse, "region": spent, "total": time.monotonic() - t0}})
+                _publish_early(hub, engine, comp, state, {"parse": parse, "region": spent,
+                                                          "total": time.monotonic() - t0})
                 if jobs.render_pending():
                     continue
             if (part is not None and not reload and wanted is None and engine.frame is not None
@@ -211,27 +208,31 @@ def _render_full(engine: Any, hub: Any, jobs: Any, current: Any, state: dict[str
         if base == "base":
             pv = engine.frame_of(quick, image, preview=True, kernels=pv.kernels, seconds=pv.seconds,
                                  composite={"region": list(region), "base": "preview"})
-        shown = {k: v for k, v in frame_state(engine, pv).items() if k not in COMPARED}  # the last stay
         shown_image[0] = pv.image
-        hub.update({"render": pv.render_png, "values-render": partial(render_values, pv.image)}, **{
-            **state, **shown, "controls": describe_controls(current), "busy": True,
-            "warnings": engine.warnings, "options_ok": True,
-            "version": hub.state().get("version", 0) + 1, "published_at": time.time(),
-            "seconds": {"parse": parse, **pv.seconds, "total": time.monotonic() - t0}})
+        _publish_early(hub, engine, pv, state, {"parse": parse, **pv.seconds, "total": time.monotonic() - t0},
+                       controls=describe_controls(current))
         if jobs.render_pending():
             return None, 0.0
     t_full = time.monotonic()
     frame = engine.render(current, progress=preemptible(hub, jobs), compare=False)
     spent = time.monotonic() - t_full
     if engine.compares:  # the image first; its comparison follows (the page dims the last one meanwhile)
-        shown = {k: v for k, v in frame_state(engine, frame).items() if k not in COMPARED}
         state["published_at"] = time.time()  # (of the image, also in the comparison's state)
-        hub.update({"render": frame.render_png, "values-render": partial(render_values, frame.image)}, **{
-            **state, **shown, "busy": True, "comparing": True, "warnings": engine.warnings,
-            "options_ok": True, "version": hub.state().get("version", 0) + 1,
-            "seconds": {"parse": parse, **frame.seconds, "total": time.monotonic() - t0}})
+        _publish_early(hub, engine, frame, state, {"parse": parse, **frame.seconds, "total": time.monotonic() - t0},
+                       published_at=state["published_at"], comparing=True)
         engine.compare(frame, hub.progress)
     return frame, spent
+
+
+def _publish_early(hub: Any, engine: Any, frame: Any, state: dict[str, Any], seconds: dict[str, float],
+                   **extra: Any) -> None:
+    """Publish ``frame``'s image while its job goes on (the marked region's composite, the preview, the whole
+    image before its comparison): the job's ``state`` with the frame's, but for the comparison's fields
+    (:data:`COMPARED`: the last comparison stays until this one is made), busy, a new version; ``extra`` last."""
+    shown = {k: v for k, v in frame_state(engine, frame).items() if k not in COMPARED}
+    hub.update({"render": frame.render_png, "values-render": partial(render_values, frame.image)}, **{
+        **state, **shown, "busy": True, "warnings": engine.warnings, "options_ok": True,
+        "version": hub.state().get("version", 0) + 1, "published_at": time.time(), **extra, "seconds": seconds})
 
 
 def _diagnose(engine: Any, hub: Any, image: str) -> None:
