@@ -12,8 +12,8 @@ normal ``n_o`` by ``(M⁻¹)ᵀ`` and normalises it: ``n_w = normalize(M⁻ᵀ n
 So each is a function of ``n_w`` (the kernel's SPEC N) and the hit primitive's ``M``. The kernel already holds
 ``A = M⁻¹`` (the binary's world-to-object map, float32) of every placed primitive: the rule-table row of the mesh
 face hit (``face_a5_inv0..2``, meshes and ``Triangle`` s, plugins/emulation/triangle_rule.py) and ``inv3`` of the
-plane set's ``objects`` (spheres and planes inside a ``Transform``, plugins/emulation/planes.py). With ``C = adj(A) = det(A) M`` (columns
-``a1×a2, a2×a0, a0×a1`` of A's rows ``a_i``) and ``u = Cᵀ n_w = det(A) Mᵀ n_w``:
+plane set's ``objects`` (spheres and planes inside a ``Transform``, plugins/emulation/planes.py). With
+``C = adj(A) = det(A) M`` (columns ``a1×a2, a2×a0, a0×a1`` of A's rows ``a_i``) and ``u = Cᵀ n_w = det(A) Mᵀ n_w``:
 
     M⁻ᵀ n_o = n_w |det A| / |u|,      M n_o = C u / (|det A| |u|)
 
