@@ -54,6 +54,10 @@ def _db(x: float) -> str:
     return "inf" if x == float("inf") else f"{x:.1f}"
 
 
+def _other(pair: tuple[str, ...], one: str) -> str:
+    return next(m for m in pair if m != one)
+
+
 def format_diagnosis(d: Any, image: str, scene: str) -> str:
     """The diagnosis as text: verdict, causes with the catalogue's change and symptom and the evidence."""
     lines = [f"{image} vs the reference of {scene}: PSNR {_db(d.psnr)} dB"
@@ -74,7 +78,9 @@ def format_diagnosis(d: Any, image: str, scene: str) -> str:
     lines.append("verdict: diagnosis")
     for k, c in enumerate(d.causes, 1):
         lines.append(f"{k}. {' + '.join(c.mistakes)}: explains {_pct(c.explained)} of the difference"
-                     + (" (in 4x4 block means)" if c.scale == "blocks" else ""))
+                     + (" (in 4x4 block means)" if c.scale == "blocks" else "")
+                     + (f"; the paired score prefers it to {_other(c.mistakes, c.partner)} alone, "
+                        f"z = {c.partner_z:.1f}" if c.partner else ""))
         for m in c.catalogue:
             lines.append(f"   {m.name} (SPEC {m.section}): {m.change}")
             lines.append(f"   symptom: {m.symptom}")

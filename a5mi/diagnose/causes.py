@@ -33,6 +33,11 @@ class Cause:
     #: ``Λ``, the log-likelihood ratio against the reference with the jitter noise counted (nats per value;
     #: :func:`closest`), set for the causes of an image no cause explains and for a name block means alone earn
     likelihood: float | None = None
+    #: for a pair listed as a named single plus a partner: the partner's name and the paired CRPS test's ``z`` for
+    #: the pair against the single alone (:func:`a5mi.diagnose.measure.paired_z`; docs/MISTAKES.md "Partners: the
+    #: paired score")
+    partner: str | None = None
+    partner_z: float | None = None
 
     @property
     def catalogue(self) -> list[Mistake]:

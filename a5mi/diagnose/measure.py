@@ -4,7 +4,8 @@
 of it over pixels and over 4x4-pixel block means; :func:`sample_positions` and :func:`resample` put the image at a
 small render's sample positions (SPEC B.2, B.5); :func:`evidence` says where a cause acts; :data:`REVERSIBLE`
 undoes saved-image mistakes; :func:`log_likelihood` is the image's likelihood under a mutant with the mutant's
-jitter noise counted (docs/MISTAKES.md "Closest causes: the likelihood with the noise"). numpy only.
+jitter noise counted (docs/MISTAKES.md "Closest causes: the likelihood with the noise"); :func:`crps` and
+:func:`paired_z` weigh a partner (docs/MISTAKES.md "Partners: the paired score"). numpy only.
 """
 
 from __future__ import annotations
@@ -119,6 +120,40 @@ def log_likelihood(image: Image, mutant: Image, second: Image) -> float:
     v = box_mean((mutant - second) ** 2 / 2.0)
     s2 = 2.0 * v + QUANTISATION_VARIANCE
     return float(np.mean(-((image - mutant) ** 2) / (2.0 * s2) - 0.5 * np.log(2.0 * math.pi * s2)))
+
+
+def crps(image: Image, members: list[Image]) -> npt.NDArray[np.float64]:
+    """The continuous ranked probability score of each pixel of ``image`` under the hypothesis whose renders with
+    independent jitter seeds are ``members`` (docs/MISTAKES.md "Partners: the paired score"), summed over
+    the channels; lower is better. The fair ensemble estimate with ``K = len(members)``:
+
+        CRPS(I) = (1/K) Σ_k |I - M_k| - 1/(2 K (K - 1)) Σ_{k≠l} |M_k - M_l|
+
+    unbiased for ``E|I - M| - E|M - M'| / 2`` (M, M' two renders of the hypothesis); ``K = 1`` for a hypothesis
+    free of jitter noise: ``|I - M|``. CRPS is strictly proper: in expectation an image scores best under the
+    hypothesis it was made by, its noise included, so a mistake that only changes the noise wins only on an image
+    with that noise, and a noise-free mutant wins nothing on an image made with other jitter offsets."""
+    k = len(members)
+    near = sum(np.abs(image - m) for m in members) / k
+    spread = (sum(np.abs(a - b) for i, a in enumerate(members) for b in members[i + 1:]) / (k * (k - 1))
+              if k > 1 else 0.0)
+    return np.asarray(np.sum(near - spread, axis=-1), np.float64)
+
+
+def paired_z(gain: npt.NDArray[np.float64], k: int = BLOCK) -> float:
+    """The paired z statistic of a per-pixel score difference ``gain`` (H x W): its sums over ``k x k`` blocks
+    ``g_b``, ``z = mean(g_b) / (sd(g_b) / sqrt(n))`` over the n blocks (blocks, not pixels: the blur makes
+    neighbouring pixels' noise correlated; blocks of 4 pixels a side are nearly independent). ``inf`` when every
+    block gains the same positive amount, 0 for fewer than two blocks or no gain anywhere."""
+    h, w = gain.shape
+    if h < k or w < k:
+        return 0.0
+    g = gain[: h - h % k, : w - w % k].reshape(h // k, k, w // k, k).sum(axis=(1, 3)).ravel()
+    mean = float(np.mean(g))
+    sd = float(np.std(g, ddof=1)) if g.size > 1 else 0.0
+    if sd == 0.0:
+        return math.inf if mean > 0.0 and g.size > 1 else 0.0
+    return mean / (sd / math.sqrt(g.size))
 
 
 def sample_positions(n_small: int, n_full: int, supersampled: bool) -> npt.NDArray[np.float64]:

@@ -30,18 +30,26 @@ Stages (small renders first, full size only for the finalists):
    (:func:`sample_positions`) minus ``R_s``; its explained share ranks them. Point samples, not block means: a
    mistake in fine detail (marble, acne) keeps its signal.
 4. The best :data:`FINALISTS` of stage 3 and the jitter mutants rendered at full size and scored by ``E``; then
-   pairs (two mistakes at once): for each of the best :data:`PAIR_FROM` singles, the partners whose differences,
-   added to its own, best predict the observed difference (at the scale both were rendered at), rendered together
-   at full size; a pair is kept when it explains clearly more than either alone, and only where the better one
-   leaves more than its own noise floor ``2σ²_M`` again beyond it (within that a second mistake only fits another
-   seed's noise): by 0.1 of ``E``, or by removing half of that excess; ``σ²_M`` the larger of σ² and the mutant's
-   own seed noise, its render with the noise seed. Pairs are searched when no single explains 0.98 or the best
+   pairs (two mistakes at once): for each of the best :data:`PAIR_FROM` singles, the two partners whose
+   differences, added to its own, best predict the observed difference (at the scale both were rendered at; for a
+   :data:`MOVING` single, the pair rendered together), rendered together at full size; a pair is kept when it
+   explains clearly more than either alone, and only where the better one leaves more than its own noise floor
+   ``2σ²_M`` again beyond it (within that a second mistake only fits another seed's noise): by 0.1 of ``E``, or by
+   removing half of that excess; ``σ²_M`` the larger of σ² and the mutant's own seed noise, its render with the
+   noise seed. Pairs are searched when no single explains 0.98 or the best
    leaves more than ``MATCH_NOISE · σ²``; every saved-image and filter partner of a finalist is scored (free from
    its kept render).
 5. ``diagnosis`` when the best cause explains at least :data:`NAMED_SHARE` and leaves less than a quarter of the
    error it started from beyond the noise floor, and, where the 4x4 block means alone earn it (the pixels would
    not), the image is more probable under the cause than under the reference at full resolution (``Λ > 0``, below);
    otherwise ``unexplained`` with the remaining error and the closest causes (below). Never a forced guess.
+6. Partners of a named single ``a`` (with ``-jitter``): for each :data:`SAMPLING` mistake and each partner the pair
+   search rendered, ``b``, the pair ``(a, b)`` is listed before ``a`` when the image scores better under it by the
+   continuous ranked probability score, each hypothesis from its renders with two jitter seeds
+   (:func:`a5mi.diagnose.measure.crps`), by a paired z over 4x4 blocks above :data:`PARTNER_Z`
+   (:func:`a5mi.diagnose.measure.paired_z`); the largest mean gain first. E charges each mutant its own noise and
+   the pair rules above leave a second mistake under the seed noise unlisted; CRPS, a proper score, counts both
+   hypotheses' noise.
 
 Closest causes (docs/MISTAKES.md "Closest causes: the likelihood with the noise"): ``E`` charges a mutant its own
 jitter noise (under its hypothesis ``||I - M||²`` is twice that noise, not 0), so a mistake that changes the noise
@@ -74,11 +82,13 @@ from a5mi.diagnose.measure import (
     Image,
     as_levels,
     blocks,
+    crps,
     evidence,
     explained,
     explained_at,
     log_likelihood,
     mse,
+    paired_z,
     psnr_of,
     resample,
     sample_positions,
@@ -121,6 +131,16 @@ SPECKLED: tuple[str, ...] = ("shadow_acne", "secondary_acne")
 #: named (a correct image made with other jitter offsets is never reproduced that closely).
 DETERMINISTIC_MISTAKES: tuple[str, ...] = ("no_jitter", "no_supersampling")
 DETERMINISTIC = 0.1
+#: Sampling mistakes (jitter, supersampling, blur, downsampling): beside a named single their effect is mostly the
+#: jitter noise; always tried as its partners by the paired CRPS test (docs/MISTAKES.md "Partners: the paired
+#: score").
+SAMPLING: tuple[str, ...] = (*JITTER_MISTAKES, "no_supersampling", *FILTER_MISTAKES)
+#: A sampling partner is listed when the paired test's z (over 4x4 blocks) is above this: a one-sided p of about
+#: 1e-4 for the 49 blocks of a 30x30 image, under a null whose mean already favours the single (CRPS is proper).
+PARTNER_Z = 4.0
+#: Camera mistakes that move every pixel (the view zoomed or shifted): another mistake's difference does not add to
+#: theirs, so their partners are ranked by rendering each pair (small, or at full size for a small image).
+MOVING: tuple[str, ...] = ("fov_full_angle", "camera_divides_by_w")
 #: Mistakes that shift every level a little (a bias below the squared error's noise): looked for in a seemingly
 #: matching image's mean difference ``mean(I - R)``, named when that is beyond BIAS_SE standard errors of a mean of
 #: the seed noise (from the 4x4-block noise σ_b², ``sqrt(2 σ_b² / blocks)``) and at least BIAS_LEVELS levels, and
@@ -341,8 +361,9 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
         return left > floor + MATCH_MSE and mse(view(img, scale), view(images[pair], scale)) - floor <= 0.5 * left
 
     # pairs when no single explains nearly all, or when the best leaves more than the seed noise of two images
-    if singles and ((singles[0].explained or 0.0) < 0.98
-                    or mse(img, images[singles[0].mistakes]) > MATCH_NOISE * noise + MATCH_MSE):
+    searched = bool(singles) and ((singles[0].explained or 0.0) < 0.98
+                                  or mse(img, images[singles[0].mistakes]) > MATCH_NOISE * noise + MATCH_MSE)
+    if searched:
         # no pairs with a mistake free of jitter noise: beside any mutant it removes the noise, which an image made
         # with other jitter offsets rewards by itself (named alone by the match step's deterministic test)
         tops = [c.mistakes[0] for c in singles[:PAIR_FROM]
@@ -360,7 +381,13 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
                 undone = resample(REVERSIBLE[a](img), *positions) - base
 
             def additive(b: str, a: str = a, undone: Image = undone) -> float:
-                """How well the two differences added predict the observed one (small scale, else full)."""
+                """How well the two differences added predict the observed one (small scale, else full); for a
+                :data:`MOVING` mistake, how well the pair rendered together predicts it."""
+                if a in MOVING:
+                    key = tuple(sorted((a, b), key=names.index))
+                    if rendered:
+                        return -float(np.sum((observed - r.small(key, size) + base) ** 2))
+                    return -float(np.sum((img - r.full(key)) ** 2))
                 if a in REVERSIBLE and b in predicted:
                     return -float(np.sum((undone - predicted[b]) ** 2))
                 if a in REVERSIBLE and (b,) in images:
@@ -370,9 +397,10 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
                 if (a,) in images and (b,) in images:
                     return -float(np.sum((img - images[(a,)] - images[(b,)] + ref) ** 2))
                 return -math.inf
-            partners = sorted((b for b in names if b != a and b not in cheap and combinable(a, b)
-                               and b not in DETERMINISTIC_MISTAKES), key=additive, reverse=True)
-            pairs.update(tuple(sorted((a, b), key=names.index)) for b in partners[:2] if additive(b) > -math.inf)
+            fit = {b: additive(b) for b in names
+                   if b != a and b not in cheap and combinable(a, b) and b not in DETERMINISTIC_MISTAKES}
+            best_fit = sorted(fit, key=lambda b: -fit[b])[:2]
+            pairs.update(tuple(sorted((a, b), key=names.index)) for b in best_fit if fit[b] > -math.inf)
         for key in sorted(pairs, key=lambda k: (names.index(k[0]), names.index(k[1]))):
             score_full(key)
     seconds["finalists"] = time.perf_counter() - t1
@@ -409,6 +437,30 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
         share = explained(v(img), v(ref), v(images[key]))
         return share >= NAMED_SHARE and after - floor <= 0.25 * (before - floor) + MATCH_MSE
 
+    def members(key: tuple[str, ...]) -> list[Image]:
+        """The renders of ``key`` with independent jitter seeds: one for a mutant free of jitter noise."""
+        return [images[key]] if set(key) & set(DETERMINISTIC_MISTAKES) else [images[key], second(key)]
+
+    def paired_partners(single: str) -> list[Cause]:
+        """The pairs of the named ``single`` that the paired CRPS test prefers to the single alone (``z >``
+        :data:`PARTNER_Z`), the largest mean gain first (docs/MISTAKES.md "Partners: the paired score"): with every
+        :data:`SAMPLING` mistake (rendered here when the pair search did not), and with every partner the pair
+        search rendered."""
+        own = crps(img, members((single,)))
+        found: list[tuple[float, Cause]] = []
+        for s in names:
+            key = tuple(sorted((single, s), key=names.index))
+            if s == single or not combinable(single, s) or (s not in SAMPLING and key not in images):
+                continue
+            if key not in images:
+                score_full(key)
+            gain = own - crps(img, members(key))
+            z = paired_z(gain)
+            if z > PARTNER_Z:
+                scores[key].partner, scores[key].partner_z = s, z
+                found.append((float(np.mean(gain)), scores[key]))
+        return [c for _, c in sorted(found, key=lambda t: -t[0])]
+
     named = best is not None and earned(best.mistakes, best.scale)
     if named and best is not None and best.scale == "blocks" and options.jitter and not earned(best.mistakes,
                                                                                                "pixels"):
@@ -416,6 +468,14 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
         # block noise): a name earned by them alone must also make the pixels more probable than the reference
         best.likelihood = ratio(best.mistakes)
         named = best.likelihood > 0.0
+    if named and best is not None and len(best.mistakes) == 1 and options.jitter:
+        # a second mistake whose effect is mostly jitter noise (sampling) or under the noise E charges: the paired
+        # score weighs both hypotheses' noise
+        partnered = paired_partners(best.mistakes[0])
+        if partnered:
+            shown = partnered + [c for c in shown if c not in partnered]
+            best = shown[0]
+            remaining = mse(img, images[best.mistakes])
     if not named and options.jitter:
         shown = closest(considered, ref, images, ratio, SHOWN, LISTED_SHARE)
     for c in shown[:SHOWN]:

@@ -181,3 +181,70 @@ def test_no_second_mistake_fitted_to_the_noise(session, tmp_path: Path) -> None:
                  candidates=["blur_one_direction", "no_blur", "downsample_one_sample", "upside_down", "mirrored"])
     assert d.causes and all(len(c.mistakes) == 1 for c in d.causes), d.causes
     assert d.causes[0].mistakes == ("blur_one_direction",), d.causes
+
+
+PARTNER_CANDIDATES = ["normal_faces_viewer", "no_shadows", "downsample_one_sample", "no_blur", "blur_one_direction",
+                      "jitter_0_1", "no_jitter", "upside_down"]
+
+
+def _lit(session, tmp_path: Path, mistakes: tuple[str, ...], seed: int):  # noqa: ANN001, ANN202
+    """The lit probe (a5mi/diagnose/probes.py) at 30x30 with ``mistakes``, made with ``seed`` and diagnosed."""
+    from a5mi.diagnose.probes import PROBES, describe_probe
+    from a5mi.diagnose.rank import diagnose
+    from a5mi.platform.imageio import quantize
+
+    probe = next(p for p in PROBES if p.name == "lit")
+    desc = describe_probe(probe, tmp_path)
+    opts = RenderOptions(**{**probe.options().__dict__, "width": 30, "height": 30})
+    img = quantize(session.render(desc, RenderOptions(**{**opts.__dict__, "seed": seed, "mistakes": mistakes})).image)
+    return diagnose(img, desc, opts, session=session, candidates=PARTNER_CANDIDATES)
+
+
+@pytest.mark.parametrize("seed", [7, 31])
+def test_a_sampling_partner_beside_a_named_mistake_is_listed(session, tmp_path: Path, seed: int) -> None:
+    """``normal_faces_viewer`` with ``downsample_one_sample`` on the lit probe, 30x30: the single explains ~99 % and
+    leaves little beyond the seed noise, so the explained share cannot tell the pair; the paired CRPS score lists
+    the pair first with the sampling partner named (docs/MISTAKES.md "Partners: the paired score")."""
+    from a5mi.commands.diagnose import format_diagnosis
+    from a5mi.diagnose.rank import PARTNER_Z
+
+    d = _lit(session, tmp_path, ("normal_faces_viewer", "downsample_one_sample"), seed)
+    first = d.causes[0]
+    assert d.verdict == "diagnosis", d.causes
+    assert set(first.mistakes) == {"normal_faces_viewer", "downsample_one_sample"}, d.causes
+    assert first.partner == "downsample_one_sample" and first.partner_z is not None and first.partner_z > PARTNER_Z
+    text = format_diagnosis(d, "img.png", "lit.txt")
+    assert f"the paired score prefers it to normal_faces_viewer alone, z = {first.partner_z:.1f}" in text, text
+
+
+@pytest.mark.parametrize("seed", [7, 31, 101])
+def test_no_sampling_partner_beside_a_single_mistake(session, tmp_path: Path, seed: int) -> None:
+    """The same mistake alone, three image seeds: the single is named and no pair is listed (on an image without a
+    sampling mistake the pair's expected score is worse: CRPS is proper)."""
+    d = _lit(session, tmp_path, ("normal_faces_viewer",), seed)
+    assert d.verdict == "diagnosis" and d.causes[0].mistakes == ("normal_faces_viewer",), d.causes
+    assert all(c.partner is None for c in d.causes), d.causes
+
+
+def test_a_partner_of_a_zoomed_view_is_found_by_rendering_the_pair(session, tmp_path: Path) -> None:
+    """``fov_full_angle`` with ``marble_freq_amp_swapped`` on the lit probe seen from the right
+    (tests/diagnose/matrix.py), 30x30: the zoom moves every pixel, so the marble mistake's difference under the
+    correct camera does not add to the zoom's (the single explains 71 %); ranked by rendering each pair with the
+    zoom, the marble partner is found and the pair named (docs/MISTAKES.md "How the diagnosis works", step 4)."""
+    from matrix import VARIANTS
+
+    from a5mi.diagnose.probes import describe_probe
+    from a5mi.diagnose.rank import diagnose
+    from a5mi.platform.imageio import quantize
+
+    probe = next(p for p in VARIANTS if p.name == "lit_right")
+    desc = describe_probe(probe, tmp_path)
+    opts = RenderOptions(**{**probe.options().__dict__, "width": 30, "height": 30})
+    img = quantize(session.render(desc, RenderOptions(**{**opts.__dict__, "seed": 7, "mistakes": (
+        "marble_freq_amp_swapped", "fov_full_angle")})).image)
+    d = diagnose(img, desc, opts, session=session,
+                 candidates=["fov_full_angle", "marble_freq_amp_swapped", "marble_no_octaves", "marble_sine_unmapped",
+                             "no_ambient", "ndotl_unclamped", "phong_highlight", "no_shadows", "kd_ignores_texture",
+                             "ambient_uses_kd"])
+    assert d.verdict == "diagnosis", d.causes
+    assert set(d.causes[0].mistakes) == {"fov_full_angle", "marble_freq_amp_swapped"}, d.causes

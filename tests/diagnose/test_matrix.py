@@ -37,9 +37,6 @@ def test_confusion_matrix(matrix: Figures) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="two mistakes at once: 21 of 30 (70 %) with the 47-mistake catalogue's pair "
-                   "sample, 80 % asked; 7 of the 9 misses pair a mistake with a sampling mistake whose effect at 30 "
-                   "pixels is jitter noise (BENCHMARKS.md 'Diagnosis')")
 def test_confusion_matrix_pairs(matrix: Figures) -> None:
     assert sum(p[2] for p in matrix.pairs) >= 0.8 * len(matrix.pairs), matrix.summary()
 

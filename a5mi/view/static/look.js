@@ -217,7 +217,9 @@ function showDiagnosis(d, frame) {
     const list = el("ol", { id: "diagnosis-causes" });
     for (const c of d.causes) {
       const lines = [c.mistakes.join(" + ") + ": explains " + pct(c.explained) + " of the difference"
-        + (c.scale === "blocks" ? " (in 4x4 block means)" : "")];
+        + (c.scale === "blocks" ? " (in 4x4 block means)" : "")
+        + (c.partner ? "; the paired score prefers it to " + c.mistakes.find((m) => m !== c.partner) + " alone, z = "
+          + c.partner_z.toFixed(1) : "")];
       for (const m of c.catalogue) lines.push(m.name + " (SPEC " + m.section + "): " + m.change, "symptom: " + m.symptom);
       const e = c.evidence;
       if (e && e.box) lines.push("where: x " + e.box[0] + ".." + (e.box[2] - 1) + ", y " + e.box[1] + ".." + (e.box[3] - 1)
