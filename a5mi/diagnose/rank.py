@@ -38,13 +38,16 @@ Stages (small renders first, full size only for the finalists):
    removing half of that excess; ``σ²_M`` the larger of σ² and the mutant's own seed noise, its render with the
    noise seed. Pairs are searched when no single explains 0.98 or the best
    leaves more than ``MATCH_NOISE · σ²``; every saved-image and filter partner of a finalist is scored (free from
-   its kept render).
+   its kept render); and each reversible saved-image mistake (:data:`REVERSIBLE`) is undone from the image and
+   paired with the full-size single closest to what is left (beside another mistake it can hide both: neither
+   single explains anything).
 5. ``diagnosis`` when the best cause explains at least :data:`NAMED_SHARE` and leaves less than a quarter of the
    error it started from beyond the noise floor, and, where the 4x4 block means alone earn it (the pixels would
    not), the image is more probable under the cause than under the reference at full resolution (``Λ > 0``, below);
    otherwise ``unexplained`` with the remaining error and the closest causes (below). Never a forced guess.
-6. Partners of a named single ``a`` (with ``-jitter``): for each :data:`SAMPLING` mistake and each partner the pair
-   search rendered, ``b``, the pair ``(a, b)`` is listed before ``a`` when the image scores better under it by the
+6. Partners of a named single ``a``, or of a named pair's better single (with ``-jitter``): for each
+   :data:`SAMPLING` and saved-image mistake and each partner the pair search rendered, ``b``, the pair ``(a, b)``
+   is listed first when the image scores better under it by the
    continuous ranked probability score, each hypothesis from its renders with two jitter seeds
    (:func:`a5mi.diagnose.measure.crps`), by a paired z over 4x4 blocks above :data:`PARTNER_Z`
    (:func:`a5mi.diagnose.measure.paired_z`); the largest mean gain first. E charges each mutant its own noise and
@@ -373,6 +376,14 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
             for (n, *more), m in images.items():
                 if not more and n not in predicted:
                     predicted[n] = resample(m - ref, *positions)
+        # a saved-image mistake hides the other mistake from the singles (neither may explain anything alone): each
+        # reversible one is undone from the image and paired with the single at full size closest to what is left
+        for c in (c for c in cheap if c in REVERSIBLE):
+            undone_image = REVERSIBLE[c](img)
+            near = {b: mse(undone_image, m) for (b, *more), m in images.items()
+                    if not more and b not in cheap and combinable(b, c)}
+            if near:
+                pairs.add(tuple(sorted((min(near, key=lambda b: near[b]), c), key=names.index)))
         for a in tops:
             # every saved-image and filter partner: made from a's kept render, exact at full size, no render
             pairs.update(tuple(sorted((a, b), key=names.index)) for b in cheap if b != a and combinable(a, b))
@@ -444,13 +455,14 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     def paired_partners(single: str) -> list[Cause]:
         """The pairs of the named ``single`` that the paired CRPS test prefers to the single alone (``z >``
         :data:`PARTNER_Z`), the largest mean gain first (docs/MISTAKES.md "Partners: the paired score"): with every
-        :data:`SAMPLING` mistake (rendered here when the pair search did not), and with every partner the pair
-        search rendered."""
+        :data:`SAMPLING` mistake (rendered here when the pair search did not), every saved-image mistake (from the
+        kept render) and every partner the pair search rendered."""
         own = crps(img, members((single,)))
         found: list[tuple[float, Cause]] = []
         for s in names:
             key = tuple(sorted((single, s), key=names.index))
-            if s == single or not combinable(single, s) or (s not in SAMPLING and key not in images):
+            if s == single or not combinable(single, s) or (s not in SAMPLING and s not in cheap
+                                                              and key not in images):
                 continue
             if key not in images:
                 score_full(key)
@@ -468,10 +480,15 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
         # block noise): a name earned by them alone must also make the pixels more probable than the reference
         best.likelihood = ratio(best.mistakes)
         named = best.likelihood > 0.0
-    if named and best is not None and len(best.mistakes) == 1 and options.jitter:
+    if named and best is not None and options.jitter:
         # a second mistake whose effect is mostly jitter noise (sampling) or under the noise E charges: the paired
-        # score weighs both hypotheses' noise
-        partnered = paired_partners(best.mistakes[0])
+        # score weighs both hypotheses' noise. Beside a named pair, its better single's partners are weighed (the
+        # pair itself among them): a partner that only swaps one noise pattern for another does not pass
+        single = best.mistakes[0]
+        if len(best.mistakes) == 2:
+            parts = [scores[(m,)] for m in best.mistakes if (m,) in scores and scores[(m,)].explained is not None]
+            single = max(parts, key=lambda p: p.explained or 0.0).mistakes[0] if parts else single
+        partnered = paired_partners(single)
         if partnered:
             shown = partnered + [c for c in shown if c not in partnered]
             best = shown[0]

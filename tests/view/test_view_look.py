@@ -195,6 +195,15 @@ def test_zoom_values_exposure_flip_mark_and_diagnose(tmp_path: Path) -> None:
                 assert page.inner_text("#diagnosis-verdict").endswith(
                     "(closest: no_blur (explains -1.3%, likelihood ratio +2.731 nats per value); "
                     "downsample_one_sample (explains 2.0%))"), page.inner_text("#diagnosis-verdict")
+                # a pair listed by the paired score gives its z beside it, as the command prints it
+                page.evaluate("""() => showDiagnosis({status: 'done', image: 'render', frame: -1, flags: '-size 8 8',
+                    mistakes: [], psnr: 30, verdict: 'diagnosis', remaining: 0.001,
+                    causes: [{mistakes: ['normal_faces_viewer', 'downsample_one_sample'], explained: 0.994,
+                              scale: 'blocks', catalogue: [], evidence: null, partner: 'downsample_one_sample',
+                              partner_z: 11.4253}]}, -1)""")
+                assert page.locator("#diagnosis-causes li").first.inner_text() == (
+                    "normal_faces_viewer + downsample_one_sample: explains 99.4% of the difference (in 4x4 block "
+                    "means); the paired score prefers it to normal_faces_viewer alone, z = 11.4")
         finally:
             code, err = stop_view(proc)
         assert errors == []
