@@ -480,6 +480,7 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
         # block noise): a name earned by them alone must also make the pixels more probable than the reference
         best.likelihood = ratio(best.mistakes)
         named = best.likelihood > 0.0
+    t1 = time.perf_counter()
     if named and best is not None and options.jitter:
         # a second mistake whose effect is mostly jitter noise (sampling) or under the noise E charges: the paired
         # score weighs both hypotheses' noise. Beside a named pair, its better single's partners are weighed (the
@@ -493,6 +494,7 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
             shown = partnered + [c for c in shown if c not in partnered]
             best = shown[0]
             remaining = mse(img, images[best.mistakes])
+    seconds["partners"] = time.perf_counter() - t1
     if not named and options.jitter:
         shown = closest(considered, ref, images, ratio, SHOWN, LISTED_SHARE)
     for c in shown[:SHOWN]:
