@@ -29,29 +29,27 @@ Stages (small renders first, full size only for the finalists):
    difference ``M_s - R_s`` against the observed one, ``I`` interpolated at the small render's sample positions
    (:func:`sample_positions`) minus ``R_s``; its explained share ranks them. Point samples, not block means: a
    mistake in fine detail (marble, acne) keeps its signal.
-4. The best :data:`FINALISTS` of stage 3 and the jitter mutants rendered at full size and scored by ``E``; then
-   pairs (two mistakes at once): for each of the best :data:`PAIR_FROM` singles, the two partners whose
-   differences, added to its own, best predict the observed difference (at the scale both were rendered at; for a
-   :data:`MOVING` single, the pair rendered together), rendered together at full size; a pair is kept when it
-   explains clearly more than either alone, and only where the better one leaves more than its own noise floor
-   ``2σ²_M`` again beyond it (within that a second mistake only fits another seed's noise): by 0.1 of ``E``, or by
-   removing half of that excess; ``σ²_M`` the larger of σ² and the mutant's own seed noise, its render with the
-   noise seed. Pairs are searched when no single explains 0.98 or the best
-   leaves more than ``MATCH_NOISE · σ²``; every saved-image and filter partner of a finalist is scored (free from
-   its kept render); and each reversible saved-image mistake (:data:`REVERSIBLE`) is undone from the image and
-   paired with the full-size single closest to what is left (beside another mistake it can hide both: neither
-   single explains anything).
+4. The best :data:`FINALISTS` of stage 3 and the jitter mutants rendered at full size and scored by ``E``; then pairs
+   (two mistakes at once): for each of the best :data:`PAIR_FROM` singles, the two partners whose differences, added
+   to its own, best predict the observed difference (at the scale both were rendered at; for a :data:`MOVING` single,
+   the pair rendered together), rendered together at full size; a pair is kept when it explains clearly more than
+   either alone, and only where the better one leaves more than its own noise floor ``2σ²_M`` again beyond it (within
+   that a second mistake only fits another seed's noise): by 0.1 of ``E``, or by removing half of that excess;
+   ``σ²_M`` the larger of σ² and the mutant's own seed noise, its render with the noise seed. Pairs are searched when
+   no single explains 0.98 or the best leaves more than ``MATCH_NOISE · σ²``; every saved-image and filter partner of
+   a finalist is scored (free from its kept render); and each reversible saved-image mistake (:data:`REVERSIBLE`) is
+   undone from the image and paired with the full-size single closest to what is left (beside another mistake it can
+   hide both: neither single explains anything).
 5. ``diagnosis`` when the best cause explains at least :data:`NAMED_SHARE` and leaves less than a quarter of the
    error it started from beyond the noise floor, and, where the 4x4 block means alone earn it (the pixels would
    not), the image is more probable under the cause than under the reference at full resolution (``Λ > 0``, below);
    otherwise ``unexplained`` with the remaining error and the closest causes (below). Never a forced guess.
-6. Partners of a named single ``a``, or of a named pair's better single (with ``-jitter``): for each
-   :data:`SAMPLING` and saved-image mistake and each partner the pair search rendered, ``b``, the pair ``(a, b)``
-   is listed first when the image scores better under it by the
-   continuous ranked probability score, each hypothesis from its renders with two jitter seeds
-   (:func:`a5mi.diagnose.measure.crps`), by a paired z over 4x4 blocks above :data:`PARTNER_Z`
-   (:func:`a5mi.diagnose.measure.paired_z`); the largest mean gain first. E charges each mutant its own noise and
-   the pair rules above leave a second mistake under the seed noise unlisted; CRPS, a proper score, counts both
+6. Partners of a named single ``a``, or of a named pair's better single (with ``-jitter``): for each :data:`SAMPLING`
+   and saved-image mistake and each partner the pair search rendered, ``b``, the pair ``(a, b)`` is listed first when
+   the image scores better under it by the continuous ranked probability score, each hypothesis from its renders with
+   two jitter seeds (:func:`a5mi.diagnose.measure.crps`), by a paired z over 4x4 blocks above :data:`PARTNER_Z`
+   (:func:`a5mi.diagnose.measure.paired_z`); the largest mean gain first. E charges each mutant its own noise and the
+   pair rules above leave a second mistake under the seed noise unlisted; CRPS, a proper score, counts both
    hypotheses' noise.
 
 Closest causes (docs/MISTAKES.md "Closest causes: the likelihood with the noise"): ``E`` charges a mutant its own
@@ -138,7 +136,7 @@ DETERMINISTIC = 0.1
 #: jitter noise; always tried as its partners by the paired CRPS test (docs/MISTAKES.md "Partners: the paired
 #: score").
 SAMPLING: tuple[str, ...] = (*JITTER_MISTAKES, "no_supersampling", *FILTER_MISTAKES)
-#: A sampling partner is listed when the paired test's z (over 4x4 blocks) is above this: a one-sided p of about
+#: A partner is listed when the paired test's z (over 4x4 blocks) is above this: a one-sided p of about
 #: 1e-4 for the 49 blocks of a 30x30 image, under a null whose mean already favours the single (CRPS is proper).
 PARTNER_Z = 4.0
 #: Camera mistakes that move every pixel (the view zoomed or shifted): another mistake's difference does not add to
@@ -459,10 +457,9 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
         kept render) and every partner the pair search rendered."""
         own = crps(img, members((single,)))
         found: list[tuple[float, Cause]] = []
-        for s in names:
+        for s in (s for s in names if s != single and combinable(single, s)):
             key = tuple(sorted((single, s), key=names.index))
-            if s == single or not combinable(single, s) or (s not in SAMPLING and s not in cheap
-                                                              and key not in images):
+            if s not in SAMPLING and s not in cheap and key not in images:
                 continue
             if key not in images:
                 score_full(key)
