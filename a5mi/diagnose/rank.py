@@ -22,8 +22,8 @@ Stages (small renders first, full size only for the finalists):
    mean squared difference two jitter seeds make, halved) comes from a second full render with another seed.
 2. ``match`` when ``mse(I, R) <= max(MATCH_NOISE · σ², MATCH_MSE)``: within the seed noise, or above
    :data:`MATCH_PSNR` dB (SPEC C: a faithful implementation lands above 50 dB, anything under is a semantic
-   difference); unless a mistake without jitter noise reproduces it (:data:`DETERMINISTIC_MISTAKES`) or the mean
-   difference shows a :data:`BIASED` mistake's bias.
+   difference); unless a mistake without jitter noise reproduces it or the mean difference shows a bias
+   (:func:`a5mi.diagnose.match.hidden_in_noise`).
 3. Kernel, marble and camera mutants at a small size (the longer side ``SMALL``, one ray per pixel; an image of at
    most ``ALL_FULL`` pixels a side skips this stage and renders them all at full size): the predicted
    difference ``M_s - R_s`` against the observed one, ``I`` interpolated at the small render's sample positions
@@ -52,22 +52,14 @@ Stages (small renders first, full size only for the finalists):
    pair rules above leave a second mistake under the seed noise unlisted; CRPS, a proper score, counts both
    hypotheses' noise.
 
-Closest causes (docs/MISTAKES.md "Closest causes: the likelihood with the noise"): ``E`` charges a mutant its own
-jitter noise (under its hypothesis ``||I - M||²`` is twice that noise, not 0), so a mistake that changes the noise
-more than the mean (one sample instead of nine, no blur) explains nothing by ``E`` even on an image of exactly its
-kind. Without a named cause the closest causes are also judged by the log-likelihood ratio
-``Λ(M) = ℓ(I | M) - ℓ(I | R)`` per value, ``ℓ(I | M) = mean(-(I - M)² / (2 s²) - ln(2π s²) / 2)`` with
-``s² = 2 v_M + q``: ``v_M`` the mutant's per-pixel seed variance ``(M - M₂)² / 2`` (``M₂`` its render with the
-noise seed) averaged over 3x3 pixels, ``q`` the variance of two 8-bit quantisations
-(:func:`a5mi.diagnose.measure.log_likelihood`): the causes explaining :data:`LISTED_SHARE` by ``E``, then those
-with ``Λ > 0`` (the image more probable under the mistake than under the correct renderer), :data:`SHOWN` at most,
-in the order of ``Λ`` (:func:`a5mi.diagnose.causes.closest`). One more render per cause, only for images without a
-named cause.
+Closest causes of an image without a named cause (docs/MISTAKES.md "Closest causes: the likelihood with the noise"):
+those explaining :data:`LISTED_SHARE` by ``E``, then those under which the image is more probable than under the
+correct renderer by the log-likelihood ratio with each mistake's own jitter noise, :data:`SHOWN` at most
+(:func:`a5mi.diagnose.measure.log_likelihood`, :func:`a5mi.diagnose.causes.closest`); one more render per cause.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -78,6 +70,7 @@ import numpy.typing as npt
 
 from a5mi.diagnose.catalogue import Mistake, applicable, option_traits, scene_traits
 from a5mi.diagnose.causes import Cause, Diagnosis, closest, combinable
+from a5mi.diagnose.match import DETERMINISTIC_MISTAKES, hidden_in_noise
 from a5mi.diagnose.measure import (
     REVERSIBLE,
     Image,
@@ -94,8 +87,9 @@ from a5mi.diagnose.measure import (
     resample,
     sample_positions,
 )
+from a5mi.diagnose.renders import Renders
 from a5mi.platform.errors import UserError
-from a5mi.render.filters import image_mistakes, mistaken_postprocess, output_size, postprocess
+from a5mi.render.filters import output_size
 from a5mi.render.options import FILTER_MISTAKES, IMAGE_MISTAKES, JITTER_MISTAKES, RenderOptions
 
 if TYPE_CHECKING:
@@ -111,8 +105,6 @@ FINALISTS = 5
 ALL_FULL = 2 * SMALL
 #: Pairs are formed from this many best singles.
 PAIR_FROM = 3
-#: Full-size renders kept for the saved-image and filter mistakes made from them.
-KEPT = 8
 #: A named cause explains at least this share of the difference.
 NAMED_SHARE = 0.6
 #: Causes listed (best first) in the result, each after the first explaining at least LISTED_SHARE.
@@ -128,10 +120,6 @@ NOISE_SEED = 977
 #: Mistakes whose pixels depend on the float noise of the ray origin (random speckles): scored at full size always
 #: (a small render's point samples do not meet the same speckles).
 SPECKLED: tuple[str, ...] = ("shadow_acne", "secondary_acne")
-#: Mistakes without jitter noise: when one reproduces a seemingly matching image within DETERMINISTIC · σ², it is
-#: named (a correct image made with other jitter offsets is never reproduced that closely).
-DETERMINISTIC_MISTAKES: tuple[str, ...] = ("no_jitter", "no_supersampling")
-DETERMINISTIC = 0.1
 #: Sampling mistakes (jitter, supersampling, blur, downsampling): beside a named single their effect is mostly the
 #: jitter noise; always tried as its partners by the paired CRPS test (docs/MISTAKES.md "Partners: the paired
 #: score").
@@ -142,64 +130,9 @@ PARTNER_Z = 4.0
 #: Camera mistakes that move every pixel (the view zoomed or shifted): another mistake's difference does not add to
 #: theirs, so their partners are ranked by rendering each pair (small, or at full size for a small image).
 MOVING: tuple[str, ...] = ("fov_full_angle", "camera_divides_by_w")
-#: Mistakes that shift every level a little (a bias below the squared error's noise): looked for in a seemingly
-#: matching image's mean difference ``mean(I - R)``, named when that is beyond BIAS_SE standard errors of a mean of
-#: the seed noise (from the 4x4-block noise σ_b², ``sqrt(2 σ_b² / blocks)``) and at least BIAS_LEVELS levels, and
-#: the mutant leaves at most BIAS_LEFT of it.
-BIASED: tuple[str, ...] = ("rounding",)
-BIAS_SE = 6.0
-BIAS_LEVELS = 0.25
-BIAS_LEFT = 0.25
 
 class DiagnoseError(UserError):
     """The image cannot be compared with the scene's render (a size that the flags do not give)."""
-
-
-class _Renderer:
-    """The renders of one diagnosis through one warm session, counted and timed."""
-
-    def __init__(self, session: RenderSession, desc: SceneDescription, options: RenderOptions) -> None:
-        self.session, self.desc, self.options = session, desc, options
-        self.counts = {"small": 0, "full": 0}
-        #: (render mistakes, seed) -> the render buffer (row 0 = top) with -jitter -filter, else the image
-        self.kept: dict[tuple[tuple[str, ...], int], np.ndarray] = {}
-
-    def full(self, mistakes: tuple[str, ...] = (), seed: int | None = None) -> Image:
-        """The image at full size with ``mistakes``; the filter and saved-image mistakes from the render they
-        modify (the last :data:`KEPT` renders are kept: a pair with a saved-image or filter mistake costs no
-        render once its other mistake has been rendered)."""
-        opts = self.options
-        seed = seed if seed is not None else opts.seed
-        post = tuple(m for m in mistakes if m in FILTER_MISTAKES)
-        saved = tuple(m for m in mistakes if m in IMAGE_MISTAKES)
-        render = tuple(sorted(m for m in mistakes if m not in post and m not in saved))
-        sampling = opts.jitter and opts.filter and "no_supersampling" not in render
-        key = (render, seed)
-        raw = self.kept.pop(key, None)
-        if raw is None:   # the render buffer with -jitter -filter, else the image as rendered
-            raw = self._render(dataclasses.replace(opts, filter=opts.filter and not sampling, seed=seed,
-                                                   mistakes=render), "full")
-        self.kept[key] = raw
-        while len(self.kept) > KEPT:
-            self.kept.pop(next(iter(self.kept)))
-        img = raw
-        if sampling:
-            flipped = raw[::-1]
-            img = (mistaken_postprocess(flipped, post, opts.kernel) if post
-                   else postprocess(flipped, filter=True, kernel=opts.kernel))[::-1]
-        if saved:
-            img = image_mistakes(img, saved)
-        return as_levels(img)
-
-    def small(self, mistakes: tuple[str, ...], size: tuple[int, int]) -> Image:
-        """The image at ``size`` without supersampling, unquantised (stage 3)."""
-        opts = dataclasses.replace(self.options, width=size[0], height=size[1], jitter=False, filter=False,
-                                   mistakes=mistakes)
-        return np.asarray(self._render(opts, "small")[..., :3], np.float64)
-
-    def _render(self, options: RenderOptions, kind: str) -> np.ndarray:
-        self.counts[kind] += 1
-        return self.session.render(self.desc, options).image
 
 
 def candidates_for(desc: SceneDescription, options: RenderOptions) -> list[Mistake]:
@@ -226,7 +159,7 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
         raise DiagnoseError(f"the image is {got}, but these flags make {want[0]}x{want[1]} images (SPEC B.5)")
     say = progress or (lambda _text: None)
     session = session if session is not None else RenderSession()
-    r = _Renderer(session, desc, options)
+    r = Renders(session, desc, options)
     pool = candidates_for(desc, options)
     if candidates is not None:
         pool = [m for m in pool if m.name in candidates]
@@ -244,26 +177,10 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     seconds["reference"] = time.perf_counter() - t0
     result = Diagnosis("match", psnr_of(err0), err0, noise, considered=names)
     if err0 <= max(MATCH_NOISE * noise, MATCH_MSE):
-        # within the jitter noise: only a mistake without jitter noise can reproduce the image more closely
         result.remaining = err0
-        for n in (n for n in DETERMINISTIC_MISTAKES if n in names and noise > 0.0):
-            m = r.full((n,))
-            left = mse(img, m)
-            if left <= DETERMINISTIC * noise:
-                cause = Cause((n,), explained(img, ref, m), evidence=evidence(img, ref, m, noise))
-                result.verdict, result.causes, result.remaining = "diagnosis", [cause], left
-                break
-        else:
-            # a bias of a fraction of a level (rounding) hides under the squared error's noise, not in the mean:
-            # named when the image's mean difference is beyond the noise of a mean and the mutant removes it
-            shift = float(np.mean(img - ref))
-            spread = BIAS_SE * math.sqrt(2.0 * noise_blocks / blocks(ref).size)
-            for n in (n for n in BIASED if n in names and abs(shift) > max(spread, BIAS_LEVELS / 255.0)):
-                m = r.full((n,))
-                if abs(float(np.mean(img - m))) <= BIAS_LEFT * abs(shift):
-                    cause = Cause((n,), explained(img, ref, m), evidence=evidence(img, ref, m, noise))
-                    result.verdict, result.causes, result.remaining = "diagnosis", [cause], mse(img, m)
-                    break
+        hidden = hidden_in_noise(img, ref, noise, noise_blocks, names, r.full)
+        if hidden is not None:
+            result.verdict, result.causes, result.remaining = "diagnosis", [hidden[0]], hidden[1]
         result.renders, result.seconds = dict(r.counts), seconds
         seconds["total"] = time.perf_counter() - t0
         return result
