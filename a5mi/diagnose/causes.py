@@ -75,14 +75,19 @@ class Diagnosis:
         return out
 
 
+#: The sampling mistakes (jitter, supersampling, blur, downsampling): ``no_supersampling`` leaves the others without
+#: effect (:func:`combinable`); beside a named single their effect is mostly the jitter noise, so the diagnosis
+#: always tries them as its partners by the paired CRPS test (docs/MISTAKES.md "Partners: the paired score").
+SAMPLING: tuple[str, ...] = (*JITTER_MISTAKES, "no_supersampling", *FILTER_MISTAKES)
+
+
 def combinable(a: str, b: str) -> bool:
     """Whether two mistakes can be made together (the marble texture takes one mistake; two jitter mistakes or
     ``no_supersampling`` with a sampling mistake leave one of them without effect)."""
     layer = {n: m.layer for n, m in BY_NAME.items()}
     if layer[a] == layer[b] == "marble":
         return False
-    sampling = set(JITTER_MISTAKES) | set(FILTER_MISTAKES) | {"no_supersampling"}
-    return not ({a, b} <= sampling and "no_supersampling" in (a, b))
+    return not ({a, b} <= set(SAMPLING) and "no_supersampling" in (a, b))
 
 
 def closest(causes: list[Cause], ref: Image, images: dict[tuple[str, ...], Image],

@@ -69,7 +69,7 @@ import numpy as np
 import numpy.typing as npt
 
 from a5mi.diagnose.catalogue import Mistake, applicable, option_traits, scene_traits
-from a5mi.diagnose.causes import Cause, Diagnosis, closest, combinable
+from a5mi.diagnose.causes import SAMPLING, Cause, Diagnosis, closest, combinable
 from a5mi.diagnose.match import DETERMINISTIC_MISTAKES, hidden_in_noise
 from a5mi.diagnose.measure import (
     REVERSIBLE,
@@ -120,10 +120,6 @@ NOISE_SEED = 977
 #: Mistakes whose pixels depend on the float noise of the ray origin (random speckles): scored at full size always
 #: (a small render's point samples do not meet the same speckles).
 SPECKLED: tuple[str, ...] = ("shadow_acne", "secondary_acne")
-#: Sampling mistakes (jitter, supersampling, blur, downsampling): beside a named single their effect is mostly the
-#: jitter noise; always tried as its partners by the paired CRPS test (docs/MISTAKES.md "Partners: the paired
-#: score").
-SAMPLING: tuple[str, ...] = (*JITTER_MISTAKES, "no_supersampling", *FILTER_MISTAKES)
 #: A partner is listed when the paired test's z (over 4x4 blocks) is above this: a one-sided p of about
 #: 1e-4 for the 49 blocks of a 30x30 image, under a null whose mean already favours the single (CRPS is proper).
 PARTNER_Z = 4.0
