@@ -84,6 +84,7 @@ from a5mi.converters.geometry import MeshData
 from a5mi.converters.materials import rgb
 from a5mi.converters.model import AreaLight, DirectionalLight, SphereLight, SpotLight
 from a5mi.converters.names import binary_spheres, scene_ids
+from a5mi.platform.loading import load_dict
 from a5mi.render.options import MARBLE_MISTAKES, RenderOptions
 from a5mi.spec import CUBE_FACES
 
@@ -331,7 +332,7 @@ def bake_solid(texture: dict[str, Any], lo: np.ndarray, hi: np.ndarray) -> np.nd
     import mitsuba as mi
 
     nx, ny, nz = solid_resolution(lo, hi)
-    tex = mi.load_dict(texture)
+    tex = load_dict(texture)
     axes = [lo[a] + (np.arange(n) + 0.5) / n * (hi[a] - lo[a]) for a, n in enumerate((nx, ny, nz))]
     zz, yy, xx = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
     si = dr.zeros(mi.SurfaceInteraction3f, xx.size)
@@ -347,7 +348,7 @@ def bake_cubemap_envmap(bg: CubeMapBackground, size: tuple[int, int] = ENVMAP_SI
     import mitsuba as mi
 
     w, h = size
-    emitter = mi.load_dict({"type": "a5_cubemap", **cubemap_faces(bg)})
+    emitter = load_dict({"type": "a5_cubemap", **cubemap_faces(bg)})
     jj, ii = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
     theta = (jj.ravel() + 0.5) / h * math.pi
     phi = (ii.ravel() + 0.5) / w * 2 * math.pi
@@ -373,7 +374,6 @@ class _DictBackend(Backend):
         return self.bitmaps[image]
 
     def bsdf(self, entries: dict[str, Any], material: int, with_uv: bool) -> Any:
-        import mitsuba as mi
 
         mat = self.desc.materials[material]
         key = (material, materials.without_texture(mat, with_uv))
@@ -383,7 +383,7 @@ class _DictBackend(Backend):
                 d = materials.with_marble_mistake(d, self.marble_mistake)
             if self.stock:
                 d = self.stock_solids(d, material)
-            self.bsdfs[key] = mi.load_dict(_transforms(d))  # the stock bitmaps' to_uv (materials.FLIP_V)
+            self.bsdfs[key] = load_dict(_transforms(d))  # the stock bitmaps' to_uv (materials.FLIP_V)
         return self.bsdfs[key]
 
     def mesh(self, key: str, shape: MeshShape, bsdf: Any) -> Any:

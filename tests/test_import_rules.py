@@ -29,7 +29,7 @@ PACKAGES = {"a5mi": "a5mi", "converters": "a5mi.converters", "plugins": "a5mi.pl
 LEAVES = frozenset({"a5mi", "a5mi.spec", "a5mi.render.options", "a5mi.platform", "a5mi.platform.imageio",
                     "a5mi.platform.errors",
                     "a5mi.platform.interrupts", "a5mi.platform.resources", "a5mi.vecmath32", "a5mi.platform.arrays",
-                    "a5mi.platform.paths"})
+                    "a5mi.platform.paths", "a5mi.platform.loading"})
 
 
 def _sources(folder: str) -> list[Path]:

@@ -58,6 +58,7 @@ from a5mi.converters.model import (
 from a5mi.converters.names import binary_spheres, object_bsdf, scene_ids
 from a5mi.converters.to_mitsuba import OCTREE_ATTRIBUTES, TRIANGLE_ATTRIBUTES, to_dict
 from a5mi.platform.arrays import aligned_float32
+from a5mi.platform.loading import load_dict
 from a5mi.render.driver import RenderResult, render_scene
 from a5mi.render.options import RenderOptions
 
@@ -111,7 +112,7 @@ class WarmScene:
             obj = object_bsdf(d, ids)
             if all(obj is not b for b in self.bsdfs.setdefault(shape.material, [])):
                 self.bsdfs[shape.material].append(obj)
-        self.scene = mi.load_dict(d)
+        self.scene = load_dict(d)
         self.params = mi.traverse(self.scene)
         self.integrator = self.scene.integrator()
         tracks = self.animation.tracks if self.animation is not None else ()
@@ -153,7 +154,7 @@ class WarmScene:
             elif isinstance(light, DirectionalLight):
                 p[f"{key}.irradiance.value"] = mi.Color3f(*light.color)
                 # the matrix Mitsuba's directional builds from a direction, taken from one it builds
-                probe = mi.load_dict({"type": "directional", "direction": list(light.direction)})
+                probe = load_dict({"type": "directional", "direction": list(light.direction)})
                 p[f"{key}.to_world"] = mi.traverse(probe)["to_world"]
             elif isinstance(light, AreaLight | SphereLight):  # the a5_area emitter of the light's shape (E.2)
                 p[f"{key}.emitter.color"] = dr.opaque(mi.Color3f, list(light.color))

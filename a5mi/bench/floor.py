@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from a5mi.platform.loading import load_dict
 from a5mi.spec import TMIN
 
 
@@ -136,7 +137,7 @@ def _count_pass(scene: Any, ray: Any, width: int) -> dict[str, npt.NDArray[np.fl
     """Per-lane ray counts by kind from the counting integrator's ``counts`` AOV (one launch)."""
     import mitsuba as mi
 
-    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
+    sampler = load_dict({"type": "independent", "sample_count": 1})
     sampler.seed(0, width)
     integrator = scene.integrator()
     _rgb, _valid, aovs = integrator.sample(scene, sampler, mi.RayDifferential3f(ray), None, mi.Bool(True))
@@ -229,7 +230,7 @@ def ray_log(scene: Any, ray: Any, counts: dict[str, npt.NDArray[np.float32]]) ->
     width = dr.width(ray.d)
     n_nodes = width + int(np.rint(counts["reflection"]).sum() + np.rint(counts["refraction"]).sum())
     log = RayLog(n_nodes, int(np.rint(counts["shadow"]).sum()))
-    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
+    sampler = load_dict({"type": "independent", "sample_count": 1})
     sampler.seed(0, width)
     out = scene.integrator().trace(scene, ray, mi.Bool(True), sampler, ray_log=log)
     dr.eval(out)
@@ -294,7 +295,6 @@ def measure_in_process(scene_file: Path, options: Any, repeat: int = 3) -> InPro
 
     # 2. per-lane ray counts (the counting integrator), the former first-hit estimate, the ray log
     import drjit as dr
-    import mitsuba as mi
 
     from a5mi.converters.to_mitsuba import to_dict
 
@@ -307,7 +307,7 @@ def measure_in_process(scene_file: Path, options: Any, repeat: int = 3) -> InPro
     del scene
     _free()
     # 3. the logged rays on the stock conversion, where every primitive the kernel intersects is a shape
-    stock = mi.load_dict(to_dict(describe(model, stock=True), options, stock=True))
+    stock = load_dict(to_dict(describe(model, stock=True), options, stock=True))
     floor = logged_floor(stock, nodes, shadows, repeat)
     del stock
     _free()
@@ -340,7 +340,7 @@ def measure_stock(model: Any, options: Any, repeat: int = 3) -> dict[str, float]
     for name, integ in integrators.items():
         scene_dict = dict(base)
         scene_dict["integrator"] = integ
-        scene = mi.load_dict(scene_dict)
+        scene = load_dict(scene_dict)
         sensor = scene.sensors()[0]
         size = sensor.film().crop_size()
         if (int(size[0]), int(size[1])) != (rw, rh):

@@ -3,7 +3,8 @@ any Mitsuba 3 XML scene with the a5mi plugins registered.
 
 The ``mitsuba`` executable cannot load Python plugins (``Plugin "a5_whitted" not found``); this command
 activates the variant, registers the plugins (:func:`a5mi.plugins.register_all`), loads the file with
-``mi.load_file(path, **defaults)`` and renders it with ``mi.render``. The image is written linear, as the a5
+``mi.load_file(path, parallel=False, **defaults)`` (:func:`a5mi.platform.loading.load_file`: on one thread) and
+renders it with ``mi.render``. The image is written linear, as the a5
 images are (8-bit: ``byte = clamp(int(c·255))``, SPEC B.1; ``.exr``: float), never sRGB-encoded; the AOV
 channels an integrator adds are dropped.
 
@@ -26,6 +27,7 @@ from pathlib import Path
 from a5mi.cli.app import Command, Console, activate_variant
 from a5mi.cli.flags import Args, Flag, Positional, choice, integer, text
 from a5mi.platform.errors import ExitStatus, UsageError, UserError
+from a5mi.platform.loading import load_file
 
 
 def _define(flag: str, values: list[str]) -> tuple[str, str]:
@@ -165,7 +167,7 @@ def run_render_xml(args: Args, console: Console) -> int:
     import numpy as np
 
     try:
-        scene = mi.load_file(args.scene, **defines)
+        scene = load_file(args.scene, **defines)
     except RuntimeError as exc:  # Mitsuba's XML errors: one line, with its own position in the file
         raise UserError(mitsuba_error(args.scene, exc)) from None
     check_film(scene, args.spp or 0)

@@ -13,6 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from a5mi.compare import Metrics, compare_arrays
+from a5mi.platform.loading import load_dict
 from a5mi.spec import FRESNEL_MODES, TMIN
 
 #: Every rendering of a cross-check, in montage order.
@@ -128,14 +129,12 @@ def pixel_classes(
     :func:`a5mi.render.driver.render_scene`: ``GLASS`` where some node of the pixel's ray tree hits a material with
     ``refraction_index > 0``; else ``BACKGROUND`` where the camera ray misses, else ``OPAQUE``.
     """
-    import mitsuba as mi
-
     from a5mi.render.driver import render_scene
     from a5mi.render.options import RenderOptions
 
     base = {k: v for k, v in (integrator or {}).items() if k not in ("type", "aovs")}
-    integ = mi.load_dict({**base, "type": "a5_whitted", "max_depth": bounces, "tmin": float(tmin),
-                          "reflection": reflection, "refraction": refraction, "aovs": "class"})
+    integ = load_dict({**base, "type": "a5_whitted", "max_depth": bounces, "tmin": float(tmin),
+                  "reflection": reflection, "refraction": refraction, "aovs": "class"})
     ro = RenderOptions(width=width, height=height, bounces=bounces, reflection=reflection,
                        refraction=refraction, classes=True)
     classes = render_scene(mi_scene, camera, ro, integrator=integ).classes
@@ -154,14 +153,12 @@ def render_whitted(
 ) -> npt.NDArray[np.float32]:
     """``a5_whitted`` with ``fresnel`` (and ``options.bounces``/``shadows``) over ``integrator``'s other
     parameters (ambient, tmin, ...); float image HxWx3, row 0 = top, through :func:`a5mi.render.driver.render_scene`."""
-    import mitsuba as mi
-
     from a5mi.render.driver import render_scene
     from a5mi.render.options import RenderOptions
 
     spec = {**integrator, "type": "a5_whitted", "fresnel": fresnel, "max_depth": options.bounces,
             "shadows": options.shadows, "reflection": True, "refraction": True}
-    integ = mi.load_dict(spec)
+    integ = load_dict(spec)
     ro = RenderOptions(width=options.width, height=options.height, bounces=options.bounces,
                        shadows=options.shadows, fresnel=fresnel)
     return render_scene(mi_scene, camera, ro, integrator=integ).image
@@ -197,13 +194,13 @@ def render_path(
 
     # docs/EXTENSIONS.md E.8, E.9: a medium on the stock sensor is rendered by volpath, camera rays start in it
     medium = mi_scene.sensors()[0].get_medium() if mi_scene.sensors() else None
-    integ = mi.load_dict({"type": "path" if medium is None else "volpath", "max_depth": max_depth,
+    integ = load_dict({"type": "path" if medium is None else "volpath", "max_depth": max_depth,
                           "rr_depth": NO_RR_DEPTH, "hide_emitters": False})
     n_pix = width * height
     per_launch = max(1, min(spp, lanes // n_pix))
     total = np.zeros((3, n_pix), np.float64)
     total_sq = np.zeros((3, n_pix), np.float64)
-    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
+    sampler = load_dict({"type": "independent", "sample_count": 1})
     done = 0
     launch = 0
     while done < spp:
@@ -286,12 +283,12 @@ def crosscheck_dicts(
     """Render the cross-check of two scene dicts: ``a5_dict`` (a5 plugins, its ``integrator`` entry an
     ``a5_whitted`` dict whose ambient/tmin are kept) for the three Fresnel modes and the class pass, and
     ``stock_dict`` for ``path``. Both must place the same objects; ``camera`` gives the SPEC B.2 rays."""
-    import mitsuba as mi
+
 
     timings: dict[str, float] = {}
     integrator = dict(a5_dict.get("integrator") or {"type": "a5_whitted"})
     t0 = time.perf_counter()
-    a5_scene = mi.load_dict(dict(a5_dict))
+    a5_scene = load_dict(dict(a5_dict))
     timings["load"] = time.perf_counter() - t0
     images: dict[str, npt.NDArray[np.float32]] = {}
     for mode in FRESNEL_MODES:
@@ -303,7 +300,7 @@ def crosscheck_dicts(
                             tmin=float(integrator.get("tmin", TMIN)), integrator=integrator)
     timings["classes"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    stock_scene = mi.load_dict(path_dict(stock_dict, options))
+    stock_scene = load_dict(path_dict(stock_dict, options))
     images["path"], stderr = render_path(stock_scene, camera, options.width, options.height, options.spp,
                                          options.path_max_depth, seed=options.seed)
     timings["path"] = time.perf_counter() - t0

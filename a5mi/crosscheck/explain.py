@@ -23,6 +23,7 @@ from a5mi.crosscheck.core import (
     render_path,
     render_whitted,
 )
+from a5mi.platform.loading import load_dict
 from a5mi.spec import TMIN
 
 # --------------------------------------------------------------------------------------------------------
@@ -56,8 +57,6 @@ def explain(desc_or_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]
     """
     import dataclasses
 
-    import mitsuba as mi
-
     from a5mi.converters.to_mitsuba import to_dict
 
     desc = _description(desc_or_model)
@@ -68,10 +67,10 @@ def explain(desc_or_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]
     integ = dict(a5d["integrator"])
 
     def whitted(d: Mapping[str, Any], integrator: Mapping[str, Any]) -> npt.NDArray[np.float64]:
-        return render_whitted(mi.load_dict(dict(d)), cam, integrator, options, "exact").astype(np.float64) * 255
+        return render_whitted(load_dict(dict(d)), cam, integrator, options, "exact").astype(np.float64) * 255
 
     def path(d: Mapping[str, Any]) -> npt.NDArray[np.float64]:
-        img, _ = render_path(mi.load_dict(path_dict(d, options)), cam, options.width, options.height,
+        img, _ = render_path(load_dict(path_dict(d, options)), cam, options.width, options.height,
                              options.spp, options.path_max_depth, seed=options.seed + 1)
         return img.astype(np.float64) * 255
 
@@ -88,7 +87,7 @@ def explain(desc_or_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]
                  "fresnel": "exact", "aovs": ""}
         ro = RenderOptions(width=options.width, height=options.height, bounces=options.bounces, spp=options.spp,
                            seed=options.seed + 1, integrator="path", fresnel="exact", bump=options.bump)
-        scene = mi.load_dict({**d, "integrator": entry})
+        scene = load_dict({**d, "integrator": entry})
         return render_scene(scene, cam, ro, integrator=scene.integrator()).image.astype(np.float64) * 255
 
     no_ambient = dict(integ, ambient={"type": "rgb", "value": [0.0, 0.0, 0.0]})
@@ -99,7 +98,7 @@ def explain(desc_or_model: Any, options: CrosscheckOptions) -> list[ExplainTerm]
     a, b = whitted(a5d, integ), whitted(a5d, no_ambient)
     c, f = whitted(dimmed, no_ambient), whitted(no_lamps, no_ambient)
     d, e, g = reading(a5d), reading(no_lamps), path(stock)
-    classes = pixel_classes(mi.load_dict(a5d), cam, options.width, options.height, options.bounces,
+    classes = pixel_classes(load_dict(a5d), cam, options.width, options.height, options.bounces,
                             tmin=float(integ.get("tmin", TMIN)), integrator=integ)
 
     def term(name: str, how: str, x: npt.NDArray[np.float64]) -> ExplainTerm:

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from a5mi.platform.loading import load_dict
 from a5mi.render.options import RenderOptions
 
 #: A viewpoint on the course's scene10 (center, look-at point, angle in degrees) from which the caustic of its
@@ -82,7 +83,7 @@ def caustic_region(mi: Any, tracer: dict[str, Any]) -> tuple[np.ndarray, np.ndar
     """``(region, seen)`` boolean images of the ptracer scene's film: ``seen`` the pixels whose centre ray hits
     a shape, ``region`` those whose first hit is not glass and lies in the shadow of a glass shape from a point
     light (module docstring)."""
-    scene = mi.load_dict(dict(tracer, integrator={"type": "direct"}))
+    scene = load_dict(dict(tracer, integrator={"type": "direct"}))
     sensor = scene.sensors()[0]
     w, h = (int(x) for x in sensor.film().size())
     j, i = np.mgrid[0:h, 0:w]
@@ -142,17 +143,17 @@ def render_versus(mi: Any, desc: Any, options: RenderOptions, passes: int, spp: 
     photon, tracer = versus_dicts(desc, options, spp, ptracer_spp)
     region, _ = caustic_region(mi, tracer)
     t0 = time.perf_counter()
-    scene = mi.load_dict(tracer)
+    scene = load_dict(tracer)
     refs = [np.asarray(mi.render(scene, seed=s), dtype=np.float64) for s in range(ptracer_seeds)]
     t_ref = time.perf_counter() - t0
     t0 = time.perf_counter()
     if options.integrator == "ppm":
-        imgs = [np.asarray(mi.render(mi.load_dict(dict(photon, integrator=dict(photon["integrator"], first_pass=k,
+        imgs = [np.asarray(mi.render(load_dict(dict(photon, integrator=dict(photon["integrator"], first_pass=k,
                                                                                    passes=1))), seed=k),
                            dtype=np.float64) for k in range(passes)]
         image = np.mean(imgs, axis=0)
     else:
-        image = np.asarray(mi.render(mi.load_dict(photon)), dtype=np.float64)
+        image = np.asarray(mi.render(load_dict(photon)), dtype=np.float64)
     t_photon = time.perf_counter() - t0
     return {"photon": image, "ptracer": np.mean(refs, axis=0), "region": region,
             "metrics": metrics(image, refs, region), "photon_seconds": t_photon, "ptracer_seconds": t_ref}

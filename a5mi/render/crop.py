@@ -41,6 +41,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from a5mi.platform import interrupts
+from a5mi.platform.loading import load_dict
 from a5mi.render.filters import _blur_axis, downsample3, kernel_taps, output_size
 from a5mi.render.options import FILTER_MISTAKES, JITTER_MISTAKES, RenderOptions
 from a5mi.render.passes import sample_passes
@@ -261,9 +262,8 @@ def trace_region(ctx: TraceContext, launched: Iterator[tuple[np.ndarray, np.ndar
 
 
 def _sampler() -> Any:
-    import mitsuba as mi
 
-    return mi.load_dict({"type": "independent", "sample_count": 1})
+    return load_dict({"type": "independent", "sample_count": 1})
 
 
 def region_buffers(options: RenderOptions, rect: Rect, *, color: bool = True, aovs: bool = True) -> PassBuffers:

@@ -31,6 +31,7 @@ import numpy as np
 
 from a5mi.platform import interrupts
 from a5mi.platform.arrays import aligned_float32
+from a5mi.platform.loading import load_dict
 from a5mi.render.filters import FilterStream
 from a5mi.render.passes import sample_passes
 from a5mi.render.tiles import Tile
@@ -193,10 +194,9 @@ def account_kernels(kernels: dict[str, int], timings: dict[str, float]) -> None:
 def trace_pass(ctx: TraceContext, tiles: Iterable[Tile], buffers: PassBuffers, done: int) -> int:
     """Trace every tile of ``tiles`` (module docstring, steps 1-8) and fill ``buffers``; ``done`` samples were
     traced before; returns the updated ``done``."""
-    import mitsuba as mi
 
     rw = ctx.size[0]
-    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
+    sampler = load_dict({"type": "independent", "sample_count": 1})
     with kernel_history():
         for tile in tiles:
             # one tile is one step: a signal waits for its end (a5mi.platform.interrupts), then stops the render

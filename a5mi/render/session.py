@@ -46,6 +46,7 @@ from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from a5mi.platform.loading import load_dict
 from a5mi.render.driver import Progress, RenderResult, render_scene
 from a5mi.render.options import MARBLE_MISTAKES, RenderOptions
 
@@ -63,21 +64,11 @@ def scene_dict(desc: SceneDescription, options: RenderOptions) -> dict[str, Any]
     return to_dict(desc, options)
 
 
-def load(entry: dict[str, Any]) -> Any:
-    """``mi.load_dict(entry)`` (a scene, or one plugin such as an integrator), a signal waiting for its end:
-    the plugin constructors run inside Mitsuba's C++ loader (:mod:`a5mi.platform.interrupts`)."""
-    import mitsuba as mi
-
-    from a5mi.platform import interrupts
-
-    with interrupts.deferred():
-        return mi.load_dict(entry)
-
-
 def build_scene(desc: SceneDescription, options: RenderOptions) -> mi.Scene:
     """The Mitsuba scene of ``desc``, its integrator ``a5_whitted`` with ``options``' parameters:
-    ``load(scene_dict(desc, options))``."""
-    return load(scene_dict(desc, options))
+    ``load_dict(scene_dict(desc, options))`` (:func:`a5mi.platform.loading.load_dict`: built on the
+    calling thread)."""
+    return load_dict(scene_dict(desc, options))
 
 
 def render(desc: SceneDescription, options: RenderOptions, *, progress: Progress | None = None) -> RenderResult:
@@ -148,7 +139,7 @@ class RenderSession:
         whole = scene_dict(desc, options)
         own = options.integrator_params()   # the options' part; the template keeps the scene's (ambient, planes, ...)
         template = {k: v for k, v in whole["integrator"].items() if k not in own}
-        scene = load(whole)
+        scene = load_dict(whole)
         return scene, template, scene.integrator()
 
     def integrator(self, desc: SceneDescription, options: RenderOptions
@@ -160,7 +151,7 @@ class RenderSession:
         integ = entry.integrators.get(ikey)
         if integ is None:
             t0 = time.perf_counter()
-            integ = load({**entry.template, "type": options.plugin, **options.integrator_params()})
+            integ = load_dict({**entry.template, "type": options.plugin, **options.integrator_params()})
             entry.integrators[ikey] = integ
             self.integrators_loaded += 1
             spent += time.perf_counter() - t0
@@ -212,4 +203,4 @@ def describe_file(path: str, *, bump: bool = False) -> tuple[SceneDescription, l
     return desc, [*model.warnings, *desc.warnings]
 
 
-__all__ = ["RenderSession", "build_scene", "describe_file", "load", "render", "scene_dict"]
+__all__ = ["RenderSession", "build_scene", "describe_file", "render", "scene_dict"]

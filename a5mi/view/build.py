@@ -38,8 +38,9 @@ import numpy as np
 
 from a5mi.converters import materials
 from a5mi.converters.to_mitsuba import Backend, bitmap, cubemap_faces, make_mesh, scene_entries
+from a5mi.platform.loading import load_dict
 from a5mi.render.options import RenderOptions
-from a5mi.render.session import RenderSession, load
+from a5mi.render.session import RenderSession
 
 if TYPE_CHECKING:
     import mitsuba as mi
@@ -138,7 +139,7 @@ class KeyedBackend(Backend):
         mat = self.desc.materials[material]
         d = materials.bsdf(mat, with_uv, stock=False, image=lambda img: {"bitmap": self.image(img)})
         key = ("bsdf", material, materials.without_texture(mat, with_uv), freeze(d, self.keep))
-        return Pending(key, lambda resolve: load(as_load_value(d, resolve)))
+        return Pending(key, lambda resolve: load_dict(as_load_value(d, resolve)))
 
     def mesh(self, key: str, shape: MeshShape, bsdf: Any) -> Pending:
         return Pending(("mesh", key, freeze(bsdf, self.keep), mesh_digest(shape)),
@@ -166,7 +167,7 @@ def pending_entries(desc: SceneDescription, options: RenderOptions) -> tuple[dic
     for name, value in list(entries.items()):
         if name not in ("type", "integrator") and isinstance(value, dict) and not linked:
             entries[name] = Pending(("entry", name, freeze(value, backend.keep)),
-                                    lambda resolve, value=value: load(as_load_value(value, resolve)))
+                                    lambda resolve, value=value: load_dict(as_load_value(value, resolve)))
     return entries, backend.keep
 
 
@@ -209,10 +210,10 @@ class ViewSession(RenderSession):
         if kept_scene:
             assert self._scene is not None
             scene = self._scene[1]
-            integrator = load(dict(template))
+            integrator = load_dict(dict(template))
             self.scenes_kept += 1
         else:
-            scene = load({k: (template if k == "integrator" else as_load_value(v, resolve))
+            scene = load_dict({k: (template if k == "integrator" else as_load_value(v, resolve))
                           for k, v in entries.items()})
             integrator = scene.integrator()
             self._scene = (scene_key, scene)

@@ -63,6 +63,7 @@ from collections.abc import Sequence
 import drjit as dr
 import mitsuba as mi
 
+from a5mi.platform.loading import load_dict
 from a5mi.plugins.materials.bump import perturb
 from a5mi.spec import CENTRE_WAVELENGTH_NM, MIRROR_THRESHOLD
 
@@ -101,7 +102,7 @@ class A5Material(mi.BSDF):
         if "kd" in props:
             self.kd: mi.Texture = props.get_texture("kd")
         else:  # any finite colour (SPEC A.5 sets no range; a5soln renders 1.5 as it is): an unbounded texture
-            self.kd = mi.load_dict({"type": "srgb", "color": mi.ScalarColor3f(*diffuse), "unbounded": True})
+            self.kd = load_dict({"type": "srgb", "color": mi.ScalarColor3f(*diffuse), "unbounded": True})
         self.diffuse_color = mi.Color3f(*diffuse)
         self.specular_color = mi.Color3f(*specular)
         self.shininess = mi.Float(shininess)

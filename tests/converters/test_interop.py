@@ -1,5 +1,5 @@
-"""Mitsuba interop (docs/MITSUBA.md): a converted scene rendered by a plain Mitsuba script or by
-``a5mi render-xml`` gives the a5 image; the documented Python example runs."""
+"""Mitsuba interop (docs/MITSUBA.md): a converted scene rendered by a plain Mitsuba script (loading on one thread,
+as the page says) or by ``a5mi render-xml`` gives the a5 image; the documented Python example runs."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ import numpy as np
 mi.set_variant("llvm_ad_rgb")
 from a5mi.plugins import register_all
 register_all()
-image = mi.render(mi.load_file(sys.argv[1]))
+image = mi.render(mi.load_file(sys.argv[1], parallel=False))  # docs/MITSUBA.md "Load on one thread"
 assert image.shape[2] == 3, image.shape            # RGB only: a5_whitted's AOVs are opt-in
 mi.Bitmap(image).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=False).write(sys.argv[2])
 """

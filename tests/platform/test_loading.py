@@ -1,0 +1,87 @@
+"""a5mi.platform.loading (docs/MITSUBA.md "Load on one thread"): every Mitsuba object a5mi loads is built on the
+calling thread, one after the other; Mitsuba's own default builds them on its thread pool."""
+
+from __future__ import annotations
+
+import ast
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+from helpers import ROOT
+
+from a5mi.platform.loading import load_dict, load_file
+
+#: Objects of the probe scene: enough that Mitsuba's pool takes some of them when it may.
+PROBES = 8
+
+
+@pytest.fixture(scope="module")
+def probe_plugin(mi: Any) -> list[int]:
+    """A Python BSDF ``a5test_thread_probe`` (integer ``k``) whose constructor records its thread and sleeps 50 ms
+    (the GIL is released while it sleeps, so a pool worker can start the next one); returns the thread ids."""
+    threads: list[int] = []
+
+    class Probe(mi.BSDF):
+        def __init__(self, props: Any) -> None:
+            super().__init__(props)
+            self.k = props["k"]  # each probe differs: Mitsuba merges equal objects into one
+            threads.append(threading.get_ident())
+            time.sleep(0.05)
+
+    mi.register_bsdf("a5test_thread_probe", lambda props: Probe(props))
+    return threads
+
+
+def _scene() -> dict[str, Any]:
+    return {"type": "scene", **{f"probe{k}": {"type": "a5test_thread_probe", "k": k} for k in range(PROBES)}}
+
+
+def test_load_dict_builds_every_object_on_the_calling_thread(probe_plugin: list[int], mi: Any) -> None:
+    probe_plugin.clear()
+    load_dict(_scene())
+    assert probe_plugin == [threading.get_ident()] * PROBES
+
+
+def test_mitsubas_default_builds_them_on_its_pool(probe_plugin: list[int], mi: Any) -> None:
+    """What load_dict avoids: with ``parallel=True`` (Mitsuba's default) some constructors run on other threads."""
+    probe_plugin.clear()
+    mi.load_dict(_scene())
+    assert len(probe_plugin) == PROBES and set(probe_plugin) != {threading.get_ident()}
+
+
+def test_load_file_builds_every_object_on_the_calling_thread(probe_plugin: list[int], mi: Any, tmp_path: Path) -> None:
+    values = ["$n", *(str(10 + k) for k in range(1, PROBES))]  # the first from the <default>, 2 below
+    probes = "".join(f'<bsdf type="a5test_thread_probe" id="p{k}"><integer name="k" value="{v}"/></bsdf>'
+                     for k, v in enumerate(values))
+    xml = tmp_path / "probes.xml"
+    xml.write_text(f'<scene version="3.0.0"><default name="n" value="1"/>{probes}</scene>')
+    probe_plugin.clear()
+    load_file(xml, n="2")
+    assert probe_plugin == [threading.get_ident()] * PROBES
+
+
+def _loads(path: Path) -> list[tuple[str, bool]]:
+    """``mi.load_dict(...)`` / ``mi.load_file(...)`` / ``mi.load_string(...)`` calls in ``path``'s code: where,
+    and whether the call passes ``parallel=False``."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                and node.func.attr in ("load_dict", "load_file", "load_string")
+                and isinstance(node.func.value, ast.Name) and node.func.value.id == "mi"):
+            serial = any(k.arg == "parallel" and isinstance(k.value, ast.Constant) and k.value.value is False
+                         for k in node.keywords)
+            found.append((f"{path.relative_to(ROOT)}:{node.lineno}", serial))
+    return found
+
+
+@pytest.mark.unit
+def test_every_load_of_the_project_goes_through_the_loader() -> None:
+    loader = ROOT / "a5mi" / "platform" / "loading.py"
+    calls = [hit for folder in ("a5mi", "plugins", "converters") for path in sorted((ROOT / folder).rglob("*.py"))
+             if path != loader for hit in _loads(path)]
+    assert calls == []
+    own = _loads(loader)
+    assert len(own) == 2 and all(serial for _, serial in own), own
