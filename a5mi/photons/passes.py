@@ -41,24 +41,25 @@ def _warm(scene: str, options: RenderOptions, variant: str | None) -> Any:
     """``(description, loaded scene, integrator dict)`` of ``scene`` for this process (built on first use)."""
     key = (scene, os.stat(scene).st_mtime, options)
     if key not in _WARM:
-        from a5mi.render.session import describe_file, load, scene_dict
+        from a5mi.platform.loading import load_dict
+        from a5mi.render.session import describe_file, scene_dict
         from a5mi.runtime import variant as variants
 
         variants.activate(variant)
         desc, _ = describe_file(scene, bump=options.bump)
         d = scene_dict(desc, options)
         _WARM.clear()
-        _WARM[key] = (desc, load(d), d["integrator"])
+        _WARM[key] = (desc, load_dict(d), d["integrator"])
     return _WARM[key]
 
 
 def render_pass(scene: str, options: RenderOptions, k: int, variant: str | None = None) -> np.ndarray:
     """Pass ``k`` of ``scene`` (module docstring) as a float32 image (rows from the top)."""
+    from a5mi.platform.loading import load_dict
     from a5mi.render.driver import render_scene
-    from a5mi.render.session import load
 
     desc, mi_scene, entry = _warm(scene, options, variant)
-    integrator = load({**entry, "first_pass": int(k)})
+    integrator = load_dict({**entry, "first_pass": int(k)})
     one = dataclasses.replace(options, spp=1)
     return np.asarray(render_scene(mi_scene, desc.camera, one, integrator=integrator).image, dtype=np.float32)
 

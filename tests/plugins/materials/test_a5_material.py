@@ -8,6 +8,8 @@ import drjit as dr
 import numpy as np
 import pytest
 
+from a5mi.platform.loading import load_dict
+
 
 def _rgb(*v: float) -> dict:
     return {"type": "rgb", "value": list(v)}
@@ -45,7 +47,7 @@ def _attributes_in_loop(scene, o, d):
 
 
 def test_a5_attributes_reach_python_through_bsdfptr_vcall_in_symbolic_loop(mi):
-    scene = mi.load_dict({
+    scene = load_dict({
         "type": "scene",
         "a": {"type": "sphere", "center": [0, 0, 0], "radius": 1, "bsdf": {
             "type": "a5_material", "diffuse_color": _rgb(0.1, 0.2, 0.3), "kd": _rgb(0.7, 0.6, 0.5),
@@ -67,7 +69,7 @@ def test_a5_attributes_reach_python_through_bsdfptr_vcall_in_symbolic_loop(mi):
 
 
 def test_a5_defaults_and_traverse(mi):
-    bsdf = mi.load_dict({"type": "a5_material"})
+    bsdf = load_dict({"type": "a5_material"})
     params = mi.traverse(bsdf)
     assert np.allclose(_np(params["diffuse_color"]).ravel(), [1, 1, 1])
     assert np.allclose(_np(params["kd.value"]).ravel(), [1, 1, 1])  # kd defaults to diffuse_color
@@ -80,7 +82,7 @@ def test_a5_defaults_and_traverse(mi):
 def test_a5_negative_refraction_index_is_rejected(mi):
     # Mitsuba re-raises plugin constructor errors as RuntimeError carrying the original message.
     with pytest.raises((ValueError, RuntimeError), match="refraction_index. must be >= 0"):
-        mi.load_dict({"type": "a5_material", "refraction_index": -1.0})
+        load_dict({"type": "a5_material", "refraction_index": -1.0})
 
 
 def _si(mi, wi):
@@ -91,7 +93,7 @@ def _si(mi, wi):
 
 
 def test_a5_physical_eval_is_lambert(mi):
-    bsdf = mi.load_dict({"type": "a5_material", "kd": _rgb(0.5, 0.25, 1.0)})
+    bsdf = load_dict({"type": "a5_material", "kd": _rgb(0.5, 0.25, 1.0)})
     ctx = mi.BSDFContext()
     si = _si(mi, mi.Vector3f(0, 0, 1))
     wo = mi.Vector3f(0.6, 0, 0.8)
@@ -111,7 +113,7 @@ def test_a5_physical_eval_is_lambert(mi):
 
 def test_a5_physical_mirror_sample(mi):
     """kd = 0.2, spec = 0.6: p_s = 0.6/0.8 = 0.75; a delta sample returns the mirror direction, weight spec/p_s."""
-    bsdf = mi.load_dict({"type": "a5_material", "diffuse_color": _rgb(0.2, 0.2, 0.2),
+    bsdf = load_dict({"type": "a5_material", "diffuse_color": _rgb(0.2, 0.2, 0.2),
                          "specular_color": _rgb(0.6, 0.6, 0.6)})
     ctx = mi.BSDFContext()
     si = _si(mi, mi.Vector3f(0.6, 0, 0.8))
@@ -126,7 +128,7 @@ def test_a5_physical_mirror_sample(mi):
 
 def test_a5_physical_dielectric_sample_at_normal_incidence(mi):
     """Black kd, spec 1, ior 1.5: p_s = 1; F = 0.04, so u < 0.04 reflects and u > 0.04 refracts (1/η² scaling)."""
-    bsdf = mi.load_dict({"type": "a5_material", "diffuse_color": _rgb(0, 0, 0),
+    bsdf = load_dict({"type": "a5_material", "diffuse_color": _rgb(0, 0, 0),
                          "specular_color": _rgb(1, 1, 1), "refraction_index": 1.5})
     ctx = mi.BSDFContext()
     si = _si(mi, mi.Vector3f(0, 0, 1))
@@ -158,7 +160,7 @@ def test_a5_diffuse_pdf_integrates_to_the_diffuse_probability_on_either_side(mi,
     of 20,000 cells, error O(1/m²) ~ 1e-4), all of it on ``wi``'s side; ``∫ eval dω = kd`` (albedo);
     reciprocity ``eval(wi, wo)/|cos wo| = eval(wo, wi)/|cos wi|``."""
     kd, ks = 0.6, 0.2
-    bsdf = mi.load_dict({"type": "a5_material", "diffuse_color": _rgb(kd, kd, kd),
+    bsdf = load_dict({"type": "a5_material", "diffuse_color": _rgb(kd, kd, kd),
                          "specular_color": _rgb(ks, ks, ks)})
     p_s = ks / (kd + ks)
     ctx = mi.BSDFContext()
@@ -188,7 +190,7 @@ def test_a5_diffuse_sample_agrees_with_eval_and_pdf_on_either_side(mi, wi):
     (= kd/(1 - p_s)); the fraction of samples with ``|cosθ_o| < 1/2`` is the cosine lobe's 1/4 (4,096 seeded
     samples: binomial sigma sqrt(0.25·0.75/4096) = 0.0068, tolerance 5 sigma)."""
     kd, ks = 0.6, 0.2
-    bsdf = mi.load_dict({"type": "a5_material", "diffuse_color": _rgb(kd, kd, kd),
+    bsdf = load_dict({"type": "a5_material", "diffuse_color": _rgb(kd, kd, kd),
                          "specular_color": _rgb(ks, ks, ks)})
     p_s = ks / (kd + ks)
     ctx = mi.BSDFContext()
@@ -220,7 +222,7 @@ def test_a5_diffuse_plane_lit_and_seen_from_either_side_under_stock_path(mi, sid
 
     kd, e, cos_l = 0.5, 2.0, 0.8
     light_dir = [0.6 * side, 0.0, -0.8 * side]  # travelling toward the plane from its `side`
-    scene = mi.load_dict({
+    scene = load_dict({
         "type": "scene", "integrator": {"type": "path", "max_depth": 2, "hide_emitters": True},
         "sensor": {"type": "perspective", "fov": 20,
                    "to_world": mitsuba.ScalarTransform4f().look_at(origin=[0, 0, 5 * side], target=[0, 0, 0],
