@@ -4,8 +4,7 @@
 as ``out/scene_images/texture_NNN_{name}.png`` and a cube map's six faces as ``out/scene_images/cubemap/{face}.png``
 (and, with ``stock=True``, a cube map as ``out/scene_envmap.exr`` and each procedural solid's baked RGB grid as
 ``out/scene_images/solid_NNN.vol``, docs/EXTENSIONS.md E.6). The XML loads with ``mi.load_file``: with
-``stock=False`` once the a5mi plugins are registered (``a5mi.plugins.register_all()``; ``parallel=False``,
-docs/MITSUBA.md "Load on one thread"), with ``stock=True``
+``stock=False`` once the a5mi plugins are registered (``a5mi.plugins.register_all()``), with ``stock=True``
 in plain Mitsuba (see :mod:`.to_mitsuba` and :mod:`.materials` for every stock approximation). Every file is
 named relative to the XML (Mitsuba's file resolver looks beside the XML first; the a5 plugins resolve through
 it too), so the folder can be moved or copied elsewhere and renders the same. Images are written from the

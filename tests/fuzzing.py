@@ -379,7 +379,7 @@ def run_one(seed: int, scenes: list[Path], work: Path, kinds: tuple[tuple[str, f
             if m.convert and status == 0:
                 import mitsuba as mi
 
-                mi.load_file(str(run / "o.xml"), parallel=False)  # docs/MITSUBA.md "Load on one thread"
+                mi.load_file(str(run / "o.xml"))
     except _Hang:
         problem = f"hang: more than {HANG_SECONDS} s"
     except BaseException as exc:  # noqa: BLE001 - an exception escaping the guard is a failure to report

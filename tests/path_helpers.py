@@ -9,8 +9,6 @@ from typing import Any
 
 import numpy as np
 
-from a5mi.platform.loading import load_dict
-
 
 def load(mi: Any, text: str, *, stock: bool = False, **options: Any) -> tuple[Any, Any, Any]:
     """``(description, loaded scene, RenderOptions)`` of the scene ``text`` converted with ``options``
@@ -22,12 +20,12 @@ def load(mi: Any, text: str, *, stock: bool = False, **options: Any) -> tuple[An
 
     ro = RenderOptions(**options)
     desc = describe(parse_text(text), stock=stock)
-    return desc, load_dict(to_dict(desc, ro, stock=stock)), ro
+    return desc, mi.load_dict(to_dict(desc, ro, stock=stock)), ro
 
 
 def integrator(mi: Any, scene_dict_integrator: dict, **params: Any) -> Any:
     """An integrator loaded from a scene's ``integrator`` entry with ``params`` laid over it."""
-    return load_dict({**scene_dict_integrator, **params})
+    return mi.load_dict({**scene_dict_integrator, **params})
 
 
 def a5_passes(mi: Any, scene: Any, integ: Any, camera: Any, width: int, height: int, spp: int,
@@ -63,8 +61,8 @@ def stock_passes(mi: Any, scene: Any, camera: Any, width: int, height: int, spp:
 
     from a5mi.crosscheck import _pixel_rays
 
-    integ = load_dict({"type": "path", "max_depth": max_depth, "rr_depth": rr_depth, "hide_emitters": False})
-    sampler = load_dict({"type": "independent", "sample_count": 1})
+    integ = mi.load_dict({"type": "path", "max_depth": max_depth, "rr_depth": rr_depth, "hide_emitters": False})
+    sampler = mi.load_dict({"type": "independent", "sample_count": 1})
     n = width * height
     per = max(1, min(spp, (1 << 18) // n))
     ray = mi.RayDifferential3f(_pixel_rays(camera, width, height, repeat=per))

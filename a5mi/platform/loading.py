@@ -1,13 +1,11 @@
-"""Mitsuba objects from a dict or an XML file, built on the calling thread (docs/MITSUBA.md "Load on one thread").
+"""Mitsuba objects from a dict or an XML file, built on the calling thread (docs/MITSUBA.md "Loading in parallel").
 
-Mitsuba 3.9 loads with ``parallel=True`` unless told otherwise: every object of the dict or XML becomes a task of
-Dr.Jit's thread pool, its constructor run on a worker once its children exist. The a5 plugins' constructors are
-Python (each takes the GIL on its worker), and a thread that waits inside a constructor (for a kernel, for the
-GIL) runs other objects' construction tasks meanwhile (nanothread's ``task_wait`` helps with any queued task).
-A plain script loading a converted XML that way failed natively in a5mi's suite: ``failed to instantiate
-rfilter plugin of type "box": std::bad_alloc``, once ``basic_string::_M_create``, never when run alone
-(BENCHMARKS.md "Loading"). ``parallel=False`` builds the objects one after the other on the calling thread,
-children first, so no constructor runs beside another; its cost is in BENCHMARKS.md "Loading".
+Mitsuba 3.9 loads in parallel unless told otherwise: every object of the dict or XML becomes a task of Dr.Jit's
+thread pool, its constructor run on a worker once its children exist. The a5 plugins are safe there (no
+constructor of theirs loads anything: a load swaps Mitsuba's global file resolver, which the other tasks read;
+tests/plugins/materials/test_a5_material.py loads a scene of many materials in parallel). a5mi itself builds on
+one thread all the same (``parallel=False``): the a5 constructors are Python and take the GIL one at a time, and
+on a5mi's dicts the parallel load gains nothing measurable (BENCHMARKS.md "Loading").
 
 Every load of a5mi goes through :func:`load_dict` or :func:`load_file` (tests/platform/test_loading.py checks the
 source), with signals held back for the native call (:func:`a5mi.platform.interrupts.deferred`: the plugin

@@ -63,7 +63,6 @@ from collections.abc import Sequence
 import drjit as dr
 import mitsuba as mi
 
-from a5mi.platform.loading import load_dict
 from a5mi.plugins.materials.bump import perturb
 from a5mi.spec import CENTRE_WAVELENGTH_NM, MIRROR_THRESHOLD
 
@@ -88,6 +87,18 @@ def _rgb(props: mi.Properties, name: str, default: Sequence[float]) -> list[floa
         raise ValueError(f"a5_material: '{name}' must be an rgb colour, got {value!r}") from None
 
 
+def constant_texture(color: Sequence[float]) -> mi.Texture:
+    """An unbounded ``srgb`` texture of ``color`` (any finite colour: SPEC A.5 sets no range), made by Mitsuba's
+    plugin manager. Never ``mi.load_dict`` inside a constructor: a load swaps Mitsuba's global file resolver for
+    its own copy and frees that copy when it returns, while the other tasks of a parallel load read the global
+    (a plugin library's first load resolves its path through it): a use after free (docs/MITSUBA.md
+    "Loading in parallel")."""
+    props = mi.Properties("srgb")
+    props["color"] = mi.ScalarColor3f(*color)
+    props["unbounded"] = True
+    return mi.PluginManager.instance().create_object(props)
+
+
 class A5Material(mi.BSDF):
     """The a5 ``Material`` (SPEC A.5; values consumed by ``a5_whitted`` per SPEC B.3). See the module doc."""
 
@@ -101,8 +112,8 @@ class A5Material(mi.BSDF):
             raise ValueError(f"a5_material: 'refraction_index' must be >= 0 (0 = opaque), got {ior}")
         if "kd" in props:
             self.kd: mi.Texture = props.get_texture("kd")
-        else:  # any finite colour (SPEC A.5 sets no range; a5soln renders 1.5 as it is): an unbounded texture
-            self.kd = load_dict({"type": "srgb", "color": mi.ScalarColor3f(*diffuse), "unbounded": True})
+        else:  # a5soln renders a colour of 1.5 as it is
+            self.kd = constant_texture(diffuse)
         self.diffuse_color = mi.Color3f(*diffuse)
         self.specular_color = mi.Color3f(*specular)
         self.shininess = mi.Float(shininess)

@@ -14,7 +14,6 @@ from hypothesis import strategies as st
 
 from a5mi import bench
 from a5mi.cli import run_a5mi
-from a5mi.platform.loading import load_dict
 
 VERBOSE = """\
 a5: llvm_ad_rgb, render 900x900 (810000 camera rays, 1 tiles), saved 300x300
@@ -308,6 +307,8 @@ def test_logged_floor_times_each_ray_kind_on_the_stock_scene(logged: dict, scene
     """The logged rays traverse the stock conversion, where scene10's spheres and plane are shapes."""
     import contextlib
 
+    import mitsuba as mi
+
     from a5mi.bench.floor import logged_floor
     from a5mi.converters.a5_parser import parse_file
     from a5mi.converters.describe import describe
@@ -316,7 +317,7 @@ def test_logged_floor_times_each_ray_kind_on_the_stock_scene(logged: dict, scene
 
     with contextlib.chdir(scenes_dir):
         model = parse_file("scene10_sphere.txt")
-        stock = load_dict(to_dict(describe(model, stock=True), RenderOptions(width=16, height=16), stock=True))
+        stock = mi.load_dict(to_dict(describe(model, stock=True), RenderOptions(width=16, height=16), stock=True))
     assert len(stock.shapes()) == 4  # cube, two spheres, the plane's rectangle
     _log, _res, nodes, shadows = logged["logs"][0]
     floor = logged_floor(stock, nodes, shadows, repeat=1)

@@ -18,7 +18,6 @@ from helpers import ROOT
 
 from a5mi.converters.a5_parser import parse_text
 from a5mi.converters.errors import SceneError
-from a5mi.platform.loading import load_dict
 
 FLOOR_SCENE = """PerspectiveCamera {{ center 0 5 10 direction 0 -0.5 -1 up 0 1 0 angle 30 }}
 Lights {{ numLights 1 {light} }}
@@ -264,8 +263,8 @@ def test_stock_mapping_loads_and_renders(mi: Any, scene: str, a5_types: set[str]
     stock = to_dict(desc, options, stock=True)
     bsdfs = [materials.bsdf(m, False, stock=s) for m in desc.materials for s in (False, True)]  # loaded in to_dict
     assert a5_types <= _types(a5) | _types(bsdfs) and stock_types <= _types(stock) | _types(bsdfs)
-    load_dict(a5)
-    img = np.asarray(mi.render(load_dict(stock), spp=4))
+    mi.load_dict(a5)
+    img = np.asarray(mi.render(mi.load_dict(stock), spp=4))
     assert np.all(np.isfinite(img)) and img.mean() > 0.005
     xml = tmp_path / f"{scene}.xml"
     write_xml(desc, xml, options, stock=True)

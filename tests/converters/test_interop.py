@@ -1,5 +1,5 @@
-"""Mitsuba interop (docs/MITSUBA.md): a converted scene rendered by a plain Mitsuba script (loading on one thread,
-as the page says) or by ``a5mi render-xml`` gives the a5 image; the documented Python example runs."""
+"""Mitsuba interop (docs/MITSUBA.md): a converted scene rendered by a plain Mitsuba script or by
+``a5mi render-xml`` gives the a5 image; the documented Python example runs."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ import numpy as np
 mi.set_variant("llvm_ad_rgb")
 from a5mi.plugins import register_all
 register_all()
-image = mi.render(mi.load_file(sys.argv[1], parallel=False))  # docs/MITSUBA.md "Load on one thread"
+image = mi.render(mi.load_file(sys.argv[1]))
 assert image.shape[2] == 3, image.shape            # RGB only: a5_whitted's AOVs are opt-in
 mi.Bitmap(image).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=False).write(sys.argv[2])
 """
@@ -99,7 +99,7 @@ def test_convert_writes_render_flags_as_mitsuba_defaults(tmp_path: Path, scenes_
     text = xml.read_text()
     for name, value in (("spp", "16"), ("width", "30"), ("height", "20"), ("max_depth", "4")):
         assert f'<default name="{name}" value="{value}" />' in text, name  # path: max_depth = bounces + 2
-    scene = mi.load_file(str(xml), parallel=False, width=12, height=8, spp=9)  # the stratified sampler wants a square
+    scene = mi.load_file(str(xml), width=12, height=8, spp=9)  # the stratified sampler wants a square
     assert tuple(scene.sensors()[0].film().size()) == (12, 8)
     assert scene.sensors()[0].sampler().sample_count() == 9
 
@@ -169,7 +169,7 @@ def _xml_render(xml: Path, spp: int) -> np.ndarray:
     """``mi.render`` of a converted XML (the README's Python route) as the a5 levels: ``int(c·255)`` (B.1)."""
     import mitsuba as mi
 
-    image = np.asarray(mi.render(mi.load_file(str(xml), parallel=False), spp=spp, seed=0))[..., :3]
+    image = np.asarray(mi.render(mi.load_file(str(xml)), spp=spp, seed=0))[..., :3]
     return np.floor(np.clip(image, 0.0, 1.0) * 255.0)
 
 
@@ -224,7 +224,7 @@ def test_converted_xml_at_many_spp_keeps_the_pixel_centres(variant: str, tmp_pat
     assert run_a5mi(["convert", str(scene), "-o", str(tmp_path / "s.xml"), *flags, "--spp", "256"]) == 0
     import mitsuba as mi
 
-    loaded = mi.load_file(str(tmp_path / "s.xml"), parallel=False)
+    loaded = mi.load_file(str(tmp_path / "s.xml"))
     one = [np.clip(np.asarray(mi.render(loaded, spp=1, seed=s))[..., :3], 0, 1) * 255.0 for s in (1, 2)]
     sigma_64 = _rmse(a5, a5_other) / np.sqrt(2.0)
     sigma_1 = _rmse(*one) / np.sqrt(2.0)

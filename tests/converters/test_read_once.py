@@ -19,7 +19,6 @@ from a5mi.converters.a5_parser import parse_file
 from a5mi.converters.describe import CubeMapBackground, MeshShape, describe
 from a5mi.converters.files import Image
 from a5mi.platform import imageio
-from a5mi.platform.loading import load_dict
 from a5mi.render.options import RenderOptions
 
 CUBE_FACES = ("left", "right", "up", "down", "front", "back")
@@ -90,7 +89,7 @@ def test_a4_a6_each_file_is_read_once_from_describe_to_render(variant: str, read
     for stock in (False, True):
         scene_dict = to_dict(desc, options, stock=stock)
         assert _filenames(scene_dict) == []  # no plugin, stock or a5, is handed a file to open
-        scene = load_dict(scene_dict)
+        scene = mi.load_dict(scene_dict)
         if not stock:
             image = render_scene(scene, desc.camera, options).image
             assert image.shape == (4, 6, 3) and np.isfinite(image).all()
@@ -130,9 +129,9 @@ def test_a4_a5_bitmap_from_pixels_equals_from_file_and_reads_nothing(variant: st
               {"type": "bitmap", "filename": str(p), "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp"})]
     for from_pixels, from_file in pairs:
         before = reads["image"][p.resolve()]
-        a = np.array(load_dict(from_pixels).eval(si))
+        a = np.array(mi.load_dict(from_pixels).eval(si))
         assert reads["image"][p.resolve()] == before  # the bitmap parameter opens no file
-        b = np.array(load_dict(from_file).eval(si))
+        b = np.array(mi.load_dict(from_file).eval(si))
         np.testing.assert_array_equal(a, b)
     assert reads["image"][p.resolve()] == 2  # read_image, then a5_bitmap's filename (stock reads natively)
 
@@ -160,15 +159,15 @@ def test_a4_cubemap_takes_six_bitmaps_or_a_folder(variant: str, tmp_path: Path) 
     for f, px in faces.items():
         _png(tmp_path / f"{f}.png", px)
     bitmaps = {f: mi.Bitmap(px) for f, px in faces.items()}
-    from_bitmaps = load_dict({"type": "a5_cubemap", **bitmaps})
-    from_folder = load_dict({"type": "a5_cubemap", "filename": str(tmp_path)})
+    from_bitmaps = mi.load_dict({"type": "a5_cubemap", **bitmaps})
+    from_folder = mi.load_dict({"type": "a5_cubemap", "filename": str(tmp_path)})
     np.testing.assert_array_equal(np.asarray(from_bitmaps.atlas.data), np.asarray(from_folder.atlas.data))
     with pytest.raises(Exception, match="not both"):
-        load_dict({"type": "a5_cubemap", "filename": str(tmp_path), **bitmaps})
+        mi.load_dict({"type": "a5_cubemap", "filename": str(tmp_path), **bitmaps})
     with pytest.raises(Exception, match=r"faces \['back'\] are missing"):
-        load_dict({"type": "a5_cubemap", **{f: b for f, b in bitmaps.items() if f != "back"}})
+        mi.load_dict({"type": "a5_cubemap", **{f: b for f, b in bitmaps.items() if f != "back"}})
     with pytest.raises(Exception, match="exactly one of the parameters"):
-        load_dict({"type": "a5_bitmap"})
+        mi.load_dict({"type": "a5_bitmap"})
 
 
 def test_a4_packed_atlas_returns_the_bytes_over_255_at_texel_corners(variant: str) -> None:

@@ -38,7 +38,6 @@ from a5mi.converters.to_mitsuba import (
     to_dict,
 )
 from a5mi.platform.imageio import read_uint8
-from a5mi.platform.loading import load_dict
 from a5mi.render.options import RenderOptions
 
 CAM = "PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
@@ -56,8 +55,9 @@ SCENE_IDS = [p.stem if p.stem != "s" else "sibenik" for p in SCENE_FILES]
 def _load(d: dict):
     """``mi.load_dict``: every a5 plugin is registered by the ``variant`` fixture, so an unknown plugin (a
     regression in ``register_all``) fails here like any other error."""
+    import mitsuba as mi
 
-    return load_dict(d)
+    return mi.load_dict(d)
 
 
 def _mesh(desc: SceneDescription, i: int) -> MeshData:
@@ -401,9 +401,10 @@ def test_a4_cubemap_link_file_is_followed_with_a_warning(tmp_path: Path) -> None
 @pytest.mark.course_data
 @pytest.mark.parametrize("path", SCENE_FILES, ids=SCENE_IDS)
 def test_shipped_scene_loads_stock(variant: str, path: Path) -> None:
+    import mitsuba as mi
 
     model = parse_file(path)
-    scene = load_dict(to_dict(describe(model), RenderOptions(8, 8), stock=True))
+    scene = mi.load_dict(to_dict(describe(model), RenderOptions(8, 8), stock=True))
     assert len(scene.shapes()) == len(model.objects)
     assert len(scene.emitters()) == len(model.lights) + 1  # + the background
 
@@ -429,7 +430,7 @@ def test_stock_sensor_puts_pixel_centres_where_b2_does(variant: str, scenes_dir:
 
     model = parse_file(scenes_dir / "scene11_cube.txt")
     w = 9
-    sensor = load_dict(to_dict(describe(model), RenderOptions(w, w), stock=True)["sensor"])
+    sensor = mi.load_dict(to_dict(describe(model), RenderOptions(w, w), stock=True)["sensor"])
     c = model.camera
     for i, j in [(0, 0), (4, 4), (8, 2), (3, 8)]:
         ray, _ = sensor.sample_ray(0.0, 0.0, mi.Point2f((i + 0.5) / w, 1 - (j + 0.5) / w), mi.Point2f(0.5))
@@ -442,8 +443,8 @@ def test_stock_envmap_bakes_the_cube_map(variant: str, scenes_dir: Path) -> None
     import mitsuba as mi
 
     desc = describe(parse_file(scenes_dir / "scene11_cube.txt"))
-    env = load_dict(to_dict(desc, stock=True)["background"])
-    cube = load_dict(to_dict(desc)["background"])
+    env = mi.load_dict(to_dict(desc, stock=True)["background"])
+    cube = mi.load_dict(to_dict(desc)["background"])
     from_folder = _load({"type": "a5_cubemap", "filename": str(scenes_dir / "tex" / "church2")})
     rng = np.random.default_rng(1)
     d = rng.normal(size=(2000, 3))
@@ -482,7 +483,7 @@ def test_a6_stock_plane_stand_in_is_exact_to_far_below_tmin(variant: str, scenes
     o = np.array(ray.o, dtype=np.float64).T
     dirs = np.array(ray.d, dtype=np.float64).T
     for s in planes:
-        rect = load_dict({"type": "scene", "p": {"type": "rectangle",
+        rect = mi.load_dict({"type": "scene", "p": {"type": "rectangle",
                                                     "to_world": mi.ScalarTransform4f(s.rectangle.tolist())}})
         si = rect.ray_intersect(ray)
         hit = np.array(si.is_valid())

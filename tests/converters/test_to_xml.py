@@ -15,7 +15,6 @@ from a5mi.converters.describe import describe
 from a5mi.converters.errors import SceneSemanticError
 from a5mi.converters.to_mitsuba import to_dict
 from a5mi.converters.to_xml import write_xml
-from a5mi.platform.loading import load_dict
 from a5mi.render.options import RenderOptions
 
 
@@ -33,7 +32,7 @@ def _load_file(path: Path, **kw):
     regression in ``register_all``) fails here like any other error."""
     import mitsuba as mi
 
-    return mi.load_file(str(path), parallel=False, **kw)  # docs/MITSUBA.md "Load on one thread"
+    return mi.load_file(str(path), **kw)
 
 
 def test_xml_structure(variant: str, scenes_dir: Path, tmp_path: Path) -> None:
@@ -101,7 +100,7 @@ def test_xml_renders_like_the_dict(variant: str, scenes_dir: Path, tmp_path: Pat
     model = parse_file(scenes_dir / f"{name}.txt")
     options = RenderOptions(24, 24, shadows=True)
     desc = describe(model)
-    a = load_dict(to_dict(desc, options))
+    a = mi.load_dict(to_dict(desc, options))
     b = _load_file(write_xml(desc, tmp_path / f"{name}.xml", options))
     img_a = np.asarray(mi.render(a, spp=1))[..., :3]
     img_b = np.asarray(mi.render(b, spp=1))[..., :3]
@@ -164,11 +163,11 @@ def test_stock_xml_of_solids_loads_in_plain_mitsuba(variant: str, tmp_path: Path
 
     si = dr.zeros(mi.SurfaceInteraction3f, 50)
     si.p = mi.Point3f(*pts.T.astype(np.float32))
-    want = np.asarray(load_dict(solid).eval(si))
+    want = np.asarray(mi.load_dict(solid).eval(si))
     assert np.allclose(grid[idx[:, 2], idx[:, 1], idx[:, 0]], want.T, atol=1e-6)
     baked = ext_mitsuba.baked_solid({"data": mi.TensorXf(grid)}, lo, hi)
     baked["volume"]["to_world"] = mi.ScalarTransform4f(baked["volume"]["to_world"].tolist())
-    got = np.asarray(load_dict(baked).eval(si))
+    got = np.asarray(mi.load_dict(baked).eval(si))
     assert np.allclose(got, want, atol=1e-5)
 
 

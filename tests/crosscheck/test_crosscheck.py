@@ -24,7 +24,6 @@ from conftest import a5_material as _a5
 from conftest import rgb as _rgb
 
 from a5mi import crosscheck as xc
-from a5mi.platform.loading import load_dict
 
 CLEAR_GLASS = {"diffuse_color": (0.0, 0.0, 0.0), "specular_color": (1.0, 1.0, 1.0), "refraction_index": 1.5}
 ENV = (0.8, 0.6, 0.4)
@@ -126,7 +125,7 @@ def mixed(mi):
     d["integrator"] = {"type": "a5_whitted", "ambient": _rgb(0.2, 0.2, 0.2)}
     camera = SimpleNamespace(center=(0.0, 0.8, 5.0), direction=(0.0, -0.2, -1.0), up=(0.0, 1.0, 0.0), angle=35.0)
     opts = xc.CrosscheckOptions(width=72, height=72, bounces=4)
-    scene = load_dict(d)
+    scene = mi.load_dict(d)
     images = {m: xc.render_whitted(scene, camera, d["integrator"], opts, m) for m in xc.FRESNEL_MODES}
     classes = xc.pixel_classes(scene, camera, opts.width, opts.height, opts.bounces)
     return SimpleNamespace(images=images, classes=classes, camera=camera, opts=opts)
@@ -166,7 +165,7 @@ def test_classes_follow_the_ray_tree(mixed):
 def clear_sphere(mi):
     """bounces 1: pixel = R(θ)·Le + (1 − R)·(inside hit, kd = 0 and no lights: 0) = R(θ)·Le exactly."""
     d = _scene(s={"type": "sphere", "bsdf": _a5(**CLEAR_GLASS)}, env=_env())
-    scene = load_dict(d)
+    scene = mi.load_dict(d)
     opts = xc.CrosscheckOptions(width=96, height=96, bounces=1)
     images = {m: xc.render_whitted(scene, HEAD_ON, {}, opts, m) for m in xc.FRESNEL_MODES}
     cos = _sphere_cos(HEAD_ON, opts.width, opts.height)
@@ -206,7 +205,7 @@ def test_schlick_equals_exact_head_on_and_differs_most_at_grazing(clear_sphere):
 
 def test_a5_differs_from_schlick_only_on_the_way_out(mi):
     """bounces 2 reaches the exit interface, where the binary's R0 uses 1 in place of n: R0 = 0 there."""
-    scene = load_dict(_scene(s={"type": "sphere", "bsdf": _a5(**CLEAR_GLASS)}, env=_env()))
+    scene = mi.load_dict(_scene(s={"type": "sphere", "bsdf": _a5(**CLEAR_GLASS)}, env=_env()))
     opts = xc.CrosscheckOptions(width=48, height=48, bounces=2)
     a5 = xc.render_whitted(scene, HEAD_ON, {}, opts, "a5")
     schlick = xc.render_whitted(scene, HEAD_ON, {}, opts, "schlick")
@@ -227,12 +226,12 @@ def test_exact_whitted_is_the_mean_of_path_on_clear_glass(mi, stock_bsdf):
     both, so the scaling cancels (a factor 1/2.25 or 2.25 would be far outside the tolerance)."""
     bounces = 3
     w = h = 32
-    a5_scene = load_dict(_scene(s={"type": "sphere", "bsdf": _a5(**CLEAR_GLASS)}, env=_env()))
+    a5_scene = mi.load_dict(_scene(s={"type": "sphere", "bsdf": _a5(**CLEAR_GLASS)}, env=_env()))
     opts = xc.CrosscheckOptions(width=w, height=h, bounces=bounces)
     whitted = xc.render_whitted(a5_scene, HEAD_ON, {}, opts, "exact")
     bsdf = ({"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0} if stock_bsdf == "dielectric"
             else _a5(**CLEAR_GLASS))
-    stock = load_dict({"type": "scene", "s": {"type": "sphere", "bsdf": bsdf}, "env": _env()})
+    stock = mi.load_dict({"type": "scene", "s": {"type": "sphere", "bsdf": bsdf}, "env": _env()})
     spp = 256
     path, stderr = xc.render_path(stock, HEAD_ON, w, h, spp, bounces + 1, seed=7)
     assert 0 < stderr < 20
@@ -256,9 +255,9 @@ def test_path_has_environment_light_whitted_has_none(mi):
     sees the environment over its whole hemisphere), black under Whitted with no lights and no ambient."""
     kd = 0.5
     w = h = 24
-    a5_scene = load_dict(_scene(s={"type": "sphere", "bsdf": _a5(diffuse_color=(kd, kd, kd))}, env=_env()))
+    a5_scene = mi.load_dict(_scene(s={"type": "sphere", "bsdf": _a5(diffuse_color=(kd, kd, kd))}, env=_env()))
     whitted = xc.render_whitted(a5_scene, HEAD_ON, {}, xc.CrosscheckOptions(width=w, height=h), "exact")
-    stock = load_dict({"type": "scene", "s": {"type": "sphere", "bsdf": {
+    stock = mi.load_dict({"type": "scene", "s": {"type": "sphere", "bsdf": {
         "type": "diffuse", "reflectance": _rgb(kd, kd, kd)}}, "env": _env()})
     path, _ = xc.render_path(stock, HEAD_ON, w, h, 64, 2)
     hit = ~np.isnan(_sphere_cos(HEAD_ON, w, h))
@@ -280,9 +279,9 @@ def test_indirect_light_fills_whitted_shadows(mi):
         return {"ball": {"type": "sphere", "center": [0, 0.2, 0], "radius": 0.8, "bsdf": bsdf},
                 "floor": {"type": "rectangle", "to_world": floor, "bsdf": bsdf}, "light": light}
 
-    a5_scene = load_dict(_scene(**objects(_a5(diffuse_color=(0.8, 0.8, 0.8)))))
+    a5_scene = mi.load_dict(_scene(**objects(_a5(diffuse_color=(0.8, 0.8, 0.8)))))
     whitted = xc.render_whitted(a5_scene, camera, {}, xc.CrosscheckOptions(width=w, height=h, bounces=2), "exact")
-    stock = load_dict({"type": "scene", **objects({"type": "diffuse", "reflectance": _rgb(0.8, 0.8, 0.8)})})
+    stock = mi.load_dict({"type": "scene", **objects({"type": "diffuse", "reflectance": _rgb(0.8, 0.8, 0.8)})})
     path, _ = xc.render_path(stock, camera, w, h, 64, 4)
     o, d = _pixel_geometry(camera, w, h)
     t = (-1.0 - o[1]) / d[..., 1]

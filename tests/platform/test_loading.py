@@ -1,5 +1,5 @@
-"""a5mi.platform.loading (docs/MITSUBA.md "Load on one thread"): every Mitsuba object a5mi loads is built on the
-calling thread, one after the other; Mitsuba's own default builds them on its thread pool."""
+"""a5mi.platform.loading (docs/MITSUBA.md "Loading in parallel"): every Mitsuba object a5mi loads is built on the
+calling thread, one after the other; Mitsuba's own default builds them on its thread pool; no plugin loads."""
 
 from __future__ import annotations
 
@@ -64,8 +64,8 @@ def test_load_file_builds_every_object_on_the_calling_thread(probe_plugin: list[
 
 
 def _loads(path: Path) -> list[tuple[str, bool]]:
-    """``mi.load_dict(...)`` / ``mi.load_file(...)`` / ``mi.load_string(...)`` calls in ``path``'s code: where,
-    and whether the call passes ``parallel=False``."""
+    """Mitsuba's loads in ``path``'s code (``mi.load_dict(...)``, ``mi.load_file(...)``, ``mi.load_string(...)``):
+    where, and whether the call passes ``parallel=False``."""
     found = []
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
@@ -77,6 +77,19 @@ def _loads(path: Path) -> list[tuple[str, bool]]:
     return found
 
 
+def _any_load(path: Path) -> list[str]:
+    """Every call in ``path`` of a function named ``load_dict``, ``load_file`` or ``load_string`` (Mitsuba's or
+    the loader's), and every import of the loader."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        func = node.func if isinstance(node, ast.Call) else None
+        name = func.attr if isinstance(func, ast.Attribute) else func.id if isinstance(func, ast.Name) else None
+        if name in ("load_dict", "load_file", "load_string") or (
+                isinstance(node, ast.ImportFrom) and node.module == "a5mi.platform.loading"):
+            found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    return found
+
+
 @pytest.mark.unit
 def test_every_load_of_the_project_goes_through_the_loader() -> None:
     loader = ROOT / "a5mi" / "platform" / "loading.py"
@@ -85,3 +98,10 @@ def test_every_load_of_the_project_goes_through_the_loader() -> None:
     assert calls == []
     own = _loads(loader)
     assert len(own) == 2 and all(serial for _, serial in own), own
+
+
+@pytest.mark.unit
+def test_no_plugin_loads_anything() -> None:
+    """A load inside a constructor swaps Mitsuba's global file resolver under a parallel load's other tasks
+    (tests/plugins/materials/test_a5_material.py shows what it did)."""
+    assert [hit for path in sorted((ROOT / "plugins").rglob("*.py")) for hit in _any_load(path)] == []

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 from a5mi.platform.arrays import aligned_float32
-from a5mi.platform.loading import load_dict
 from a5mi.render import driver, tiles
 from a5mi.render.driver import depth_gray, render_scene
 from a5mi.render.filters import postprocess
@@ -354,8 +353,9 @@ def test_b2_real_integrator_centre_pixel(variant) -> None:
     """Real camera_rays and a5_whitted. Unit sphere seen from z = 5, light along -z: the centre pixel
     (odd W) is irradiance ⊙ kd, t = 4,
     N = (0, 0, 1); a corner pixel misses (background black, depth 0)."""
+    import mitsuba as mi
 
-    scene = load_dict({
+    scene = mi.load_dict({
         "type": "scene",
         "integrator": {"type": "a5_whitted", "max_depth": 0, "aovs": "normal,depth"},
         "ball": {"type": "sphere", "bsdf": {"type": "a5_material",
@@ -383,8 +383,9 @@ def test_b6_quadrant_mode_uses_the_binarys_aov_rays(variant) -> None:
 
 
 def _ball_scene(color, light):
+    import mitsuba as mi
 
-    return load_dict({
+    return mi.load_dict({
         "type": "scene",
         "integrator": {"type": "a5_whitted", "max_depth": 2, "shadows": True},
         "ball": {"type": "sphere", "bsdf": {"type": "a5_material",

@@ -11,8 +11,6 @@ import numpy as np
 import pytest
 from helpers import read_bmp24, write_image
 
-from a5mi.platform.loading import load_dict
-
 FACES = ["left", "right", "up", "down", "front", "back"]
 
 
@@ -32,8 +30,9 @@ def cube_dir(tmp_path: Path) -> Path:
 
 
 def _load(folder: Path):
+    import mitsuba as mi
 
-    return load_dict({"type": "a5_cubemap", "filename": str(folder)})
+    return mi.load_dict({"type": "a5_cubemap", "filename": str(folder)})
 
 
 def _lookup(em, dirs: list[tuple[float, float, float]]) -> np.ndarray:
@@ -65,7 +64,7 @@ def test_a4_cubemap_flags(variant: str, cube_dir: Path) -> None:
     em = _load(cube_dir)
     assert em.is_environment()
     assert mi.has_flag(em.flags(), mi.EmitterFlags.Infinite)
-    scene = load_dict({"type": "scene", "bg": em})
+    scene = mi.load_dict({"type": "scene", "bg": em})
     assert scene.environment() is not None
 
 

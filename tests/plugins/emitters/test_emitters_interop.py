@@ -11,8 +11,6 @@ import numpy as np
 import pytest
 from helpers import ROOT
 
-from a5mi.platform.loading import load_dict
-
 
 def _ptracer_scene(mi, extra: dict | None = None, spp: int = 4, size: int = 16) -> object:
     d = {"type": "scene", "integrator": {"type": "ptracer", "max_depth": 3, "hide_emitters": True},
@@ -22,7 +20,7 @@ def _ptracer_scene(mi, extra: dict | None = None, spp: int = 4, size: int = 16) 
                     "sampler": {"type": "independent", "sample_count": spp}},
          "s": {"type": "sphere", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.7}}}}
     d.update(extra or {"l": {"type": "point", "position": [0, 2, 2], "intensity": {"type": "rgb", "value": 5}}})
-    return load_dict(d)
+    return mi.load_dict(d)
 
 
 @pytest.mark.parametrize("scene", ["scenes/soft_shadows.txt", "scenes/spot.txt", "COURSE/scene10_sphere.txt"])
@@ -49,7 +47,7 @@ def test_area_light_rays_carry_its_power(mi) -> None:
     s1 = mi.Float(rng.random(n))
     s2 = mi.Point2f(rng.random(n), rng.random(n))
     s3 = mi.Point2f(rng.random(n), rng.random(n))
-    quad = load_dict({"type": "a5_area", "shape": "parallelogram", "corner": [0, 0, 0], "edge1": [2, 0, 0],
+    quad = mi.load_dict({"type": "a5_area", "shape": "parallelogram", "corner": [0, 0, 0], "edge1": [2, 0, 0],
                          "edge2": [0, 3, 0], "color": {"type": "rgb", "value": [0.5, 1, 2]}})
     ray, weight = quad.sample_ray(mi.Float(0.0), s1, s2, s3)
     o, d, w = (np.array(dr.detach(x)) for x in (ray.o, ray.d, weight))
@@ -57,7 +55,7 @@ def test_area_light_rays_carry_its_power(mi) -> None:
     front = np.asarray(s1) < 0.5
     assert (d[2][front] >= 0).all() and (d[2][~front] <= 0).all()
     assert np.allclose(w.T, 2 * np.pi * 6.0 * np.array([0.5, 1, 2]), rtol=1e-5)
-    ball = load_dict({"type": "a5_area", "shape": "sphere", "center": [1, 2, 3], "radius": 0.5})
+    ball = mi.load_dict({"type": "a5_area", "shape": "sphere", "center": [1, 2, 3], "radius": 0.5})
     ray, weight = ball.sample_ray(mi.Float(0.0), s1, s2, s3)
     o, d, w = (np.array(dr.detach(x)) for x in (ray.o, ray.d, weight))
     outward = o - np.array([[1], [2], [3]])
@@ -76,7 +74,7 @@ def test_cube_map_light_rays_give_what_path_tracing_gives(mi, scenes_dir: Path) 
     traced = np.array([np.asarray(mi.render(_ptracer_scene(mi, env, 64, 24), seed=s))[disc].mean(axis=0)
                        for s in range(4)])
     scene = _ptracer_scene(mi, env, 256, 24)
-    path = load_dict({"type": "path", "max_depth": 2, "hide_emitters": True})
+    path = mi.load_dict({"type": "path", "max_depth": 2, "hide_emitters": True})
     reference = np.asarray(mi.render(scene, integrator=path, seed=9))[disc].mean(axis=0)
     stderr = traced.std(axis=0, ddof=1) / 2.0  # of the mean of 4 renders
     # 2e-3 of the reference: its own error (256 spp over ~110 pixels, about 1e-3 measured across seeds)

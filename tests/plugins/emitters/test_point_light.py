@@ -7,15 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from a5mi.platform.loading import load_dict
-
 
 def _light(position=(1.0, 2.0, 3.0), color=(0.9, 0.6, 0.3), falloff=None):
+    import mitsuba as mi
 
     d = {"type": "a5_point", "position": list(position), "color": {"type": "rgb", "value": list(color)}}
     if falloff is not None:
         d["falloff"] = falloff
-    return load_dict(d)
+    return mi.load_dict(d)
 
 
 def _it(points: list[tuple[float, float, float]]):
@@ -82,7 +81,7 @@ def test_a3_point_in_scene_emitters(variant: str) -> None:
     """Usable from a scene dict: the scene lists it among its emitters, with its flags."""
     import mitsuba as mi
 
-    scene = load_dict(
+    scene = mi.load_dict(
         {
             "type": "scene",
             "light": {"type": "a5_point", "position": [0, 1, 0], "color": {"type": "rgb", "value": [1, 1, 1]}},
@@ -98,9 +97,10 @@ def test_a3_point_in_scene_emitters(variant: str) -> None:
     [({}, "position"), ({"position": [0, 0, 0], "falloff": -1.0}, "falloff"), ({"position": "x"}, "position")],
 )
 def test_a3_point_validation(variant: str, params: dict, match: str) -> None:
+    import mitsuba as mi
 
     with pytest.raises(Exception, match=match):
-        load_dict({"type": "a5_point", **params})
+        mi.load_dict({"type": "a5_point", **params})
 
 
 def test_a3_stock_directional_contract(variant: str) -> None:
@@ -110,7 +110,7 @@ def test_a3_stock_directional_contract(variant: str) -> None:
     object, so a shadow ray up to ds.dist is equivalent to the binary's FLT_MAX."""
     import mitsuba as mi
 
-    light = load_dict(
+    light = mi.load_dict(
         {
             "type": "directional",
             "direction": [0.5, -1.0, 0.0],
@@ -119,7 +119,7 @@ def test_a3_stock_directional_contract(variant: str) -> None:
     )
     assert mi.has_flag(light.flags(), mi.EmitterFlags.DeltaDirection)
     # the stock plugin takes the scene's bounding sphere in set_scene: sample it from inside a scene
-    scene = load_dict({"type": "scene", "light": light, "s": {"type": "sphere", "radius": 0.1}})
+    scene = mi.load_dict({"type": "scene", "light": light, "s": {"type": "sphere", "radius": 0.1}})
     (em,) = scene.emitters()
     pts = [(0, 0, 0), (3, 4, 5)]
     ds, value = em.sample_direction(_it(pts), mi.Point2f(0.5, 0.5))
@@ -138,7 +138,7 @@ def test_a3_point_through_vcall(variant: str) -> None:
     import drjit as dr
     import mitsuba as mi
 
-    scene = load_dict(
+    scene = mi.load_dict(
         {
             "type": "scene",
             "a": {"type": "a5_point", "position": [0, 0, 2], "color": {"type": "rgb", "value": [1, 0.5, 0.25]}},

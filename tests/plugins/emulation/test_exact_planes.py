@@ -14,7 +14,6 @@ import numpy as np
 from a5mi.converters.a5_parser import parse_text
 from a5mi.converters.describe import describe
 from a5mi.platform.imageio import quantize
-from a5mi.platform.loading import load_dict
 from a5mi.render.options import RenderOptions
 from a5mi.render.session import render
 
@@ -84,7 +83,7 @@ def test_planes_are_integrator_parameters_any_mitsuba_user_can_set(variant: str)
     import a5mi.plugins
 
     a5mi.plugins.register_all()
-    scene = load_dict({
+    scene = mi.load_dict({
         "type": "scene",
         "integrator": {"type": "a5_whitted", "aovs": "depth,normal",
                        "plane_floor_normal": [0, 2, 0], "plane_floor_offset": -1.0,
@@ -101,6 +100,7 @@ def test_planes_are_integrator_parameters_any_mitsuba_user_can_set(variant: str)
 
 
 def test_plane_parameters_are_checked(variant: str) -> None:
+    import mitsuba as mi
     import pytest
 
     import a5mi.plugins
@@ -111,7 +111,7 @@ def test_plane_parameters_are_checked(variant: str) -> None:
            ({"plane_a_normal": [0, 1, 0], "plane_a_bsdf": {"type": "a5_material"}}, "lacks 'plane_a_offset'")]
     for params, msg in bad:
         with pytest.raises(Exception, match=msg):
-            load_dict({"type": "a5_whitted", **params})
+            mi.load_dict({"type": "a5_whitted", **params})
 
 
 def test_sphere_quotient_is_the_binarys_double_division_bit_for_bit(mi) -> None:

@@ -20,7 +20,6 @@ from a5mi.converters.a5_parser import parse_text
 from a5mi.converters.describe import describe
 from a5mi.converters.obj import load_obj
 from a5mi.platform.imageio import quantize
-from a5mi.platform.loading import load_dict
 from a5mi.render.options import RenderOptions
 from a5mi.render.session import render
 
@@ -51,7 +50,7 @@ def _expected(model, scenes_dir, direction: tuple[float, float, float]) -> tuple
     ray = camera_rays(c.center, c.direction, c.up, c.angle, mi.Float(ii.ravel()), mi.Float(jj.ravel()), N, N)
     o, d = np.array(ray.o, dtype=np.float64).T, np.array(ray.d, dtype=np.float64).T
     mesh = load_obj(scenes_dir / "diamond.obj")
-    only_mesh = load_dict({"type": "scene", "m": _mi_mesh(mesh)})
+    only_mesh = mi.load_dict({"type": "scene", "m": _mi_mesh(mesh)})
     t_mesh = np.array(only_mesh.ray_intersect(ray).t, dtype=np.float64)
     centre, r = np.array([0.0, -3, 0]), 1.5
     oc = o - centre

@@ -15,13 +15,13 @@ import numpy as np
 from a5mi.converters import octree
 from a5mi.converters.geometry import mesh_from_obj
 from a5mi.converters.obj import ObjMesh, binary_corner_normals
-from a5mi.platform.loading import load_dict
 
 F = np.float32
 TMIN = F(0.001)
 
 
 def _scene(vertices, faces, m=None, normals="auto", transformed=False):
+    import mitsuba as mi
 
     from a5mi.converters.to_mitsuba import make_mesh
 
@@ -29,7 +29,7 @@ def _scene(vertices, faces, m=None, normals="auto", transformed=False):
     f = np.asarray(faces, dtype=np.int64)
     obj = ObjMesh("probe.obj", v, f)
     data = mesh_from_obj(obj, np.eye(4) if m is None else m, normals, octree.reach_masks(v, f), transformed)
-    return load_dict({"type": "scene", "m": make_mesh("m", data)})
+    return mi.load_dict({"type": "scene", "m": make_mesh("m", data)})
 
 
 def _intersect(scene, o, d, t_min, origin=None):
@@ -144,7 +144,7 @@ def test_rule_table_rows_are_the_face_attributes(variant: str) -> None:
     shifted = np.asarray(v, float) + [3.0, 0.0, 0.0]
     plain = make_mesh("plain", mesh_from_obj(ObjMesh("p.obj", shifted, np.array([[0, 1, 2]])),
                                              np.eye(4), "auto", None, False))
-    scene = load_dict({"type": "scene", "a": plain, "m": mesh, "s": {"type": "sphere", "center": [10, 0, 0]}})
+    scene = mi.load_dict({"type": "scene", "a": plain, "m": mesh, "s": {"type": "sphere", "center": [10, 0, 0]}})
     table = triangle_rule.rule_table(scene)
     rows = np.asarray(table.rows).reshape(-1, triangle_rule.ROW_FLOATS)
     params = mi.traverse(mesh)

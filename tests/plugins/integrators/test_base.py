@@ -10,8 +10,6 @@ from typing import Any
 
 import pytest
 
-from a5mi.platform.loading import load_dict
-
 INTEGRATORS = ("a5_whitted", "a5_path", "a5_photon", "a5_ppm", "a5_irradiancecache")
 #: a bad value of every shared parameter, and the wording of its error after ``<plugin>: '<name>' must be``
 BAD_SHARED = {
@@ -33,7 +31,7 @@ BAD_SHARED = {
 def _error(mi: Any, params: dict[str, Any]) -> str:
     """The one line a plugin's ValueError ends in, as ``mi.load_dict`` reports it."""
     with pytest.raises(Exception) as info:   # noqa: PT011 - Mitsuba wraps the plugin's ValueError
-        load_dict(params)
+        mi.load_dict(params)
     return str(info.value).strip().splitlines()[-1].removeprefix("ValueError: ")
 
 
@@ -58,16 +56,16 @@ def test_aovs_and_media_are_checked_by_the_base(mi: Any) -> None:
 def test_e13_integrators_fix_the_whitted_options(mi: Any) -> None:
     """The physically based integrators accept the Whitted options and build their kernel without them; the
     irradiance cache's camera tree keeps one stack level more than its bounce budget."""
-    scene = load_dict({"type": "scene", "s": {"type": "sphere"}})
+    scene = mi.load_dict({"type": "scene", "s": {"type": "sphere"}})
     opts = {"shadows": False, "phong": True, "glossy": True, "glossy_samples": 3, "dispersion": True,
             "ambient": {"type": "rgb", "value": [0.5, 0.5, 0.5]}, "max_depth": 9}
     for name in ("a5_path", "a5_irradiancecache"):
-        integ = load_dict({"type": name, **opts})
+        integ = mi.load_dict({"type": name, **opts})
         f = integ.features(scene, integ.scene_data(scene))
         assert (f.shadows, f.phong, f.glossy, f.dispersion, integ.ambient) == (True, False, False, False, [0.0] * 3)
-    ic = load_dict({"type": "a5_irradiancecache", "max_depth": 9})
+    ic = mi.load_dict({"type": "a5_irradiancecache", "max_depth": 9})
     assert ic.features(scene, ic.scene_data(scene)).stack_size == 11
-    whitted = load_dict({"type": "a5_whitted", **opts})
+    whitted = mi.load_dict({"type": "a5_whitted", **opts})
     f = whitted.features(scene, whitted.scene_data(scene))
     assert (f.shadows, f.phong, f.glossy, f.dispersion, f.stack_size) == (False, True, True, True, 14)
 
@@ -107,11 +105,11 @@ def test_a_minimal_integrator_on_the_base_loads_and_renders(mi: Any) -> None:
 
     cls = _eyelight(mi)
     mi.register_integrator("a5_test_eyelight", lambda props: cls(props))
-    integ = load_dict({"type": "a5_test_eyelight", "aovs": "depth,normal", "max_depth": 2})
+    integ = mi.load_dict({"type": "a5_test_eyelight", "aovs": "depth,normal", "max_depth": 2})
     assert integ.aov_names() == ["nx", "ny", "nz", "t"]
     assert set(mi.traverse(integ).keys()) == {"max_depth", "tmin", "aovs"}
     kd = [0.2, 0.4, 0.6]
-    scene = load_dict({
+    scene = mi.load_dict({
         "type": "scene", "integrator": integ,
         "sensor": {"type": "perspective", "fov": 30.0, "to_world": mi.ScalarTransform4f().look_at(
             origin=[0, 0, 5], target=[0, 0, 0], up=[0, 1, 0]),
@@ -125,4 +123,4 @@ def test_a_minimal_integrator_on_the_base_loads_and_renders(mi: Any) -> None:
     assert abs(centre[6] - 4.0) < 0.01 and centre[5] > 0.99          # depth; the normal faces the camera
     assert np.all(corner[:3] == 0.0) and math.isinf(corner[6])
     with pytest.raises(Exception, match=re.escape("a5_test_eyelight: 'aovs' must list groups of normal, depth")):
-        load_dict({"type": "a5_test_eyelight", "aovs": "class"})
+        mi.load_dict({"type": "a5_test_eyelight", "aovs": "class"})

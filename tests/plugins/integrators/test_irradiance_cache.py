@@ -21,7 +21,6 @@ from a5mi import cli
 from a5mi.converters.a5_parser import parse_file
 from a5mi.converters.describe import describe
 from a5mi.platform import imageio
-from a5mi.platform.loading import load_dict
 from a5mi.render import session
 from a5mi.render.driver import render_scene
 from a5mi.render.options import RenderOptions
@@ -80,12 +79,12 @@ def _indirect_against_path(mi: Any, desc: Any, size: int, spp: int, samples: int
 
 
 def test_load_dict_and_parameter_checks(mi: Any) -> None:
-    integ = load_dict({"type": "a5_irradiancecache", "error": 0.2, "samples": 64, "gradients": False})
+    integ = mi.load_dict({"type": "a5_irradiancecache", "error": 0.2, "samples": 64, "gradients": False})
     assert "error=0.2" in str(integ) and "samples=64 (5x13)" in str(integ)
     for bad in ({"error": 0.0}, {"error": 1.5}, {"samples": 5}, {"min_pixels": 4.0, "max_pixels": 2.0},
                 {"medium": "fog"}, {"aovs": "class"}, {"gradients": 1}):
         with pytest.raises(Exception, match="a5_irradiancecache"):
-            load_dict({"type": "a5_irradiancecache", **bad})
+            mi.load_dict({"type": "a5_irradiancecache", **bad})
 
 
 def test_records_cover_every_diffuse_hit_and_spp_reuses_them(mi: Any) -> None:

@@ -14,8 +14,6 @@ import numpy as np
 import pytest
 from path_helpers import a5_passes, load
 
-from a5mi.platform.loading import load_dict
-
 #: A white furnace: an albedo-1 sphere resting on an albedo-1 exact plane under a uniform environment of 0.5;
 #: the equilibrium radiance is 0.5 everywhere (the uniform field solves the rendering equation when nothing
 #: absorbs), whatever the interreflections between sphere and plane.
@@ -42,16 +40,16 @@ def _path(mi: Any, text: str, size: int, spp: int, seed: int = 0, **options: Any
 
 
 def test_loads_from_a_dict_and_registers(mi: Any) -> None:
-    integ = load_dict({"type": "a5_path", "max_depth": 7, "rr_depth": 2, "fresnel": "exact", "aovs": "depth"})
+    integ = mi.load_dict({"type": "a5_path", "max_depth": 7, "rr_depth": 2, "fresnel": "exact", "aovs": "depth"})
     assert "max_depth=7" in integ.to_string() and "rr_depth=2" in integ.to_string()
     assert integ.aov_names() == ["t"]
     xml = mi.load_string('<integrator type="a5_path" version="3.0.0"><integer name="max_depth" value="3"/>'
                          '<string name="fresnel" value="schlick"/></integrator>')
     assert "max_depth=3" in xml.to_string() and "schlick" in xml.to_string()
     with pytest.raises(Exception, match="rr_depth"):
-        load_dict({"type": "a5_path", "rr_depth": -1})
+        mi.load_dict({"type": "a5_path", "rr_depth": -1})
     with pytest.raises(Exception, match="media"):
-        load_dict({"type": "a5_path", "medium": "fog"})
+        mi.load_dict({"type": "a5_path", "medium": "fog"})
 
 
 def test_options_carry_rr_depth_to_the_path_plugin() -> None:

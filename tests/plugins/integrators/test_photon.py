@@ -11,13 +11,12 @@ import math
 import numpy as np
 import pytest
 
-from a5mi.platform.loading import load_dict
 from a5mi.render.options import RenderOptions
 
 
 def _box(mi, light: dict, albedo: float, depth: int) -> tuple:
     """A closed cube [-1, 1]^3 of Lambert albedo ``albedo`` with one light inside, and an a5_photon."""
-    scene = load_dict({
+    scene = mi.load_dict({
         "type": "scene",
         "integrator": {"type": "a5_photon", "photon_depth": depth},
         "box": {"type": "cube", "bsdf": {"type": "a5_material",
@@ -97,9 +96,9 @@ def test_split_counts_follow_the_powers(mi) -> None:
 def test_bad_parameters_are_refused(mi) -> None:
     for bad in ({"k": 0}, {"filter": "gauss"}, {"photons": -1}, {"aovs": "normal"}, {"fresnel": "x"}):
         with pytest.raises(Exception, match="a5_photon: "):
-            load_dict({"type": "a5_photon", **bad})
+            mi.load_dict({"type": "a5_photon", **bad})
     with pytest.raises(Exception, match="alpha"):
-        load_dict({"type": "a5_ppm", "alpha": 1.5})
+        mi.load_dict({"type": "a5_ppm", "alpha": 1.5})
 
 
 def test_options_pass_the_photon_parameters() -> None:

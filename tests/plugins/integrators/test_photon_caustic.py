@@ -20,7 +20,6 @@ import numpy as np
 import pytest
 from helpers import ROOT
 
-from a5mi.platform.loading import load_dict
 from a5mi.render.options import RenderOptions
 
 SCENES = ROOT / "scenes"
@@ -73,7 +72,7 @@ def _dicts(mi, opts: RenderOptions) -> tuple:
 
 def _ptracer(mi, stock: dict, spp: int, seeds: int) -> list[np.ndarray]:
     stock = dict(stock, sensor=dict(stock["sensor"], sampler={"type": "independent", "sample_count": spp}))
-    scene = load_dict(stock)
+    scene = mi.load_dict(stock)
     return [np.asarray(mi.render(scene, seed=s))[..., 0] for s in range(seeds)]
 
 
@@ -83,7 +82,7 @@ def test_caustic_of_a_glass_ball_matches_ptracer(mi) -> None:
     desc, a5, stock = _dicts(mi, opts)
     shadow, floor = _caustic_region(desc, SIZE)
     assert shadow.sum() > 300
-    img = np.asarray(mi.render(load_dict(a5)))[..., 0]
+    img = np.asarray(mi.render(mi.load_dict(a5)))[..., 0]
     refs = [r[shadow].mean() for r in _ptracer(mi, stock, 256, 4)]
     ref, sigma = float(np.mean(refs)), float(np.std(refs, ddof=1) / 2.0)
     assert sigma < 0.0125 * ref                      # the reference resolves a 5% difference at 4 sigma
@@ -118,7 +117,7 @@ def test_caustic_estimate_within_two_percent_of_ptracer(mi) -> None:
     refs = [r[inner].mean() for r in _ptracer(mi, stock, 512, 16)]
     ref, sigma = float(np.mean(refs)), float(np.std(refs, ddof=1) / 4.0)
     assert sigma < 0.005 * ref
-    img = np.asarray(mi.render(load_dict(a5)))[..., 0]
+    img = np.asarray(mi.render(mi.load_dict(a5)))[..., 0]
     assert abs(img[inner].mean() / ref - 1.0) < 0.02, (img[inner].mean(), ref, sigma)
 
 
@@ -135,7 +134,7 @@ def test_progressive_photon_mapping_converges_to_ptracer(mi) -> None:
     integ = {k: v for k, v in a5.items() if k != "integrator"}
     passes = []
     for k in range(24):
-        scene = load_dict(integ | {"integrator": dict(a5["integrator"], first_pass=k, passes=1)})
+        scene = mi.load_dict(integ | {"integrator": dict(a5["integrator"], first_pass=k, passes=1)})
         passes.append(np.asarray(mi.render(scene))[..., 0])
     mean = np.mean(passes, axis=0)
     assert abs(mean[shadow].mean() / ref[shadow].mean() - 1.0) < 0.05
@@ -153,11 +152,11 @@ def test_diffuse_scene_matches_the_path_tracer(mi) -> None:
     desc, _ = describe_file(str(SCENES / "diffuse_corner.txt"))
     opts = RenderOptions(width=40, height=40, shadows=True, integrator="photon", photons=120000, caustic_photons=0,
                          photon_k=50, bounces=8)
-    ph = [float(np.asarray(mi.render(load_dict(to_dict(desc, dataclasses.replace(opts, seed=s))))).mean())
+    ph = [float(np.asarray(mi.render(mi.load_dict(to_dict(desc, dataclasses.replace(opts, seed=s))))).mean())
           for s in (1, 2)]
     d = to_dict(desc, dataclasses.replace(opts, integrator="path"))
     d["sensor"]["sampler"] = {"type": "independent", "sample_count": 64}
-    scene = load_dict(d)
+    scene = mi.load_dict(d)
     pt = [float(np.asarray(mi.render(scene, seed=s)).mean()) for s in range(4)]
     sigma = math.hypot(np.std(pt, ddof=1) / 2.0, abs(ph[0] - ph[1]) / 2.0)
     gap = abs(np.mean(ph) - np.mean(pt))

@@ -11,8 +11,6 @@ import pytest
 from conftest import a5_material as _material
 from conftest import rgb as _rgb
 
-from a5mi.platform.loading import load_dict
-
 INV_SQRT2 = 1.0 / math.sqrt(2.0)
 
 
@@ -31,12 +29,12 @@ def _plane(mi, z: float, normal_sign: float = 1.0, half: float = 100.0, x: float
 
 
 def _scene(mi, **objects) -> object:
-    return load_dict({"type": "scene", **objects})
+    return mi.load_dict({"type": "scene", **objects})
 
 
 def _render(mi, scene, integrator: dict | None = None, o=(0, 0, -5), d=(0, 0, 1)):
     """Trace hand-built camera rays; returns (colour (N,3), aovs dict of (N,) arrays)."""
-    integ = load_dict({"type": "a5_whitted", "aovs": "normal,depth,counts", **(integrator or {})})
+    integ = mi.load_dict({"type": "a5_whitted", "aovs": "normal,depth,counts", **(integrator or {})})
     o = np.atleast_2d(np.array(o, dtype=np.float64))
     d = np.atleast_2d(np.array(d, dtype=np.float64))
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
@@ -326,8 +324,8 @@ def test_b3_class_mirror_seeing_glass_is_2_within_the_budget_else_1(mi):
 
 
 def test_b3_class_aov_names_and_order(mi):
-    assert load_dict({"type": "a5_whitted", "aovs": "class"}).aov_names() == ["class"]
-    integ = load_dict({"type": "a5_whitted", "aovs": "counts,class,depth,normal"})
+    assert mi.load_dict({"type": "a5_whitted", "aovs": "class"}).aov_names() == ["class"]
+    integ = mi.load_dict({"type": "a5_whitted", "aovs": "counts,class,depth,normal"})
     assert integ.aov_names() == ["nx", "ny", "nz", "t", "class", "n_reflection", "n_refraction", "n_shadow"]
     assert "class" in str(integ)
 
@@ -336,10 +334,10 @@ def test_b3_class_aov_names_and_order(mi):
 
 
 def test_b3_aov_names_and_traverse(mi):
-    integ = load_dict({"type": "a5_whitted"})
+    integ = mi.load_dict({"type": "a5_whitted"})
     assert integ.aov_names() == []
-    assert load_dict({"type": "a5_whitted", "aovs": "depth, normal"}).aov_names() == ["nx", "ny", "nz", "t"]
-    integ = load_dict({"type": "a5_whitted", "aovs": "normal,depth,counts", "max_depth": 7, "fresnel": "exact"})
+    assert mi.load_dict({"type": "a5_whitted", "aovs": "depth, normal"}).aov_names() == ["nx", "ny", "nz", "t"]
+    integ = mi.load_dict({"type": "a5_whitted", "aovs": "normal,depth,counts", "max_depth": 7, "fresnel": "exact"})
     assert integ.aov_names() == ["nx", "ny", "nz", "t", "n_reflection", "n_refraction", "n_shadow"]
     params = mi.traverse(integ)
     assert params["max_depth"] == 7 and params["fresnel"] == "exact" and params["shadows"] is False
@@ -350,7 +348,7 @@ def test_b3_aov_names_and_traverse(mi):
                                              ("aovs", "normal,colour"), ("aovs", 3)])
 def test_b3_bad_parameters_name_the_parameter(mi, key, value):
     with pytest.raises((ValueError, RuntimeError), match=f"'{key}'"):
-        load_dict({"type": "a5_whitted", key: value})
+        mi.load_dict({"type": "a5_whitted", key: value})
 
 
 def test_b3_second_scene_reuses_the_kernel(mi):
@@ -360,7 +358,7 @@ def test_b3_second_scene_reuses_the_kernel(mi):
         scene = _scene(mi, s=_sphere(diffuse_color=(k, 0.5, 0.25), specular_color=(0.5, k, 0.5)),
                        l={"type": "directional", "direction": [0, -1, k], "irradiance": _rgb(k, k, 1)},
                        bg={"type": "constant", "radiance": _rgb(0.1, k, 0.3)})
-        integ = load_dict({"type": "a5_whitted", "max_depth": depth, "ambient": _rgb(k, k, k)})
+        integ = mi.load_dict({"type": "a5_whitted", "max_depth": depth, "ambient": _rgb(k, k, k)})
         ray = mi.Ray3f(mi.Point3f(mi.Float(0.0, 0.5, 3.0), 0, -5), mi.Vector3f(0, 0, 1))
         dr.kernel_history()  # clear
         color, _, aovs = integ.sample(scene, None, ray)
@@ -386,7 +384,7 @@ def test_b3_second_scene_reuses_the_kernel(mi):
 def test_b3_works_under_mi_render_with_a_stock_sensor(mi, aovs):
     """mi.render drives sample() through the trampoline; the film gets RGB, plus the four AOVs only when the
     ``aovs`` parameter asks for them (so a Mitsuba user's ``mi.render`` gives a plain RGB image)."""
-    scene = load_dict({
+    scene = mi.load_dict({
         "type": "scene",
         "integrator": {"type": "a5_whitted", "ambient": _rgb(0.5, 0.5, 0.5), "aovs": aovs},
         "sensor": {"type": "perspective", "fov": 5.0,

@@ -11,8 +11,6 @@ import numpy as np
 import pytest
 from conftest import a5_material, rgb
 
-from a5mi.platform.loading import load_dict
-
 N = 200_000
 
 
@@ -146,7 +144,7 @@ def test_total_internal_reflection_reflects_all(mi: Any) -> None:
 
 
 def _light_scene(mi: Any, emitter: dict) -> Any:
-    return load_dict({"type": "scene", "light": emitter,
+    return mi.load_dict({"type": "scene", "light": emitter,
                          "floor": {"type": "rectangle", "bsdf": a5_material(diffuse_color=(0.5, 0.5, 0.5)),
                                    "to_world": mi.ScalarTransform4f().translate([0.0, 0.0, -50.0])}})
 

@@ -12,7 +12,6 @@ from conftest import positioned_error_test
 from helpers import ROOT, render_text
 
 from a5mi.converters.a5_parser import parse_text
-from a5mi.platform.loading import load_dict
 
 A, B = 1.6, 0.02
 APEX = 60.0
@@ -255,13 +254,13 @@ def test_stock_mapping_uses_the_centre_wavelength(mi: Any) -> None:
     assert stock["type"] == "dielectric"
     assert stock["int_ior"] == pytest.approx(A + B / 0.55 ** 2, rel=1e-12)
     assert any("dispersion replaced by the index at the centre wavelength" in msg for _, msg in desc.warnings)
-    load_dict(stock)
+    mi.load_dict(stock)
     # a5_material's physical face (for stock integrators) refracts at the same index
     import drjit as dr
 
     si = dr.zeros(mi.SurfaceInteraction3f)
     si.wi, si.sh_frame = mi.Vector3f(0.6, 0, 0.8), mi.Frame3f(mi.Vector3f(0, 0, 1))
-    bs, _ = load_dict(a5).sample(mi.BSDFContext(), si, 0.99, mi.Point2f(0.5, 0.5))
+    bs, _ = mi.load_dict(a5).sample(mi.BSDFContext(), si, 0.99, mi.Point2f(0.5, 0.5))
     assert float(bs.eta[0]) == pytest.approx(A + B / 0.55 ** 2, rel=1e-6)
 
 
@@ -281,7 +280,7 @@ def test_prism_demo_converts_both_ways(mi: Any, tmp_path: Any) -> None:
     assert a5["integrator"]["dispersion"] is True
     stock = to_dict(desc, options, stock=True)
     assert "dispersion" not in stock["integrator"]
-    img = np.asarray(mi.render(load_dict(stock), spp=4))
+    img = np.asarray(mi.render(mi.load_dict(stock), spp=4))
     assert np.all(np.isfinite(img)) and img.mean() > 0.005
     xml = tmp_path / "prism.xml"
     write_xml(desc, xml, options, stock=True)

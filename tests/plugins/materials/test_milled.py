@@ -14,7 +14,6 @@ import pytest
 from helpers import ROOT, converted_material, render_text
 
 from a5mi.converters.a5_parser import parse_text
-from a5mi.platform.loading import load_dict
 
 SCENES = ROOT / "scenes"
 
@@ -22,7 +21,7 @@ SCENES = ROOT / "scenes"
 def _bsdf(mi: Any, **kw: Any) -> Any:
     d = {"type": "a5_milled", "alpha_u": 0.1, "alpha_v": 0.3, "pattern": "straight", "axis": [1.0, 0.0, 0.0]}
     d.update(kw)
-    return load_dict(d)
+    return mi.load_dict(d)
 
 
 def _si(mi: Any, n: int, normal: np.ndarray | None = None, p: np.ndarray | None = None) -> Any:
@@ -207,7 +206,7 @@ def test_grammar_and_conversion() -> None:
 def _highlight(mi: Any, bsdf: dict[str, Any], spp: int = 64) -> np.ndarray:
     """A 64 x 64 render of a 2 x 2 rectangle (normal +z, dp/du = +x) under a point light, by Mitsuba's
     ``direct`` integrator (the stock rendering of the BSDF's ``eval``)."""
-    scene = load_dict({
+    scene = mi.load_dict({
         "type": "scene", "integrator": {"type": "direct"},
         "sensor": {"type": "perspective", "fov": 40, "to_world": mi.ScalarTransform4f().look_at(
             origin=[0, -2.2, 2.6], target=[0, 0, 0], up=[0, 0, 1]),
@@ -247,7 +246,7 @@ def test_xml_conversion_loads_and_renders_as_the_dict(mi: Any, tmp_path: Path) -
         desc = describe(parse_file(SCENES / f"{name}.txt"))
         opts = RenderOptions(16, 16)
         out = write_xml(desc, tmp_path / f"{name}.xml", opts)
-        scene = mi.load_file(str(out), parallel=False)  # docs/MITSUBA.md "Load on one thread"
+        scene = mi.load_file(str(out))
         xml_img = np.asarray(mi.render(scene), dtype=np.float32)[..., :3]
         a5_img = np.asarray(render(desc, opts).image, dtype=np.float32)
         np.testing.assert_array_equal(xml_img, a5_img)

@@ -20,7 +20,6 @@ from conftest import positioned_error_test
 from a5mi.converters import volgrid
 from a5mi.converters.a5_parser import parse_text
 from a5mi.converters.errors import SceneError
-from a5mi.platform.loading import load_dict
 
 PHASE = 0.25
 
@@ -220,7 +219,7 @@ def test_stock_mapping_uses_volpath_media(mi: Any, tmp_path: Path) -> None:
     d = to_dict(describe(parse_file(tmp_path / "v.txt")), stock=True)
     med = d["sensor"]["medium"]
     assert med["type"] == "heterogeneous" and med["scale"] == 2.0 and med["sigma_t"]["type"] == "gridvolume"
-    assert load_dict(d) is not None
+    assert mi.load_dict(d) is not None
 
 
 def test_xml_carries_the_medium(mi: Any, tmp_path: Path) -> None:
@@ -244,7 +243,7 @@ def test_xml_carries_the_medium(mi: Any, tmp_path: Path) -> None:
     assert '<string name="medium" value="volume" />' in text
     text = stock.read_text()
     assert '<integrator type="volpath"' in text and '<medium type="heterogeneous" name="medium">' in text
-    assert mi.load_file(str(a5), parallel=False).integrator()._medium.kind == "volume"
+    assert mi.load_file(str(a5)).integrator()._medium.kind == "volume"
     assert mi.load_file(str(stock)).sensors()[0].get_medium() is not None
 
 

@@ -21,7 +21,6 @@ from test_media import WALL, _scene, _trace
 
 from a5mi.converters import volgrid
 from a5mi.converters.a5_parser import parse_text
-from a5mi.platform.loading import load_dict
 
 BOX = """PerspectiveCamera {{ center 0 0 5 direction 0 0 -1 up 0 1 0 angle 30 }}
 Lights {{ numLights 1 PointLight {{ position 2 4 1 color 2e7 2e7 2e7 falloff 1e6 }} }}
@@ -57,9 +56,9 @@ def _volpath(mi: Any, text: str, path: str, bounces: int, o: np.ndarray, d: np.n
     from a5mi.converters.to_mitsuba import to_dict
     from a5mi.render.options import RenderOptions
 
-    scene = load_dict(to_dict(describe(parse_text(text, path)), RenderOptions(shadows=True), stock=True))
-    integ = load_dict({"type": "volpath", "max_depth": bounces + 1})
-    sampler = load_dict({"type": "independent"})
+    scene = mi.load_dict(to_dict(describe(parse_text(text, path)), RenderOptions(shadows=True), stock=True))
+    integ = mi.load_dict({"type": "volpath", "max_depth": bounces + 1})
+    sampler = mi.load_dict({"type": "independent"})
     sampler.seed(3, len(o))
     ray = mi.RayDifferential3f(mi.Point3f(*o.T.astype(np.float32)), mi.Vector3f(*d.T.astype(np.float32)))
     rgb = integ.sample(scene, sampler, ray, scene.sensors()[0].get_medium(), mi.Bool(True))[0]

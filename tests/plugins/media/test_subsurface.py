@@ -21,7 +21,6 @@ from test_media import _scene, _trace
 
 from a5mi.converters.a5_parser import parse_text
 from a5mi.converters.subsurface import presets
-from a5mi.platform.loading import load_dict
 
 HALF_SPACE = """PerspectiveCamera {{ center 0 5 0 direction 0 -1 0 up 0 0 -1 angle 20 }}
 Lights {{ numLights 1 DirectionalLight {{ direction 0 -1 0 color 1 1 1 }} }}
@@ -161,14 +160,14 @@ def _volpath(mi: Any, sa: np.ndarray, ss: np.ndarray, eta: float, o: np.ndarray,
     """Mitsuba's volpath: a stock ``dielectric`` sphere with a ``homogeneous`` interior under a constant
     environment of radiance 1."""
     st = sa + ss
-    scene = load_dict({
+    scene = mi.load_dict({
         "type": "scene", "integrator": {"type": "volpath", "max_depth": -1},
         "env": {"type": "constant", "radiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}},
         "sphere": {"type": "sphere", "radius": 1.0,
                    "bsdf": {"type": "dielectric", "int_ior": eta, "ext_ior": 1.0},
                    "interior": {"type": "homogeneous", "sigma_t": {"type": "rgb", "value": (st / st.max()).tolist()},
                                 "scale": float(st.max()), "albedo": {"type": "rgb", "value": (ss / st).tolist()}}}})
-    sampler = load_dict({"type": "independent"})
+    sampler = mi.load_dict({"type": "independent"})
     sampler.seed(seed, len(o))
     ray = mi.RayDifferential3f(mi.Point3f(*o.T.astype(np.float32)), mi.Vector3f(*d.T.astype(np.float32)))
     rgb = scene.integrator().sample(scene, sampler, ray, None, mi.Bool(True))[0]

@@ -8,8 +8,6 @@ import math
 import numpy as np
 import pytest
 
-from a5mi.platform.loading import load_dict
-
 F32 = np.float32
 
 
@@ -117,6 +115,7 @@ def test_b2_bad_basis(variant: str) -> None:
 
 
 def _sensor(W: int, H: int, **kw):
+    import mitsuba as mi
 
     d = {
         "type": "a5_camera",
@@ -128,7 +127,7 @@ def _sensor(W: int, H: int, **kw):
         "sampler": {"type": "stratified", "sample_count": 1, "jitter": False},
     }
     d.update(kw)
-    return load_dict(d)
+    return mi.load_dict(d)
 
 
 def test_b2_sensor_sample_ray_maps_film_rows(variant: str) -> None:
@@ -155,7 +154,7 @@ def test_b2_sensor_render_pixel_centres(variant: str) -> None:
     import mitsuba as mi
 
     W, H = 5, 3
-    scene = load_dict(
+    scene = mi.load_dict(
         {
             "type": "scene",
             "sensor": _sensor(W, H, center=[0, 0, 0], direction=[0, 0, -1], up=[0, 1, 0], angle=60.0),

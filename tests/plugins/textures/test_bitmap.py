@@ -8,8 +8,6 @@ import numpy as np
 import pytest
 from helpers import read_bmp24, write_image
 
-from a5mi.platform.loading import load_dict
-
 # 3 wide, 2 high, row 0 = top. Red channel below; green = 255 - red; blue = 7.
 RED = np.array([[0, 30, 60], [90, 120, 240]], dtype=np.uint8)
 
@@ -28,8 +26,9 @@ def _eval(tex, uv: list[tuple[float, float]]) -> np.ndarray:
 
 
 def _load(path: Path):
+    import mitsuba as mi
 
-    return load_dict({"type": "a5_bitmap", "filename": str(path)})
+    return mi.load_dict({"type": "a5_bitmap", "filename": str(path)})
 
 
 @pytest.mark.parametrize("ext", ["bmp", "png"])

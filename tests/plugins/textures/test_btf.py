@@ -13,7 +13,6 @@ import pytest
 from helpers import ROOT, converted_material
 
 from a5mi.converters.a5_parser import parse_text
-from a5mi.platform.loading import load_dict
 
 SCENES = ROOT / "scenes"
 ELEV, AZIM = (0.0, 30.0, 60.0), (0.0, 90.0, 180.0, 270.0)
@@ -58,7 +57,7 @@ def _texture(mi: Any, images: list[np.ndarray]) -> Any:
     d: dict[str, Any] = {"type": "a5_btf", "elevations": " ".join(map(str, ELEV)), "azimuths": " ".join(map(str, AZIM))}
     for k, img in enumerate(images):
         d[f"bitmap_{k // len(AZIM)}_{k % len(AZIM)}"] = mi.Bitmap(img)
-    return load_dict(d)
+    return mi.load_dict(d)
 
 
 def _lookup(mi: Any, tex: Any, wi: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -8,15 +8,14 @@ import numpy as np
 import pytest
 from test_perlin import ref_octave_noise
 
-from a5mi.platform.loading import load_dict
-
 C1 = [0.9, 0.8, 0.1]
 C2 = [0.1, 0.3, 0.7]
 
 
 def _marble(octaves: int = 0, frequency: float = 1.0, amplitude: float = 1.0):
+    import mitsuba as mi
 
-    return load_dict(
+    return mi.load_dict(
         {
             "type": "a5_marble",
             "color1": {"type": "rgb", "value": C1},
@@ -102,6 +101,7 @@ def test_b4_traverse_and_update(variant: str) -> None:
 
 
 def test_b4_rejects_bad_octaves(variant: str) -> None:
+    import mitsuba as mi
 
     with pytest.raises(Exception, match="octaves"):
-        load_dict({"type": "a5_marble", "octaves": -1})
+        mi.load_dict({"type": "a5_marble", "octaves": -1})

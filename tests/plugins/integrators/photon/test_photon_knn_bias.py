@@ -18,15 +18,13 @@ from typing import Any
 
 import numpy as np
 
-from a5mi.platform.loading import load_dict
-
 I, KD = 1.0, 0.5
 LIGHT, IMAGE = np.array([0.0, 1.0, 0.0]), np.array([2.0, 1.0, 0.0])
 
 
 def _scene(mi: Any, caustic_photons: int, k: int, max_radius: float = 0.0) -> Any:
     t = mi.ScalarTransform4f
-    return load_dict({
+    return mi.load_dict({
         "type": "scene",
         "integrator": {"type": "a5_photon", "photons": 0, "caustic_photons": caustic_photons, "k": k,
                        "max_depth": 0, "max_radius": max_radius},

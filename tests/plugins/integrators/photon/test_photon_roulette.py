@@ -18,8 +18,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from a5mi.platform.loading import load_dict
-
 A, INTENSITY, RADIUS = 0.9, 1.0, 1.0
 #: The wall's radiance (module docstring).
 WALL = A / math.pi * INTENSITY / RADIUS**2 / (1.0 - A)
@@ -27,7 +25,7 @@ WALL = A / math.pi * INTENSITY / RADIUS**2 / (1.0 - A)
 
 def _sphere(mi: Any, integrator: dict, albedo: float = A, size: int = 8) -> Any:
     """The integrating sphere, seen from its centre (60° field of view, ``size`` x ``size``, one ray a pixel)."""
-    return load_dict({
+    return mi.load_dict({
         "type": "scene",
         "integrator": integrator,
         "sensor": {"type": "perspective", "fov": 60.0,
