@@ -4,9 +4,9 @@ any Mitsuba 3 XML scene with the a5mi plugins registered.
 The ``mitsuba`` executable cannot load Python plugins (``Plugin "a5_whitted" not found``); this command
 activates the variant, registers the plugins (:func:`a5mi.plugins.register_all`), loads the file with
 ``mi.load_file(path, parallel=False, **defaults)`` (:func:`a5mi.platform.loading.load_file`: on one thread) and
-renders it with ``mi.render``. The image is written linear, as the a5
-images are (8-bit: ``byte = clamp(int(c·255))``, SPEC B.1; ``.exr``: float), never sRGB-encoded; the AOV
-channels an integrator adds are dropped.
+renders it with ``mi.render``. The image is written linear, as the a5 images are (8-bit:
+``byte = clamp(int(c·255))``, SPEC B.1; ``.exr``: float), never sRGB-encoded; the AOV channels an integrator
+adds are dropped.
 
 Before Mitsuba reads the file, every ``<string name="filename" value="..."/>`` (``$NAME`` replaced by the
 ``-D`` values and the file's ``<default>`` values) must name a regular file or a folder (a cube map), beside
