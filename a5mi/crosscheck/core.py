@@ -134,7 +134,7 @@ def pixel_classes(
 
     base = {k: v for k, v in (integrator or {}).items() if k not in ("type", "aovs")}
     integ = load_dict({**base, "type": "a5_whitted", "max_depth": bounces, "tmin": float(tmin),
-                  "reflection": reflection, "refraction": refraction, "aovs": "class"})
+                       "reflection": reflection, "refraction": refraction, "aovs": "class"})
     ro = RenderOptions(width=width, height=height, bounces=bounces, reflection=reflection,
                        refraction=refraction, classes=True)
     classes = render_scene(mi_scene, camera, ro, integrator=integ).classes
@@ -283,8 +283,6 @@ def crosscheck_dicts(
     """Render the cross-check of two scene dicts: ``a5_dict`` (a5 plugins, its ``integrator`` entry an
     ``a5_whitted`` dict whose ambient/tmin are kept) for the three Fresnel modes and the class pass, and
     ``stock_dict`` for ``path``. Both must place the same objects; ``camera`` gives the SPEC B.2 rays."""
-
-
     timings: dict[str, float] = {}
     integrator = dict(a5_dict.get("integrator") or {"type": "a5_whitted"})
     t0 = time.perf_counter()

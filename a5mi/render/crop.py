@@ -262,7 +262,7 @@ def trace_region(ctx: TraceContext, launched: Iterator[tuple[np.ndarray, np.ndar
 
 
 def _sampler() -> Any:
-
+    """A one-sample ``independent`` sampler: the integrator takes one; the camera rays are the driver's (SPEC B.2)."""
     return load_dict({"type": "independent", "sample_count": 1})
 
 

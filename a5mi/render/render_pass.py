@@ -194,7 +194,6 @@ def account_kernels(kernels: dict[str, int], timings: dict[str, float]) -> None:
 def trace_pass(ctx: TraceContext, tiles: Iterable[Tile], buffers: PassBuffers, done: int) -> int:
     """Trace every tile of ``tiles`` (module docstring, steps 1-8) and fill ``buffers``; ``done`` samples were
     traced before; returns the updated ``done``."""
-
     rw = ctx.size[0]
     sampler = load_dict({"type": "independent", "sample_count": 1})
     with kernel_history():
