@@ -162,6 +162,10 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
     names = [m.name for m in pool]
     predicted: dict[str, Image] = {}   # stage 3: M_s - R_s
 
+    def pair(a: str, b: str) -> tuple[str, str]:
+        """The key of the pair (a, b): both names in the catalogue's order."""
+        return (a, b) if names.index(a) <= names.index(b) else (b, a)
+
     say("reference")
     ref = r.full()
     err0 = mse(img, ref)
@@ -294,10 +298,10 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
             near = {b: mse(undone_image, m) for (b, *more), m in images.items()
                     if not more and b not in cheap and combinable(b, c)}
             if near:
-                pairs.add(tuple(sorted((min(near, key=lambda b: near[b]), c), key=names.index)))
+                pairs.add(pair(min(near, key=lambda b: near[b]), c))
         for a in tops:
             # every saved-image and filter partner: made from a's kept render, exact at full size, no render
-            pairs.update(tuple(sorted((a, b), key=names.index)) for b in cheap if b != a and combinable(a, b))
+            pairs.update(pair(a, b) for b in cheap if b != a and combinable(a, b))
             undone = observed
             if a in REVERSIBLE and rendered:   # a saved-image mistake is undone, not subtracted
                 undone = resample(REVERSIBLE[a](img), *positions) - base
@@ -306,7 +310,7 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
                 """How well the two differences added predict the observed one (small scale, else full); for a
                 :data:`MOVING` mistake, how well the pair rendered together predicts it."""
                 if a in MOVING:
-                    key = tuple(sorted((a, b), key=names.index))
+                    key = pair(a, b)
                     if rendered:
                         return -float(np.sum((observed - r.small(key, size) + base) ** 2))
                     return -float(np.sum((img - r.full(key)) ** 2))
@@ -322,7 +326,7 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
             fit = {b: additive(b) for b in names
                    if b != a and b not in cheap and combinable(a, b) and b not in DETERMINISTIC_MISTAKES}
             best_fit = sorted(fit, key=lambda b: -fit[b])[:2]
-            pairs.update(tuple(sorted((a, b), key=names.index)) for b in best_fit if fit[b] > -math.inf)
+            pairs.update(pair(a, b) for b in best_fit if fit[b] > -math.inf)
         for key in sorted(pairs, key=lambda k: (names.index(k[0]), names.index(k[1]))):
             score_full(key)
     seconds["finalists"] = time.perf_counter() - t1
@@ -371,7 +375,7 @@ def diagnose(image: npt.ArrayLike, desc: SceneDescription, options: RenderOption
         own = crps(img, members((single,)))
         found: list[tuple[float, Cause]] = []
         for s in (s for s in names if s != single and combinable(single, s)):
-            key = tuple(sorted((single, s), key=names.index))
+            key = pair(single, s)
             if s not in SAMPLING and s not in cheap and key not in images:
                 continue
             if key not in images:
