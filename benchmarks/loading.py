@@ -16,7 +16,9 @@ import json
 import statistics
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 SIZE = ["-size", "200", "200", "-shadows", "-bounces", "4"]
@@ -30,14 +32,14 @@ def _scenes() -> list[str]:
     return own + [str(p) for p in course if p.is_file()]
 
 
-def _times(load: object, arg: object, repeat: int) -> dict[str, dict[str, float]]:
+def _times(load: Callable[..., Any], arg: Any, repeat: int) -> dict[str, dict[str, float]]:
     out: dict[str, list[float]] = {"parallel": [], "serial": []}
     for parallel in (True, False):
-        load(arg, parallel=parallel)  # type: ignore[operator]  # warm-up: plugins, kernels, caches
+        load(arg, parallel=parallel)  # warm-up: plugins, kernels, caches
     for _ in range(repeat):
         for parallel in (True, False):
             t0 = time.perf_counter()
-            load(arg, parallel=parallel)  # type: ignore[operator]
+            load(arg, parallel=parallel)
             out["parallel" if parallel else "serial"].append(time.perf_counter() - t0)
     return {k: {"min_s": round(min(v), 4), "median_s": round(statistics.median(v), 4)} for k, v in out.items()}
 

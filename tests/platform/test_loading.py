@@ -63,40 +63,33 @@ def test_load_file_builds_every_object_on_the_calling_thread(probe_plugin: list[
     assert probe_plugin == [threading.get_ident()] * PROBES
 
 
-def _loads(path: Path) -> list[tuple[str, bool]]:
-    """Mitsuba's loads in ``path``'s code (``mi.load_dict(...)``, ``mi.load_file(...)``, ``mi.load_string(...)``):
-    where, and whether the call passes ``parallel=False``."""
+def _loads(path: Path) -> list[tuple[str, bool, bool]]:
+    """Every call in ``path``'s code of a function named ``load_dict``, ``load_file`` or ``load_string`` (Mitsuba's
+    or the loader's) and every import of the loader: where, whether it is Mitsuba's own (``mi.load_*``), and
+    whether the call passes ``parallel=False``."""
     found = []
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
-        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
-                and node.func.attr in ("load_dict", "load_file", "load_string")
-                and isinstance(node.func.value, ast.Name) and node.func.value.id == "mi"):
-            serial = any(k.arg == "parallel" and isinstance(k.value, ast.Constant) and k.value.value is False
-                         for k in node.keywords)
-            found.append((f"{path.relative_to(ROOT)}:{node.lineno}", serial))
-    return found
-
-
-def _any_load(path: Path) -> list[str]:
-    """Every call in ``path`` of a function named ``load_dict``, ``load_file`` or ``load_string`` (Mitsuba's or
-    the loader's), and every import of the loader."""
-    found = []
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
-        func = node.func if isinstance(node, ast.Call) else None
-        name = func.attr if isinstance(func, ast.Attribute) else func.id if isinstance(func, ast.Name) else None
-        if name in ("load_dict", "load_file", "load_string") or (
-                isinstance(node, ast.ImportFrom) and node.module == "a5mi.platform.loading"):
-            found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+        where = f"{path.relative_to(ROOT)}:{getattr(node, 'lineno', 0)}"
+        if isinstance(node, ast.ImportFrom) and node.module == "a5mi.platform.loading":
+            found.append((where, False, False))
+        elif isinstance(node, ast.Call):
+            f = node.func
+            name = f.attr if isinstance(f, ast.Attribute) else f.id if isinstance(f, ast.Name) else None
+            if name in ("load_dict", "load_file", "load_string"):
+                mitsuba = isinstance(f, ast.Attribute) and isinstance(f.value, ast.Name) and f.value.id == "mi"
+                serial = any(k.arg == "parallel" and isinstance(k.value, ast.Constant) and k.value.value is False
+                             for k in node.keywords)
+                found.append((where, mitsuba, serial))
     return found
 
 
 @pytest.mark.unit
 def test_every_load_of_the_project_goes_through_the_loader() -> None:
     loader = ROOT / "a5mi" / "platform" / "loading.py"
-    calls = [hit for folder in ("a5mi", "plugins", "converters") for path in sorted((ROOT / folder).rglob("*.py"))
-             if path != loader for hit in _loads(path)]
+    calls = [where for folder in ("a5mi", "plugins", "converters") for path in sorted((ROOT / folder).rglob("*.py"))
+             if path != loader for where, mitsuba, _ in _loads(path) if mitsuba]
     assert calls == []
-    own = _loads(loader)
+    own = [(where, serial) for where, mitsuba, serial in _loads(loader) if mitsuba]
     assert len(own) == 2 and all(serial for _, serial in own), own
 
 
@@ -104,4 +97,4 @@ def test_every_load_of_the_project_goes_through_the_loader() -> None:
 def test_no_plugin_loads_anything() -> None:
     """A load inside a constructor swaps Mitsuba's global file resolver under a parallel load's other tasks
     (tests/plugins/materials/test_a5_material.py shows what it did)."""
-    assert [hit for path in sorted((ROOT / "plugins").rglob("*.py")) for hit in _any_load(path)] == []
+    assert [where for path in sorted((ROOT / "plugins").rglob("*.py")) for where, _, _ in _loads(path)] == []
