@@ -180,20 +180,27 @@ def test_the_page_in_headless_chromium(tmp_path: Path) -> None:
 
                 # -jitter -filter: a preview announced to the page and labelled while it is the image shown, then
                 # a5's full image, the label gone. (A full image that arrives before the preview's PNG has loaded
-                # replaces it unseen: then no load event of the preview, but its announcement.)
-                page.evaluate("""() => { window.shown = []; window.announced = [];
+                # replaces it unseen: then no load event of the preview, but its announcement.) -jitter first, to its
+                # full image: the two boxes' requests would otherwise make one job or two, as the page's timing falls.
+                # Every kind set is kept: an observer called once for several sets sees only the last value, so each
+                # record's old value is kept (the value before it) and the kinds set are those after the first.
+                page.evaluate("""() => { window.shown = []; window.before = [];
                     const img = document.getElementById('render');
-                    new MutationObserver(() => window.announced.push(img.dataset.pendingKind))
-                        .observe(img, {attributes: true, attributeFilter: ['data-pending-kind']});
+                    new MutationObserver((records) => { for (const r of records) window.before.push(r.oldValue); })
+                        .observe(img, {attributes: true, attributeOldValue: true,
+                                       attributeFilter: ['data-pending-kind']});
                     img.addEventListener('load', () => window.shown.push([img.dataset.kind,
                         !document.getElementById('preview-badge').hidden])); }""")
+                rendered = ("() => window.shown.length && window.shown.at(-1)[0] === 'final'"
+                            " && document.getElementById('status').textContent.startsWith('rendered')"
+                            " && !document.getElementById('status').textContent.endsWith('...')")
                 page.locator("#controls input[name=jitter]").check()
+                page.wait_for_function(rendered, timeout=120_000)
+                page.evaluate("() => { window.shown = []; window.before = []; }")
                 page.locator("#controls input[name=filter]").check()
-                page.wait_for_function("() => window.shown.length && window.shown.at(-1)[0] === 'final'"
-                                       " && document.getElementById('status').textContent.startsWith('rendered')"
-                                       " && !document.getElementById('status').textContent.endsWith('...')",
-                                       timeout=120_000)
-                shown, announced = page.evaluate("[window.shown, window.announced]")
+                page.wait_for_function(rendered, timeout=120_000)
+                shown, announced = page.evaluate("""() => [window.shown, [...window.before.slice(1),
+                    document.getElementById('render').dataset.pendingKind]]""")
                 assert "preview" in announced and announced[-1] == "final", announced
                 assert all(badge == (kind == "preview") for kind, badge in shown), shown
                 assert shown[-1] == ["final", False], shown
